@@ -1,0 +1,563 @@
+"""Generate this project's robot models (MJCF + URDF) from one table of robot facts.
+
+The shipped files under ``trossen_arm_mujoco/assets`` are the output of this script;
+``tests/assets/test_generated.py`` checks they are up to date. Run from the repo root:
+
+    python tools/build_models.py
+
+Numbers come from the public facts about the WidowX AI (wxai) arm and the Stationary AI
+kit (link offsets, joint axes and limits, inertials, actuator gains, primitive geometry).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+ASSETS = ROOT / "trossen_arm_mujoco" / "assets"
+
+PI = 3.14159
+START_Q = (0.0, 0.2617993877991494, 0.2617993877991494, 0.0, 0.0, 0.0)
+GRIPPER_OPEN = 0.044
+
+# ----------------------------------------------------------------------------- arm facts
+# body: (parent, pos, inertial (mass, com, iquat, diaginertia))
+BODIES = {
+    "base_link": (None, (0, 0, 0), (0.45969858, (-0.00014175, -5.2280e-05, 0.03175177),
+                                    (0.503748, -0.50738, -0.49423, -0.49451),
+                                    (0.000213926, 0.000416701, 0.000448963))),
+    "link_1": ("base_link", (0, 0, 0.05725), (0.152704, (-0.00011075, 0.00171176, 0.0204459),
+                                              (0.3139551, 0.3052381, -0.6435752, 0.6277522),
+                                              (0.000203432, 0.000173907, 8.3521e-05))),
+    "link_2": ("link_1", (0.02, 0, 0.04625), (1.15316, (-0.131215, -0.00292583, 0.00021345),
+                                              (-0.00123582, 0.7065461, -0.00109575, 0.7076651),
+                                              (0.0179449, 0.0173612, 0.00102628))),
+    "link_3": ("link_2", (-0.264, 0, 0), (0.686666, (0.180836, -0.0009409, 0.0555494),
+                                          (0.0103901, 0.669684, -0.0033175, 0.742566),
+                                          (0.00566898, 0.00547578, 0.00059316))),
+    "link_4": ("link_3", (0.245, 0, 0.06), (0.457899, (0.0579784, 0.00027145, 0.0588445),
+                                            (0.9486879, 0.0346237, 0.307828, 0.0635164),
+                                            (0.000670827, 0.000661455, 0.000288648))),
+    "link_5": ("link_4", (0.06775, 0, 0.0455), (0.366939, (0.00412447, -1.1380e-05, -0.0428318),
+                                                (0.4961438, 0.5021278, 0.5035948, 0.4980978),
+                                                (0.000320622, 0.00026751, 0.000189108))),
+    "link_6": ("link_5", (0.02895, 0, -0.0455), (0.671874, (0.046841, 0.00145133, 0.00895674),
+                                                 (0.2758541, 0.2912551, -0.6919572, 0.6002252),
+                                                 (0.00118316, 0.00110863, 0.00078309))),
+    "carriage_right": ("link_6", (0.0865, -0.023, 0),
+                       (0.081271, (0.00169015, 0.00592793, 0.00201817),
+                        (-0.3709729, 0.7408857, -0.08477207, 0.5534268),
+                        (4.2957e-05, 3.8708e-05, 2.2153e-05))),
+    "carriage_left": ("link_6", (0.0865, 0.023, 0),
+                      (0.081271, (0.00169017, -0.00592796, -0.00365701),
+                       (-0.03826911, 0.6280222, -0.2551011, 0.7341982),
+                       (4.2111e-05, 3.6194e-05, 2.4000e-05))),
+}
+
+# joint: (child body, type, axis, range, armature, actuator (kp, kv, force), urdf velocity, effort)
+JOINTS = {
+    "joint_0": ("link_1", "hinge", (0, 0, 1), (-3.05433, 3.05433), 0.032, (200, 10, 27), 3.375, 27),
+    "joint_1": ("link_2", "hinge", (0, 1, 0), (0, PI), 0.032, (200, 10, 27), 3.375, 27),
+    "joint_2": ("link_3", "hinge", (0, -1, 0), (0, 2.35619), 0.032, (200, 10, 27), 3.375, 27),
+    "joint_3": ("link_4", "hinge", (0, -1, 0), (-1.5708, 1.5708), 0.0018, (100, 5, 7), 7.0, 7),
+    "joint_4": ("link_5", "hinge", (0, 0, -1), (-1.5708, 1.5708), 0.0018, (50, 5, 7), 7.0, 7),
+    "joint_5": ("link_6", "hinge", (1, 0, 0), (-PI, PI), 0.0018, (50, 5, 7), 7.0, 7),
+    "right_carriage_joint": ("carriage_right", "slide", (0, -1, 0), (0, 0.044), 0.1, None,
+                             0.0875, 400),
+    "left_carriage_joint": ("carriage_left", "slide", (0, 1, 0), (0, 0.044), 0.1,
+                            (1000, 50, 400), 0.0875, 400),
+}
+ARM_JOINTS = [f"joint_{i}" for i in range(6)]
+
+# Visual primitives: boxes at the mesh bounding boxes (body frame): (body, center, half-size).
+VISUAL_BOXES = [
+    ("base_link", (0.002359, 0, 0.030125), (0.034859, 0.0325, 0.030125)),
+    ("link_1", (0.0042012, 0.0035, 0.031875), (0.033186, 0.044825, 0.031875)),
+    ("link_2", (-0.132, 0, 0.0034211), (0.1605, 0.036325, 0.031921)),
+    ("link_3", (0.128, 0, 0.0355), (0.1455, 0.041325, 0.053)),
+    ("link_4", (0.039377, 0.003, 0.042005), (0.056873, 0.0407, 0.059495)),
+    ("link_5", (-0.0056529, 0, -0.046089), (0.034603, 0.0285, 0.046089)),
+    ("link_6", (0.04125, 0, 0), (0.04125, 0.0933, 0.0308)),
+    ("link_6", (0.043082, 0.006775, 0.051848), (0.030082, 0.035775, 0.033348)),
+    ("carriage_right", (-0.00925, 0.0314, 0.00465), (0.00925, 0.04585, 0.01965)),
+    ("carriage_left", (-0.00925, -0.0314, -0.00465), (0.00925, 0.04585, 0.01965)),
+]
+# Slimmer visual boxes than the fingers' bounding boxes, so the opening is visible.
+FINGER_VISUAL = {
+    "carriage_right": ((0.034781, 0.0164, 0.0), (0.034781, 0.0066, 0.0265)),
+    "carriage_left": ((0.034781, -0.0164, 0.0), (0.034781, 0.0066, 0.0265)),
+}
+CAMERA_VISUAL = ("link_6", (0.0513206, 0, 0.0569399), (0.0115, 0.021, 0.021),
+                 (0.984808, 0, 0.173648, 0))
+
+Q_Y = (0.707107, 0.707107, 0, 0)  # capsule/cylinder axis along body y
+Q_X = (0.707107, 0, 0.707107, 0)  # along body x
+# Collision primitives: (body, type, size, pos, quat)
+COLLISION = [
+    ("base_link", "cylinder", (0.031, 0.0325), (0, 0, 0.0325), None),
+    ("link_2", "capsule", (0.031, 0.015), (0, 0, 0), Q_Y),
+    ("link_2", "box", (0.0975, 0.02, 0.02), (-0.131, 0, 0), None),
+    ("link_3", "capsule", (0.031, 0.015), (0, 0, 0), Q_Y),
+    ("link_3", "box", (0.08, 0.02, 0.02), (0.13, 0, 0.06), None),
+    ("link_4", "capsule", (0.031, 0.015), (0, 0, 0), Q_Y),
+    ("link_5", "cylinder", (0.031, 0.028), (0, 0, 0.03), None),
+    ("link_6", "cylinder", (0.029, 0.05), (0, 0, 0), Q_X),
+    ("link_6", "box", (0.0125, 0.094, 0.031), (0.0685, 0, 0), None),
+    ("link_6", "box", (0.0155, 0.025, 0.025), (0.0513206, 0, 0.0569399),
+     (0.984808, 0, 0.173648, 0)),
+]
+# One flat pad per finger, from the carriage to the fingertip (link_6 x 0.0875 .. 0.156).
+# Its inner face sits at |y| = q - 0.1 mm in link_6, so the pad gap is 2q - 0.2 mm as on
+# the real gripper (fully closed: the pads just touch).
+PAD_HALF = (0.03428, 0.005, 0.0175)
+PAD_POS = {"carriage_left": (0.03528, -0.0181, -0.003), "carriage_right": (0.03528, 0.0181, -0.003)}
+PAD_NAME = {"carriage_left": "gripper_follower_left", "carriage_right": "gripper_follower_right"}
+
+EE_SITE = (0.156, 0, 0)
+WRIST_CAM_POS = (0.05864, 0.009, 0.05427)
+WRIST_CAM_QUAT = (0.579242, 0.40556, -0.40556, -0.579242)
+WRIST_FOVY = 87
+
+
+def fmt(v) -> str:
+    return " ".join(f"{float(x):.9g}" for x in v)
+
+
+def quat_to_mat(q) -> np.ndarray:
+    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def quat_to_rpy(q) -> tuple[float, float, float]:
+    r = quat_to_mat(q)
+    pitch = np.arcsin(-np.clip(r[2, 0], -1, 1))
+    roll = np.arctan2(r[2, 1], r[2, 2])
+    yaw = np.arctan2(r[1, 0], r[0, 0])
+    return float(roll), float(pitch), float(yaw)
+
+
+# ----------------------------------------------------------------------------- MJCF pieces
+def mjcf_defaults() -> str:
+    return """  <default>
+    <default class="wxai">
+      <joint frictionloss="0.1" actuatorgravcomp="true"/>
+      <position inheritrange="1"/>
+      <default class="wxai_visual">
+        <geom type="box" group="2" contype="0" conaffinity="0" density="0" material="wxai_black"/>
+      </default>
+      <default class="wxai_collision">
+        <geom group="3" density="0" rgba="0.5 0.5 0.5 0.3"/>
+        <default class="wxai_pad">
+          <geom type="box" condim="4" friction="1.5 0.02 0.0001" rgba="0.3 0.3 0.3 0.3"/>
+        </default>
+      </default>
+    </default>
+  </default>
+"""
+
+
+def mjcf_arm_materials() -> str:
+    return """    <material name="wxai_black" rgba="0.12 0.12 0.13 1" specular="0.3" shininess="0.4"/>
+    <material name="wxai_grey" rgba="0.45 0.46 0.48 1" specular="0.4" shininess="0.5"/>
+"""
+
+
+def mjcf_arm(prefix: str, pos, quat, camera_name: str, indent: int) -> str:
+    """The arm body tree as MJCF text; element names get ``prefix``."""
+    lines: list[str] = []
+    sp = " " * indent
+
+    def emit(depth: int, text: str) -> None:
+        lines.append(sp + "  " * depth + text)
+
+    def body(name: str, depth: int) -> None:
+        parent, bpos, (mass, com, iquat, diag) = BODIES[name]
+        if parent is None:
+            attrs = f'pos="{fmt(pos)}" quat="{fmt(quat)}"'
+        else:
+            attrs = f'pos="{fmt(bpos)}"'
+        cls = ' childclass="wxai"' if parent is None else ""
+        emit(depth, f'<body name="{prefix}{name}" {attrs}{cls} gravcomp="1">')
+        emit(depth + 1, f'<inertial pos="{fmt(com)}" quat="{fmt(iquat)}" mass="{mass:.9g}" '
+                        f'diaginertia="{fmt(diag)}"/>')
+        for jname, (child, jtype, axis, rng, arm, _act, _vel, _eff) in JOINTS.items():
+            if child == name:
+                emit(depth + 1, f'<joint name="{prefix}{jname}" type="{jtype}" axis="{fmt(axis)}" '
+                                f'range="{fmt(rng)}" armature="{arm}"/>')
+        for b, center, half in VISUAL_BOXES:
+            if b == name:
+                emit(depth + 1, f'<geom class="wxai_visual" pos="{fmt(center)}" '
+                                f'size="{fmt(half)}"/>')
+        if name in FINGER_VISUAL:
+            center, half = FINGER_VISUAL[name]
+            emit(depth + 1, f'<geom class="wxai_visual" material="wxai_grey" pos="{fmt(center)}" '
+                            f'size="{fmt(half)}"/>')
+        if name == CAMERA_VISUAL[0]:
+            _, center, half, q = CAMERA_VISUAL
+            emit(depth + 1, f'<geom class="wxai_visual" material="wxai_grey" pos="{fmt(center)}" '
+                            f'quat="{fmt(q)}" size="{fmt(half)}"/>')
+        for k, (b, gtype, size, gpos, gquat) in enumerate(COLLISION):
+            if b == name:
+                q = f' quat="{fmt(gquat)}"' if gquat else ""
+                emit(depth + 1, f'<geom name="{prefix}{name}_collision_{k}" class="wxai_collision" '
+                                f'type="{gtype}" size="{fmt(size)}" pos="{fmt(gpos)}"{q}/>')
+        if name in PAD_POS:
+            emit(depth + 1, f'<geom name="{prefix}{PAD_NAME[name]}" class="wxai_pad" '
+                            f'size="{fmt(PAD_HALF)}" pos="{fmt(PAD_POS[name])}"/>')
+        if name == "link_6":
+            emit(depth + 1, f'<site name="{prefix}ee_site" pos="{fmt(EE_SITE)}" size="0.004" '
+                            f'rgba="1 0.3 0.1 0.6" group="4"/>')
+            emit(depth + 1, f'<camera name="{camera_name}" pos="{fmt(WRIST_CAM_POS)}" '
+                            f'quat="{fmt(WRIST_CAM_QUAT)}" fovy="{WRIST_FOVY}"/>')
+        for child_name, (parent, _p, _i) in BODIES.items():
+            if parent == name:
+                body(child_name, depth + 1)
+        emit(depth, "</body>")
+
+    body("base_link", 0)
+    return "\n".join(lines) + "\n"
+
+
+def mjcf_gripper_equality(prefix: str) -> str:
+    return (f'    <joint name="{prefix}gripper_coupling" joint1="{prefix}right_carriage_joint" '
+            f'joint2="{prefix}left_carriage_joint" polycoef="0 1 0 0 0"/>\n')
+
+
+def mjcf_actuators(prefix: str, arm: bool = True, gripper: bool = True) -> str:
+    out = []
+    for jname, (_c, _t, _a, rng, _arm, act, _v, _e) in JOINTS.items():
+        if act is None:
+            continue
+        is_gripper = jname == "left_carriage_joint"
+        if (is_gripper and not gripper) or (not is_gripper and not arm):
+            continue
+        kp, kv, force = act
+        aname = f"{prefix}gripper" if is_gripper else f"{prefix}{jname}"
+        out.append(f'    <position name="{aname}" class="wxai" joint="{prefix}{jname}" kp="{kp}" '
+                   f'kv="{kv}" forcerange="{-force} {force}"/>')
+    return "\n".join(out) + "\n"
+
+
+OPTIONS = """  <compiler angle="radian" autolimits="true"/>
+  <option timestep="0.002" integrator="implicitfast" cone="pyramidal" ls_iterations="50"/>
+"""
+
+
+def wxai_follower_xml() -> str:
+    home = fmt(START_Q + (GRIPPER_OPEN, GRIPPER_OPEN))
+    return f"""<!-- WidowX AI (wxai) follower arm with gripper and wrist camera.
+     Generated by tools/build_models.py from the robot facts; do not edit by hand.
+     Frames: base_link at the world origin; ee_site is the tool frame 0.156 m ahead of link_6. -->
+<mujoco model="wxai_follower">
+{OPTIONS}
+{mjcf_defaults()}
+  <asset>
+{mjcf_arm_materials()}  </asset>
+
+  <worldbody>
+    <light name="top" pos="0 0 1.5" dir="0 0 -1" directional="true"/>
+{mjcf_arm("", (0, 0, 0), (1, 0, 0, 0), "cam", 4)}  </worldbody>
+
+  <equality>
+{mjcf_gripper_equality("")}  </equality>
+
+  <actuator>
+{mjcf_actuators("")}  </actuator>
+
+  <keyframe>
+    <key name="home" qpos="{home}" ctrl="{fmt(START_Q + (GRIPPER_OPEN,))}"/>
+  </keyframe>
+</mujoco>
+"""
+
+
+# ----------------------------------------------------------------------------- Stationary AI kit
+ARM_MOUNTS = {
+    "left": ((-0.019982, 0.4575, 0.039086), (0.707107, 0, 0, -0.707107)),
+    "right": ((-0.019982, -0.4575, 0.039086), (0.707107, 0, 0, 0.707107)),
+}
+FRAME_BOXES = [  # (half-size, pos, quat) of the aluminium frame, tabletop frame
+    ((0.3685, 0.0375, 0.01), (0, 0.457, 0.03), None),
+    ((0.3685, 0.0375, 0.01), (0, -0.457, 0.03), None),
+    ((0.01, 0.425, 0.01), (0.35, 0, 0.03), None),
+    ((0.01, 0.5, 0.01), (-0.39, 0, 0.01), None),
+    ((0.02, 0.445, 0.01), (-0.38, 0, 1.05), None),
+    ((0.02, 0.01, 0.52), (-0.38, 0.42774, 0.54), None),
+    ((0.02, 0.01, 0.52), (-0.38, -0.42774, 0.54), None),
+    ((0.01, 0.01, 0.16), (-0.261, 0.43, 0.1425), (0.92388, 0, -0.382683, 0)),
+    ((0.01, 0.01, 0.16), (-0.261, -0.43, 0.1425), (0.92388, 0, -0.382683, 0)),
+]
+CAMERA_BODIES = [  # D405 housings of the fixed cameras
+    ((0.0115, 0.025, 0.025), (-0.328972, 0, 1.05484), (0.843391, 0, 0.5373, 0)),
+    ((0.0115, 0.025, 0.025), (-0.388301, 0, 0.0513276), (0.998848, 0, -0.0479781, 0)),
+]
+FIXED_CAMERAS = [
+    ("cam_high", (-0.324675, 0.009, 1.04777), (-0.690358, -0.152991, 0.152991, 0.690358), 65),
+    ("cam_low", (-0.378474, 0.009, 0.051132), (-0.475422, -0.523425, 0.523425, 0.475422), 125),
+]
+
+
+def trossen_ai_xml() -> str:
+    frame = []
+    for k, (half, pos, quat) in enumerate(FRAME_BOXES + CAMERA_BODIES):
+        q = f' quat="{fmt(quat)}"' if quat else ""
+        mat = "frame" if k < len(FRAME_BOXES) else "wxai_black"
+        frame.append(f'      <geom name="frame_{k}" type="box" size="{fmt(half)}" pos="{fmt(pos)}"{q} '
+                     f'material="{mat}"/>')
+    cams = [f'      <camera name="{n}" pos="{fmt(p)}" quat="{fmt(q)}" fovy="{f}"/>'
+            for n, p, q, f in FIXED_CAMERAS]
+    arms = "".join(mjcf_arm(f"{side}/", pos, quat, f"cam_{side}_wrist", 6)
+                   for side, (pos, quat) in ARM_MOUNTS.items())
+    return f"""<!-- Trossen AI Stationary kit: two wxai follower arms on a table with four cameras.
+     Generated by tools/build_models.py; do not edit by hand.
+     World frame = tabletop frame: origin at the table centre on the floor, x away from the
+     cameras (cam_high/cam_low sit at x = -0.38), z up; the table top is at z = 0.02.
+     Arm elements carry the prefixes left/ and right/. Actuation is added by the scenes:
+     trossen_ai_scene.xml (mocap-driven arms) and trossen_ai_scene_joint.xml (joint actuators). -->
+<mujoco model="trossen_ai">
+{OPTIONS}  <visual>
+    <global offwidth="640" offheight="480" azimuth="90" elevation="-20"/>
+    <quality shadowsize="2048"/>
+    <headlight diffuse="0.35 0.35 0.35" ambient="0.3 0.3 0.32" specular="0 0 0"/>
+    <map znear="0.01"/>
+  </visual>
+{mjcf_defaults()}
+  <asset>
+{mjcf_arm_materials()}    <material name="frame" rgba="0.72 0.73 0.75 1" specular="0.5" shininess="0.6"/>
+    <texture name="sky" type="skybox" builtin="gradient" rgb1="0.55 0.62 0.70" rgb2="0.12 0.13 0.15"
+             width="32" height="512"/>
+    <texture name="maple" type="2d" builtin="flat" rgb1="0.80 0.64 0.45" rgb2="0.72 0.55 0.38"
+             mark="random" random="0.015" markrgb="0.74 0.58 0.40" width="256" height="256"/>
+    <material name="maple" texture="maple" texrepeat="2 2" specular="0.15" shininess="0.2"/>
+    <texture name="groundplane" type="2d" builtin="checker" rgb1="0.30 0.32 0.35"
+             rgb2="0.25 0.27 0.30" width="300" height="300"/>
+    <material name="groundplane" texture="groundplane" texuniform="true" texrepeat="4 4"
+              reflectance="0.05"/>
+  </asset>
+
+  <worldbody>
+    <light name="key" pos="0.3 0.6 2.0" dir="-0.15 -0.3 -1" directional="true" castshadow="true"
+           diffuse="0.55 0.55 0.55" specular="0.2 0.2 0.2"/>
+    <light name="fill" pos="-0.5 -0.5 1.5" dir="0.3 0.3 -1" directional="true" castshadow="false"
+           diffuse="0.25 0.25 0.27" specular="0 0 0"/>
+    <geom name="ground" type="plane" size="0 0 0.05" material="groundplane"/>
+    <body name="tabletop_link">
+      <inertial pos="-0.0053748816 -0.00042686842 0.014104691" mass="15.2"
+                quat="0.135549 0.672695 0.710793 0.154534"
+                diaginertia="0.301156 0.287827 0.165329"/>
+      <geom name="table" type="box" size="0.38 0.61 0.01" pos="0 0 0.01" material="maple"/>
+{chr(10).join(frame)}
+{chr(10).join(cams)}
+{arms}    </body>
+  </worldbody>
+
+  <equality>
+{mjcf_gripper_equality("left/")}{mjcf_gripper_equality("right/")}  </equality>
+</mujoco>
+"""
+
+
+CUBE_HALF = 0.0125
+TABLE_TOP = 0.02
+
+
+def cube_xml() -> str:
+    z = TABLE_TOP + CUBE_HALF
+    return f"""    <body name="box" pos="0 0 {z:.6g}">
+      <joint name="red_box_joint" type="free" frictionloss="0.0005"/>
+      <geom name="red_box" type="box" size="{CUBE_HALF} {CUBE_HALF} {CUBE_HALF}" mass="0.03"
+            condim="4" friction="1.5 0.02 0.0001" rgba="0.85 0.08 0.08 1"/>
+    </body>
+"""
+
+
+def start_ee_pose(side: str) -> tuple[np.ndarray, np.ndarray]:
+    """World pose of ``<side>/ee_site`` at START_ARM_POSE, from the kinematic facts."""
+    mount_pos, mount_quat = ARM_MOUNTS[side]
+    t = np.eye(4)
+    t[:3, :3] = quat_to_mat(mount_quat)
+    t[:3, 3] = mount_pos
+    chain = ["link_1", "link_2", "link_3", "link_4", "link_5", "link_6"]
+    for i, name in enumerate(chain):
+        step = np.eye(4)
+        step[:3, 3] = BODIES[name][1]
+        t = t @ step
+        axis = np.asarray(JOINTS[f"joint_{i}"][2], float)
+        angle = START_Q[i]
+        k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        rot = np.eye(4)
+        rot[:3, :3] = np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+        t = t @ rot
+    ee = np.eye(4)
+    ee[:3, 3] = EE_SITE
+    t = t @ ee
+    r = t[:3, :3]
+    w = np.sqrt(max(0.0, 1 + np.trace(r))) / 2
+    quat = np.array([w, (r[2, 1] - r[1, 2]) / (4 * w), (r[0, 2] - r[2, 0]) / (4 * w),
+                     (r[1, 0] - r[0, 1]) / (4 * w)])
+    return t[:3, 3], quat
+
+
+def scene_common_key(mocap: bool) -> str:
+    qpos = START_Q + (GRIPPER_OPEN, GRIPPER_OPEN)
+    cube = (0, 0, TABLE_TOP + CUBE_HALF, 1, 0, 0, 0)
+    key = f'    <key name="home" qpos="{fmt(qpos + qpos + cube)}"'
+    if mocap:
+        (lp, lq), (rp, rq) = start_ee_pose("left"), start_ee_pose("right")
+        key += (f'\n         mpos="{fmt(lp)} {fmt(rp)}"\n         mquat="{fmt(lq)} {fmt(rq)}"'
+                f'\n         ctrl="{GRIPPER_OPEN} {GRIPPER_OPEN}"')
+    else:
+        ctrl = START_Q + (GRIPPER_OPEN,)
+        key += f'\n         ctrl="{fmt(ctrl + ctrl)}"'
+    return key + "/>\n"
+
+
+def trossen_ai_scene_xml() -> str:
+    mocap = []
+    welds = []
+    for side in ("left", "right"):
+        pos, quat = start_ee_pose(side)
+        mocap.append(f"""    <body name="mocap_{side}" mocap="true" pos="{fmt(pos)}" quat="{fmt(quat)}">
+      <site name="mocap_{side}_x" type="box" size="0.015 0.0008 0.0008" pos="0.015 0 0"
+            rgba="1 0 0 0.6" group="4"/>
+      <site name="mocap_{side}_y" type="box" size="0.0008 0.015 0.0008" pos="0 0.015 0"
+            rgba="0 1 0 0.6" group="4"/>
+      <site name="mocap_{side}_z" type="box" size="0.0008 0.0008 0.015" pos="0 0 0.015"
+            rgba="0 0 1 0.6" group="4"/>
+    </body>
+""")
+        # relpose: pose of link_6 in the mocap frame; the mocap frame is the ee_site frame.
+        welds.append(f'    <weld name="mocap_{side}_weld" body1="mocap_{side}" body2="{side}/link_6" '
+                     f'relpose="{fmt((-EE_SITE[0], 0, 0))} 1 0 0 0" '
+                     f'solref="0.01 1"/>\n')
+    return f"""<!-- Stationary AI, end-effector flavour: each arm's link_6 is welded to a mocap body.
+     Generated by tools/build_models.py; do not edit by hand.
+     The mocap frame is the arm's ee_site frame (0.156 m ahead of link_6, same orientation), and
+     the initial mocap poses are the ee_site poses at START_ARM_POSE, so nothing jumps at reset.
+     The grippers are driven by their position actuators (ctrl 0..0.044 m). -->
+<mujoco model="trossen_ai_scene">
+  <include file="trossen_ai.xml"/>
+
+  <worldbody>
+{"".join(mocap)}{cube_xml()}  </worldbody>
+
+  <equality>
+{"".join(welds)}  </equality>
+
+  <actuator>
+{mjcf_actuators("left/", arm=False)}{mjcf_actuators("right/", arm=False)}  </actuator>
+
+  <keyframe>
+{scene_common_key(mocap=True)}  </keyframe>
+</mujoco>
+"""
+
+
+def trossen_ai_scene_joint_xml() -> str:
+    return f"""<!-- Stationary AI, joint flavour: 14 position actuators (6 joints + gripper per arm),
+     as on the real arms. Generated by tools/build_models.py; do not edit by hand. -->
+<mujoco model="trossen_ai_scene_joint">
+  <include file="trossen_ai.xml"/>
+
+  <worldbody>
+{cube_xml()}  </worldbody>
+
+  <actuator>
+{mjcf_actuators("left/")}{mjcf_actuators("right/")}  </actuator>
+
+  <keyframe>
+{scene_common_key(mocap=False)}  </keyframe>
+</mujoco>
+"""
+
+
+# ----------------------------------------------------------------------------- URDF
+def urdf_inertia(iquat, diag) -> str:
+    r = quat_to_mat(iquat)
+    full = r @ np.diag(diag) @ r.T
+    return (f'ixx="{full[0, 0]:.9g}" ixy="{full[0, 1]:.9g}" ixz="{full[0, 2]:.9g}" '
+            f'iyy="{full[1, 1]:.9g}" iyz="{full[1, 2]:.9g}" izz="{full[2, 2]:.9g}"')
+
+
+def urdf_geometry(gtype: str, size) -> str:
+    if gtype == "box":
+        return f'<box size="{fmt(2 * np.asarray(size))}"/>'
+    # URDF has no capsule in the core spec: a cylinder of the full length is used.
+    length = 2 * size[1] + (2 * size[0] if gtype == "capsule" else 0)
+    return f'<cylinder radius="{size[0]:.9g}" length="{length:.9g}"/>'
+
+
+def wxai_follower_urdf() -> str:
+    out = ['<?xml version="1.0"?>',
+           "<!-- WidowX AI (wxai) follower arm. Generated by tools/build_models.py from the same",
+           "     facts as wxai_follower.xml; joints, axes and limits are identical. -->",
+           '<robot name="wxai_follower">',
+           '  <material name="wxai_black"><color rgba="0.12 0.12 0.13 1"/></material>']
+    for name, (_parent, _pos, (mass, com, iquat, diag)) in BODIES.items():
+        out.append(f'  <link name="{name}">')
+        out.append(f'    <inertial><origin xyz="{fmt(com)}" rpy="0 0 0"/><mass value="{mass:.9g}"/>'
+                   f"<inertia {urdf_inertia(iquat, diag)}/></inertial>")
+        for b, center, half in VISUAL_BOXES:
+            if b == name:
+                out.append(f'    <visual><origin xyz="{fmt(center)}"/><geometry>'
+                           f'<box size="{fmt(2 * np.asarray(half))}"/></geometry>'
+                           f'<material name="wxai_black"/></visual>')
+        for b, gtype, size, gpos, gquat in COLLISION:
+            if b == name:
+                rpy = fmt(quat_to_rpy(gquat)) if gquat else "0 0 0"
+                out.append(f'    <collision><origin xyz="{fmt(gpos)}" rpy="{rpy}"/><geometry>'
+                           f"{urdf_geometry(gtype, size)}</geometry></collision>")
+        if name in PAD_POS:
+            out.append(f'    <collision><origin xyz="{fmt(PAD_POS[name])}"/><geometry>'
+                       f'<box size="{fmt(2 * np.asarray(PAD_HALF))}"/></geometry></collision>')
+        out.append("  </link>")
+    for jname, (child, jtype, axis, rng, _arm, _act, vel, eff) in JOINTS.items():
+        parent, pos, _ = BODIES[child]
+        utype = "revolute" if jtype == "hinge" else "prismatic"
+        out.append(f'  <joint name="{jname}" type="{utype}">')
+        out.append(f'    <parent link="{parent}"/><child link="{child}"/>')
+        out.append(f'    <origin xyz="{fmt(pos)}" rpy="0 0 0"/><axis xyz="{fmt(axis)}"/>')
+        out.append(f'    <limit lower="{rng[0]:.9g}" upper="{rng[1]:.9g}" effort="{eff}" '
+                   f'velocity="{vel}"/>')
+        if jname == "right_carriage_joint":
+            out.append('    <mimic joint="left_carriage_joint" multiplier="1" offset="0"/>')
+        out.append("  </joint>")
+    out.append('  <link name="ee_gripper_link"/>')
+    out.append('  <joint name="ee_gripper" type="fixed"><parent link="link_6"/>'
+               f'<child link="ee_gripper_link"/><origin xyz="{fmt(EE_SITE)}" rpy="0 0 0"/></joint>')
+    out.append("</robot>")
+    return "\n".join(out) + "\n"
+
+
+FILES = {
+    "wxai/wxai_follower.xml": wxai_follower_xml,
+    "wxai/wxai_follower.urdf": wxai_follower_urdf,
+    "stationary_ai/trossen_ai.xml": trossen_ai_xml,
+    "stationary_ai/trossen_ai_scene.xml": trossen_ai_scene_xml,
+    "stationary_ai/trossen_ai_scene_joint.xml": trossen_ai_scene_joint_xml,
+}
+
+
+def generate() -> dict[str, str]:
+    """Return {relative path under assets/: file text} for every generated model."""
+    return {rel: make() for rel, make in FILES.items()}
+
+
+def main() -> int:
+    for rel, text in generate().items():
+        path = ASSETS / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+        print(f"wrote {path.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,42 @@
+"""``trossen-mujoco`` command: one entry point for every script.
+
+Subcommands: ``record`` (scripts/record_sim_episodes.py), ``visualize``
+(scripts/visualize_eps.py), ``replay-real`` (scripts/replay_episode_real.py).
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Sequence
+
+SUBCOMMANDS = {
+    "record": "trossen_arm_mujoco.scripts.record_sim_episodes",
+    "visualize": "trossen_arm_mujoco.scripts.visualize_eps",
+    "replay-real": "trossen_arm_mujoco.scripts.replay_episode_real",
+}
+
+USAGE = (
+    "usage: trossen-mujoco {record,visualize,replay-real} [flags]\n"
+    "  record       scripted rollouts -> HDF5 episodes\n"
+    "  visualize    HDF5 episodes -> mp4 camera grid + joint plots\n"
+    "  replay-real  replay an episode on two arms (or their simulated twin)\n"
+    "Run 'trossen-mujoco <subcommand> --help' for its flags."
+)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args or args[0] in ("-h", "--help"):
+        print(USAGE)
+        return 0
+    name, rest = args[0], args[1:]
+    if name not in SUBCOMMANDS:
+        print(f"error: unknown subcommand '{name}'; valid: {', '.join(SUBCOMMANDS)}", file=sys.stderr)
+        return 2
+    module = importlib.import_module(SUBCOMMANDS[name])
+    return int(module.cli(rest) or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,19 @@
+"""What a robot is: move groups, the robot view, controllers, kinematics and the robot."""
+
+from trossen_arm_mujoco.robot.configs import (
+    RobotConfig,
+    stationary_ai_joint_config,
+    stationary_ai_mocap_config,
+    wxai_config,
+)
+from trossen_arm_mujoco.robot.robot import Robot
+from trossen_arm_mujoco.robot.robot_view import RobotView
+
+__all__ = [
+    "Robot",
+    "RobotConfig",
+    "RobotView",
+    "stationary_ai_joint_config",
+    "stationary_ai_mocap_config",
+    "wxai_config",
+]

@@ -1,0 +1,165 @@
+"""Controllers turn a move group's command into its control. They never step physics.
+
+Command modes:
+- ``joint_position``: absolute joint targets (rad / m), shape (n_joints,) for arms, (1,) for
+  grippers.
+- ``joint_rel_position``: joint deltas added to the current joint positions.
+- ``ee_pose``: tool-frame pose [x, y, z, qw, qx, qy, qz] (world, m). Mocap arms take it as is;
+  joint-actuated arms reach it by IK.
+- ``ee_delta``: Cartesian tool-frame delta, (3,) [dx, dy, dz] (m) or (6,) with a rotation
+  vector (rad), world frame, through differential IK.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import mujoco
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.kinematics import Kinematics
+from trossen_arm_mujoco.robot.move_group import (
+    GripperGroup,
+    MJCFFrameMixin,
+    MocapArmGroup,
+    MoveGroup,
+    SimplyActuatedMoveGroup,
+)
+
+
+class Controller:
+    """Base: maps a command of ``command_dim`` values to the group's control vector."""
+
+    command_mode: ClassVar[str] = ""
+
+    def __init__(self, group: MoveGroup, model: mujoco.MjModel):
+        self.group = group
+        self.model = model
+
+    @property
+    def command_dim(self) -> int:
+        return self.group.ctrl_dim
+
+    def command_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.group.ctrl_limits()
+
+    def compute(self, data: mujoco.MjData, command: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _check(self, command: np.ndarray) -> np.ndarray:
+        cmd = np.asarray(command, dtype=float).reshape(-1)
+        if cmd.shape != (self.command_dim,):
+            raise UserError(
+                f"{self.group.name} ({self.command_mode}): expected {self.command_dim} values, "
+                f"got {cmd.size}"
+            )
+        if not np.all(np.isfinite(cmd)):
+            raise UserError(f"{self.group.name}: command contains NaN or inf")
+        return cmd
+
+
+def _actuated_qpos(group: MoveGroup, data: mujoco.MjData) -> np.ndarray:
+    """Current position of what the group's control drives."""
+    return group.get_noop_ctrl(data)
+
+
+class JointPosController(Controller):
+    """``joint_position``: the command is the absolute joint target."""
+
+    command_mode = "joint_position"
+
+    def __init__(self, group, model):
+        if not isinstance(group, (SimplyActuatedMoveGroup, GripperGroup)):
+            raise UserError(f"{group.name}: joint_position needs joint actuators")
+        super().__init__(group, model)
+
+    def compute(self, data, command):
+        low, high = self.group.ctrl_limits()
+        return np.clip(self._check(command), low, high)
+
+
+class JointRelPosController(JointPosController):
+    """``joint_rel_position``: the command is added to the current joint positions."""
+
+    command_mode = "joint_rel_position"
+
+    def command_limits(self):
+        low, high = self.group.ctrl_limits()
+        span = high - low
+        return -span, span
+
+    def compute(self, data, command):
+        low, high = self.group.ctrl_limits()
+        return np.clip(_actuated_qpos(self.group, data) + self._check(command), low, high)
+
+
+class EEPoseController(Controller):
+    """``ee_pose``: tool-frame pose; passed to a mocap body, or solved by IK for joint arms."""
+
+    command_mode = "ee_pose"
+
+    def __init__(self, group, model):
+        if not isinstance(group, MJCFFrameMixin):
+            raise UserError(f"{group.name}: ee_pose needs a tool frame")
+        super().__init__(group, model)
+        self._kin = None
+        if not isinstance(group, MocapArmGroup):
+            self._kin = Kinematics(
+                model, group.frame_site_id, group.qpos_idx, group.dof_idx, group.joint_range
+            )
+
+    @property
+    def command_dim(self) -> int:
+        return 7
+
+    def command_limits(self):
+        return np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]), np.array([2.0, 2.0, 2.0, 1, 1, 1, 1])
+
+    def compute(self, data, command):
+        cmd = self._check(command)
+        if self._kin is None:
+            return cmd
+        q, _ = self._kin.solve(data.qpos, cmd[:3], cmd[3:], iterations=30)
+        return q
+
+
+class EEDeltaController(Controller):
+    """``ee_delta``: Cartesian delta of the tool frame through differential IK."""
+
+    command_mode = "ee_delta"
+
+    def __init__(self, group, model, rotation: bool = False):
+        if not isinstance(group, MJCFFrameMixin) or not isinstance(group, SimplyActuatedMoveGroup):
+            raise UserError(f"{group.name}: ee_delta needs a joint-actuated arm with a tool frame")
+        super().__init__(group, model)
+        self.rotation = rotation
+        self.kinematics = Kinematics(
+            model, group.frame_site_id, group.qpos_idx, group.dof_idx, group.joint_range
+        )
+
+    @property
+    def command_dim(self) -> int:
+        return 6 if self.rotation else 3
+
+    def command_limits(self):
+        lim = np.full(self.command_dim, 0.05)
+        if self.rotation:
+            lim[3:] = 0.2
+        return -lim, lim
+
+    def compute(self, data, command):
+        return self.kinematics.delta_step(data.qpos, self._check(command))
+
+
+CONTROLLERS: dict[str, type[Controller]] = {
+    c.command_mode: c
+    for c in (JointPosController, JointRelPosController, EEPoseController, EEDeltaController)
+}
+
+
+def make_controller(mode: str, group: MoveGroup, model: mujoco.MjModel) -> Controller:
+    """Controller for a command mode; a UserError listing the valid modes when unknown."""
+    if mode not in CONTROLLERS:
+        raise unknown_name_error("command mode", mode, CONTROLLERS)
+    return CONTROLLERS[mode](group, model)

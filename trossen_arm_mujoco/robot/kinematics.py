@@ -1,0 +1,127 @@
+"""Forward kinematics and differential inverse kinematics on a scratch copy of the state.
+
+Nothing here steps physics or writes the caller's ``MjData``: a private ``MjData`` is used
+for every evaluation. Poses are [x, y, z, qw, qx, qy, qz] in the world frame (m).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+
+def orientation_error(target_quat: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """Rotation vector (rad, world frame) that turns ``quat`` into ``target_quat``."""
+    conj = np.zeros(4)
+    mujoco.mju_negQuat(conj, quat)
+    err_q = np.zeros(4)
+    mujoco.mju_mulQuat(err_q, target_quat, conj)
+    if err_q[0] < 0:  # shortest way round
+        err_q = -err_q
+    vel = np.zeros(3)
+    mujoco.mju_quat2Vel(vel, err_q, 1.0)
+    return vel
+
+
+def damped_least_squares(jac: np.ndarray, err: np.ndarray, damping: float = 1e-3) -> np.ndarray:
+    """dq = J^T (J J^T + damping^2 I)^-1 err; jac (m, n), err (m,) -> (n,)."""
+    jjt = jac @ jac.T
+    return jac.T @ np.linalg.solve(jjt + damping**2 * np.eye(jjt.shape[0]), err)
+
+
+class Kinematics:
+    """FK and IK of one site over the joints given by their qpos/dof indices.
+
+    Args:
+        model: compiled model.
+        site_id: id of the tool-frame site.
+        qpos_idx, dof_idx: indices of the (1-dof) joints that IK may move.
+        joint_range: (n, 2) limits of those joints.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        site_id: int,
+        qpos_idx: Sequence[int],
+        dof_idx: Sequence[int],
+        joint_range: np.ndarray,
+    ):
+        self.model = model
+        self.site_id = site_id
+        self.qpos_idx = np.asarray(qpos_idx, dtype=int)
+        self.dof_idx = np.asarray(dof_idx, dtype=int)
+        self.joint_range = np.asarray(joint_range, dtype=float)
+        self._data = mujoco.MjData(model)
+
+    def _load(self, qpos_full: np.ndarray, q: np.ndarray | None = None) -> None:
+        self._data.qpos[:] = qpos_full
+        if q is not None:
+            self._data.qpos[self.qpos_idx] = q
+        mujoco.mj_kinematics(self.model, self._data)
+        mujoco.mj_comPos(self.model, self._data)
+
+    def site_pose(self, qpos_full: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """Site pose for the full qpos (nq,), optionally with the group joints replaced by q."""
+        self._load(qpos_full, q)
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, self._data.site_xmat[self.site_id])
+        return np.concatenate([self._data.site_xpos[self.site_id], quat])
+
+    def jacobian(self, qpos_full: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """Site Jacobian (6, n) w.r.t. the group joints, rows [linear; angular], world frame."""
+        self._load(qpos_full, q)
+        jac = np.zeros((6, self.model.nv))
+        mujoco.mj_jacSite(self.model, self._data, jac[:3], jac[3:], self.site_id)
+        return jac[:, self.dof_idx]
+
+    def delta_step(
+        self, qpos_full: np.ndarray, twist: np.ndarray, damping: float = 1e-3
+    ) -> np.ndarray:
+        """Joint targets after one differential-IK step toward a Cartesian delta.
+
+        Args:
+            twist: (3,) position delta (m) or (6,) [position delta (m), rotation vector (rad)],
+                world frame.
+        Returns:
+            (n,) joint positions, clipped to the joint limits.
+        """
+        q = qpos_full[self.qpos_idx].copy()
+        jac = self.jacobian(qpos_full)
+        rows = slice(0, 3) if len(twist) == 3 else slice(0, 6)
+        dq = damped_least_squares(jac[rows], np.asarray(twist, dtype=float), damping)
+        return np.clip(q + dq, self.joint_range[:, 0], self.joint_range[:, 1])
+
+    def solve(
+        self,
+        qpos_full: np.ndarray,
+        target_pos: np.ndarray,
+        target_quat: np.ndarray | None = None,
+        iterations: int = 100,
+        tol: float = 1e-6,
+        damping: float = 1e-3,
+        max_step: float = 0.2,
+    ) -> tuple[np.ndarray, float]:
+        """Iterative IK from the current joints toward a pose (orientation optional).
+
+        Returns:
+            (q (n,), residual): joint solution within limits and the final error norm
+            (m, plus rad when an orientation is given).
+        """
+        q = qpos_full[self.qpos_idx].copy()
+        err_norm = np.inf
+        for _ in range(iterations):
+            pose = self.site_pose(qpos_full, q)
+            err = np.asarray(target_pos, float) - pose[:3]
+            if target_quat is not None:
+                err = np.concatenate([err, orientation_error(np.asarray(target_quat), pose[3:])])
+            err_norm = float(np.linalg.norm(err))
+            if err_norm < tol:
+                break
+            jac = self.jacobian(qpos_full, q)[: len(err)]
+            dq = damped_least_squares(jac, err, damping)
+            scale = max(1.0, np.abs(dq).max() / max_step)
+            q = np.clip(q + dq / scale, self.joint_range[:, 0], self.joint_range[:, 1])
+        return q, err_norm

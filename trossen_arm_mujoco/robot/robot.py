@@ -1,0 +1,71 @@
+"""Robot: a robot view with one controller per move group."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import mujoco
+import numpy as np
+
+from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.robot.configs import RobotConfig
+from trossen_arm_mujoco.robot.controllers import Controller, make_controller
+from trossen_arm_mujoco.robot.move_group import MocapArmGroup
+from trossen_arm_mujoco.robot.robot_view import RobotView
+
+
+class Robot:
+    """Commands in, controls out.
+
+    ``update_control`` stores the latest command per move group; ``compute_control`` turns
+    the stored commands into controls and writes them to ``data.ctrl`` (or the mocap bodies).
+    Groups without a command hold the control set at ``reset``. Physics is never stepped here.
+    """
+
+    def __init__(self, model: mujoco.MjModel, config: RobotConfig):
+        self.model = model
+        self.config = config
+        self.view: RobotView = config.build_view(model)
+        self.controllers: dict[str, Controller] = {
+            g: make_controller(mode, self.view.group(g), model)
+            for g, mode in config.command_mode.items()
+        }
+        self._commands: dict[str, np.ndarray] = {}
+
+    def update_control(self, commands: Mapping[str, np.ndarray]) -> None:
+        """Store commands, group name -> vector of that group's ``command_dim`` values."""
+        for name, cmd in commands.items():
+            if name not in self.controllers:
+                raise unknown_name_error("controlled move group", name, self.controllers)
+            self._commands[name] = self.controllers[name]._check(cmd)
+
+    def compute_control(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
+        """Compute and apply the controls of the commanded groups; returns them by group."""
+        out = {}
+        for name, cmd in self._commands.items():
+            ctrl = self.controllers[name].compute(data, cmd)
+            self.view.group(name).set_ctrl(data, ctrl)
+            out[name] = ctrl
+        return out
+
+    def reset(self, data: mujoco.MjData) -> None:
+        """Put the joints at ``config.init_qpos`` at rest, and every control at a no-op.
+
+        Mocap arms get their mocap pose set to the tool-frame pose of the initial joints,
+        so the weld holds the arm where it is.
+        """
+        self.view.set_qpos_dict(data, self.config.init_qpos)
+        for name in self.config.init_qpos:
+            data.qvel[self.view.group(name).dof_idx] = 0.0
+        self._commands.clear()
+        mujoco.mj_kinematics(self.model, data)
+        self.hold(data)
+
+    def hold(self, data: mujoco.MjData) -> None:
+        """Set every control to hold the current state (kinematics must be up to date)."""
+        self._commands.clear()
+        for group in self.view.move_groups.values():
+            if isinstance(group, MocapArmGroup):
+                group.set_ctrl(data, group.get_frame_pose(data))
+            elif group.ctrl_dim:
+                group.set_ctrl(data, group.get_noop_ctrl(data))

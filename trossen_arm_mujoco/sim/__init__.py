@@ -1,0 +1,7 @@
+"""What the world is: physics, robots, cameras and objects."""
+
+from trossen_arm_mujoco.sim.cameras import CameraSet
+from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.objects import FreeJointObject
+
+__all__ = ["CameraSet", "FreeJointObject", "MujocoEnv"]

@@ -1,0 +1,44 @@
+"""Free-joint objects (e.g. the cube): pose get/set by name, looked up once."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.names import lookup_id
+
+
+class FreeJointObject:
+    """A body with a free joint. Pose = [x, y, z, qw, qx, qy, qz] (world, m)."""
+
+    def __init__(self, model: mujoco.MjModel, joint_name: str, geom_name: str | None = None):
+        self.joint_name = joint_name
+        self.joint_id = lookup_id(model, "joint", joint_name)
+        if int(model.jnt_type[self.joint_id]) != int(mujoco.mjtJoint.mjJNT_FREE):
+            raise UserError(f"joint '{joint_name}' is not a free joint")
+        self.qpos_adr = int(model.jnt_qposadr[self.joint_id])
+        self.dof_adr = int(model.jnt_dofadr[self.joint_id])
+        self.body_id = int(model.jnt_bodyid[self.joint_id])
+        self.geom_id = lookup_id(model, "geom", geom_name) if geom_name else None
+
+    def get_pose(self, data: mujoco.MjData) -> np.ndarray:
+        return data.qpos[self.qpos_adr : self.qpos_adr + 7].copy()
+
+    def set_pose(self, data: mujoco.MjData, pose: Sequence[float]) -> None:
+        """Place the object and zero its velocity (call mj_forward afterwards)."""
+        p = np.asarray(pose, dtype=float)
+        if p.shape != (7,) or not np.all(np.isfinite(p)):
+            raise UserError(f"{self.joint_name}: pose must be 7 finite values [xyz, quat wxyz]")
+        p[3:] /= np.linalg.norm(p[3:])
+        data.qpos[self.qpos_adr : self.qpos_adr + 7] = p
+        self.zero_velocity(data)
+
+    def zero_velocity(self, data: mujoco.MjData) -> None:
+        data.qvel[self.dof_adr : self.dof_adr + 6] = 0.0
+
+    def get_velocity(self, data: mujoco.MjData) -> np.ndarray:
+        """[linear (m/s), angular (rad/s)] velocity, shape (6,)."""
+        return data.qvel[self.dof_adr : self.dof_adr + 6].copy()

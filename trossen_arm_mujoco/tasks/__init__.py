@@ -1,0 +1,1 @@
+"""What an episode is: tasks (reward, success, timing) and samplers (randomization)."""
