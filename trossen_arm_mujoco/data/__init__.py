@@ -1,0 +1,48 @@
+"""Episode files: the HDF5 schema, streaming atomic writing, validated loading, videos.
+
+Videos and plots (:mod:`.video`) need the ``video`` extra (PyAV, matplotlib), imported
+only when a video or plot is made.
+"""
+
+from trossen_arm_mujoco.data.reader import (
+    Episode,
+    EpisodeError,
+    FrameReader,
+    episode_path,
+    iter_episodes,
+    list_episodes,
+    load_episode,
+    resolve_data_dir,
+)
+from trossen_arm_mujoco.data.schema import (
+    NUM_JOINTS,
+    SCHEMA,
+    SCHEMA_VERSION,
+    EpisodeSchema,
+)
+from trossen_arm_mujoco.data.video import plot_joints, write_episode_video
+from trossen_arm_mujoco.data.writer import (
+    EpisodeWriteError,
+    EpisodeWriter,
+    remove_stale_temp_files,
+)
+
+__all__ = [
+    "NUM_JOINTS",
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "Episode",
+    "EpisodeError",
+    "EpisodeSchema",
+    "EpisodeWriteError",
+    "EpisodeWriter",
+    "FrameReader",
+    "episode_path",
+    "iter_episodes",
+    "list_episodes",
+    "load_episode",
+    "plot_joints",
+    "remove_stale_temp_files",
+    "resolve_data_dir",
+    "write_episode_video",
+]

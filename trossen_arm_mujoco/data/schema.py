@@ -1,0 +1,211 @@
+"""The HDF5 episode layout, defined once and versioned.
+
+One file ``episode_<k>.hdf5`` holds one episode of ``T`` steps (the layout ACT-style
+training code reads)::
+
+    /                              attrs: sim=True, task_name, seed, success, episode_len,
+                                          dt, camera_names, box_pose, package_version,
+                                          mujoco_version, schema_version
+    /action                        float64 (T, 16)   joint targets, see constants.START_ARM_POSE
+    /reward                        float64 (T,)
+    /observations/qpos             float64 (T, 16)   rad (revolute) / m (fingers)
+    /observations/qvel             float64 (T, 16)   rad/s / m/s
+    /observations/env_state        float64 (T, 7)    cube pose: xyz (m) + quat wxyz
+    /observations/images/<cam>     uint8 (T, H, W, 3), chunked (1, H, W, 3)
+
+Files recorded by the vendor package ("vendor files") hold only ``sim`` and the
+float32 datasets ``action``, ``observations/qpos``, ``observations/qvel`` and
+``observations/images/<cam>``; they have no ``schema_version`` attribute.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import h5py
+import numpy as np
+
+#: Current schema version, stored in the ``schema_version`` root attribute.
+SCHEMA_VERSION: int = 1
+
+#: Width of qpos, qvel and action vectors (two arms x (6 joints + 2 fingers)).
+NUM_JOINTS: int = 16
+
+#: Width of env_state: cube position xyz (m) + orientation quaternion wxyz.
+ENV_STATE_DIM: int = 7
+
+#: Joint labels in qpos/action order (plots, messages).
+JOINT_NAMES: tuple[str, ...] = tuple(
+    f"{side}_{name}"
+    for side in ("left", "right")
+    for name in ("joint_0", "joint_1", "joint_2", "joint_3", "joint_4", "joint_5",
+                 "finger_left", "finger_right")
+)  # fmt: skip
+
+#: Compression choices for the image datasets.
+COMPRESSIONS: tuple[str, ...] = ("none", "gzip", "lzf")
+
+#: Episode file names: ``episode_<k>.hdf5`` with a non-negative integer ``k``.
+EPISODE_FILE_RE = re.compile(r"^episode_(0|[1-9][0-9]*)\.hdf5$")
+
+
+@dataclass(frozen=True)
+class ArraySpec:
+    """One numeric dataset of the episode file.
+
+    Attributes:
+        path: dataset path inside the file, e.g. ``"observations/qpos"``.
+        width: per-step shape; ``()`` for a scalar per step, ``(16,)`` for a vector.
+        dtype: dtype the writer stores.
+        vendor: True when vendor files have this dataset too (required on load).
+    """
+
+    path: str
+    width: tuple[int, ...]
+    dtype: np.dtype
+    vendor: bool
+
+    def shape(self, num_steps: int) -> tuple[int, ...]:
+        """Full dataset shape for an episode of ``num_steps`` steps."""
+        return (num_steps, *self.width)
+
+
+@dataclass(frozen=True)
+class EpisodeSchema:
+    """Names, shapes and dtypes of one schema version (see the module docstring)."""
+
+    version: int
+    arrays: tuple[ArraySpec, ...]
+    image_group: str
+    image_dtype: np.dtype
+    attrs: tuple[str, ...]
+    vendor_attrs: tuple[str, ...] = field(default=("sim",))
+
+    def array(self, name: str) -> ArraySpec:
+        """The spec of array ``name`` (last path component: ``"qpos"``, ``"action"``...)."""
+        for spec in self.arrays:
+            if spec.path.rsplit("/", 1)[-1] == name:
+                return spec
+        raise KeyError(name)
+
+    @property
+    def array_names(self) -> tuple[str, ...]:
+        """Short names of the numeric arrays, in writer argument order."""
+        return tuple(spec.path.rsplit("/", 1)[-1] for spec in self.arrays)
+
+    def image_path(self, camera: str) -> str:
+        """Dataset path of the images of ``camera``."""
+        return f"{self.image_group}/{camera}"
+
+    def image_shape(self, num_steps: int, height: int, width: int) -> tuple[int, int, int, int]:
+        """Image dataset shape ``(T, H, W, 3)``."""
+        return (num_steps, height, width, 3)
+
+    @staticmethod
+    def image_chunks(height: int, width: int) -> tuple[int, int, int, int]:
+        """Image chunking: one frame per chunk, ``(1, H, W, 3)``."""
+        return (1, height, width, 3)
+
+
+_F64 = np.dtype(np.float64)
+
+#: Schema version 1 (current).
+SCHEMA_V1 = EpisodeSchema(
+    version=1,
+    arrays=(
+        ArraySpec("observations/qpos", (NUM_JOINTS,), _F64, vendor=True),
+        ArraySpec("observations/qvel", (NUM_JOINTS,), _F64, vendor=True),
+        ArraySpec("action", (NUM_JOINTS,), _F64, vendor=True),
+        ArraySpec("reward", (), _F64, vendor=False),
+        ArraySpec("observations/env_state", (ENV_STATE_DIM,), _F64, vendor=False),
+    ),
+    image_group="observations/images",
+    image_dtype=np.dtype(np.uint8),
+    attrs=(
+        "sim",
+        "task_name",
+        "seed",
+        "success",
+        "episode_len",
+        "dt",
+        "camera_names",
+        "box_pose",
+        "package_version",
+        "mujoco_version",
+        "schema_version",
+    ),
+)
+
+#: The schema the writer uses.
+SCHEMA: EpisodeSchema = SCHEMA_V1
+
+#: Every schema version the reader understands.
+SCHEMAS: dict[int, EpisodeSchema] = {1: SCHEMA_V1}
+
+
+#: What each root attribute of the current schema must be (checked by :func:`encode_attr`).
+ATTR_KINDS: dict[str, str] = {
+    "sim": "a bool",
+    "task_name": "a string",
+    "seed": "an int",
+    "success": "a bool",
+    "episode_len": "an int",
+    "dt": "a positive float (s)",
+    "camera_names": "a list of strings",
+    "box_pose": "7 finite floats (xyz + quat wxyz)",
+    "package_version": "a string",
+    "mujoco_version": "a string",
+    "schema_version": "an int",
+}
+
+
+def encode_attr(name: str, value: Any) -> Any:
+    """Check root attribute ``name`` and convert it to what h5py stores.
+
+    Attributes not in :data:`ATTR_KINDS` are extras, stored as given (lists of strings as
+    an HDF5 string array).
+
+    Raises:
+        ValueError: one-line message when ``value`` does not fit ``ATTR_KINDS[name]``.
+    """
+    kind = ATTR_KINDS.get(name)
+    if kind is None:
+        if isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
+            return np.array(list(value), dtype=h5py.string_dtype())
+        return value
+    is_bool = isinstance(value, (bool, np.bool_))
+    encoded: Any = None
+    if kind == "a string" and isinstance(value, str):
+        encoded = value
+    elif kind == "a bool" and is_bool:
+        encoded = np.bool_(value)
+    elif kind == "an int" and isinstance(value, (int, np.integer)) and not is_bool:
+        encoded = np.int64(value)
+    elif name == "dt" and isinstance(value, (int, float, np.number)) and not is_bool:
+        encoded = np.float64(value) if 0 < value < np.inf else None
+    elif name == "camera_names":
+        names = [value] if isinstance(value, str) else value
+        if isinstance(names, (list, tuple)) and all(isinstance(n, str) for n in names):
+            encoded = np.array(list(names), dtype=h5py.string_dtype())
+    elif name == "box_pose":
+        try:
+            pose = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            pose = np.zeros(0)
+        if pose.shape == (7,) and np.all(np.isfinite(pose)):
+            encoded = pose
+    if encoded is None:
+        raise ValueError(f"attribute '{name}' must be {kind}, got {value!r:.80}")
+    return encoded
+
+
+def episode_file_name(index: int) -> str:
+    """File name of episode ``index``: ``episode_<index>.hdf5``."""
+    return f"episode_{index}.hdf5"
+
+
+def temp_file_name(final_name: str) -> str:
+    """Temporary name used while writing ``final_name`` (never matches ``episode_*.hdf5``)."""
+    return f".{final_name}.tmp"

@@ -1,0 +1,363 @@
+"""Streaming, atomic writing of one episode file (layout in :mod:`.schema`).
+
+Each :meth:`EpisodeWriter.append` writes one step straight into preallocated datasets of a
+temporary file next to the final one, so memory stays flat whatever the episode length.
+The temporary file becomes ``episode_<k>.hdf5`` only after all steps are written, flushed
+and fsynced; on any error it is deleted, so a folder never holds a half-written episode.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from trossen_arm_mujoco.constants import DT
+from trossen_arm_mujoco.data.schema import COMPRESSIONS, SCHEMA, encode_attr, temp_file_name
+from trossen_arm_mujoco.errors import UserError
+
+#: Attributes that follow from the writer's arguments; callers may not change them.
+_WRITER_ATTRS = frozenset({"sim", "episode_len", "camera_names", "schema_version"})
+
+
+class EpisodeWriteError(UserError):
+    """Invalid data handed to the episode writer, or a refused write."""
+
+
+def package_version() -> str:
+    """Installed version of trossen-arm-mujoco, ``"unknown"`` when not installed."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("trossen-arm-mujoco")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def _mujoco_version() -> str:
+    try:
+        import mujoco
+    except ImportError:  # pragma: no cover - mujoco is a core dependency
+        return "unknown"
+    return str(mujoco.__version__)
+
+
+class EpisodeWriter:
+    """Write one episode, one step at a time, atomically.
+
+    Usage::
+
+        with EpisodeWriter(path, episode_len=600, camera_names=cams, height=480, width=640,
+                           attrs={"task_name": "sim_transfer_cube", "seed": 3,
+                                  "box_pose": pose}) as w:
+            for t in range(600):
+                w.append(qpos, qvel, action, reward, env_state, images)
+            w.set_attrs(success=True)
+        # the file exists under ``path`` only now
+
+    Args:
+        path: final file, normally ``<folder>/episode_<k>.hdf5``.
+        episode_len: number of steps ``T`` the episode will have; exactly ``T`` appends.
+        camera_names: cameras whose images every step carries (may be empty).
+        height, width: image size in pixels (480, 640 at documented settings).
+        compression: ``"none"`` | ``"gzip"`` | ``"lzf"``, for the image datasets.
+        attrs: root attributes; ``task_name``, ``seed``, ``success`` and ``box_pose`` must be
+            set before :meth:`close` (here or with :meth:`set_attrs`).
+        overwrite: replace an existing final file instead of refusing.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        episode_len: int,
+        camera_names: Iterable[str] = (),
+        height: int = 480,
+        width: int = 640,
+        compression: str = "none",
+        attrs: Mapping[str, Any] | None = None,
+        overwrite: bool = False,
+    ) -> None:
+        self.path = Path(path).expanduser()
+        self.temp_path = self.path.with_name(temp_file_name(self.path.name))
+        self.episode_len = int(episode_len)
+        self.camera_names = list(camera_names)
+        self.height, self.width = int(height), int(width)
+        self.overwrite = overwrite
+        self.num_steps = 0
+        self._committed = False
+        if self.episode_len < 1:
+            raise EpisodeWriteError(f"episode_len must be at least 1, got {episode_len}")
+        if compression not in COMPRESSIONS:
+            raise EpisodeWriteError(
+                f"unknown compression '{compression}'; valid: {', '.join(COMPRESSIONS)}"
+            )
+        bad = [
+            cam for cam in self.camera_names if not isinstance(cam, str) or not cam or "/" in cam
+        ]
+        if bad:
+            raise EpisodeWriteError(f"invalid camera names {bad}: use non-empty names without '/'")
+        if len(set(self.camera_names)) != len(self.camera_names):
+            raise EpisodeWriteError(f"duplicate camera names: {self.camera_names}")
+        if self.camera_names and (self.height < 1 or self.width < 1):
+            raise EpisodeWriteError(f"image size must be positive, got {height}x{width}")
+        if self.path.exists() and not overwrite:
+            raise EpisodeWriteError(
+                f"{self.path} already exists; refusing to overwrite it (pass overwrite=True "
+                "or choose another episode index)"
+            )
+        defaults = {
+            "sim": True,
+            "episode_len": self.episode_len,
+            "dt": DT,
+            "camera_names": list(self.camera_names),
+            "package_version": package_version(),
+            "mujoco_version": _mujoco_version(),
+            "schema_version": SCHEMA.version,
+        }
+        self._attrs: dict[str, Any] = {}
+        self.set_attrs(**defaults)
+        self.set_attrs(**dict(attrs or {}))
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._file: h5py.File | None = h5py.File(self.temp_path, "w")
+        try:
+            self._create_datasets(compression)
+        except BaseException:
+            self.abort()
+            raise
+
+    def _create_datasets(self, compression: str) -> None:
+        assert self._file is not None
+        kwargs: dict[str, Any] = {}
+        if compression == "gzip":
+            kwargs = {"compression": "gzip", "compression_opts": 4}
+        elif compression == "lzf":
+            kwargs = {"compression": "lzf"}
+        self._arrays = {}
+        for name, spec in zip(SCHEMA.array_names, SCHEMA.arrays, strict=True):
+            self._arrays[name] = self._file.create_dataset(
+                spec.path, shape=spec.shape(self.episode_len), dtype=spec.dtype
+            )
+        self._file.require_group(SCHEMA.image_group)
+        self._images = {
+            cam: self._file.create_dataset(
+                SCHEMA.image_path(cam),
+                shape=SCHEMA.image_shape(self.episode_len, self.height, self.width),
+                dtype=SCHEMA.image_dtype,
+                chunks=SCHEMA.image_chunks(self.height, self.width),
+                **kwargs,
+            )
+            for cam in self.camera_names
+        }
+
+    def __enter__(self) -> EpisodeWriter:
+        return self
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+    @property
+    def closed(self) -> bool:
+        """True once the episode was committed or aborted."""
+        return self._file is None
+
+    def set_attrs(self, **attrs: Any) -> None:
+        """Set root attributes (validated now, written on :meth:`close`)."""
+        for name, value in attrs.items():
+            try:
+                encoded = encode_attr(name, value)
+            except ValueError as exc:
+                raise EpisodeWriteError(str(exc)) from None
+            if name in _WRITER_ATTRS and name in self._attrs:
+                if not np.array_equal(np.asarray(encoded), np.asarray(self._attrs[name])):
+                    raise EpisodeWriteError(
+                        f"attribute '{name}' is set by the writer "
+                        f"({np.asarray(self._attrs[name]).tolist()!r}); "
+                        f"got {value!r:.80}"
+                    )
+            self._attrs[name] = encoded
+
+    def append(
+        self,
+        qpos: Any,
+        qvel: Any,
+        action: Any,
+        reward: float,
+        env_state: Any,
+        images: Mapping[str, np.ndarray] | None = None,
+    ) -> None:
+        """Write one step.
+
+        Args:
+            qpos, qvel, action: 16 finite values each (rad, rad/s for joints; m, m/s fingers).
+            reward: finite scalar.
+            env_state: 7 finite values, cube xyz (m) + quat wxyz.
+            images: ``{camera: uint8 (H, W, 3)}`` for exactly the writer's cameras.
+        """
+        if self._file is None:
+            raise EpisodeWriteError(f"writer for {self.path} is already closed")
+        t = self.num_steps
+        if t >= self.episode_len:
+            raise EpisodeWriteError(
+                f"{self.path.name}: all {self.episode_len} steps were already appended"
+            )
+        values = {"qpos": qpos, "qvel": qvel, "action": action, "reward": reward}
+        values["env_state"] = env_state
+        checked = {name: self._check_array(name, values[name], t) for name in self._arrays}
+        frames = self._check_images(images or {}, t)
+        try:
+            for name, value in checked.items():
+                self._arrays[name][t] = value
+            for cam, frame in frames.items():
+                self._images[cam][t] = frame
+        except BaseException:
+            self.abort()
+            raise
+        self.num_steps = t + 1
+
+    def _check_array(self, name: str, value: Any, t: int) -> np.ndarray:
+        spec = SCHEMA.array(name)
+        try:
+            arr = np.asarray(value, dtype=spec.dtype)
+        except (TypeError, ValueError):
+            raise EpisodeWriteError(
+                f"step {t}: {name} must be numeric, got {type(value).__name__}"
+            ) from None
+        if arr.shape != spec.width:
+            raise EpisodeWriteError(
+                f"step {t}: {name} has shape {arr.shape}, expected {spec.width}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise EpisodeWriteError(f"step {t}: {name} contains NaN or inf: {arr.tolist()}")
+        return arr
+
+    def _check_images(self, images: Mapping[str, np.ndarray], t: int) -> dict[str, np.ndarray]:
+        if set(images) != set(self.camera_names):
+            raise EpisodeWriteError(
+                f"step {t}: images for cameras {sorted(images)}, expected {self.camera_names}"
+            )
+        want = (self.height, self.width, 3)
+        for cam, frame in images.items():
+            shape = getattr(frame, "shape", None)
+            dtype = getattr(frame, "dtype", None)
+            if shape != want or dtype != SCHEMA.image_dtype:
+                raise EpisodeWriteError(
+                    f"step {t}: image '{cam}' is {dtype} {shape}, expected uint8 {want}"
+                )
+        return dict(images)
+
+    def close(self) -> Path:
+        """Commit: write attributes, flush, fsync and rename onto the final name.
+
+        Returns:
+            The final path.
+
+        Raises:
+            EpisodeWriteError: fewer than ``episode_len`` steps were appended, a required
+                attribute is missing, or the final file appeared meanwhile (no overwrite).
+                The temporary file is deleted in every failure case.
+        """
+        if self._file is None:
+            if self._committed:
+                return self.path
+            raise EpisodeWriteError(f"writer for {self.path} was aborted")
+        try:
+            if self.num_steps != self.episode_len:
+                raise EpisodeWriteError(
+                    f"{self.path.name}: only {self.num_steps} of {self.episode_len} steps "
+                    "were appended; episode discarded"
+                )
+            missing = [name for name in SCHEMA.attrs if name not in self._attrs]
+            if missing:
+                raise EpisodeWriteError(
+                    f"{self.path.name}: missing attributes {missing}; pass them in attrs= "
+                    "or set_attrs()"
+                )
+            for name, value in self._attrs.items():
+                self._file.attrs[name] = value
+            self._file.flush()
+            self._file.close()
+            self._file = None
+            _fsync_path(self.temp_path)
+            self._publish()
+        except BaseException:
+            self.abort()
+            raise
+        self._committed = True
+        _fsync_dir(self.path.parent)
+        return self.path
+
+    def _publish(self) -> None:
+        if self.overwrite:
+            os.replace(self.temp_path, self.path)
+            return
+        try:
+            os.link(self.temp_path, self.path)  # fails if the final name exists: no clobber
+        except FileExistsError:
+            raise EpisodeWriteError(
+                f"{self.path} appeared while writing; refusing to overwrite it"
+            ) from None
+        except OSError:  # file system without hard links
+            if self.path.exists():
+                raise EpisodeWriteError(
+                    f"{self.path} appeared while writing; refusing to overwrite it"
+                ) from None
+            os.replace(self.temp_path, self.path)
+            return
+        self.temp_path.unlink()
+
+    def abort(self) -> None:
+        """Discard the episode: close and delete the temporary file (idempotent)."""
+        if self._file is not None:
+            try:
+                self._file.close()
+            except Exception:  # best effort: the file is deleted anyway
+                pass
+            self._file = None
+        self.temp_path.unlink(missing_ok=True)
+
+
+def _fsync_path(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Persist a rename (best effort: not every platform can open a folder)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def remove_stale_temp_files(folder: str | os.PathLike[str]) -> list[Path]:
+    """Delete temporary episode files left by interrupted runs in ``folder``.
+
+    Only call it when no writer is active on ``folder``.
+
+    Returns:
+        The deleted paths (empty when the folder does not exist).
+    """
+    folder = Path(folder).expanduser()
+    if not folder.is_dir():
+        return []
+    removed = []
+    for path in sorted(folder.glob(temp_file_name("episode_*.hdf5"))):
+        path.unlink(missing_ok=True)
+        removed.append(path)
+    return removed

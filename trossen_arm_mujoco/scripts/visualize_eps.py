@@ -1,0 +1,115 @@
+"""Turn recorded episodes into videos and joint plots.
+
+For every ``episode_<k>.hdf5`` in the data folder: ``episode_<k>.mp4`` (all cameras in a
+labelled grid, H.264) when the episode has images, and ``episode_<k>_joints.png`` (qpos
+against action, one subplot per joint). Also available as ``trossen-mujoco visualize``.
+
+Example::
+
+    python trossen_arm_mujoco/scripts/visualize_eps.py --data_dir sim_transfer_cube
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a file: python trossen_arm_mujoco/scripts/visualize_eps.py
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from tqdm import tqdm
+
+from trossen_arm_mujoco.constants import ROOT_DIR
+from trossen_arm_mujoco.data.reader import list_episodes, load_episode, resolve_data_dir
+from trossen_arm_mujoco.data.video import h264_encoder, plot_joints, write_episode_video
+from trossen_arm_mujoco.errors import UserError, run_cli
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line flags."""
+    parser = argparse.ArgumentParser(
+        prog="visualize_eps",
+        description="Write an mp4 (camera grid) and a joint plot for each recorded episode.",
+    )
+    parser.add_argument(
+        "--data_dir",
+        required=True,
+        help="dataset folder, relative to --root_dir unless absolute (e.g. sim_transfer_cube)",
+    )
+    parser.add_argument(
+        "--root_dir", default=ROOT_DIR, help=f"root of the datasets (default {ROOT_DIR})"
+    )
+    parser.add_argument(
+        "--output_dir",
+        default="videos",
+        help="where videos and plots go, inside the data folder unless absolute (default: videos)",
+    )
+    parser.add_argument(
+        "--fps", type=float, default=50.0, help="video frame rate (default 50 = real time)"
+    )
+    parser.add_argument(
+        "--episode_idx", type=int, default=None, help="only this episode (default: all)"
+    )
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Visualize the episodes of ``--data_dir``; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    if not 0 < args.fps <= 1000:
+        raise UserError(f"--fps must be in (0, 1000], got {args.fps:g}")
+    data_dir = resolve_data_dir(args.root_dir, args.data_dir)
+    if not data_dir.is_dir():
+        raise UserError(
+            f"data folder not found: {data_dir} (--root_dir {args.root_dir}, --data_dir "
+            f"{args.data_dir}); record episodes first or fix the flags"
+        )
+    found = list_episodes(data_dir)
+    if not found:
+        raise UserError(f"no episode_<k>.hdf5 files in {data_dir}; record episodes first")
+    if args.episode_idx is not None:
+        valid = [idx for idx, _ in found]
+        found = [(idx, path) for idx, path in found if idx == args.episode_idx]
+        if not found:
+            raise UserError(
+                f"no episode {args.episode_idx} in {data_dir}; available: "
+                + ", ".join(map(str, valid))
+            )
+
+    # Validate every file before spending time on videos.
+    episodes = [(idx, load_episode(path)) for idx, path in found]
+    if any(ep.has_images for _, ep in episodes):
+        h264_encoder()  # fails early with an install hint when PyAV is missing
+
+    out_dir = Path(args.output_dir).expanduser()
+    if not out_dir.is_absolute():
+        out_dir = data_dir / out_dir
+    videos, plots, no_images = 0, 0, []
+    for idx, episode in tqdm(episodes, desc="visualize", unit="episode", file=sys.stderr):
+        if episode.has_images:
+            write_episode_video(episode, out_dir / f"episode_{idx}.mp4", fps=args.fps)
+            videos += 1
+        else:
+            no_images.append(episode.path.name)
+        plot_joints(episode, out_dir / f"episode_{idx}_joints.png")
+        plots += 1
+
+    if no_images:
+        print(
+            f"note: {len(no_images)} episode(s) have no camera images "
+            f"({', '.join(no_images[:5])}{', ...' if len(no_images) > 5 else ''}); "
+            "wrote joint plots only for them"
+        )
+    print(f"wrote {videos} video(s) and {plots} joint plot(s) to {out_dir}")
+    return 0
+
+
+def cli(argv: Sequence[str] | None = None) -> int:
+    """Entry point: like :func:`main`, with user errors as one line and exit status 2."""
+    return run_cli(main, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(cli())
