@@ -52,6 +52,9 @@ class StationaryTaskBase(base.Task):
         self.onscreen_render = onscreen_render
         self.cam_list = list(STATIONARY_CAMERAS if cam_list is None else cam_list)
         self.image_size = tuple(image_size)
+        #: Render camera images into observations (the recorder turns it off for steps whose
+        #: observation is not stored).
+        self.render_enabled = True
         self._scene: MujocoEnv | None = None
         self._scene_physics: Physics | None = None
         self._reward: TransferCubeReward | None = None
@@ -134,7 +137,7 @@ class StationaryTaskBase(base.Task):
         obs["qpos"] = data.qpos[self._layout].copy()
         obs["qvel"] = data.qvel[self._layout].copy()
         obs["env_state"] = self.get_env_state(physics)
-        obs["images"] = scene.render_images()
+        obs["images"] = scene.render_images() if self.render_enabled else {}
         obs["mocap_pose_left"] = self.tool_target(physics, "left_arm")
         obs["mocap_pose_right"] = self.tool_target(physics, "right_arm")
         obs["gripper_ctrl"] = np.concatenate(

@@ -1,0 +1,170 @@
+"""The replay loop on the simulated twin: streaming, timing, and the safe exit on stop."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.real.clock import SimClock
+from trossen_arm_mujoco.real.driver import SLEEP_POSE
+from trossen_arm_mujoco.real.replay import ReplayConfig, make_drivers, replay
+from trossen_arm_mujoco.real.sim_driver import SimArmDriver
+from trossen_arm_mujoco.real.stop import StopFlag, stop_on_signals
+from trossen_arm_mujoco.real.validate import validate_actions
+
+
+class SignalClock(SimClock):
+    """Sends ``signum`` to this process once simulated time reaches ``at`` seconds."""
+
+    def __init__(self, at: float, signum: int) -> None:
+        super().__init__()
+        self.at, self.signum, self.sent_at = at, signum, None
+
+    def sleep(self, seconds: float) -> None:
+        super().sleep(seconds)
+        if self.sent_at is None and self.now() >= self.at:
+            self.sent_at = self.now()
+            os.kill(os.getpid(), self.signum)
+
+
+class RaisingClock(SimClock):
+    """Raises KeyboardInterrupt from inside a wait once time reaches ``at`` seconds."""
+
+    def __init__(self, at: float) -> None:
+        super().__init__()
+        self.at, self.raised = at, False
+
+    def sleep(self, seconds: float) -> None:
+        super().sleep(seconds)
+        if not self.raised and self.now() >= self.at:
+            self.raised = True
+            raise KeyboardInterrupt
+
+
+class FailingArm(SimArmDriver):
+    """A twin whose ``set_all_positions`` fails on call number ``fail_on`` (1-based)."""
+
+    def __init__(self, clock: SimClock, fail_on: int) -> None:
+        super().__init__(clock)
+        self.calls, self.fail_on = 0, fail_on
+
+    def set_all_positions(self, positions, goal_time, blocking) -> None:
+        self.calls += 1
+        if self.calls == self.fail_on:
+            raise RuntimeError("joint_3 driver overheated\n(error state 10)")
+        super().set_all_positions(positions, goal_time, blocking)
+
+
+def assert_asleep(result, drivers) -> None:
+    for side in ("left", "right"):
+        np.testing.assert_allclose(result.final_positions[side][:6], SLEEP_POSE[:6], atol=0.01)
+        np.testing.assert_allclose(drivers[side].get_all_positions()[:6], 0.0, atol=0.01)
+        assert not drivers[side].configured  # cleaned up
+
+
+def test_full_replay_tracks_and_ends_asleep(smooth) -> None:
+    traj = validate_actions(smooth(20), 10.0)
+    drivers, clock = make_drivers("sim")
+    result = replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
+    assert result.status == "completed" and result.exit_code == 0 and result.reason is None
+    assert result.steps_done == 20 and result.late_steps == 0
+    times, cmd, meas = result.log.arrays()
+    np.testing.assert_allclose(np.diff(times), 0.1, atol=1e-9)  # one period per step
+    np.testing.assert_array_equal(cmd.reshape(20, 2, 7), traj.commands)
+    err = result.log.errors()
+    assert all(np.isfinite(e["rms"]) for e in err.values())
+    assert err["left_joint_1"]["max"] < 0.1 and err["right_gripper"]["max"] < 0.005
+    assert drivers["left"].ip_address == "192.168.1.5"  # recorded only; the twin has no network
+    # start 2 s + settle, 2 s of streaming, home and sleep 2 s + settle each
+    assert clock.now() == pytest.approx(2.5 + 2.0 + 2.5 + 2.5, abs=0.01)
+    assert_asleep(result, drivers)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_mid_stream_goes_home_then_sleeps(signum: int, smooth) -> None:
+    previous = signal.getsignal(signum)
+    traj = validate_actions(smooth(40), 10.0)
+    clock = SignalClock(at=2.5 + 1.0, signum=signum)  # 1 s into streaming
+    drivers, clock = make_drivers("sim", clock)
+    result = replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
+    assert clock.sent_at is not None
+    assert result.status == "interrupted" and result.exit_code == 128 + signum
+    assert 5 <= result.steps_done < 40
+    assert f"interrupted by {signal.Signals(signum).name}" in result.reason
+    assert "\n" not in result.reason
+    assert_asleep(result, drivers)
+    assert signal.getsignal(signum) is previous  # handler restored
+
+
+def test_keyboard_interrupt_inside_a_wait_still_goes_to_sleep(smooth) -> None:
+    traj = validate_actions(smooth(40), 10.0)
+    drivers, clock = make_drivers("sim", RaisingClock(at=3.0))
+    result = replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
+    assert result.exit_code == 130 and "KeyboardInterrupt" in result.reason
+    assert_asleep(result, drivers)
+
+
+def test_driver_error_mid_stream_stops_and_sleeps(smooth) -> None:
+    traj = validate_actions(smooth(40), 10.0)
+    clock = SimClock()
+    drivers = {"left": SimArmDriver(clock), "right": FailingArm(clock, fail_on=11)}
+    result = replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
+    assert result.status == "failed" and result.exit_code == 1
+    assert result.steps_done == 9  # call 1 = start pose, calls 2..10 = steps 0..8
+    assert result.reason == (
+        "replay stopped at step 9/40: right arm: set_all_positions (step 9) failed: "
+        "joint_3 driver overheated (error state 10)"
+    )
+    assert_asleep(result, drivers)
+
+
+def test_errors_while_shutting_down_are_reported_and_other_arm_still_sleeps(smooth) -> None:
+    traj = validate_actions(smooth(10), 10.0)
+    clock = SimClock()
+    # call 1 start, 2..11 streaming, 12 home fails; sleep (13) still sent
+    drivers = {"left": FailingArm(clock, fail_on=12), "right": SimArmDriver(clock)}
+    result = replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
+    assert result.exit_code == 1 and result.steps_done == 10
+    assert "shutdown failed: left arm: set_all_positions failed" in result.reason
+    assert_asleep(result, drivers)
+
+
+def test_configure_failure_moves_nothing_and_cleans_up(smooth) -> None:
+    class Unreachable(SimArmDriver):
+        def configure(self, ip_address, *args, **kwargs):
+            raise RuntimeError(f"cannot connect to {ip_address}")
+
+    clock = SimClock()
+    drivers = {"left": SimArmDriver(clock), "right": Unreachable(clock)}
+    traj = validate_actions(smooth(10), 10.0)
+    result = replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
+    assert result.exit_code == 1 and result.steps_done == 0
+    assert "right arm: configure (192.168.1.4) failed: cannot connect" in result.reason
+    assert "right" not in result.final_positions  # never configured, never commanded
+    np.testing.assert_allclose(result.final_positions["left"][:6], 0.0, atol=0.01)
+
+
+def test_sim_replay_runs_much_faster_than_real_time(smooth) -> None:
+    traj = validate_actions(smooth(100), 10.0)
+    drivers, clock = make_drivers("sim")
+    t0 = time.perf_counter()
+    replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
+    wall = time.perf_counter() - t0
+    assert clock.now() > 17.0 and wall < clock.now() / 5
+
+
+def test_stop_on_signals_restores_handlers_and_keeps_first_reason() -> None:
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    flag = StopFlag()
+    with stop_on_signals(flag):
+        assert signal.getsignal(signal.SIGINT) is not before[0]
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+    assert flag.reason == "interrupted by SIGTERM" and flag.exit_code == 143

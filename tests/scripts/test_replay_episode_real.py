@@ -1,0 +1,298 @@
+"""replay_episode_real: validation before motion, sim-twin replay, safe exit, outputs.
+
+Only the sim backend ever runs. Two local guards (the same as tests/real/conftest.py)
+fail a test that opens a non-loopback connection or configures a real arm.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco import cli as top_cli
+from trossen_arm_mujoco.constants import START_ARM_POSE
+from trossen_arm_mujoco.real import driver as driver_module
+from trossen_arm_mujoco.real.clock import Clock, SimClock
+from trossen_arm_mujoco.real.replay import make_drivers
+from trossen_arm_mujoco.scripts import replay_episode_real
+
+REPO = Path(__file__).resolve().parents[2]
+VENDOR_600 = REPO / "tests" / "real" / "fixtures" / "vendor_transfer_cube_600steps_noimages.hdf5"
+SCRIPT = REPO / "trossen_arm_mujoco" / "scripts" / "replay_episode_real.py"
+
+
+@pytest.fixture(autouse=True)
+def offline(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fail on non-loopback connections and on configuring a real arm."""
+
+    def loopback(address: Any) -> bool:
+        if isinstance(address, (str, bytes)):
+            return True
+        host = str(address[0])
+        return host in ("localhost", "::1") or host.startswith("127.")
+
+    def guard(real):
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            address = args[1] if real is not socket.create_connection else args[0]
+            if not loopback(address):
+                pytest.fail(f"test tried to connect to {address!r}")
+            return real(*args, **kwargs)
+
+        return wrapper
+
+    monkeypatch.setattr(socket.socket, "connect", guard(socket.socket.connect))
+    monkeypatch.setattr(socket.socket, "connect_ex", guard(socket.socket.connect_ex))
+    monkeypatch.setattr(socket, "create_connection", guard(socket.create_connection))
+
+    def refuse(self: Any, ip_address: str, *args: Any, **kwargs: Any) -> None:
+        pytest.fail(f"test tried to configure a real arm at {ip_address!r}")
+
+    monkeypatch.setattr(driver_module.TrossenArmDriver, "configure", refuse)
+
+
+class Spy:
+    """Driver factory that builds the sim twin and remembers what it built."""
+
+    def __init__(self) -> None:
+        self.calls: list[str] = []
+        self.drivers: dict[str, Any] = {}
+
+    def __call__(self, backend: str, clock: Clock | None) -> tuple[dict[str, Any], Clock]:
+        self.calls.append(backend)
+        self.drivers, clock = make_drivers("sim", clock)
+        return self.drivers, clock
+
+
+class SignalClock(SimClock):
+    """Sends ``signum`` to this process once simulated time reaches ``at`` seconds."""
+
+    def __init__(self, at: float, signum: int = signal.SIGINT) -> None:
+        super().__init__()
+        self.at, self.signum, self.sent = at, signum, False
+
+    def sleep(self, seconds: float) -> None:
+        super().sleep(seconds)
+        if not self.sent and self.now() >= self.at:
+            self.sent = True
+            os.kill(os.getpid(), self.signum)
+
+
+def smooth_actions(num_steps: int = 20) -> np.ndarray:
+    """Smooth (T, 16) motion from START_ARM_POSE, well within limits at 10 fps."""
+    s = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, num_steps))
+    out = np.tile(np.asarray(START_ARM_POSE, dtype=np.float64), (num_steps, 1))
+    for off, sign in ((0, 1.0), (8, -1.0)):
+        out[:, off : off + 6] += np.array([0.3 * sign, 0.3, 0.3, 0.2, 0.2 * sign, 0.3]) * s[:, None]
+        out[:, off + 6] = out[:, off + 7] = 0.044 - 0.014 * s
+    return out
+
+
+def write_episode(
+    folder: Path, action: np.ndarray, idx: int = 0, qpos: np.ndarray | None = None
+) -> Path:
+    """This project's layout, written with plain h5py (float64, root attr sim=True).
+
+    ``qpos`` defaults to ``action``.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"episode_{idx}.hdf5"
+    qpos = np.asarray(action if qpos is None else qpos, dtype=np.float64)
+    with h5py.File(path, "w") as f:
+        f.attrs["sim"] = True
+        f.create_dataset("observations/qpos", data=qpos)
+        f.create_dataset("observations/qvel", data=np.zeros_like(qpos))
+        f.create_dataset("action", data=np.asarray(action, dtype=np.float64))
+    return path
+
+
+def run(argv: list[str], **kwargs: Any) -> int:
+    return replay_episode_real.cli([*argv, "--no_progress"], **kwargs)
+
+
+def one_line_error(capsys: pytest.CaptureFixture[str]) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    return lines[0]
+
+
+def test_vendor_episode_full_replay_on_the_sim_twin(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    folder = tmp_path / "vendor"
+    folder.mkdir()
+    shutil.copyfile(VENDOR_600, folder / "episode_0.hdf5")
+    spy = Spy()
+    rc = run(["--data_dir", str(folder), "--backend", "sim"], driver_factory=spy)
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert spy.calls == ["sim"]
+    assert "tracking error (measured - commanded) over 600 steps" in out
+    print(out)  # the table, for the record (pytest -s)
+
+    stem = folder / "replay" / "episode_0_sim"
+    summary = json.loads(Path(f"{stem}_summary.json").read_text())
+    assert summary["status"] == "completed" and summary["steps_done"] == 600
+    assert summary["fps"] == 10.0 and summary["goal_time_s"] == pytest.approx(0.3)
+    assert Path(f"{stem}_tracking.png").stat().st_size > 10_000
+    assert len(Path(f"{stem}_tracking.csv").read_text().splitlines()) == 601
+    # Measured on the twin (goal time 3/fps = 0.3 s, measured at the end of each period):
+    # RMS <= 23 mrad / 1.3 mm, max <= 143 mrad / 14 mm (at the start, where the recording
+    # snaps from START_ARM_POSE to the mocap pose). Bounds leave ~50% headroom.
+    for label, e in summary["tracking_error"].items():
+        assert np.isfinite(e["rms"]) and np.isfinite(e["max"]), label
+        rms_bound, max_bound = (0.002, 0.02) if e["unit"] == "m" else (0.035, 0.2)
+        assert e["rms"] < rms_bound and e["max"] < max_bound, (label, e)
+    for side, final in summary["final_positions"].items():
+        np.testing.assert_allclose(final[:6], 0.0, atol=0.01, err_msg=side)
+
+
+def test_short_project_episode_replays(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_episode(tmp_path / "mine", smooth_actions(20), idx=3)
+    spy = Spy()
+    argv = ["--root_dir", str(tmp_path), "--data_dir", "mine", "--episode_idx", "3"]
+    rc = run([*argv, "--backend", "sim", "--fps", "20"], driver_factory=spy)
+    out = capsys.readouterr().out
+    assert rc == 0 and "replay completed: 20 steps" in out
+    summary = json.loads((tmp_path / "mine/replay/episode_3_sim_summary.json").read_text())
+    assert summary["steps_done"] == 20 and summary["goal_time_s"] == pytest.approx(0.15)
+    assert summary["tracking_error"]["left_joint_1"]["max"] < 0.1  # measured 0.069 rad
+    for drv in spy.drivers.values():
+        np.testing.assert_allclose(drv.get_all_positions()[:6], 0.0, atol=0.01)
+
+
+def _bad(kind: str) -> np.ndarray:
+    actions = smooth_actions(20)
+    if kind == "nan":
+        actions[4, 11] = np.nan
+    elif kind == "shape":
+        actions = actions[:, :14]
+    elif kind == "limit":
+        actions[6, 9] = 3.5  # right joint_1, limit 3.14159
+    elif kind == "fast":
+        actions[12:, 3] += 1.0  # left joint_3 jumps 1 rad
+    return actions
+
+
+@pytest.mark.parametrize(
+    ("kind", "expected"),
+    [
+        ("nan", "/action contains NaN or inf (first at step 4)"),  # caught by the reader
+        ("shape", "/action has shape (20, 14), expected (T, 16)"),  # caught by the reader
+        ("limit", "step 6, right arm, joint_1: 3.5 rad is outside the joint limits"),
+        ("fast", "step 11 -> 12, left arm, joint_3: speed 10.16 rad/s exceeds the limit 7 rad/s"),
+    ],
+)
+def test_invalid_trajectory_exits_2_before_any_driver(
+    kind: str, expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_episode(tmp_path, _bad(kind), qpos=smooth_actions(20))
+    spy = Spy()
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim"], driver_factory=spy)
+    assert rc == 2
+    assert expected in one_line_error(capsys)
+    assert spy.calls == [] and not (tmp_path / "replay").exists()  # nothing built, nothing moved
+
+
+def test_vendor_episode_at_50_fps_is_too_fast(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    shutil.copyfile(VENDOR_600, tmp_path / "episode_0.hdf5")
+    spy = Spy()
+    rc = run(["--data_dir", str(tmp_path), "--fps", "50", "--backend", "sim"], driver_factory=spy)
+    line = one_line_error(capsys)
+    assert rc == 2 and spy.calls == []
+    assert "step 0 -> 1, left arm, joint_1" in line and "--fps 10.1 or lower" in line
+
+
+def test_dry_run_moves_nothing(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    shutil.copyfile(VENDOR_600, tmp_path / "episode_0.hdf5")
+    spy = Spy()
+    rc = run(["--data_dir", str(tmp_path), "--dry_run"], driver_factory=spy)  # trossen default
+    out = capsys.readouterr().out
+    assert rc == 0 and spy.calls == []
+    assert "600 steps, 60.0 s at --fps 10 (0.2x the recorded speed" in out
+    assert "highest valid --fps: 10.1" in out and "no driver was created" in out
+    assert not (tmp_path / "replay").exists()
+
+
+def test_trossen_backend_without_package_gives_install_hint(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "trossen_arm", None)  # not importable, even if installed
+    write_episode(tmp_path, smooth_actions(5))
+    rc = run(["--data_dir", str(tmp_path)])  # default backend: trossen
+    line = one_line_error(capsys)
+    assert rc == 2
+    assert "pip install 'trossen-arm-mujoco[real]'" in line and "--backend sim" in line
+
+
+def test_sigint_mid_stream_returns_home_then_sleep(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_episode(tmp_path, smooth_actions(60))
+    spy = Spy()
+    clock = SignalClock(at=2.5 + 2.0)  # 2 s into streaming at 10 fps
+    previous = signal.getsignal(signal.SIGINT)
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim"], driver_factory=spy, clock=clock)
+    err = capsys.readouterr().err
+    assert rc == 130 and clock.sent
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("error: replay stopped at step ") and "interrupted by SIGINT" in last
+    for drv in spy.drivers.values():
+        np.testing.assert_allclose(drv.get_all_positions()[:6], 0.0, atol=0.01)
+        assert not drv.configured
+    summary = json.loads((tmp_path / "replay/episode_0_sim_summary.json").read_text())
+    assert summary["status"] == "interrupted" and 10 <= summary["steps_done"] < 60
+    assert signal.getsignal(signal.SIGINT) is previous
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["--fps", "0"], "--fps must be in (0, 1000]"),
+        (["--goal_time_factor", "-1"], "--goal_time_factor must be in (0, 20]"),
+        (["--episode_idx", "7"], "episode file not found"),
+    ],
+)
+def test_bad_flags_are_one_line_errors(
+    argv: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_episode(tmp_path, smooth_actions(5))
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim", *argv], driver_factory=Spy())
+    assert rc == 2 and expected in one_line_error(capsys)
+
+
+def test_trossen_mujoco_replay_real_dispatch(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_episode(tmp_path, smooth_actions(5))
+    assert top_cli.main(["replay-real", "--data_dir", str(tmp_path), "--dry_run"]) == 0
+    assert "dry run: trajectory is valid" in capsys.readouterr().out
+
+
+def test_runs_as_a_file_on_the_sim_twin(tmp_path: Path) -> None:
+    write_episode(tmp_path, smooth_actions(10))
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPT), "--data_dir", str(tmp_path), "--backend", "sim"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "replay completed: 10 steps" in proc.stdout
+    assert (tmp_path / "replay" / "episode_0_sim_tracking.csv").exists()

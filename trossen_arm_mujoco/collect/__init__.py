@@ -1,0 +1,1 @@
+"""Data collection: scripted rollout -> joint replay with cameras -> episode files."""

@@ -1,0 +1,196 @@
+"""What replay needs from one arm, and the real backend over the ``trossen_arm`` driver.
+
+Positions of one arm are 7 values: ``[joint_0 .. joint_5 (rad), gripper (m)]``.
+
+Gripper convention
+    The gripper value is the travel of **one** carriage (finger) from the closed
+    position, in metres: 0 = closed, 0.044 = fully open (the finger gap is about twice
+    that). This is what ``trossen_arm`` means by the gripper joint position ("m for the
+    gripper joint"; the end-effector preset stores each carriage's offset from the palm
+    centre in the home, i.e. closed, configuration), and it is the MJCF carriage joint
+    coordinate. A dataset row (16 values, see ``constants.START_ARM_POSE``) maps to the
+    driver as ``left = row[0:7]`` and ``right = row[8:15]``: the 6 joints plus the
+    ``right_carriage_joint`` value (index 6 / 14). The ``left_carriage_joint`` value
+    (index 7 / 15) is the same finger travel of the coupled twin finger (recorded
+    values differ by < 0.1 mm) and is not sent; see :func:`split_arms`.
+
+The real backend :class:`TrossenArmDriver` is imported lazily, so this module loads
+without the optional ``trossen_arm`` package (``pip install 'trossen-arm-mujoco[real]'``).
+The simulated twin lives in :mod:`trossen_arm_mujoco.real.sim_driver`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from types import ModuleType
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
+
+#: Values per arm sent to / read from a driver: 6 joints (rad) + gripper (m).
+NUM_ARM_VALUES: int = 7
+
+#: Home pose (7 values): the arm part of START_ARM_POSE with the gripper closed.
+HOME_POSE: tuple[float, ...] = (0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, 0.0)
+
+#: Sleep (rest) pose (7 values): all joints 0, gripper closed.
+SLEEP_POSE: tuple[float, ...] = (0.0,) * NUM_ARM_VALUES
+
+#: Robot model and end-effector preset names understood by :meth:`ArmDriver.configure`.
+DEFAULT_MODEL: str = "wxai_v0"
+DEFAULT_END_EFFECTOR: str = "wxai_v0_follower"
+
+INSTALL_HINT: str = (
+    "pip install 'trossen-arm-mujoco[real]' (or use --backend sim for the simulated twin)"
+)
+
+
+@runtime_checkable
+class ArmDriver(Protocol):
+    """One arm, position-controlled. Mirrors the subset of ``trossen_arm`` replay uses."""
+
+    def configure(
+        self,
+        ip_address: str,
+        model: str = DEFAULT_MODEL,
+        end_effector: str = DEFAULT_END_EFFECTOR,
+        clear_error: bool = True,
+    ) -> None:
+        """Connect to the arm controller at ``ip_address`` and set it up.
+
+        Args:
+            ip_address: the arm controller's address (the simulated twin ignores it).
+            model: robot model name, e.g. ``"wxai_v0"``.
+            end_effector: end-effector preset name, e.g. ``"wxai_v0_follower"``.
+            clear_error: clear a latched error state of the controller.
+        """
+        ...
+
+    def set_all_modes_position(self) -> None:
+        """Put every joint (and the gripper) in position mode."""
+        ...
+
+    def set_all_positions(
+        self, positions: Sequence[float], goal_time: float, blocking: bool
+    ) -> None:
+        """Move toward ``positions`` (7 values: rad x6, gripper m), arriving after ``goal_time`` s.
+
+        The controller interpolates its setpoint from where it is to the goal over
+        ``goal_time``; ``blocking=True`` returns once ``goal_time`` has elapsed.
+        """
+        ...
+
+    def get_all_positions(self) -> np.ndarray:
+        """Measured positions: float64 ``(7,)``, rad x6 then gripper (m)."""
+        ...
+
+    def cleanup(self) -> None:
+        """Release the arm (call after moving it to the sleep pose)."""
+        ...
+
+
+def split_arms(row: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Map one 16-value dataset row to the two drivers' 7-value commands.
+
+    Returns:
+        ``(left, right)``, float64 ``(7,)`` each: ``row[0:7]`` and ``row[8:15]``
+        (6 joints in rad, then the right-carriage finger travel in m).
+    """
+    row = np.asarray(row, dtype=np.float64)
+    if row.shape != (16,):
+        raise ValueError(f"expected 16 values, got shape {row.shape}")
+    return row[0:7].copy(), row[8:15].copy()
+
+
+def import_trossen_arm() -> ModuleType:
+    """Import the optional ``trossen_arm`` package, or raise a one-line install hint."""
+    try:
+        import trossen_arm
+    except ImportError:
+        raise UserError(
+            f"the trossen backend needs the 'trossen_arm' driver package, which is not "
+            f"installed: {INSTALL_HINT}"
+        ) from None
+    if not hasattr(trossen_arm, "TrossenArmDriver") or not hasattr(
+        trossen_arm.TrossenArmDriver, "get_all_positions"
+    ):
+        version = getattr(trossen_arm, "__version__", "unknown")
+        raise UserError(
+            f"trossen_arm {version} is too old (needs >= 1.9.1, with get_all_positions): "
+            "pip install -U 'trossen-arm>=1.9.1'"
+        )
+    return trossen_arm
+
+
+def resolve_presets(ta: ModuleType, model: str, end_effector: str) -> tuple[Any, Any]:
+    """Look up ``trossen_arm.Model.<model>`` and ``trossen_arm.StandardEndEffector.<ee>``.
+
+    Raises:
+        UserError: an unknown name, listing the valid ones.
+    """
+    members = getattr(ta.Model, "__members__", None)
+    models = list(members) if members else [n for n in dir(ta.Model) if not n.startswith("_")]
+    if model not in models:
+        raise unknown_name_error("robot model", model, models)
+    effectors = [n for n in dir(ta.StandardEndEffector) if not n.startswith("_")]
+    if end_effector not in effectors:
+        raise unknown_name_error("end effector", end_effector, effectors)
+    return getattr(ta.Model, model), getattr(ta.StandardEndEffector, end_effector)
+
+
+class TrossenArmDriver:
+    """:class:`ArmDriver` over a real arm, through ``trossen_arm.TrossenArmDriver``.
+
+    Constructing it only imports the package (an install hint when it is missing); the
+    network is first used by :meth:`configure`. Defaults configure the **follower**
+    end-effector preset (``StandardEndEffector.wxai_v0_follower``), which matches the
+    follower arms' fingers, unlike the vendor script's leader preset.
+    """
+
+    def __init__(self) -> None:
+        self._ta = import_trossen_arm()
+        self._driver: Any = None
+        self.ip_address: str | None = None
+
+    def configure(
+        self,
+        ip_address: str,
+        model: str = DEFAULT_MODEL,
+        end_effector: str = DEFAULT_END_EFFECTOR,
+        clear_error: bool = True,
+    ) -> None:
+        """Connect to the controller at ``ip_address`` (see :meth:`ArmDriver.configure`)."""
+        model_enum, effector = resolve_presets(self._ta, model, end_effector)
+        driver = self._ta.TrossenArmDriver()
+        driver.configure(model_enum, effector, ip_address, clear_error)
+        self._driver, self.ip_address = driver, ip_address
+
+    def _configured(self) -> Any:
+        if self._driver is None:
+            raise RuntimeError("arm driver is not configured; call configure() first")
+        return self._driver
+
+    def set_all_modes_position(self) -> None:
+        """``set_all_modes(Mode.position)``."""
+        self._configured().set_all_modes(self._ta.Mode.position)
+
+    def set_all_positions(
+        self, positions: Sequence[float], goal_time: float, blocking: bool
+    ) -> None:
+        """Send 7 goal positions (rad x6, gripper m), reached after ``goal_time`` (s)."""
+        values = [float(v) for v in positions]
+        if len(values) != NUM_ARM_VALUES:
+            raise ValueError(f"expected {NUM_ARM_VALUES} positions, got {len(values)}")
+        self._configured().set_all_positions(values, float(goal_time), bool(blocking))
+
+    def get_all_positions(self) -> np.ndarray:
+        """Measured positions, float64 ``(7,)`` (rad x6, gripper m)."""
+        return np.asarray(self._configured().get_all_positions(), dtype=np.float64)
+
+    def cleanup(self) -> None:
+        """Close the connection (idempotent)."""
+        if self._driver is not None:
+            driver, self._driver = self._driver, None
+            driver.cleanup()

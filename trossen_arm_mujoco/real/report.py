@@ -1,0 +1,185 @@
+"""Tracking-error log of a replay and the files written from it.
+
+Per replay, next to the episode in ``<data folder>/replay/``:
+
+- ``episode_<k>_<backend>_tracking.csv``: one row per streamed step: ``step``, ``time_s``
+  (since streaming began, at the moment of measurement), then for each arm and driver
+  value (``left_joint_0`` ... ``right_gripper``) the commanded and measured position
+  (``cmd_*``, ``meas_*``; rad, gripper m);
+- ``episode_<k>_<backend>_summary.json``: RMS and max of measured - commanded per joint,
+  plus run metadata (status, reason, fps, goal time, clipped values);
+- ``episode_<k>_<backend>_tracking.png``: commanded vs measured, one panel per joint.
+
+Files are written to a temporary name and then renamed, so a reader never sees half a
+file; a rerun of the same episode and backend replaces them.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.real.validate import ARMS, DRIVER_LABELS, DRIVER_UNITS
+
+#: Column labels of the 14 logged values: ``left_joint_0`` ... ``right_gripper``.
+LABELS: tuple[str, ...] = tuple(f"{arm}_{name}" for arm in ARMS for name in DRIVER_LABELS)
+UNITS: tuple[str, ...] = DRIVER_UNITS * 2
+
+PLOT_HINT = "pip install 'trossen-arm-mujoco[video]' (matplotlib)"
+
+
+@dataclass
+class TrackingLog:
+    """Commanded and measured positions, one entry per streamed step."""
+
+    times: list[float] = field(default_factory=list)
+    commanded: list[np.ndarray] = field(default_factory=list)
+    measured: list[np.ndarray] = field(default_factory=list)
+
+    def add(self, time_s: float, commanded: np.ndarray, measured: np.ndarray) -> None:
+        """Record one step: ``commanded``/``measured`` are ``(2, 7)`` (left, right)."""
+        self.times.append(float(time_s))
+        self.commanded.append(np.asarray(commanded, dtype=np.float64).reshape(14))
+        self.measured.append(np.asarray(measured, dtype=np.float64).reshape(14))
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(times (N,), commanded (N, 14), measured (N, 14))``, float64."""
+        n = len(self)
+        return (
+            np.asarray(self.times, dtype=np.float64).reshape(n),
+            np.asarray(self.commanded, dtype=np.float64).reshape(n, 14),
+            np.asarray(self.measured, dtype=np.float64).reshape(n, 14),
+        )
+
+    def errors(self) -> dict[str, dict[str, Any]]:
+        """Per joint label: ``{"rms", "max", "unit"}`` of measured - commanded (None if empty)."""
+        _, cmd, meas = self.arrays()
+        err = meas - cmd
+        out: dict[str, dict[str, Any]] = {}
+        for j, (label, unit) in enumerate(zip(LABELS, UNITS, strict=True)):
+            e = err[:, j]
+            rms = float(np.sqrt(np.mean(e**2))) if e.size else None
+            peak = float(np.max(np.abs(e))) if e.size else None
+            out[label] = {"rms": rms, "max": peak, "unit": unit}
+        return out
+
+
+def format_error_table(errors: dict[str, dict[str, Any]]) -> str:
+    """Tracking errors as a text table: joints as rows, left and right arms side by side.
+
+    Gripper rows are in mm, joint rows in mrad; ``errors`` must come from a non-empty log.
+    """
+    lines = [f"{'joint':<9}{'left rms':>10}{'left max':>10}{'right rms':>11}{'right max':>11}"]
+    for name, unit in zip(DRIVER_LABELS, DRIVER_UNITS, strict=True):
+        shown = "mm" if unit == "m" else "mrad"
+        cells = []
+        for arm in ARMS:
+            e = errors[f"{arm}_{name}"]
+            cells += [e["rms"] * 1000.0, e["max"] * 1000.0]
+        lines.append(
+            f"{name + ' ' + shown:<9}{cells[0]:>10.2f}{cells[1]:>10.2f}"
+            f"{cells[2]:>11.2f}{cells[3]:>11.2f}"
+        )
+    return "\n".join(lines)
+
+
+def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
+    """Write via ``write(tmp)`` into a temporary sibling of ``path``, then rename."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _csv_text(log: TrackingLog) -> str:
+    times, cmd, meas = log.arrays()
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    header = ["step", "time_s"]
+    for label in LABELS:
+        header += [f"cmd_{label}", f"meas_{label}"]
+    writer.writerow(header)
+    for i in range(len(log)):
+        row: list[str] = [str(i), f"{times[i]:.4f}"]
+        for j in range(14):
+            row += [f"{cmd[i, j]:.6f}", f"{meas[i, j]:.6f}"]
+        writer.writerow(row)
+    return buf.getvalue()
+
+
+def plot_tracking(log: TrackingLog, path: Path, title: str) -> None:
+    """Save commanded vs measured positions, 7 rows x 2 arms, as a PNG at ``path``.
+
+    Uses matplotlib's Agg canvas directly (no pyplot, no global backend change).
+
+    Raises:
+        ImportError: matplotlib is not installed.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    times, cmd, meas = log.arrays()
+    fig = Figure(figsize=(12, 14), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(7, 2, sharex=True, squeeze=False)
+    for a, arm in enumerate(ARMS):
+        for j, (name, unit) in enumerate(zip(DRIVER_LABELS, DRIVER_UNITS, strict=True)):
+            ax = axes[j, a]
+            k = a * 7 + j
+            ax.plot(times, cmd[:, k], label="commanded", linewidth=1.2)
+            ax.plot(times, meas[:, k], label="measured", linewidth=1.0, linestyle="--")
+            ax.set_ylabel(f"{name} ({unit})", fontsize=8)
+            ax.tick_params(labelsize=7)
+            if j == 0:
+                ax.set_title(f"{arm} arm", fontsize=10)
+        axes[-1, a].set_xlabel("time (s)")
+    axes[0, 0].legend(fontsize=7, loc="best")
+    fig.suptitle(title, fontsize=11)
+    _atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=80))
+
+
+def write_outputs(
+    out_dir: Path, stem: str, log: TrackingLog, summary: dict[str, Any]
+) -> dict[str, Path | None]:
+    """Write the CSV, the JSON summary (``summary`` + per-joint errors) and the plot.
+
+    Returns:
+        ``{"csv", "summary", "plot"}`` paths; ``"plot"`` is None when matplotlib is
+        missing (a note is added to the summary instead).
+    """
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths: dict[str, Path | None] = {
+        "csv": out_dir / f"{stem}_tracking.csv",
+        "summary": out_dir / f"{stem}_summary.json",
+        "plot": out_dir / f"{stem}_tracking.png",
+    }
+    csv_text = _csv_text(log)
+    _atomic_write(paths["csv"], lambda tmp: tmp.write_text(csv_text))
+    data = dict(summary)
+    data["tracking_error"] = log.errors()
+    if len(log):
+        try:
+            plot_tracking(log, paths["plot"], title=f"{stem}: commanded vs measured")
+        except ImportError:
+            paths["plot"] = None
+            data["plot"] = f"not written: matplotlib is not installed ({PLOT_HINT})"
+    else:
+        paths["plot"] = None
+        data["plot"] = "not written: no step was streamed"
+    text = json.dumps(data, indent=2)
+    _atomic_write(paths["summary"], lambda tmp: tmp.write_text(text + "\n"))
+    return paths

@@ -1,0 +1,181 @@
+"""Replay a recorded episode on two real arms, or on their simulated twin.
+
+The whole trajectory is validated first (shape, finite values, joint limits, joint
+speeds at ``--fps``); any violation is one line and exit status 2, before any driver is
+created. Then both arms are configured, move to the first action over 2 s, follow the
+actions at ``--fps``, and finally go home and to the sleep pose; an error, Ctrl-C or
+SIGTERM stops streaming and still runs the home/sleep sequence. Tracking results (CSV,
+JSON summary, PNG) go to ``<data folder>/replay/``. Also available as
+``trossen-mujoco replay-real``.
+
+Examples::
+
+    # check an episode and print what would be sent; nothing moves
+    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
+        --dry_run
+    # rehearse on the simulated twin (faster than real time)
+    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
+        --backend sim
+    # real arms (needs: pip install 'trossen-arm-mujoco[real]')
+    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
+        --left_ip 192.168.1.5 --right_ip 192.168.1.4
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a file: python trossen_arm_mujoco/scripts/...
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from trossen_arm_mujoco.constants import ROOT_DIR
+from trossen_arm_mujoco.data.reader import episode_path, load_episode, resolve_data_dir
+from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.real.clock import Clock
+from trossen_arm_mujoco.real.driver import DEFAULT_END_EFFECTOR, DEFAULT_MODEL
+from trossen_arm_mujoco.real.replay import (
+    BACKENDS,
+    DriverFactory,
+    ReplayConfig,
+    make_drivers,
+    replay,
+)
+from trossen_arm_mujoco.real.report import PLOT_HINT, format_error_table, write_outputs
+from trossen_arm_mujoco.real.validate import ArmLimits, format_trajectory_report, validate_actions
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line flags."""
+    p = argparse.ArgumentParser(
+        prog="replay_episode_real",
+        description="Replay a recorded episode on two Trossen AI arms (or their simulated "
+        "twin), with validation, tracking-error logging and a safe home/sleep exit.",
+    )
+    p.add_argument(
+        "--data_dir", required=True, help="dataset folder, relative to --root_dir unless absolute"
+    )
+    p.add_argument("--root_dir", default=ROOT_DIR, help=f"datasets root (default {ROOT_DIR})")
+    p.add_argument("--episode_idx", type=int, default=0, help="episode to replay (default 0)")
+    p.add_argument("--fps", type=float, default=10.0, help="command rate in Hz (default 10)")
+    p.add_argument("--left_ip", default="192.168.1.5", help="left arm (default 192.168.1.5)")
+    p.add_argument("--right_ip", default="192.168.1.4", help="right arm (default 192.168.1.4)")
+    p.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="trossen",
+        help="trossen: real arms via trossen_arm; sim: the MuJoCo twin (default trossen)",
+    )
+    p.add_argument(
+        "--goal_time_factor",
+        type=float,
+        default=3.0,
+        help="goal time of each command, in command periods (default 3: goal time 3/fps)",
+    )
+    p.add_argument("--dry_run", action="store_true", help="validate and report only; nothing moves")
+    p.add_argument("--no_progress", action="store_true", help="no progress bar")
+    return p
+
+
+def main(
+    argv: Sequence[str] | None = None,
+    *,
+    driver_factory: DriverFactory | None = None,
+    clock: Clock | None = None,
+) -> int:
+    """Validate, then replay; returns the exit status.
+
+    ``driver_factory`` (default :func:`make_drivers`) and ``clock`` are for tests and
+    embedding: ``driver_factory(backend, clock) -> (drivers, clock)``.
+    """
+    args = build_parser().parse_args(argv)
+    if not (math.isfinite(args.fps) and 0 < args.fps <= 1000):
+        raise UserError(f"--fps must be in (0, 1000], got {args.fps:g}")
+    if not (math.isfinite(args.goal_time_factor) and 0 < args.goal_time_factor <= 20):
+        raise UserError(f"--goal_time_factor must be in (0, 20], got {args.goal_time_factor:g}")
+    folder = resolve_data_dir(args.root_dir, args.data_dir)
+    episode = load_episode(episode_path(folder, args.episode_idx))
+    limits = ArmLimits.from_mjcf()
+    trajectory = validate_actions(episode.action, args.fps, limits)
+    speed = episode.dt * args.fps  # replay speed relative to the recording
+    pace = "the recorded speed" if abs(speed - 1) < 1e-9 else f"{speed:.3g}x the recorded speed"
+    print(
+        f"{episode.path}: {trajectory.num_steps} steps, {trajectory.num_steps / args.fps:.1f} s "
+        f"at --fps {args.fps:g} ({pace}, recorded at {1.0 / episode.dt:g} Hz), "
+        f"goal time {args.goal_time_factor / args.fps:.3g} s per command"
+    )
+    if args.dry_run:
+        print(format_trajectory_report(trajectory, limits))
+        print("dry run: trajectory is valid; no driver was created and nothing moved")
+        return 0
+
+    out_dir = episode.path.parent / "replay"
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"cannot create the output folder {out_dir}: {exc.strerror}") from None
+    factory = driver_factory if driver_factory is not None else make_drivers
+    drivers, run_clock = factory(args.backend, clock)
+    config = ReplayConfig(
+        fps=args.fps,
+        goal_time_factor=args.goal_time_factor,
+        ips={"left": args.left_ip, "right": args.right_ip},
+        model=DEFAULT_MODEL,
+        end_effector=DEFAULT_END_EFFECTOR,
+        progress=not args.no_progress,
+    )
+    result = replay(trajectory, drivers, run_clock, config, limits)
+
+    summary = {
+        "episode": str(episode.path),
+        "backend": args.backend,
+        "fps": args.fps,
+        "goal_time_s": config.goal_time,
+        "recorded_dt_s": episode.dt,
+        "steps_total": result.steps_total,
+        "steps_done": result.steps_done,
+        "status": result.status,
+        "reason": result.reason,
+        "late_steps": result.late_steps,
+        "clipped_values": trajectory.clipped,
+        "max_clip": trajectory.max_clip,
+        "measured_at": "end of each command period, just before the next command",
+        "final_positions": {k: v.tolist() for k, v in result.final_positions.items()},
+    }
+    stem = f"episode_{args.episode_idx}_{args.backend}"
+    try:
+        paths = write_outputs(out_dir, stem, result.log, summary)
+    except OSError as exc:
+        also = f"; {result.reason}" if result.reason else ""
+        print(f"error: cannot write the replay results to {out_dir}: {exc}{also}", file=sys.stderr)
+        return result.exit_code or 1
+    if result.steps_done:
+        print(f"tracking error (measured - commanded) over {result.steps_done} steps:")
+        print(format_error_table(result.log.errors()))
+    written = ", ".join(str(p) for p in paths.values() if p is not None)
+    print(f"wrote {written}")
+    if paths["plot"] is None and result.steps_done:
+        print(f"note: no plot: matplotlib is not installed ({PLOT_HINT})")
+    if result.exit_code:
+        print(f"error: {result.reason}", file=sys.stderr)
+        return result.exit_code
+    print(f"replay completed: {result.steps_done} steps; arms are home and asleep")
+    return 0
+
+
+def cli(
+    argv: Sequence[str] | None = None,
+    *,
+    driver_factory: DriverFactory | None = None,
+    clock: Clock | None = None,
+) -> int:
+    """Entry point: like :func:`main`, with user errors as one line and exit status 2."""
+    return run_cli(functools.partial(main, driver_factory=driver_factory, clock=clock), argv)
+
+
+if __name__ == "__main__":
+    sys.exit(cli())
