@@ -246,7 +246,7 @@ def mjcf_actuators(prefix: str, arm: bool = True, gripper: bool = True) -> str:
 
 
 OPTIONS = """  <compiler angle="radian" autolimits="true"/>
-  <option timestep="0.002" integrator="implicitfast" cone="pyramidal" ls_iterations="50"/>
+  <option timestep="0.002" integrator="implicitfast" cone="elliptic" impratio="10" ls_iterations="50"/>
 """
 
 

@@ -60,7 +60,8 @@ class EpisodeOutcome:
     path: Path | None
 
 
-StepHook = Callable[[int, dict], None]
+#: (step, observation after the step, joint env) -> None
+StepHook = Callable[[int, dict, object], None]
 
 
 class EpisodeRecorder:
@@ -68,7 +69,8 @@ class EpisodeRecorder:
 
     Args:
         settings: run settings (task, length, cameras, compression, seed).
-        step_hook: called after each phase-2 step with (t, observation) — e.g. a live view.
+        step_hook: called after each phase-2 step with (t, observation, joint env), e.g. a
+            live view.
     """
 
     def __init__(self, settings: RecordSettings, step_hook: StepHook | None = None):
@@ -138,7 +140,7 @@ class EpisodeRecorder:
                     images=obs["images"],
                 )
             if self.step_hook is not None:
-                self.step_hook(t, ts.observation)
+                self.step_hook(t, ts.observation, self.joint_env)
             if progress is not None:
                 progress()
         return rewards

@@ -1,0 +1,125 @@
+"""The record CLI: flags, errors, interrupts."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import pytest
+
+from trossen_arm_mujoco.data.reader import list_episodes, load_episode
+from trossen_arm_mujoco.scripts.record_sim_episodes import cli
+
+REPO = Path(__file__).resolve().parents[2]
+FAST = ["--episode_len", "20", "--cam_names", "none"]
+
+
+def _run_cli(args, capsys):
+    rc = cli(args)
+    out = capsys.readouterr()
+    return rc, out.out, out.err
+
+
+def test_records_and_reports_success_line(tmp_path, capsys):
+    rc, out, _ = _run_cli(["--data_dir", "d", "--root_dir", str(tmp_path), "--num_episodes", "2",
+                           *FAST], capsys)
+    assert rc == 0
+    assert out.strip().splitlines()[-1] == "Success: 0 / 2"
+    assert [k for k, _ in list_episodes(tmp_path / "d")] == [0, 1]
+    ep = load_episode(tmp_path / "d" / "episode_1.hdf5")
+    assert ep.camera_names == [] and ep.num_steps == 20
+    assert ep.attrs["task_name"] == "sim_transfer_cube"
+
+
+def test_cam_names_subset_and_compression(tmp_path, capsys):
+    rc, _, _ = _run_cli(["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "5",
+                         "--cam_names", "cam_low,cam_right_wrist", "--image_size", "12x16",
+                         "--compression", "gzip"], capsys)
+    assert rc == 0
+    with h5py.File(tmp_path / "d" / "episode_0.hdf5") as f:
+        assert set(f["observations/images"]) == {"cam_low", "cam_right_wrist"}
+        assert f["observations/images/cam_low"].compression == "gzip"
+
+
+def test_existing_episodes_are_never_overwritten(tmp_path, capsys):
+    args = ["--data_dir", "d", "--root_dir", str(tmp_path), *FAST]
+    assert _run_cli(args, capsys)[0] == 0
+    mtime = (tmp_path / "d" / "episode_0.hdf5").stat().st_mtime_ns
+    rc, out, _ = _run_cli(args, capsys)
+    assert rc == 0 and "nothing to record" in out
+    assert (tmp_path / "d" / "episode_0.hdf5").stat().st_mtime_ns == mtime
+    rc, out, _ = _run_cli([*args, "--overwrite"], capsys)
+    assert rc == 0 and (tmp_path / "d" / "episode_0.hdf5").stat().st_mtime_ns != mtime
+
+
+@pytest.mark.parametrize(
+    "extra, needle",
+    [
+        (["--task_name", "sim_insertion"], "unknown task 'sim_insertion'"),
+        (["--cam_names", "cam_top"], "unknown camera 'cam_top'"),
+        (["--episode_len", "0"], "--episode_len must be at least 1"),
+        (["--num_episodes", "0"], "--num_episodes must be at least 1"),
+        (["--image_size", "big"], "--image_size must look like"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, needle):
+    rc, _, err = _run_cli(["--data_dir", "d", "--root_dir", str(tmp_path), *extra], capsys)
+    assert rc == 2
+    assert needle in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_unwritable_root_is_one_line_exit_2(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    proc = subprocess.run(
+        [sys.executable, "-m", "trossen_arm_mujoco.scripts.record_sim_episodes", "--data_dir",
+         "d", "--root_dir", str(blocker / "sub"), *FAST],
+        capture_output=True, text=True, cwd=REPO, timeout=120,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip().startswith("error: cannot write to")
+    assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
+
+
+def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
+    data = tmp_path / "d"
+    cmd = [sys.executable, "trossen_arm_mujoco/scripts/record_sim_episodes.py", "--data_dir",
+           "d", "--root_dir", str(tmp_path), "--num_episodes", "3", "--episode_len", "300",
+           "--cam_names", "cam_high", "--image_size", "24x32"]
+    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.time() + 240
+    while not (data / "episode_1.hdf5").exists():
+        assert proc.poll() is None, proc.communicate()
+        assert time.time() < deadline
+        time.sleep(0.1)
+    time.sleep(1.0)  # well inside episode 2
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "kept" in err and "Traceback" not in err
+    assert [k for k, _ in list_episodes(data)] == [0, 1]
+    assert sorted(os.listdir(data)) == ["episode_0.hdf5", "episode_1.hdf5"]
+    for k in (0, 1):
+        assert load_episode(data / f"episode_{k}.hdf5").num_steps == 300
+    done = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=240)
+    assert done.returncode == 0, done.stderr
+    assert "continuing after existing episode 1" in done.stdout
+    assert [k for k, _ in list_episodes(data)] == [0, 1, 2]
+    assert load_episode(data / "episode_2.hdf5").attrs["attempt"] == 2
+
+
+def test_trossen_mujoco_record_dispatch(tmp_path):
+    proc = subprocess.run(
+        [sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--data_dir", "d",
+         "--root_dir", str(tmp_path), *FAST],
+        capture_output=True, text=True, cwd=REPO, timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1].startswith("Success:")

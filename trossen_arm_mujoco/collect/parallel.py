@@ -1,0 +1,209 @@
+"""Recording a dataset: resume planning, N local worker processes, ordered publishing.
+
+Episode ``k`` of a run is attempt ``k`` (seed derived from the run seed and ``k``), so the
+files are the same whatever the number of workers. With ``skip_failed``, attempts continue
+until enough successes exist; successes get consecutive indices in attempt order.
+
+Files are written atomically. On SIGINT/SIGTERM the partial episode is discarded, finished
+episodes stay, and rerunning the same command continues where the run stopped.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import shutil
+import signal
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tqdm import tqdm
+
+from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
+from trossen_arm_mujoco.data.reader import episode_path, list_episodes, load_episode
+from trossen_arm_mujoco.data.writer import remove_stale_temp_files
+
+STAGING = ".staging"
+
+
+@dataclass
+class RunPlan:
+    """Which episode indices and attempts a run records."""
+
+    first_index: int
+    first_attempt: int
+    existing: list[int] = field(default_factory=list)
+
+
+@dataclass
+class RunReport:
+    saved: list[EpisodeOutcome] = field(default_factory=list)
+    attempts: int = 0
+    interrupted: bool = False
+
+    @property
+    def successes(self) -> int:
+        return sum(o.success for o in self.saved)
+
+
+def plan_run(folder: Path, num_episodes: int, overwrite: bool) -> RunPlan:
+    """Start after the highest existing index (or at 0 with ``overwrite``)."""
+    existing = [k for k, _ in list_episodes(folder, missing_ok=True)]
+    if overwrite or not existing:
+        return RunPlan(0, 0, existing)
+    last = max(existing)
+    attrs = load_episode(episode_path(folder, last)).attrs
+    attempt = int(attrs.get("attempt", last)) + 1
+    return RunPlan(last + 1, attempt, existing)
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+_WORKER: EpisodeRecorder | None = None
+
+
+def _worker_init(settings: RecordSettings) -> None:
+    global _WORKER
+    _ignore_sigint()
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    _WORKER = EpisodeRecorder(settings)
+
+
+def _worker_record(job: tuple[int, str, bool]) -> EpisodeOutcome:
+    attempt, path, overwrite = job
+    assert _WORKER is not None
+    return _WORKER.record(attempt, Path(path), overwrite=overwrite)
+
+
+class DatasetRecorder:
+    """Records episodes ``first_index .. num_episodes - 1`` into ``folder``.
+
+    Args:
+        settings: shared run settings.
+        folder: dataset folder (created).
+        num_workers: processes; 1 records in this process with a per-step progress bar.
+        skip_failed: keep attempting until the episodes are successes (bounded).
+        overwrite: replace existing episodes instead of continuing after them.
+        step_hook: per-step callback in this process (live view); needs 1 worker.
+        log: where progress lines go (default print).
+    """
+
+    def __init__(
+        self,
+        settings: RecordSettings,
+        folder: Path,
+        num_workers: int = 1,
+        skip_failed: bool = False,
+        overwrite: bool = False,
+        step_hook: Callable | None = None,
+        log: Callable[[str], None] = print,
+    ):
+        self.settings = settings
+        self.folder = Path(folder)
+        self.num_workers = num_workers
+        self.skip_failed = skip_failed
+        self.overwrite = overwrite
+        self.step_hook = step_hook
+        self.log = log
+
+    def max_attempts(self, needed: int) -> int:
+        """Bound on attempts with ``skip_failed``: 3x the episodes needed, plus 10."""
+        return 3 * needed + 10
+
+    def run(self, num_episodes: int, plan: RunPlan) -> RunReport:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        remove_stale_temp_files(self.folder)
+        shutil.rmtree(self.folder / STAGING, ignore_errors=True)
+        report = RunReport()
+        needed = num_episodes - plan.first_index
+        if needed <= 0:
+            return report
+        attempts = self._attempts(plan.first_attempt, needed)
+        try:
+            if self.num_workers == 1:
+                self._run_here(attempts, plan.first_index, num_episodes, report)
+            else:
+                self._run_pool(attempts, plan.first_index, num_episodes, report)
+        except KeyboardInterrupt:
+            report.interrupted = True
+        finally:
+            remove_stale_temp_files(self.folder)
+            shutil.rmtree(self.folder / STAGING, ignore_errors=True)
+        return report
+
+    def _attempts(self, first: int, needed: int) -> range:
+        count = self.max_attempts(needed) if self.skip_failed else needed
+        return range(first, first + count)
+
+    def _target(self, attempt: int, index: int) -> tuple[Path, bool]:
+        """Where an attempt is written: its final name, or a staging name (skip_failed)."""
+        if self.skip_failed:
+            staging = self.folder / STAGING
+            staging.mkdir(exist_ok=True)
+            return staging / f"attempt_{attempt}.hdf5", True
+        return episode_path(self.folder, index), self.overwrite
+
+    def _publish(self, outcome: EpisodeOutcome, index: int, report: RunReport) -> bool:
+        """Account for one finished attempt; returns True when it became episode ``index``."""
+        report.attempts += 1
+        if self.skip_failed:
+            assert outcome.path is not None
+            if not outcome.success:
+                outcome.path.unlink(missing_ok=True)
+                self.log(f"attempt {outcome.attempt}: failed (reward {outcome.final_reward:g}),"
+                         " discarded")
+                return False
+            final = episode_path(self.folder, index)
+            if final.exists() and not self.overwrite:
+                raise FileExistsError(f"{final} appeared during the run")
+            os.replace(outcome.path, final)
+            outcome.path = final
+        report.saved.append(outcome)
+        status = "success" if outcome.success else "failure"
+        self.log(f"episode {index}: {status} (final reward {outcome.final_reward:g}, "
+                 f"seed {outcome.seed}) -> {outcome.path}")
+        return True
+
+    def _run_here(self, attempts: range, index: int, total: int, report: RunReport) -> None:
+        recorder = EpisodeRecorder(self.settings, step_hook=self.step_hook)
+        try:
+            for attempt in attempts:
+                if index >= total:
+                    break
+                path, overwrite = self._target(attempt, index)
+                with tqdm(total=self.settings.episode_len, desc=f"episode {index}",
+                          unit="step", leave=False) as bar:
+                    outcome = recorder.record(attempt, path, overwrite=overwrite,
+                                              progress=bar.update)
+                if self._publish(outcome, index, report):
+                    index += 1
+        finally:
+            recorder.close()
+
+    def _jobs(self, attempts: range, first_index: int) -> Iterator[tuple[int, str, bool]]:
+        for i, attempt in enumerate(attempts):
+            path, overwrite = self._target(attempt, first_index + i)
+            yield attempt, str(path), overwrite
+
+    def _run_pool(self, attempts: range, index: int, total: int, report: RunReport) -> None:
+        ctx = mp.get_context("spawn")
+        pool = ctx.Pool(self.num_workers, initializer=_worker_init, initargs=(self.settings,))
+        bar = tqdm(total=total - index, desc="episodes", unit="episode")
+        try:
+            for outcome in pool.imap(_worker_record, self._jobs(attempts, index)):
+                if self._publish(outcome, index, report):
+                    index += 1
+                    bar.update()
+                if index >= total:
+                    pool.terminate()
+                    break
+            pool.close()
+        except BaseException:
+            pool.terminate()
+            raise
+        finally:
+            pool.join()
+            bar.close()
