@@ -308,9 +308,10 @@ def trossen_ai_xml() -> str:
     frame = []
     for k, (half, pos, quat) in enumerate(FRAME_BOXES + CAMERA_BODIES):
         q = f' quat="{fmt(quat)}"' if quat else ""
-        mat = "frame" if k < len(FRAME_BOXES) else "wxai_black"
+        # The camera housings enclose the fixed cameras: collision only (group 3, not drawn).
+        look = 'material="frame"' if k < len(FRAME_BOXES) else 'material="wxai_black" group="3"'
         frame.append(f'      <geom name="frame_{k}" type="box" size="{fmt(half)}" pos="{fmt(pos)}"{q} '
-                     f'material="{mat}"/>')
+                     f'{look}/>')
     cams = [f'      <camera name="{n}" pos="{fmt(p)}" quat="{fmt(q)}" fovy="{f}"/>'
             for n, p, q, f in FIXED_CAMERAS]
     arms = "".join(mjcf_arm(f"{side}/", pos, quat, f"cam_{side}_wrist", 6)

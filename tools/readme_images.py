@@ -1,0 +1,43 @@
+"""Save one 640x480 frame per camera at the hand-over of a recorded transfer (README images).
+
+    python tools/readme_images.py [--step 310] [--out docs/images]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np  # noqa: E402
+from PIL import Image  # noqa: E402
+
+from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings, episode_seed  # noqa: E402
+from trossen_arm_mujoco.constants import STATIONARY_CAMERAS  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--step", type=int, default=310)
+    parser.add_argument("--out", default="docs/images")
+    args = parser.parse_args()
+    rec = EpisodeRecorder(RecordSettings(cam_names=tuple(STATIONARY_CAMERAS)))
+    actions, box = rec.scripted_rollout(np.random.default_rng(episode_seed(0, 0)))
+    env = rec.joint_env
+    env.task.box_pose = box
+    env.task.render_enabled = False
+    env.reset()
+    for t in range(args.step):
+        env.task.render_enabled = t == args.step - 1
+        ts = env.step(actions[t])
+    os.makedirs(args.out, exist_ok=True)
+    for cam, img in ts.observation["images"].items():
+        path = os.path.join(args.out, f"{cam}.png")
+        Image.fromarray(img).save(path, optimize=True)
+        print(path)
+    rec.close()
+
+
+if __name__ == "__main__":
+    main()
