@@ -22,7 +22,6 @@ from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-import h5py  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -68,14 +67,27 @@ def compression_costs(path: Path, cams: list[str], out_dir: Path) -> list[tuple[
     for option in COMPRESSIONS:
         target = out_dir / f"episode_{COMPRESSIONS.index(option) + 100}.hdf5"
         start = time.perf_counter()
-        with ep.open_frames() as frames, EpisodeWriter(
-            target, ep.num_steps, cams, ep.image_shapes[cams[0]][0], ep.image_shapes[cams[0]][1],
-            compression=option, attrs={k: ep.attrs[k] for k in ("task_name", "seed", "success",
-                                                                 "box_pose")},
-        ) as writer:
+        with (
+            ep.open_frames() as frames,
+            EpisodeWriter(
+                target,
+                ep.num_steps,
+                cams,
+                ep.image_shapes[cams[0]][0],
+                ep.image_shapes[cams[0]][1],
+                compression=option,
+                attrs={k: ep.attrs[k] for k in ("task_name", "seed", "success", "box_pose")},
+            ) as writer,
+        ):
             for t in range(ep.num_steps):
-                writer.append(ep.qpos[t], ep.qvel[t], ep.action[t], ep.reward[t],
-                              ep.env_state[t], frames.step(t))
+                writer.append(
+                    ep.qpos[t],
+                    ep.qvel[t],
+                    ep.action[t],
+                    ep.reward[t],
+                    ep.env_state[t],
+                    frames.step(t),
+                )
         results.append((option, time.perf_counter() - start, target.stat().st_size))
     return results
 
@@ -85,15 +97,20 @@ def main() -> None:
     parser.add_argument("--episode_len", type=int, default=600)
     parser.add_argument("--height", type=int, default=480)
     parser.add_argument("--width", type=int, default=640)
-    parser.add_argument("--no_compression", action="store_true",
-                        help="skip the compression comparison")
+    parser.add_argument(
+        "--no_compression", action="store_true", help="skip the compression comparison"
+    )
     args = parser.parse_args()
     cams = list(STATIONARY_CAMERAS)
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        settings = RecordSettings(episode_len=args.episode_len, cam_names=tuple(cams),
-                                  height=args.height, width=args.width)
+        settings = RecordSettings(
+            episode_len=args.episode_len,
+            cam_names=tuple(cams),
+            height=args.height,
+            width=args.width,
+        )
         start = time.perf_counter()
         recorder = EpisodeRecorder(settings)
         outcome = recorder.record(0, out / "episode_0.hdf5")
@@ -105,16 +122,26 @@ def main() -> None:
         floor_s, floor_frames = raw_floor(out / "episode_0.hdf5", cams, args.height, args.width)
         size = (out / "episode_0.hdf5").stat().st_size
 
-        print(f"episode: {args.episode_len} steps, {len(cams)} cameras at "
-              f"{args.height}x{args.width}, success={outcome.success}")
-        print(f"record (both phases + HDF5): {record_s:8.1f} s  {record_s / frames * 1e3:7.1f} "
-              f"ms/frame")
-        print(f"raw floor (mujoco.Renderer): {floor_s:8.1f} s  "
-              f"{floor_s / floor_frames * 1e3:7.1f} ms/frame")
-        print(f"ratio record / floor per frame: {(record_s / frames) / (floor_s / floor_frames):.3f}")
+        print(
+            f"episode: {args.episode_len} steps, {len(cams)} cameras at "
+            f"{args.height}x{args.width}, success={outcome.success}"
+        )
+        print(
+            f"record (both phases + HDF5): {record_s:8.1f} s  {record_s / frames * 1e3:7.1f} "
+            f"ms/frame"
+        )
+        print(
+            f"raw floor (mujoco.Renderer): {floor_s:8.1f} s  "
+            f"{floor_s / floor_frames * 1e3:7.1f} ms/frame"
+        )
+        print(
+            f"ratio record / floor per frame: {(record_s / frames) / (floor_s / floor_frames):.3f}"
+        )
         print(f"peak RSS during recording: {rss_after_record:.0f} MB; file {size / 1e9:.2f} GB")
-        print("vendor package, same settings, measured on a 2-core CPU: 38 min 13 s "
-              f"(this run: {record_s / 2293:.3f}x of it)")
+        print(
+            "vendor package, same settings, measured on a 2-core CPU: 38 min 13 s "
+            f"(this run: {record_s / 2293:.3f}x of it)"
+        )
         if not args.no_compression:
             print("compression (rewrite of the recorded frames):")
             for option, seconds, nbytes in compression_costs(out / "episode_0.hdf5", cams, out):

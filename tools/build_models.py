@@ -26,35 +26,96 @@ GRIPPER_OPEN = 0.044
 # ----------------------------------------------------------------------------- arm facts
 # body: (parent, pos, inertial (mass, com, iquat, diaginertia))
 BODIES = {
-    "base_link": (None, (0, 0, 0), (0.45969858, (-0.00014175, -5.2280e-05, 0.03175177),
-                                    (0.503748, -0.50738, -0.49423, -0.49451),
-                                    (0.000213926, 0.000416701, 0.000448963))),
-    "link_1": ("base_link", (0, 0, 0.05725), (0.152704, (-0.00011075, 0.00171176, 0.0204459),
-                                              (0.3139551, 0.3052381, -0.6435752, 0.6277522),
-                                              (0.000203432, 0.000173907, 8.3521e-05))),
-    "link_2": ("link_1", (0.02, 0, 0.04625), (1.15316, (-0.131215, -0.00292583, 0.00021345),
-                                              (-0.00123582, 0.7065461, -0.00109575, 0.7076651),
-                                              (0.0179449, 0.0173612, 0.00102628))),
-    "link_3": ("link_2", (-0.264, 0, 0), (0.686666, (0.180836, -0.0009409, 0.0555494),
-                                          (0.0103901, 0.669684, -0.0033175, 0.742566),
-                                          (0.00566898, 0.00547578, 0.00059316))),
-    "link_4": ("link_3", (0.245, 0, 0.06), (0.457899, (0.0579784, 0.00027145, 0.0588445),
-                                            (0.9486879, 0.0346237, 0.307828, 0.0635164),
-                                            (0.000670827, 0.000661455, 0.000288648))),
-    "link_5": ("link_4", (0.06775, 0, 0.0455), (0.366939, (0.00412447, -1.1380e-05, -0.0428318),
-                                                (0.4961438, 0.5021278, 0.5035948, 0.4980978),
-                                                (0.000320622, 0.00026751, 0.000189108))),
-    "link_6": ("link_5", (0.02895, 0, -0.0455), (0.671874, (0.046841, 0.00145133, 0.00895674),
-                                                 (0.2758541, 0.2912551, -0.6919572, 0.6002252),
-                                                 (0.00118316, 0.00110863, 0.00078309))),
-    "carriage_right": ("link_6", (0.0865, -0.023, 0),
-                       (0.081271, (0.00169015, 0.00592793, 0.00201817),
-                        (-0.3709729, 0.7408857, -0.08477207, 0.5534268),
-                        (4.2957e-05, 3.8708e-05, 2.2153e-05))),
-    "carriage_left": ("link_6", (0.0865, 0.023, 0),
-                      (0.081271, (0.00169017, -0.00592796, -0.00365701),
-                       (-0.03826911, 0.6280222, -0.2551011, 0.7341982),
-                       (4.2111e-05, 3.6194e-05, 2.4000e-05))),
+    "base_link": (
+        None,
+        (0, 0, 0),
+        (
+            0.45969858,
+            (-0.00014175, -5.2280e-05, 0.03175177),
+            (0.503748, -0.50738, -0.49423, -0.49451),
+            (0.000213926, 0.000416701, 0.000448963),
+        ),
+    ),
+    "link_1": (
+        "base_link",
+        (0, 0, 0.05725),
+        (
+            0.152704,
+            (-0.00011075, 0.00171176, 0.0204459),
+            (0.3139551, 0.3052381, -0.6435752, 0.6277522),
+            (0.000203432, 0.000173907, 8.3521e-05),
+        ),
+    ),
+    "link_2": (
+        "link_1",
+        (0.02, 0, 0.04625),
+        (
+            1.15316,
+            (-0.131215, -0.00292583, 0.00021345),
+            (-0.00123582, 0.7065461, -0.00109575, 0.7076651),
+            (0.0179449, 0.0173612, 0.00102628),
+        ),
+    ),
+    "link_3": (
+        "link_2",
+        (-0.264, 0, 0),
+        (
+            0.686666,
+            (0.180836, -0.0009409, 0.0555494),
+            (0.0103901, 0.669684, -0.0033175, 0.742566),
+            (0.00566898, 0.00547578, 0.00059316),
+        ),
+    ),
+    "link_4": (
+        "link_3",
+        (0.245, 0, 0.06),
+        (
+            0.457899,
+            (0.0579784, 0.00027145, 0.0588445),
+            (0.9486879, 0.0346237, 0.307828, 0.0635164),
+            (0.000670827, 0.000661455, 0.000288648),
+        ),
+    ),
+    "link_5": (
+        "link_4",
+        (0.06775, 0, 0.0455),
+        (
+            0.366939,
+            (0.00412447, -1.1380e-05, -0.0428318),
+            (0.4961438, 0.5021278, 0.5035948, 0.4980978),
+            (0.000320622, 0.00026751, 0.000189108),
+        ),
+    ),
+    "link_6": (
+        "link_5",
+        (0.02895, 0, -0.0455),
+        (
+            0.671874,
+            (0.046841, 0.00145133, 0.00895674),
+            (0.2758541, 0.2912551, -0.6919572, 0.6002252),
+            (0.00118316, 0.00110863, 0.00078309),
+        ),
+    ),
+    "carriage_right": (
+        "link_6",
+        (0.0865, -0.023, 0),
+        (
+            0.081271,
+            (0.00169015, 0.00592793, 0.00201817),
+            (-0.3709729, 0.7408857, -0.08477207, 0.5534268),
+            (4.2957e-05, 3.8708e-05, 2.2153e-05),
+        ),
+    ),
+    "carriage_left": (
+        "link_6",
+        (0.0865, 0.023, 0),
+        (
+            0.081271,
+            (0.00169017, -0.00592796, -0.00365701),
+            (-0.03826911, 0.6280222, -0.2551011, 0.7341982),
+            (4.2111e-05, 3.6194e-05, 2.4000e-05),
+        ),
+    ),
 }
 
 # joint: (child body, type, axis, range, armature, actuator (kp, kv, force), urdf velocity, effort)
@@ -65,10 +126,26 @@ JOINTS = {
     "joint_3": ("link_4", "hinge", (0, -1, 0), (-1.5708, 1.5708), 0.0018, (100, 5, 7), 7.0, 7),
     "joint_4": ("link_5", "hinge", (0, 0, -1), (-1.5708, 1.5708), 0.0018, (50, 5, 7), 7.0, 7),
     "joint_5": ("link_6", "hinge", (1, 0, 0), (-PI, PI), 0.0018, (50, 5, 7), 7.0, 7),
-    "right_carriage_joint": ("carriage_right", "slide", (0, -1, 0), (0, 0.044), 0.1, None,
-                             0.0875, 400),
-    "left_carriage_joint": ("carriage_left", "slide", (0, 1, 0), (0, 0.044), 0.1,
-                            (1000, 50, 400), 0.0875, 400),
+    "right_carriage_joint": (
+        "carriage_right",
+        "slide",
+        (0, -1, 0),
+        (0, 0.044),
+        0.1,
+        None,
+        0.0875,
+        400,
+    ),
+    "left_carriage_joint": (
+        "carriage_left",
+        "slide",
+        (0, 1, 0),
+        (0, 0.044),
+        0.1,
+        (1000, 50, 400),
+        0.0875,
+        400,
+    ),
 }
 ARM_JOINTS = [f"joint_{i}" for i in range(6)]
 
@@ -90,8 +167,12 @@ FINGER_VISUAL = {
     "carriage_right": ((0.034781, 0.0164, 0.0), (0.034781, 0.0066, 0.0265)),
     "carriage_left": ((0.034781, -0.0164, 0.0), (0.034781, 0.0066, 0.0265)),
 }
-CAMERA_VISUAL = ("link_6", (0.0513206, 0, 0.0569399), (0.0115, 0.021, 0.021),
-                 (0.984808, 0, 0.173648, 0))
+CAMERA_VISUAL = (
+    "link_6",
+    (0.0513206, 0, 0.0569399),
+    (0.0115, 0.021, 0.021),
+    (0.984808, 0, 0.173648, 0),
+)
 
 Q_Y = (0.707107, 0.707107, 0, 0)  # capsule/cylinder axis along body y
 Q_X = (0.707107, 0, 0.707107, 0)  # along body x
@@ -106,8 +187,13 @@ COLLISION = [
     ("link_5", "cylinder", (0.031, 0.028), (0, 0, 0.03), None),
     ("link_6", "cylinder", (0.029, 0.05), (0, 0, 0), Q_X),
     ("link_6", "box", (0.0125, 0.094, 0.031), (0.0685, 0, 0), None),
-    ("link_6", "box", (0.0155, 0.025, 0.025), (0.0513206, 0, 0.0569399),
-     (0.984808, 0, 0.173648, 0)),
+    (
+        "link_6",
+        "box",
+        (0.0155, 0.025, 0.025),
+        (0.0513206, 0, 0.0569399),
+        (0.984808, 0, 0.173648, 0),
+    ),
 ]
 # One flat pad per finger, from the carriage to the fingertip (link_6 x 0.0875 .. 0.156).
 # Its inner face sits at |y| = q - 0.1 mm in link_6, so the pad gap is 2q - 0.2 mm as on
@@ -128,11 +214,13 @@ def fmt(v) -> str:
 
 def quat_to_mat(q) -> np.ndarray:
     w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def quat_to_rpy(q) -> tuple[float, float, float]:
@@ -185,37 +273,62 @@ def mjcf_arm(prefix: str, pos, quat, camera_name: str, indent: int) -> str:
             attrs = f'pos="{fmt(bpos)}"'
         cls = ' childclass="wxai"' if parent is None else ""
         emit(depth, f'<body name="{prefix}{name}" {attrs}{cls} gravcomp="1">')
-        emit(depth + 1, f'<inertial pos="{fmt(com)}" quat="{fmt(iquat)}" mass="{mass:.9g}" '
-                        f'diaginertia="{fmt(diag)}"/>')
+        emit(
+            depth + 1,
+            f'<inertial pos="{fmt(com)}" quat="{fmt(iquat)}" mass="{mass:.9g}" '
+            f'diaginertia="{fmt(diag)}"/>',
+        )
         for jname, (child, jtype, axis, rng, arm, _act, _vel, _eff) in JOINTS.items():
             if child == name:
-                emit(depth + 1, f'<joint name="{prefix}{jname}" type="{jtype}" axis="{fmt(axis)}" '
-                                f'range="{fmt(rng)}" armature="{arm}"/>')
+                emit(
+                    depth + 1,
+                    f'<joint name="{prefix}{jname}" type="{jtype}" axis="{fmt(axis)}" '
+                    f'range="{fmt(rng)}" armature="{arm}"/>',
+                )
         for b, center, half in VISUAL_BOXES:
             if b == name:
-                emit(depth + 1, f'<geom class="wxai_visual" pos="{fmt(center)}" '
-                                f'size="{fmt(half)}"/>')
+                emit(
+                    depth + 1, f'<geom class="wxai_visual" pos="{fmt(center)}" size="{fmt(half)}"/>'
+                )
         if name in FINGER_VISUAL:
             center, half = FINGER_VISUAL[name]
-            emit(depth + 1, f'<geom class="wxai_visual" material="wxai_grey" pos="{fmt(center)}" '
-                            f'size="{fmt(half)}"/>')
+            emit(
+                depth + 1,
+                f'<geom class="wxai_visual" material="wxai_grey" pos="{fmt(center)}" '
+                f'size="{fmt(half)}"/>',
+            )
         if name == CAMERA_VISUAL[0]:
             _, center, half, q = CAMERA_VISUAL
-            emit(depth + 1, f'<geom class="wxai_visual" material="wxai_grey" pos="{fmt(center)}" '
-                            f'quat="{fmt(q)}" size="{fmt(half)}"/>')
+            emit(
+                depth + 1,
+                f'<geom class="wxai_visual" material="wxai_grey" pos="{fmt(center)}" '
+                f'quat="{fmt(q)}" size="{fmt(half)}"/>',
+            )
         for k, (b, gtype, size, gpos, gquat) in enumerate(COLLISION):
             if b == name:
                 q = f' quat="{fmt(gquat)}"' if gquat else ""
-                emit(depth + 1, f'<geom name="{prefix}{name}_collision_{k}" class="wxai_collision" '
-                                f'type="{gtype}" size="{fmt(size)}" pos="{fmt(gpos)}"{q}/>')
+                emit(
+                    depth + 1,
+                    f'<geom name="{prefix}{name}_collision_{k}" class="wxai_collision" '
+                    f'type="{gtype}" size="{fmt(size)}" pos="{fmt(gpos)}"{q}/>',
+                )
         if name in PAD_POS:
-            emit(depth + 1, f'<geom name="{prefix}{PAD_NAME[name]}" class="wxai_pad" '
-                            f'size="{fmt(PAD_HALF)}" pos="{fmt(PAD_POS[name])}"/>')
+            emit(
+                depth + 1,
+                f'<geom name="{prefix}{PAD_NAME[name]}" class="wxai_pad" '
+                f'size="{fmt(PAD_HALF)}" pos="{fmt(PAD_POS[name])}"/>',
+            )
         if name == "link_6":
-            emit(depth + 1, f'<site name="{prefix}ee_site" pos="{fmt(EE_SITE)}" size="0.004" '
-                            f'rgba="1 0.3 0.1 0.6" group="4"/>')
-            emit(depth + 1, f'<camera name="{camera_name}" pos="{fmt(WRIST_CAM_POS)}" '
-                            f'quat="{fmt(WRIST_CAM_QUAT)}" fovy="{WRIST_FOVY}"/>')
+            emit(
+                depth + 1,
+                f'<site name="{prefix}ee_site" pos="{fmt(EE_SITE)}" size="0.004" '
+                f'rgba="1 0.3 0.1 0.6" group="4"/>',
+            )
+            emit(
+                depth + 1,
+                f'<camera name="{camera_name}" pos="{fmt(WRIST_CAM_POS)}" '
+                f'quat="{fmt(WRIST_CAM_QUAT)}" fovy="{WRIST_FOVY}"/>',
+            )
         for child_name, (parent, _p, _i) in BODIES.items():
             if parent == name:
                 body(child_name, depth + 1)
@@ -226,13 +339,15 @@ def mjcf_arm(prefix: str, pos, quat, camera_name: str, indent: int) -> str:
 
 
 def mjcf_gripper_equality(prefix: str) -> str:
-    return (f'    <joint name="{prefix}gripper_coupling" joint1="{prefix}right_carriage_joint" '
-            f'joint2="{prefix}left_carriage_joint" polycoef="0 1 0 0 0"/>\n')
+    return (
+        f'    <joint name="{prefix}gripper_coupling" joint1="{prefix}right_carriage_joint" '
+        f'joint2="{prefix}left_carriage_joint" polycoef="0 1 0 0 0"/>\n'
+    )
 
 
 def mjcf_actuators(prefix: str, arm: bool = True, gripper: bool = True) -> str:
     out = []
-    for jname, (_c, _t, _a, rng, _arm, act, _v, _e) in JOINTS.items():
+    for jname, (_c, _t, _a, _rng, _arm, act, _v, _e) in JOINTS.items():
         if act is None:
             continue
         is_gripper = jname == "left_carriage_joint"
@@ -240,8 +355,10 @@ def mjcf_actuators(prefix: str, arm: bool = True, gripper: bool = True) -> str:
             continue
         kp, kv, force = act
         aname = f"{prefix}gripper" if is_gripper else f"{prefix}{jname}"
-        out.append(f'    <position name="{aname}" class="wxai" joint="{prefix}{jname}" kp="{kp}" '
-                   f'kv="{kv}" forcerange="{-force} {force}"/>')
+        out.append(
+            f'    <position name="{aname}" class="wxai" joint="{prefix}{jname}" kp="{kp}" '
+            f'kv="{kv}" forcerange="{-force} {force}"/>'
+        )
     return "\n".join(out) + "\n"
 
 
@@ -310,12 +427,18 @@ def trossen_ai_xml() -> str:
         q = f' quat="{fmt(quat)}"' if quat else ""
         # The camera housings enclose the fixed cameras: collision only (group 3, not drawn).
         look = 'material="frame"' if k < len(FRAME_BOXES) else 'material="wxai_black" group="3"'
-        frame.append(f'      <geom name="frame_{k}" type="box" size="{fmt(half)}" pos="{fmt(pos)}"{q} '
-                     f'{look}/>')
-    cams = [f'      <camera name="{n}" pos="{fmt(p)}" quat="{fmt(q)}" fovy="{f}"/>'
-            for n, p, q, f in FIXED_CAMERAS]
-    arms = "".join(mjcf_arm(f"{side}/", pos, quat, f"cam_{side}_wrist", 6)
-                   for side, (pos, quat) in ARM_MOUNTS.items())
+        frame.append(
+            f'      <geom name="frame_{k}" type="box" size="{fmt(half)}" pos="{fmt(pos)}"{q} '
+            f"{look}/>"
+        )
+    cams = [
+        f'      <camera name="{n}" pos="{fmt(p)}" quat="{fmt(q)}" fovy="{f}"/>'
+        for n, p, q, f in FIXED_CAMERAS
+    ]
+    arms = "".join(
+        mjcf_arm(f"{side}/", pos, quat, f"cam_{side}_wrist", 6)
+        for side, (pos, quat) in ARM_MOUNTS.items()
+    )
     return f"""<!-- Trossen AI Stationary kit: two wxai follower arms on a table with four cameras.
      Generated by tools/build_models.py; do not edit by hand.
      World frame = tabletop frame: origin at the table centre on the floor, x away from the
@@ -401,8 +524,14 @@ def start_ee_pose(side: str) -> tuple[np.ndarray, np.ndarray]:
     t = t @ ee
     r = t[:3, :3]
     w = np.sqrt(max(0.0, 1 + np.trace(r))) / 2
-    quat = np.array([w, (r[2, 1] - r[1, 2]) / (4 * w), (r[0, 2] - r[2, 0]) / (4 * w),
-                     (r[1, 0] - r[0, 1]) / (4 * w)])
+    quat = np.array(
+        [
+            w,
+            (r[2, 1] - r[1, 2]) / (4 * w),
+            (r[0, 2] - r[2, 0]) / (4 * w),
+            (r[1, 0] - r[0, 1]) / (4 * w),
+        ]
+    )
     return t[:3, 3], quat
 
 
@@ -412,8 +541,10 @@ def scene_common_key(mocap: bool) -> str:
     key = f'    <key name="home" qpos="{fmt(qpos + qpos + cube)}"'
     if mocap:
         (lp, lq), (rp, rq) = start_ee_pose("left"), start_ee_pose("right")
-        key += (f'\n         mpos="{fmt(lp)} {fmt(rp)}"\n         mquat="{fmt(lq)} {fmt(rq)}"'
-                f'\n         ctrl="{GRIPPER_OPEN} {GRIPPER_OPEN}"')
+        key += (
+            f'\n         mpos="{fmt(lp)} {fmt(rp)}"\n         mquat="{fmt(lq)} {fmt(rq)}"'
+            f'\n         ctrl="{GRIPPER_OPEN} {GRIPPER_OPEN}"'
+        )
     else:
         ctrl = START_Q + (GRIPPER_OPEN,)
         key += f'\n         ctrl="{fmt(ctrl + ctrl)}"'
@@ -435,9 +566,11 @@ def trossen_ai_scene_xml() -> str:
     </body>
 """)
         # relpose: pose of link_6 in the mocap frame; the mocap frame is the ee_site frame.
-        welds.append(f'    <weld name="mocap_{side}_weld" body1="mocap_{side}" body2="{side}/link_6" '
-                     f'relpose="{fmt((-EE_SITE[0], 0, 0))} 1 0 0 0" '
-                     f'solref="0.01 1"/>\n')
+        welds.append(
+            f'    <weld name="mocap_{side}_weld" body1="mocap_{side}" body2="{side}/link_6" '
+            f'relpose="{fmt((-EE_SITE[0], 0, 0))} 1 0 0 0" '
+            f'solref="0.01 1"/>\n'
+        )
     return f"""<!-- Stationary AI, end-effector flavour: each arm's link_6 is welded to a mocap body.
      Generated by tools/build_models.py; do not edit by hand.
      The mocap frame is the arm's ee_site frame (0.156 m ahead of link_6, same orientation), and
@@ -483,8 +616,10 @@ def trossen_ai_scene_joint_xml() -> str:
 def urdf_inertia(iquat, diag) -> str:
     r = quat_to_mat(iquat)
     full = r @ np.diag(diag) @ r.T
-    return (f'ixx="{full[0, 0]:.9g}" ixy="{full[0, 1]:.9g}" ixz="{full[0, 2]:.9g}" '
-            f'iyy="{full[1, 1]:.9g}" iyz="{full[1, 2]:.9g}" izz="{full[2, 2]:.9g}"')
+    return (
+        f'ixx="{full[0, 0]:.9g}" ixy="{full[0, 1]:.9g}" ixz="{full[0, 2]:.9g}" '
+        f'iyy="{full[1, 1]:.9g}" iyz="{full[1, 2]:.9g}" izz="{full[2, 2]:.9g}"'
+    )
 
 
 def urdf_geometry(gtype: str, size) -> str:
@@ -496,28 +631,38 @@ def urdf_geometry(gtype: str, size) -> str:
 
 
 def wxai_follower_urdf() -> str:
-    out = ['<?xml version="1.0"?>',
-           "<!-- WidowX AI (wxai) follower arm. Generated by tools/build_models.py from the same",
-           "     facts as wxai_follower.xml; joints, axes and limits are identical. -->",
-           '<robot name="wxai_follower">',
-           '  <material name="wxai_black"><color rgba="0.12 0.12 0.13 1"/></material>']
+    out = [
+        '<?xml version="1.0"?>',
+        "<!-- WidowX AI (wxai) follower arm. Generated by tools/build_models.py from the same",
+        "     facts as wxai_follower.xml; joints, axes and limits are identical. -->",
+        '<robot name="wxai_follower">',
+        '  <material name="wxai_black"><color rgba="0.12 0.12 0.13 1"/></material>',
+    ]
     for name, (_parent, _pos, (mass, com, iquat, diag)) in BODIES.items():
         out.append(f'  <link name="{name}">')
-        out.append(f'    <inertial><origin xyz="{fmt(com)}" rpy="0 0 0"/><mass value="{mass:.9g}"/>'
-                   f"<inertia {urdf_inertia(iquat, diag)}/></inertial>")
+        out.append(
+            f'    <inertial><origin xyz="{fmt(com)}" rpy="0 0 0"/><mass value="{mass:.9g}"/>'
+            f"<inertia {urdf_inertia(iquat, diag)}/></inertial>"
+        )
         for b, center, half in VISUAL_BOXES:
             if b == name:
-                out.append(f'    <visual><origin xyz="{fmt(center)}"/><geometry>'
-                           f'<box size="{fmt(2 * np.asarray(half))}"/></geometry>'
-                           f'<material name="wxai_black"/></visual>')
+                out.append(
+                    f'    <visual><origin xyz="{fmt(center)}"/><geometry>'
+                    f'<box size="{fmt(2 * np.asarray(half))}"/></geometry>'
+                    f'<material name="wxai_black"/></visual>'
+                )
         for b, gtype, size, gpos, gquat in COLLISION:
             if b == name:
                 rpy = fmt(quat_to_rpy(gquat)) if gquat else "0 0 0"
-                out.append(f'    <collision><origin xyz="{fmt(gpos)}" rpy="{rpy}"/><geometry>'
-                           f"{urdf_geometry(gtype, size)}</geometry></collision>")
+                out.append(
+                    f'    <collision><origin xyz="{fmt(gpos)}" rpy="{rpy}"/><geometry>'
+                    f"{urdf_geometry(gtype, size)}</geometry></collision>"
+                )
         if name in PAD_POS:
-            out.append(f'    <collision><origin xyz="{fmt(PAD_POS[name])}"/><geometry>'
-                       f'<box size="{fmt(2 * np.asarray(PAD_HALF))}"/></geometry></collision>')
+            out.append(
+                f'    <collision><origin xyz="{fmt(PAD_POS[name])}"/><geometry>'
+                f'<box size="{fmt(2 * np.asarray(PAD_HALF))}"/></geometry></collision>'
+            )
         out.append("  </link>")
     for jname, (child, jtype, axis, rng, _arm, _act, vel, eff) in JOINTS.items():
         parent, pos, _ = BODIES[child]
@@ -525,14 +670,18 @@ def wxai_follower_urdf() -> str:
         out.append(f'  <joint name="{jname}" type="{utype}">')
         out.append(f'    <parent link="{parent}"/><child link="{child}"/>')
         out.append(f'    <origin xyz="{fmt(pos)}" rpy="0 0 0"/><axis xyz="{fmt(axis)}"/>')
-        out.append(f'    <limit lower="{rng[0]:.9g}" upper="{rng[1]:.9g}" effort="{eff}" '
-                   f'velocity="{vel}"/>')
+        out.append(
+            f'    <limit lower="{rng[0]:.9g}" upper="{rng[1]:.9g}" effort="{eff}" '
+            f'velocity="{vel}"/>'
+        )
         if jname == "right_carriage_joint":
             out.append('    <mimic joint="left_carriage_joint" multiplier="1" offset="0"/>')
         out.append("  </joint>")
     out.append('  <link name="ee_gripper_link"/>')
-    out.append('  <joint name="ee_gripper" type="fixed"><parent link="link_6"/>'
-               f'<child link="ee_gripper_link"/><origin xyz="{fmt(EE_SITE)}" rpy="0 0 0"/></joint>')
+    out.append(
+        '  <joint name="ee_gripper" type="fixed"><parent link="link_6"/>'
+        f'<child link="ee_gripper_link"/><origin xyz="{fmt(EE_SITE)}" rpy="0 0 0"/></joint>'
+    )
     out.append("</robot>")
     return "\n".join(out) + "\n"
 

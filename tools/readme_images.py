@@ -1,6 +1,6 @@
 """Save one 640x480 frame per camera at the hand-over of a recorded transfer (README images).
 
-    python tools/readme_images.py [--step 310] [--out docs/images]
+python tools/readme_images.py [--step 310] [--out docs/images]
 """
 
 from __future__ import annotations

@@ -32,7 +32,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     name, rest = args[0], args[1:]
     if name not in SUBCOMMANDS:
-        print(f"error: unknown subcommand '{name}'; valid: {', '.join(SUBCOMMANDS)}", file=sys.stderr)
+        print(
+            f"error: unknown subcommand '{name}'; valid: {', '.join(SUBCOMMANDS)}", file=sys.stderr
+        )
         return 2
     module = importlib.import_module(SUBCOMMANDS[name])
     return int(module.cli(rest) or 0)

@@ -25,7 +25,8 @@ ROOT_DIR: str = os.path.expanduser("~/.trossen/mujoco/data/")
 GRIPPER_OPEN: float = 0.044
 GRIPPER_CLOSED: float = 0.012
 
-#: Arm pose at episode start: 16 values, [left j0..j5, left fingers x2, right j0..j5, right fingers x2].
+#: Arm pose at episode start, 16 values:
+#: [left j0..j5, left fingers x2, right j0..j5, right fingers x2].
 START_ARM_POSE: list[float] = [
     0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
     0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,

@@ -23,7 +23,9 @@ def unknown_name_error(kind: str, name: str, valid: Iterable[str], hint: str = "
     return UserError(msg)
 
 
-def run_cli(main: Callable[[Sequence[str] | None], int | None], argv: Sequence[str] | None = None) -> int:
+def run_cli(
+    main: Callable[[Sequence[str] | None], int | None], argv: Sequence[str] | None = None
+) -> int:
     """Run a CLI ``main`` and map user errors to a one-line message and exit code 2.
 
     KeyboardInterrupt exits with 130 after the callee has cleaned up.

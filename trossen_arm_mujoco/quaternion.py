@@ -41,12 +41,14 @@ class Quaternion:
     def __mul__(self, other: Quaternion) -> Quaternion:
         w1, x1, y1, z1 = self.elements
         w2, x2, y2, z2 = Quaternion(other).elements
-        return Quaternion([
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-        ])
+        return Quaternion(
+            [
+                w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+                w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+            ]
+        )
 
     def __repr__(self) -> str:
         return f"Quaternion({np.round(self.elements, 6).tolist()})"

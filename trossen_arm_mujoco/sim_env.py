@@ -16,6 +16,7 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
     import sys
 
     sys.path[0] = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    os.environ.setdefault("MUJOCO_GL", "egl")  # as the package does, before mujoco loads
 
 import numpy as np
 from dm_control.mujoco.engine import Physics

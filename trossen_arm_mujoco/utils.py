@@ -1,4 +1,4 @@
-"""Helpers of the documented public surface: ``sample_box_pose``, ``make_sim_env``, ``Quaternion``."""
+"""Helpers of the documented public surface: sample_box_pose, make_sim_env, Quaternion."""
 
 from __future__ import annotations
 

@@ -12,8 +12,14 @@ SETTINGS = RecordSettings(episode_len=30, cam_names=("cam_high",), height=16, wi
 
 
 def _run(folder, n, workers=1, skip_failed=False, overwrite=False, settings=SETTINGS):
-    rec = DatasetRecorder(settings, folder, num_workers=workers, skip_failed=skip_failed,
-                          overwrite=overwrite, log=lambda s: None)
+    rec = DatasetRecorder(
+        settings,
+        folder,
+        num_workers=workers,
+        skip_failed=skip_failed,
+        overwrite=overwrite,
+        log=lambda s: None,
+    )
     return rec.run(n, plan_run(folder, n, overwrite))
 
 

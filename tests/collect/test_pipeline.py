@@ -43,8 +43,18 @@ def test_episode_matches_documented_layout(episode_file):
             assert ds.shape == (40, 24, 32, 3) and ds.dtype == np.uint8
             assert ds.chunks == (1, 24, 32, 3)
         assert set(f["observations/images"]) == set(CAMS)
-        for key in ("task_name", "seed", "success", "episode_len", "dt", "camera_names",
-                    "box_pose", "package_version", "mujoco_version", "schema_version"):
+        for key in (
+            "task_name",
+            "seed",
+            "success",
+            "episode_len",
+            "dt",
+            "camera_names",
+            "box_pose",
+            "package_version",
+            "mujoco_version",
+            "schema_version",
+        ):
             assert key in f.attrs, key
 
 

@@ -26,8 +26,9 @@ def _run_cli(args, capsys):
 
 
 def test_records_and_reports_success_line(tmp_path, capsys):
-    rc, out, _ = _run_cli(["--data_dir", "d", "--root_dir", str(tmp_path), "--num_episodes", "2",
-                           *FAST], capsys)
+    rc, out, _ = _run_cli(
+        ["--data_dir", "d", "--root_dir", str(tmp_path), "--num_episodes", "2", *FAST], capsys
+    )
     assert rc == 0
     assert out.strip().splitlines()[-1] == "Success: 0 / 2"
     assert [k for k, _ in list_episodes(tmp_path / "d")] == [0, 1]
@@ -37,9 +38,23 @@ def test_records_and_reports_success_line(tmp_path, capsys):
 
 
 def test_cam_names_subset_and_compression(tmp_path, capsys):
-    rc, _, _ = _run_cli(["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "5",
-                         "--cam_names", "cam_low,cam_right_wrist", "--image_size", "12x16",
-                         "--compression", "gzip"], capsys)
+    rc, _, _ = _run_cli(
+        [
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            "--episode_len",
+            "5",
+            "--cam_names",
+            "cam_low,cam_right_wrist",
+            "--image_size",
+            "12x16",
+            "--compression",
+            "gzip",
+        ],
+        capsys,
+    )
     assert rc == 0
     with h5py.File(tmp_path / "d" / "episode_0.hdf5") as f:
         assert set(f["observations/images"]) == {"cam_low", "cam_right_wrist"}
@@ -78,9 +93,20 @@ def test_unwritable_root_is_one_line_exit_2(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
     proc = subprocess.run(
-        [sys.executable, "-m", "trossen_arm_mujoco.scripts.record_sim_episodes", "--data_dir",
-         "d", "--root_dir", str(blocker / "sub"), *FAST],
-        capture_output=True, text=True, cwd=REPO, timeout=120,
+        [
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.scripts.record_sim_episodes",
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(blocker / "sub"),
+            *FAST,
+        ],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
     )
     assert proc.returncode == 2
     assert proc.stderr.strip().startswith("error: cannot write to")
@@ -89,11 +115,25 @@ def test_unwritable_root_is_one_line_exit_2(tmp_path):
 
 def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
     data = tmp_path / "d"
-    cmd = [sys.executable, "trossen_arm_mujoco/scripts/record_sim_episodes.py", "--data_dir",
-           "d", "--root_dir", str(tmp_path), "--num_episodes", "3", "--episode_len", "300",
-           "--cam_names", "cam_high", "--image_size", "24x32"]
-    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    cmd = [
+        sys.executable,
+        "trossen_arm_mujoco/scripts/record_sim_episodes.py",
+        "--data_dir",
+        "d",
+        "--root_dir",
+        str(tmp_path),
+        "--num_episodes",
+        "3",
+        "--episode_len",
+        "300",
+        "--cam_names",
+        "cam_high",
+        "--image_size",
+        "24x32",
+    ]
+    proc = subprocess.Popen(
+        cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     deadline = time.time() + 240
     while not (data / "episode_1.hdf5").exists():
         assert proc.poll() is None, proc.communicate()
@@ -117,9 +157,91 @@ def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
 
 def test_trossen_mujoco_record_dispatch(tmp_path):
     proc = subprocess.run(
-        [sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--data_dir", "d",
-         "--root_dir", str(tmp_path), *FAST],
-        capture_output=True, text=True, cwd=REPO, timeout=120,
+        [
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "record",
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            *FAST,
+        ],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1].startswith("Success:")
+
+
+def _xvfb_display():
+    import shutil
+
+    if not (shutil.which("Xvfb") and shutil.which("import")):
+        pytest.skip("Xvfb and ImageMagick 'import' are needed (apt-get install xvfb imagemagick)")
+    for num in range(120, 140):
+        if not Path(f"/tmp/.X11-unix/X{num}").exists() and not Path(f"/tmp/.X{num}-lock").exists():
+            return num
+    pytest.skip("no free X display number")
+
+
+def test_onscreen_render_shows_live_viewer_under_xvfb(tmp_path):
+    import numpy as np
+    from PIL import Image
+
+    num = _xvfb_display()
+    xvfb = subprocess.Popen(
+        ["Xvfb", f":{num}", "-screen", "0", "1280x1024x24"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        time.sleep(1.5)
+        env = {**os.environ, "DISPLAY": f":{num}", "MUJOCO_GL": "egl"}
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "trossen_arm_mujoco/scripts/record_sim_episodes.py",
+                "--data_dir",
+                "d",
+                "--root_dir",
+                str(tmp_path),
+                "--episode_len",
+                "150",
+                "--cam_names",
+                "cam_high,cam_left_wrist",
+                "--image_size",
+                "120x160",
+                "--onscreen_render",
+            ],
+            cwd=REPO,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        shot = tmp_path / "screen.png"
+        deadline = time.time() + 120
+        colours = 0
+        while time.time() < deadline and proc.poll() is None:
+            time.sleep(2.0)
+            subprocess.run(
+                ["import", "-display", f":{num}", "-window", "root", str(shot)],
+                capture_output=True,
+                timeout=30,
+            )
+            if shot.exists():
+                img = np.asarray(Image.open(shot).convert("RGB"))
+                colours = len(np.unique(img.reshape(-1, 3), axis=0))
+                if colours > 200:
+                    break
+        out, err = proc.communicate(timeout=180)
+        assert proc.returncode == 0, err
+        assert "live view off" not in err
+        assert colours > 200, f"screenshot looks blank ({colours} colours)"
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=10)

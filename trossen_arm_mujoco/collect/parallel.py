@@ -153,8 +153,10 @@ class DatasetRecorder:
             assert outcome.path is not None
             if not outcome.success:
                 outcome.path.unlink(missing_ok=True)
-                self.log(f"attempt {outcome.attempt}: failed (reward {outcome.final_reward:g}),"
-                         " discarded")
+                self.log(
+                    f"attempt {outcome.attempt}: failed (reward {outcome.final_reward:g}),"
+                    " discarded"
+                )
                 return False
             final = episode_path(self.folder, index)
             if final.exists() and not self.overwrite:
@@ -163,8 +165,10 @@ class DatasetRecorder:
             outcome.path = final
         report.saved.append(outcome)
         status = "success" if outcome.success else "failure"
-        self.log(f"episode {index}: {status} (final reward {outcome.final_reward:g}, "
-                 f"seed {outcome.seed}) -> {outcome.path}")
+        self.log(
+            f"episode {index}: {status} (final reward {outcome.final_reward:g}, "
+            f"seed {outcome.seed}) -> {outcome.path}"
+        )
         return True
 
     def _run_here(self, attempts: range, index: int, total: int, report: RunReport) -> None:
@@ -174,10 +178,15 @@ class DatasetRecorder:
                 if index >= total:
                     break
                 path, overwrite = self._target(attempt, index)
-                with tqdm(total=self.settings.episode_len, desc=f"episode {index}",
-                          unit="step", leave=False) as bar:
-                    outcome = recorder.record(attempt, path, overwrite=overwrite,
-                                              progress=bar.update)
+                with tqdm(
+                    total=self.settings.episode_len,
+                    desc=f"episode {index}",
+                    unit="step",
+                    leave=False,
+                ) as bar:
+                    outcome = recorder.record(
+                        attempt, path, overwrite=overwrite, progress=bar.update
+                    )
                 if self._publish(outcome, index, report):
                     index += 1
         finally:

@@ -186,8 +186,9 @@ class EpisodeRecorder:
                 final_reward=float(rewards[-1]),
                 max_reward=float(rewards.max()),
             )
-        return EpisodeOutcome(attempt, seed, success, float(rewards[-1]), float(rewards.max()),
-                              Path(path))
+        return EpisodeOutcome(
+            attempt, seed, success, float(rewards[-1]), float(rewards.max()), Path(path)
+        )
 
     def close(self) -> None:
         for env in (self.ee_env, self.joint_env):
@@ -197,4 +198,3 @@ class EpisodeRecorder:
 def default_cameras(task_name: str) -> list[str]:
     """The cameras a task records by default."""
     return list(SIM_TASK_CONFIGS[task_name]["cam_names"])
-

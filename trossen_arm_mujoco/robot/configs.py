@@ -50,7 +50,9 @@ class MoveGroupSpec:
             return GripperGroup(model, name, self.joints, self.actuators[0])
         if self.kind == "base":
             return ImmobileBaseGroup(model, name, self.base_body)
-        raise unknown_name_error("move group kind", self.kind, ["arm", "mocap_arm", "gripper", "base"])
+        raise unknown_name_error(
+            "move group kind", self.kind, ["arm", "mocap_arm", "gripper", "base"]
+        )
 
 
 @dataclass(frozen=True)
@@ -77,11 +79,13 @@ def _arm_groups(prefix: str, mocap: bool, side: str = "") -> dict[str, MoveGroup
     g = f"{side}_" if side else ""
     joints = tuple(prefix + j for j in ARM_JOINTS)
     if mocap:
-        arm = MoveGroupSpec("mocap_arm", joints, mocap_body=f"mocap_{side}",
-                            frame_site=f"{prefix}ee_site")
+        arm = MoveGroupSpec(
+            "mocap_arm", joints, mocap_body=f"mocap_{side}", frame_site=f"{prefix}ee_site"
+        )
     else:
-        arm = MoveGroupSpec("arm", joints, tuple(prefix + j for j in ARM_JOINTS),
-                            frame_site=f"{prefix}ee_site")
+        arm = MoveGroupSpec(
+            "arm", joints, tuple(prefix + j for j in ARM_JOINTS), frame_site=f"{prefix}ee_site"
+        )
     return {
         f"{g}base": MoveGroupSpec("base", base_body=f"{prefix}base_link"),
         f"{g}arm": arm,
@@ -130,5 +134,9 @@ def stationary_ai_mocap_config() -> RobotConfig:
 def qpos16_to_dict(qpos: np.ndarray) -> dict[str, np.ndarray]:
     """Split the 16-value kit layout into per-group joint vectors."""
     q = np.asarray(qpos, dtype=float)
-    return {"left_arm": q[0:6], "left_gripper": q[6:8], "right_arm": q[8:14],
-            "right_gripper": q[14:16]}
+    return {
+        "left_arm": q[0:6],
+        "left_gripper": q[6:8],
+        "right_arm": q[8:14],
+        "right_gripper": q[14:16],
+    }

@@ -37,7 +37,10 @@ class MoveGroup:
         self.joint_names = list(joint_names)
         self.joint_ids = np.array([lookup_id(model, "joint", j) for j in joint_names], dtype=int)
         for jid, jname in zip(self.joint_ids, self.joint_names):
-            if int(model.jnt_type[jid]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            if int(model.jnt_type[jid]) not in (
+                int(mujoco.mjtJoint.mjJNT_HINGE),
+                int(mujoco.mjtJoint.mjJNT_SLIDE),
+            ):
                 raise UserError(f"joint '{jname}' of move group '{name}' is not a hinge or slide")
         self.qpos_idx = model.jnt_qposadr[self.joint_ids].astype(int)
         self.dof_idx = model.jnt_dofadr[self.joint_ids].astype(int)

@@ -42,10 +42,12 @@ class Robot:
     def compute_control(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """Compute and apply the controls of the commanded groups; returns them by group."""
         out = {}
-        for name, cmd in self._commands.items():
+        for name, cmd in list(self._commands.items()):
             ctrl = self.controllers[name].compute(data, cmd)
             self.view.group(name).set_ctrl(data, ctrl)
             out[name] = ctrl
+            if self.controllers[name].command_mode in ("joint_rel_position", "ee_delta"):
+                del self._commands[name]  # relative: applied once, then the new target holds
         return out
 
     def reset(self, data: mujoco.MjData) -> None:

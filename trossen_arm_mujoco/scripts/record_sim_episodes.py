@@ -34,33 +34,75 @@ def build_parser() -> argparse.ArgumentParser:
         description="Record scripted simulation episodes (two-phase: mocap rollout, joint "
         "replay with cameras) into HDF5 files.",
     )
-    p.add_argument("--task_name", default="sim_transfer_cube",
-                   help="task to record (default: sim_transfer_cube)")
-    p.add_argument("--data_dir", required=True,
-                   help="dataset folder, relative to --root_dir unless absolute")
+    p.add_argument(
+        "--task_name",
+        default="sim_transfer_cube",
+        help="task to record (default: sim_transfer_cube)",
+    )
+    p.add_argument(
+        "--data_dir", required=True, help="dataset folder, relative to --root_dir unless absolute"
+    )
     p.add_argument("--root_dir", default=ROOT_DIR, help=f"root of datasets (default: {ROOT_DIR})")
-    p.add_argument("--num_episodes", type=int, default=None,
-                   help="episodes the dataset should hold (default: task config)")
-    p.add_argument("--episode_len", type=int, default=None,
-                   help="steps per episode at 50 Hz (default: task config, 600)")
-    p.add_argument("--onscreen_render", action="store_true", default=None,
-                   help="show a live viewer with the camera images while recording")
-    p.add_argument("--inject_noise", action="store_true", default=None,
-                   help="perturb the scripted waypoints (seeded)")
-    p.add_argument("--cam_names", default=None,
-                   help="comma-separated cameras to record, or 'none' (default: all 4)")
-    p.add_argument("--seed", type=int, default=0,
-                   help="run seed; episode k uses a seed derived from (seed, k) (default: 0)")
-    p.add_argument("--num_workers", type=int, default=1,
-                   help="worker processes; results are identical for any number (default: 1)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="start afresh at episode 0, replacing existing episodes")
-    p.add_argument("--skip_failed", action="store_true",
-                   help="keep attempting until num_episodes successful episodes are saved")
-    p.add_argument("--compression", default="none", choices=COMPRESSIONS,
-                   help="image compression (default: none)")
-    p.add_argument("--image_size", default="480x640",
-                   help="camera image size HEIGHTxWIDTH (default: 480x640)")
+    p.add_argument(
+        "--num_episodes",
+        type=int,
+        default=None,
+        help="episodes the dataset should hold (default: task config)",
+    )
+    p.add_argument(
+        "--episode_len",
+        type=int,
+        default=None,
+        help="steps per episode at 50 Hz (default: task config, 600)",
+    )
+    p.add_argument(
+        "--onscreen_render",
+        action="store_true",
+        default=None,
+        help="show a live viewer with the camera images while recording",
+    )
+    p.add_argument(
+        "--inject_noise",
+        action="store_true",
+        default=None,
+        help="perturb the scripted waypoints (seeded)",
+    )
+    p.add_argument(
+        "--cam_names",
+        default=None,
+        help="comma-separated cameras to record, or 'none' (default: all 4)",
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="run seed; episode k uses a seed derived from (seed, k) (default: 0)",
+    )
+    p.add_argument(
+        "--num_workers",
+        type=int,
+        default=1,
+        help="worker processes; results are identical for any number (default: 1)",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="start afresh at episode 0, replacing existing episodes",
+    )
+    p.add_argument(
+        "--skip_failed",
+        action="store_true",
+        help="keep attempting until num_episodes successful episodes are saved",
+    )
+    p.add_argument(
+        "--compression",
+        default="none",
+        choices=COMPRESSIONS,
+        help="image compression (default: none)",
+    )
+    p.add_argument(
+        "--image_size", default="480x640", help="camera image size HEIGHTxWIDTH (default: 480x640)"
+    )
     return p
 
 
@@ -136,19 +178,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     from trossen_arm_mujoco.collect.pipeline import RecordSettings
 
     settings = RecordSettings(
-        task_name=args.task_name, episode_len=episode_len, inject_noise=noise,
-        cam_names=cams, height=height, width=width, compression=args.compression,
+        task_name=args.task_name,
+        episode_len=episode_len,
+        inject_noise=noise,
+        cam_names=cams,
+        height=height,
+        width=width,
+        compression=args.compression,
         base_seed=args.seed,
     )
     plan = plan_run(folder, num_episodes, args.overwrite)
     if plan.first_index >= num_episodes:
-        print(f"{folder} already holds episodes 0..{plan.first_index - 1}; nothing to record "
-              f"(raise --num_episodes to add more, or --overwrite to start afresh)")
+        print(
+            f"{folder} already holds episodes 0..{plan.first_index - 1}; nothing to record "
+            f"(raise --num_episodes to add more, or --overwrite to start afresh)"
+        )
         return 0
     if plan.first_index:
         print(f"continuing after existing episode {plan.first_index - 1} in {folder}")
-    print(f"recording episodes {plan.first_index}..{num_episodes - 1} of '{args.task_name}' "
-          f"({episode_len} steps, cameras: {', '.join(cams) or 'none'}) into {folder}")
+    print(
+        f"recording episodes {plan.first_index}..{num_episodes - 1} of '{args.task_name}' "
+        f"({episode_len} steps, cameras: {', '.join(cams) or 'none'}) into {folder}"
+    )
 
     viewer = None
     hook = None
@@ -157,9 +208,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     start = time.perf_counter()
     try:
-        recorder = DatasetRecorder(settings, folder, num_workers=args.num_workers,
-                                   skip_failed=args.skip_failed, overwrite=args.overwrite,
-                                   step_hook=hook)
+        recorder = DatasetRecorder(
+            settings,
+            folder,
+            num_workers=args.num_workers,
+            skip_failed=args.skip_failed,
+            overwrite=args.overwrite,
+            step_hook=hook,
+        )
         report = recorder.run(num_episodes, plan)
     finally:
         signal.signal(signal.SIGTERM, previous)
@@ -169,17 +225,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     saved = report.saved
     if report.interrupted:
         kept = sorted(k for k, _ in _episodes(folder))
-        print(f"interrupted: the episode in progress was discarded; {len(kept)} finished "
-              f"episode(s) kept in {folder} ({_ranges(kept)}); rerun the same command to "
-              "continue", file=sys.stderr)
+        print(
+            f"interrupted: the episode in progress was discarded; {len(kept)} finished "
+            f"episode(s) kept in {folder} ({_ranges(kept)}); rerun the same command to "
+            "continue",
+            file=sys.stderr,
+        )
         return 130
     print(f"recorded {len(saved)} episode(s) in {wall:.1f} s")
     if args.skip_failed:
         print(f"attempts: {report.attempts} (bound {recorder.max_attempts(num_episodes)})")
         if len(saved) < num_episodes - plan.first_index:
             print(f"Success: {report.successes} / {report.attempts}")
-            raise UserError(f"only {len(saved)} successful episodes after {report.attempts} "
-                            "attempts; check the task or rerun to continue")
+            raise UserError(
+                f"only {len(saved)} successful episodes after {report.attempts} "
+                "attempts; check the task or rerun to continue"
+            )
         print(f"Success: {report.successes} / {report.attempts}")
     else:
         print(f"Success: {report.successes} / {len(saved)}")

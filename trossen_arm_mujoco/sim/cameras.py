@@ -24,7 +24,10 @@ class CameraSet:
     """
 
     def __init__(
-        self, model: mujoco.MjModel, camera_names: Sequence[str], height: int = 480,
+        self,
+        model: mujoco.MjModel,
+        camera_names: Sequence[str],
+        height: int = 480,
         width: int = 640,
     ):
         self.model = model

@@ -30,7 +30,7 @@ class FreeJointObject:
     def set_pose(self, data: mujoco.MjData, pose: Sequence[float]) -> None:
         """Place the object and zero its velocity (call mj_forward afterwards)."""
         p = np.asarray(pose, dtype=float)
-        if p.shape != (7,) or not np.all(np.isfinite(p)):
+        if p.shape != (7,) or not np.all(np.isfinite(p)) or np.linalg.norm(p[3:]) < 1e-9:
             raise UserError(f"{self.joint_name}: pose must be 7 finite values [xyz, quat wxyz]")
         p[3:] /= np.linalg.norm(p[3:])
         data.qpos[self.qpos_adr : self.qpos_adr + 7] = p

@@ -153,4 +153,3 @@ class StationaryTaskBase(base.Task):
 
     def get_reward(self, physics: Physics) -> float:
         raise NotImplementedError
-

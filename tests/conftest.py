@@ -1,0 +1,114 @@
+"""Suite-wide setup: headless rendering, and a guard that fails any non-loopback connection.
+
+The guard patches ``socket.socket.connect``, ``connect_ex``, ``sendto`` and
+``socket.create_connection`` for the whole session. A connection to anything but loopback
+(127.0.0.0/8, ::1, "localhost") or an AF_UNIX path raises ``NonLoopbackConnectionError``
+naming the address, before the real call (and before any DNS lookup). Every blocked attempt
+is also recorded, and the test during which it happened fails at teardown even if the code
+under test swallowed the exception.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import os
+import socket
+from collections.abc import Iterator
+
+import pytest
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+class NonLoopbackConnectionError(RuntimeError):
+    """A test tried to reach a non-loopback address."""
+
+
+def is_loopback_address(family: int, address: object) -> bool:
+    """Whether connecting to ``address`` stays on this machine (loopback or AF_UNIX)."""
+    if family == getattr(socket, "AF_UNIX", object()) or isinstance(address, (str, bytes)):
+        return True  # AF_UNIX path (or abstract socket name)
+    if not isinstance(address, tuple) or not address:
+        return False
+    host = address[0]
+    if isinstance(host, bytes):
+        host = host.decode(errors="replace")
+    if not isinstance(host, str):
+        return False
+    if host.lower() == "localhost":
+        return True
+    try:
+        ip = ipaddress.ip_address(host.split("%", 1)[0])
+    except ValueError:
+        return False  # any other host name would need a DNS lookup: not loopback
+    mapped = getattr(ip, "ipv4_mapped", None)
+    return ip.is_loopback or (mapped is not None and mapped.is_loopback)
+
+
+class NetworkGuard:
+    """Installs the socket patches and records blocked attempts."""
+
+    error_type = NonLoopbackConnectionError
+    allows = staticmethod(is_loopback_address)
+
+    def __init__(self) -> None:
+        self.blocked: list[str] = []
+        self.real_connect = socket.socket.connect
+        self.real_connect_ex = socket.socket.connect_ex
+        self.real_sendto = socket.socket.sendto
+        self.real_create_connection = socket.create_connection
+
+    def check(self, family: int, address: object, via: str) -> None:
+        if not is_loopback_address(family, address):
+            msg = (
+                f"network access blocked by tests/conftest.py: {via} to non-loopback address "
+                f"{address!r}"
+            )
+            self.blocked.append(msg)
+            raise NonLoopbackConnectionError(msg)
+
+    def install(self, mp: pytest.MonkeyPatch) -> None:
+        guard = self
+
+        def connect(sock, address):
+            guard.check(sock.family, address, "socket.connect")
+            return guard.real_connect(sock, address)
+
+        def connect_ex(sock, address):
+            guard.check(sock.family, address, "socket.connect_ex")
+            return guard.real_connect_ex(sock, address)
+
+        def sendto(sock, data, *args):
+            if args:  # sendto(data, address) or sendto(data, flags, address)
+                guard.check(sock.family, args[-1], "socket.sendto")
+            return guard.real_sendto(sock, data, *args)
+
+        def create_connection(address, *args, **kwargs):
+            guard.check(socket.AF_INET, address, "socket.create_connection")
+            return guard.real_create_connection(address, *args, **kwargs)
+
+        mp.setattr(socket.socket, "connect", connect)
+        mp.setattr(socket.socket, "connect_ex", connect_ex)
+        mp.setattr(socket.socket, "sendto", sendto)
+        mp.setattr(socket, "create_connection", create_connection)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _network_guard_session() -> Iterator[NetworkGuard]:
+    guard = NetworkGuard()
+    with pytest.MonkeyPatch.context() as mp:
+        guard.install(mp)
+        yield guard
+
+
+@pytest.fixture(autouse=True)
+def network_guard(_network_guard_session: NetworkGuard) -> Iterator[NetworkGuard]:
+    """The session's guard; fails the test if it blocked anything the test did not expect
+    (a test that provokes a block on purpose clears ``guard.blocked``)."""
+    guard = _network_guard_session
+    guard.blocked.clear()
+    yield guard
+    if guard.blocked:
+        attempts = "; ".join(guard.blocked)
+        guard.blocked.clear()
+        pytest.fail(f"the test tried to reach the network: {attempts}", pytrace=False)

@@ -1,0 +1,126 @@
+"""Action modes, action validation and the safety floor above the table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.errors import UserError
+
+REACH = "TrossenMujoco/WXAIReach-v0"
+
+
+def _ee_z(env):
+    return env.unwrapped.task.ee_pos()[2]
+
+
+@pytest.mark.parametrize(
+    "mode, dim", [("joint_position", 7), ("joint_rel_position", 7), ("ee_delta", 4)]
+)
+def test_action_dims(make_env, mode, dim):
+    env = make_env(REACH, action_mode=mode)
+    assert env.action_space.shape == (dim,)
+    assert np.all(env.action_space.low == -1) and np.all(env.action_space.high == 1)
+
+
+def test_transfer_cube_actions_cover_both_arms(make_env):
+    env = make_env("TrossenMujoco/StationaryAITransferCube-v0", action_mode="ee_delta")
+    assert env.action_space.shape == (8,)
+    assert make_env("TrossenMujoco/StationaryAITransferCube-v0").action_space.shape == (14,)
+
+
+def test_ee_delta_moves_tool_frame(make_env):
+    env = make_env(REACH, action_mode="ee_delta")
+    env.reset(seed=0)
+    x0 = env.unwrapped.task.ee_pos()
+    for _ in range(10):
+        env.step(np.array([1.0, 0.0, 0.0, 0.0]))
+    moved = env.unwrapped.task.ee_pos() - x0
+    assert moved[0] > 0.1 and abs(moved[1]) < 0.02 and abs(moved[2]) < 0.02
+
+
+def test_ee_delta_hold_orientation(make_env):
+    env = make_env("TrossenMujoco/WXAIPush-v0", action_mode="ee_delta")
+    env.reset(seed=0)
+    arm = env.unwrapped.task.arm
+    quat0 = arm.get_frame_pose(env.unwrapped.scene.data)[3:]
+    for _ in range(20):
+        env.step(np.array([0.5, 0.7, 0.3, 0.0]))
+    quat = arm.get_frame_pose(env.unwrapped.scene.data)[3:]
+    assert abs(np.dot(quat, quat0)) > np.cos(np.radians(5) / 2)
+
+
+def test_safety_floor_ee_delta(make_env):
+    env = make_env("TrossenMujoco/WXAIPush-v0", action_mode="ee_delta")
+    env.reset(seed=0)
+    floor = env.unwrapped.actions.floor_z
+    clipped = []
+    for _ in range(40):
+        _, _, _, _, info = env.step(np.array([0.0, 0.0, -1.0, 0.0]))
+        clipped.append(info["safety_clipped"])
+        assert _ee_z(env) > floor - 0.005
+    assert not clipped[0] and clipped[-1]
+
+
+def test_safety_floor_joint_position(make_env):
+    env = make_env(REACH, action_mode="joint_position", safety_margin=0.05)
+    env.reset(seed=0)
+    u = env.unwrapped
+    arm = u.task.arm
+    # joint_1 (shoulder) far forward, elbow extended: the tool would go under the table
+    low, high = arm.ctrl_limits()
+    target = np.array([0.0, 2.6, 0.3, 0.0, 0.0, 0.0])
+    action = np.append(2 * (target - low) / (high - low) - 1, 1.0)
+    kin = u.actions.kin["arm"]
+    assert kin.site_pose(u.scene.data.qpos, target)[2] < u.actions.floor_z
+    commands, clipped = u.actions(u.scene.data, action)
+    assert clipped
+    assert kin.site_pose(u.scene.data.qpos, commands["arm"])[2] >= u.actions.floor_z
+    for _ in range(30):
+        _, _, _, _, info = env.step(action)
+        assert info["safety_clipped"]
+    assert _ee_z(env) > u.actions.floor_z - 0.01
+
+
+def test_safety_floor_joint_rel_position(make_env):
+    env = make_env(REACH, action_mode="joint_rel_position")
+    env.reset(seed=0)
+    action = np.array([0.0, 1.0, -1.0, 0.0, 0.0, 0.0, 1.0])  # fold forward and down
+    seen = False
+    for _ in range(40):
+        _, _, _, _, info = env.step(action)
+        seen |= info["safety_clipped"]
+        assert _ee_z(env) > env.unwrapped.actions.floor_z - 0.01
+    assert seen
+
+
+def test_gripper_action_maps_to_finger_travel(make_env):
+    env = make_env(REACH, action_mode="ee_delta")
+    env.reset(seed=0)
+    u = env.unwrapped
+    commands, _ = u.actions(u.scene.data, np.array([0, 0, 0, -1.0]))
+    assert commands["gripper"][0] == pytest.approx(0.0)
+    commands, _ = u.actions(u.scene.data, np.array([0, 0, 0, 1.0]))
+    assert commands["gripper"][0] == pytest.approx(0.044)
+
+
+def test_out_of_range_actions_are_clipped(make_env):
+    env = make_env(REACH, action_mode="ee_delta")
+    env.reset(seed=0)
+    u = env.unwrapped
+    big, _ = u.actions(u.scene.data, np.array([5.0, 0, 0, 0]))
+    one, _ = u.actions(u.scene.data, np.array([1.0, 0, 0, 0]))
+    np.testing.assert_array_equal(big["arm"], one["arm"])
+
+
+@pytest.mark.parametrize("action", [np.zeros(3), np.array([np.nan, 0, 0, 0])])
+def test_bad_actions_are_user_errors(make_env, action):
+    env = make_env(REACH, action_mode="ee_delta")
+    env.reset(seed=0)
+    with pytest.raises(UserError):
+        env.step(action)
+
+
+def test_unknown_action_mode_lists_modes(make_env):
+    with pytest.raises(UserError, match="ee_delta.*joint_position"):
+        make_env(REACH, action_mode="torque")

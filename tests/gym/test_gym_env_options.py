@@ -1,0 +1,121 @@
+"""Env options: observation types, rendering, config overrides, registration, seeding."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.gym.registration import ENV_IDS, register_envs
+
+REACH = "TrossenMujoco/WXAIReach-v0"
+
+
+def test_registration_is_idempotent():
+    assert register_envs() == []
+    for env_id in ENV_IDS:
+        assert env_id in gym.registry
+
+
+@pytest.mark.parametrize(
+    "env_id, steps",
+    [(REACH, 50), ("TrossenMujoco/WXAIPushGoal-v0", 100),
+     ("TrossenMujoco/StationaryAITransferCube-v0", 600)],
+)  # fmt: skip
+def test_max_episode_steps(env_id, steps):
+    assert gym.spec(env_id).max_episode_steps == steps
+
+
+def test_time_limit_truncates(make_env):
+    env = make_env(REACH, max_episode_steps=3)
+    env.reset(seed=0)
+    flags = [env.step(env.action_space.sample())[3] for _ in range(3)]
+    assert flags == [False, False, True]
+
+
+def test_state_observation(make_env):
+    env = make_env(REACH)
+    obs, info = env.reset(seed=0)
+    # arm_qpos 6, arm_qvel 6, gripper 1, ee_pos 3, goal 3, goal_delta 3
+    assert obs.shape == (22,) and obs.dtype == np.float32
+    assert env.observation_space.contains(obs)
+    assert info == {"is_success": False, "goal_distance": info["goal_distance"],
+                    "safety_clipped": False}  # fmt: skip
+
+
+def test_pixels_and_render(make_env):
+    env = make_env(REACH, obs_type="pixels", render_mode="rgb_array", width=32, height=24,
+                   cameras=["overview", "cam"])  # fmt: skip
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (24, 64, 3) and obs.dtype == np.uint8 and obs.std() > 0
+    frame = env.render()
+    assert frame.shape == (24, 64, 3)
+    env = make_env(REACH, obs_type="pixels_state", width=32, height=24)
+    obs, _ = env.reset(seed=0)
+    assert set(obs) == {"pixels", "state"} and obs["pixels"].shape == (24, 32, 3)
+
+
+def test_unknown_camera_lists_cameras(make_env):
+    with pytest.raises(UserError, match="overview"):
+        make_env(REACH, obs_type="pixels", cameras=["top"])
+
+
+def test_human_render_without_display_warns(make_env, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.warns(UserWarning, match="needs a display"):
+        env = make_env(REACH, render_mode="human")
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    assert env.render() is None
+
+
+def test_config_override_through_make(make_env):
+    env = make_env(REACH, success_tolerance=0.2, target_low=[0.3, 0.0, 0.2],
+                   target_high=[0.3, 0.0, 0.2])  # fmt: skip
+    _, info = env.reset(seed=0)
+    assert env.unwrapped.config["success_tolerance"] == 0.2
+    np.testing.assert_allclose(env.unwrapped.task.desired_goal(), [0.3, 0.0, 0.2])
+    assert info["is_success"] is (info["goal_distance"] < 0.2)
+
+
+def test_unknown_kwarg_lists_options_and_config_keys(make_env):
+    with pytest.raises(UserError) as err:
+        make_env(REACH, obs_tpye="pixels")
+    msg = str(err.value)
+    assert "obs_tpye" in msg and "obs_type" in msg and "success_tolerance" in msg
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [({"obs_type": "rgb"}, "pixels_state"), ({"render_mode": "window"}, "rgb_array"),
+     ({"task": "stack"}, "pick_place")],
+)  # fmt: skip
+@pytest.mark.filterwarnings("ignore:.*render_mode")
+def test_bad_choices_are_user_errors(make_env, kwargs, match):
+    with pytest.raises(UserError, match=match):
+        make_env(REACH, **kwargs)
+
+
+def test_reset_seed_seeds_spaces(make_env):
+    env = make_env("TrossenMujoco/WXAIPushGoal-v0")
+    env.reset(seed=3)
+    a1, o1 = env.action_space.sample(), env.observation_space.sample()
+    env.reset(seed=3)
+    a2, o2 = env.action_space.sample(), env.observation_space.sample()
+    np.testing.assert_array_equal(a1, a2)
+    np.testing.assert_array_equal(o1["desired_goal"], o2["desired_goal"])
+
+
+def test_step_before_reset(make_env):
+    env = make_env(REACH, disable_env_checker=True)
+    with pytest.raises((UserError, gym.error.ResetNeeded)):
+        env.step(env.action_space.sample())
+
+
+def test_close_twice(make_env):
+    env = make_env(REACH, stepping="realtime")
+    env.reset(seed=0)
+    env.close()
+    env.close()

@@ -1,0 +1,99 @@
+"""Robot configs: every config builds its view on its model; modes, init poses, helpers."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.constants import ASSETS_DIR, GRIPPER_OPEN, START_ARM_POSE
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.configs import (
+    MoveGroupSpec,
+    qpos16_to_dict,
+    stationary_ai_joint_config,
+    stationary_ai_mocap_config,
+    wxai_config,
+)
+from trossen_arm_mujoco.robot.move_group import (
+    ArmMoveGroup,
+    GripperGroup,
+    ImmobileBaseGroup,
+    MocapArmGroup,
+)
+
+ASSETS = Path(ASSETS_DIR)
+CONFIG_MODELS = [
+    (wxai_config, "wxai/wxai_follower.xml"),
+    (stationary_ai_joint_config, "stationary_ai/trossen_ai_scene_joint.xml"),
+    (stationary_ai_mocap_config, "stationary_ai/trossen_ai_scene.xml"),
+]
+
+
+@pytest.mark.parametrize(("make", "xml"), CONFIG_MODELS, ids=lambda v: getattr(v, "__name__", v))
+def test_every_config_builds_on_its_model(make, xml):
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / xml))
+    config = make()
+    view = config.build_view(model)
+    assert list(view.move_groups) == list(config.groups)
+    assert set(config.command_mode) <= set(config.groups)
+    assert set(config.init_qpos) <= set(config.groups)
+    for name, q in config.init_qpos.items():
+        group = view.group(name)
+        assert len(q) == group.n_joints
+        assert np.all(np.asarray(q) >= group.joint_range[:, 0])
+        assert np.all(np.asarray(q) <= group.joint_range[:, 1])
+
+
+def test_wxai_config():
+    config = wxai_config()
+    assert config.command_mode == {"arm": "joint_position", "gripper": "joint_position"}
+    assert wxai_config("ee_delta").command_mode["arm"] == "ee_delta"
+    np.testing.assert_allclose(config.init_qpos["arm"], START_ARM_POSE[:6])
+    np.testing.assert_allclose(config.init_qpos["gripper"], [GRIPPER_OPEN, GRIPPER_OPEN])
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
+    view = config.build_view(model)
+    assert isinstance(view.group("arm"), ArmMoveGroup)
+    assert isinstance(view.group("gripper"), GripperGroup)
+    assert isinstance(view.group("base"), ImmobileBaseGroup)
+    assert view.group("arm").frame_site_name == "ee_site"
+
+
+def test_stationary_configs():
+    joint, mocap = stationary_ai_joint_config(), stationary_ai_mocap_config()
+    groups = {f"{s}_{g}" for s in ("left", "right") for g in ("base", "arm", "gripper")}
+    assert set(joint.groups) == set(mocap.groups) == groups
+    assert joint.command_mode["left_arm"] == "joint_position"
+    assert mocap.command_mode["right_arm"] == "ee_pose"
+    assert mocap.command_mode["right_gripper"] == "joint_position"
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / "stationary_ai/trossen_ai_scene.xml"))
+    view = mocap.build_view(model)
+    assert isinstance(view.group("left_arm"), MocapArmGroup)
+    assert view.group("left_arm").frame_site_name == "left/ee_site"
+    assert view.group("right_arm").mocap_id == 1
+
+
+def test_with_command_modes():
+    config = stationary_ai_joint_config()
+    new = config.with_command_modes(left_arm="ee_delta")
+    assert new.command_mode["left_arm"] == "ee_delta"
+    assert config.command_mode["left_arm"] == "joint_position"  # the original is unchanged
+    with pytest.raises(UserError, match="unknown move group 'middle_arm'.*left_arm"):
+        config.with_command_modes(middle_arm="ee_pose")
+
+
+def test_unknown_group_kind():
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
+    with pytest.raises(UserError, match="unknown move group kind 'wheel'.*mocap_arm"):
+        MoveGroupSpec("wheel").build(model, "x")
+
+
+def test_qpos16_to_dict():
+    q = np.arange(16.0)
+    d = qpos16_to_dict(q)
+    np.testing.assert_array_equal(d["left_arm"], q[0:6])
+    np.testing.assert_array_equal(d["left_gripper"], q[6:8])
+    np.testing.assert_array_equal(d["right_arm"], q[8:14])
+    np.testing.assert_array_equal(d["right_gripper"], q[14:16])

@@ -1,0 +1,168 @@
+"""Robot: command validation, reset/hold, and name errors that list the valid names."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.constants import ASSETS_DIR, START_ARM_POSE
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.configs import (
+    MoveGroupSpec,
+    RobotConfig,
+    stationary_ai_joint_config,
+    stationary_ai_mocap_config,
+    wxai_config,
+)
+from trossen_arm_mujoco.robot.robot import Robot
+from trossen_arm_mujoco.sim.cameras import CameraSet
+
+ASSETS = Path(ASSETS_DIR)
+KIT_JOINT = ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"
+KIT_MOCAP = ASSETS / "stationary_ai/trossen_ai_scene.xml"
+KIT_GROUPS = ["left_arm", "left_gripper", "right_arm", "right_gripper"]
+
+
+@pytest.fixture
+def kit():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    data = mujoco.MjData(model)
+    robot = Robot(model, stationary_ai_joint_config())
+    robot.reset(data)
+    return model, data, robot
+
+
+def test_update_control_unknown_group_lists_valid_names(kit):
+    _, _, robot = kit
+    with pytest.raises(UserError) as err:
+        robot.update_control({"left_hand": np.zeros(6)})
+    msg = str(err.value)
+    assert "unknown controlled move group 'left_hand'" in msg
+    for name in KIT_GROUPS:
+        assert name in msg
+    # bases are move groups but have no controller
+    with pytest.raises(UserError, match="controlled move group 'left_base'"):
+        robot.update_control({"left_base": []})
+
+
+@pytest.mark.parametrize(
+    ("group", "command", "match"),
+    [
+        ("left_arm", np.zeros(5), "expected 6 values, got 5"),
+        ("left_arm", np.zeros(7), "expected 6 values, got 7"),
+        ("left_arm", np.zeros((2, 6)), "expected 6 values, got 12"),
+        ("left_gripper", [0.01, 0.01], "expected 1 values, got 2"),
+        ("left_arm", [0, 0, np.nan, 0, 0, 0], "NaN or inf"),
+        ("right_gripper", [np.inf], "NaN or inf"),
+    ],
+)
+def test_update_control_rejects_bad_commands(kit, group, command, match):
+    _, data, robot = kit
+    ctrl_before = data.ctrl.copy()
+    with pytest.raises(UserError, match=match):
+        robot.update_control({group: command})
+    robot.compute_control(data)
+    np.testing.assert_array_equal(data.ctrl, ctrl_before)  # nothing was stored
+
+
+def test_update_control_accepts_lists_and_compute_returns_by_group(kit):
+    _, data, robot = kit
+    target = [0.1, 0.5, 0.4, 0.0, 0.1, 0.0]
+    robot.update_control({"right_arm": target, "right_gripper": [0.02]})
+    out = robot.compute_control(data)
+    assert set(out) == {"right_arm", "right_gripper"}
+    np.testing.assert_allclose(data.ctrl[7:13], target)
+    np.testing.assert_allclose(data.ctrl[13], 0.02)
+
+
+def test_reset_puts_init_qpos_and_holds(kit):
+    model, data, robot = kit
+    np.testing.assert_allclose(data.qpos[:16], START_ARM_POSE)
+    np.testing.assert_array_equal(data.qvel[:16], 0.0)
+    # ctrl holds the initial pose: arm joints and the actuated finger
+    expected = [*START_ARM_POSE[0:6], START_ARM_POSE[7], *START_ARM_POSE[8:14], START_ARM_POSE[15]]
+    np.testing.assert_allclose(data.ctrl, expected)
+    # a reset forgets stored commands
+    robot.update_control({"left_arm": np.ones(6) * 0.3})
+    robot.reset(data)
+    assert robot.compute_control(data) == {}
+
+
+def test_reset_mocap_targets_follow_the_tool_frame():
+    model = mujoco.MjModel.from_xml_path(str(KIT_MOCAP))
+    data = mujoco.MjData(model)
+    robot = Robot(model, stationary_ai_mocap_config())
+    data.mocap_pos[:] = 0.0  # garbage before reset
+    robot.reset(data)
+    for side, mocap_id in (("left", 0), ("right", 1)):
+        frame = robot.view.group(f"{side}_arm").get_frame_pose(data)
+        np.testing.assert_allclose(data.mocap_pos[mocap_id], frame[:3], atol=1e-12)
+        np.testing.assert_allclose(np.abs(data.mocap_quat[mocap_id] @ frame[3:]), 1.0, atol=1e-12)
+
+
+def test_hold_keeps_the_current_state(kit):
+    model, data, robot = kit
+    data.qpos[8:14] = [0.2, 0.4, 0.3, 0.1, 0.0, -0.1]
+    mujoco.mj_kinematics(model, data)
+    robot.update_control({"right_arm": np.zeros(6)})
+    robot.hold(data)
+    np.testing.assert_allclose(data.ctrl[7:13], [0.2, 0.4, 0.3, 0.1, 0.0, -0.1])
+    assert robot.compute_control(data) == {}  # hold clears pending commands
+
+
+def test_unknown_command_mode_in_config():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    config = stationary_ai_joint_config()
+    bad = RobotConfig(
+        config.name, config.groups, config.init_qpos, {**config.command_mode, "left_arm": "torque"}
+    )
+    with pytest.raises(UserError, match="unknown command mode 'torque'.*joint_position"):
+        Robot(model, bad)
+
+
+def test_unknown_joint_name_lists_valid_joints():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    config = RobotConfig(
+        "x",
+        {
+            "arm": MoveGroupSpec(
+                "arm", ("left/joint_7",), ("left/joint_0",), frame_site="left/ee_site"
+            )
+        },
+    )
+    with pytest.raises(UserError) as err:
+        Robot(model, config)
+    msg = str(err.value)
+    assert "unknown joint 'left/joint_7'" in msg
+    assert "left/joint_0" in msg and "right/left_carriage_joint" in msg
+
+
+def test_unknown_site_name_lists_valid_sites():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    config = RobotConfig(
+        "x",
+        {"arm": MoveGroupSpec("arm", ("left/joint_0",), ("left/joint_0",), frame_site="left/tool")},
+    )
+    with pytest.raises(UserError, match=r"unknown site 'left/tool'; valid sites: left/ee_site"):
+        Robot(model, config)
+
+
+def test_unknown_camera_name_lists_valid_cameras():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    with pytest.raises(UserError) as err:
+        CameraSet(model, ["cam_top"], 24, 32)
+    msg = str(err.value)
+    assert "unknown camera 'cam_top'" in msg
+    for cam in ("cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist"):
+        assert cam in msg
+
+
+def test_config_for_the_wrong_model_fails_clearly():
+    """A kit config on the single-arm model names the missing joint and the valid ones."""
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
+    with pytest.raises(UserError, match=r"unknown (body|joint) 'left/.*valid"):
+        Robot(model, stationary_ai_joint_config())
+    Robot(model, wxai_config())  # the right config builds

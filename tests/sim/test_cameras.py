@@ -1,0 +1,107 @@
+"""CameraSet: names checked at construction, tiny renders, one renderer reused, close()."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.constants import ASSETS_DIR, STATIONARY_CAMERAS
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.sim.cameras import CameraSet
+
+ASSETS = Path(ASSETS_DIR)
+H, W = 36, 48
+
+
+@pytest.fixture(scope="module")
+def kit():
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def test_available_cameras(kit):
+    model, _ = kit
+    assert CameraSet.available(model) == list(STATIONARY_CAMERAS)
+
+
+def test_unknown_camera_lists_valid_names(kit):
+    model, _ = kit
+    with pytest.raises(UserError) as err:
+        CameraSet(model, ["cam_high", "top"], H, W)
+    assert "unknown camera 'top'" in str(err.value)
+    assert "cam_left_wrist" in str(err.value)
+
+
+def test_bad_sizes(kit):
+    model, _ = kit
+    with pytest.raises(UserError, match="must be positive"):
+        CameraSet(model, ["cam_high"], 0, W)
+    with pytest.raises(UserError, match="exceeds the model's offscreen buffer 480x640"):
+        CameraSet(model, ["cam_high"], 720, 1280)
+
+
+def test_render_all_tiny_images(kit):
+    model, data = kit
+    cams = CameraSet(model, STATIONARY_CAMERAS, H, W)
+    try:
+        images = cams.render_all(data)
+        assert list(images) == list(STATIONARY_CAMERAS)
+        for name, img in images.items():
+            assert img.shape == (H, W, 3) and img.dtype == np.uint8, name
+            assert img.std() > 5, f"{name} looks blank"
+        # the cameras look at different things
+        assert not np.array_equal(images["cam_high"], images["cam_low"])
+        assert not np.array_equal(images["cam_left_wrist"], images["cam_right_wrist"])
+    finally:
+        cams.close()
+
+
+def test_renderer_is_reused_and_closed(kit):
+    model, data = kit
+    cams = CameraSet(model, ["cam_high"], H, W)
+    assert cams._renderer is None  # nothing is created before the first render
+    first = cams.render(data, "cam_high")
+    renderer = cams._renderer
+    second = cams.render(data, "cam_high")
+    assert cams._renderer is renderer
+    np.testing.assert_array_equal(first, second)  # same state, same image
+    cams.close()
+    assert cams._renderer is None
+    cams.close()  # idempotent
+    again = cams.render(data, "cam_high")  # renders again after close
+    np.testing.assert_array_equal(again, first)
+    cams.close()
+
+
+def test_render_only_configured_cameras(kit):
+    model, data = kit
+    cams = CameraSet(model, ["cam_low"], H, W)
+    with pytest.raises(UserError, match="unknown camera 'cam_high'; valid cameras: cam_low"):
+        cams.render(data, "cam_high")
+    cams.close()
+
+
+def test_wrist_camera_moves_with_the_arm(kit):
+    model, _ = kit
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    wrist, high = model.camera("cam_left_wrist").id, model.camera("cam_high").id
+    cam_pos = data.cam_xpos.copy()
+    cams = CameraSet(model, ["cam_left_wrist"], H, W)
+    try:
+        before = cams.render(data, "cam_left_wrist")
+        data.qpos[0] = 0.6  # turn the left arm's base joint
+        mujoco.mj_forward(model, data)
+        after = cams.render(data, "cam_left_wrist")
+        assert np.abs(after.astype(int) - before).mean() > 5
+    finally:
+        cams.close()
+    assert np.linalg.norm(data.cam_xpos[wrist] - cam_pos[wrist]) > 0.05
+    np.testing.assert_array_equal(data.cam_xpos[high], cam_pos[high])  # fixed to the frame

@@ -1,0 +1,128 @@
+"""MujocoEnv: loading, timing ratios, reset to the keyframe and robot init, stepping."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from dm_control import mujoco as dm_mujoco
+
+from trossen_arm_mujoco.constants import ASSETS_DIR, START_ARM_POSE
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.configs import stationary_ai_joint_config, wxai_config
+from trossen_arm_mujoco.sim.env import MujocoEnv, load_physics, whole_ratio
+
+ASSETS = Path(ASSETS_DIR)
+WXAI = ASSETS / "wxai/wxai_follower.xml"
+KIT_JOINT = ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"
+
+
+def test_whole_ratio():
+    assert whole_ratio(0.02, 0.002, "ctrl_dt", "sim_dt") == 10
+    assert whole_ratio(0.002, 0.002, "ctrl_dt", "sim_dt") == 1
+    with pytest.raises(UserError, match=r"ctrl_dt \(0.005 s\) must be a whole multiple of sim_dt"):
+        whole_ratio(0.005, 0.002, "ctrl_dt", "sim_dt")
+    with pytest.raises(UserError, match="whole multiple"):
+        whole_ratio(0.001, 0.002, "ctrl_dt", "sim_dt")  # shorter than one physics step
+    with pytest.raises(UserError, match="must be positive"):
+        whole_ratio(0.0, 0.002, "ctrl_dt", "sim_dt")
+
+
+def test_load_physics_errors(tmp_path):
+    with pytest.raises(UserError, match="model file not found"):
+        load_physics(tmp_path / "missing.xml")
+    broken = tmp_path / "broken.xml"
+    broken.write_text("<mujoco><worldbody><body></mujoco>")
+    with pytest.raises(UserError, match="cannot load model") as err:
+        load_physics(broken)
+    assert "\n" not in str(err.value)  # one line
+    physics = load_physics(WXAI)
+    assert isinstance(physics, dm_mujoco.Physics)
+
+
+def test_env_needs_a_model():
+    with pytest.raises(UserError, match="xml_path or a physics"):
+        MujocoEnv()
+
+
+def test_ctrl_dt_must_be_whole_multiple():
+    with pytest.raises(UserError, match="whole multiple"):
+        MujocoEnv(WXAI, ctrl_dt=0.003)
+    env = MujocoEnv(WXAI)
+    assert env.ctrl_dt == env.sim_dt == 0.002 and env.n_substeps == 1
+
+
+def test_reset_and_step_single_arm():
+    env = MujocoEnv(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=0.02)
+    assert env.n_substeps == 10
+    env.data.qpos[:] = 1.0  # garbage
+    env.data.time = 5.0
+    env.reset()
+    assert env.data.time == 0.0
+    np.testing.assert_allclose(env.data.qpos, START_ARM_POSE[:8])
+    env.step(5)
+    assert env.data.time == pytest.approx(5 * 0.02)
+    np.testing.assert_allclose(env.data.qpos, START_ARM_POSE[:8], atol=1e-3)  # held
+    assert env.warnings() == []
+    env.close()
+
+
+def test_reset_without_keyframe_uses_model_defaults():
+    env = MujocoEnv(WXAI, keyframe="no_such_key")
+    assert env.keyframe_id == -1
+    env.data.qpos[:] = 0.5
+    env.reset()
+    np.testing.assert_array_equal(env.data.qpos, env.model.qpos0)
+
+
+def test_env_over_an_existing_physics_shares_its_data():
+    physics = load_physics(KIT_JOINT)
+    env = MujocoEnv(
+        physics=physics,
+        robots={"kit": stationary_ai_joint_config()},
+        objects={"box": ("red_box_joint", "red_box")},
+        ctrl_dt=0.02,
+    )
+    assert env.model is physics.model.ptr and env.data is physics.data.ptr
+    env.reset()
+    np.testing.assert_allclose(physics.data.qpos[:16], START_ARM_POSE)
+    env.objects["box"].set_pose(env.data, [0.05, -0.05, 0.0325, 1, 0, 0, 0])
+    env.forward()
+    np.testing.assert_allclose(physics.named.data.qpos["red_box_joint"][:2], [0.05, -0.05])
+    env.step(25)
+    np.testing.assert_allclose(
+        env.objects["box"].get_pose(env.data)[:3], [0.05, -0.05, 0.0325], atol=1e-3
+    )
+
+
+def test_apply_control_does_not_step():
+    env = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    env.reset()
+    robot = env.robots["kit"]
+    robot.update_control({"left_arm": np.full(6, 0.3)})
+    t0, q0 = env.data.time, env.data.qpos.copy()
+    env.apply_control()
+    assert env.data.time == t0
+    np.testing.assert_array_equal(env.data.qpos, q0)
+    np.testing.assert_allclose(env.data.ctrl[:6], 0.3)
+
+
+def test_warnings_are_reported_by_name():
+    env = MujocoEnv(WXAI)
+    env.reset()
+    assert env.warnings() == []
+    env.data.qpos[0] = np.nan
+    mujoco.mj_step(env.model, env.data)
+    assert "mjWARN_BADQPOS" in env.warnings()
+
+
+def test_rendering_through_the_env():
+    env = MujocoEnv(KIT_JOINT, camera_names=["cam_high"], height=24, width=32)
+    env.reset()
+    images = env.render_images()
+    assert list(images) == ["cam_high"]
+    assert images["cam_high"].shape == (24, 32, 3) and images["cam_high"].dtype == np.uint8
+    env.close()
+    env.close()  # idempotent

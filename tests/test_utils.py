@@ -1,0 +1,102 @@
+"""utils: sample_box_pose, resolve_asset, make_sim_env (the documented helpers)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from dm_control.rl import control
+
+from trossen_arm_mujoco import utils
+from trossen_arm_mujoco.constants import ASSETS_DIR, DT
+from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.quaternion import Quaternion
+from trossen_arm_mujoco.sim_env import TransferCubeTask
+from trossen_arm_mujoco.utils import make_sim_env, resolve_asset, sample_box_pose
+
+
+def test_public_names():
+    assert set(utils.__all__) == {"Quaternion", "make_sim_env", "sample_box_pose"}
+    assert utils.Quaternion is Quaternion
+
+
+def test_sample_box_pose_without_arguments():
+    pose = sample_box_pose()
+    assert pose.shape == (7,)
+    assert -0.15 <= pose[0] <= 0.15 and -0.2 <= pose[1] <= 0.1
+    assert pose[2] == pytest.approx(0.0325)
+    np.testing.assert_array_equal(pose[3:], [1, 0, 0, 0])
+
+
+def test_sample_box_pose_seeds_and_generators():
+    np.testing.assert_array_equal(sample_box_pose(5), sample_box_pose(5))
+    np.testing.assert_array_equal(
+        sample_box_pose(np.random.default_rng(5)), sample_box_pose(np.random.default_rng(5))
+    )
+    np.testing.assert_array_equal(sample_box_pose(5), sample_box_pose(np.random.default_rng(5)))
+    assert not np.array_equal(sample_box_pose(5), sample_box_pose(6))
+    rng = np.random.default_rng(0)
+    assert not np.array_equal(sample_box_pose(rng), sample_box_pose(rng))  # the stream advances
+
+
+def test_resolve_asset():
+    assert resolve_asset("wxai/wxai_follower.xml") == os.path.join(
+        ASSETS_DIR, "wxai/wxai_follower.xml"
+    )
+    absolute = str(Path("/tmp/some/scene.xml"))
+    assert resolve_asset(absolute) == absolute
+
+
+def test_make_sim_env_returns_a_dm_control_environment():
+    env = make_sim_env(TransferCubeTask, cam_list=[], random=0)
+    assert isinstance(env, control.Environment)
+    assert env.control_timestep() == pytest.approx(DT)
+    ts = env.reset()
+    assert ts.first() and ts.reward is None
+    env.task.close()
+
+
+def test_make_sim_env_default_scene_per_task():
+    ee = make_sim_env(TransferCubeEETask, cam_list=[])
+    joint = make_sim_env(TransferCubeTask, cam_list=[])
+    assert ee.physics.model.nmocap == 2 and ee.physics.model.nu == 2
+    assert joint.physics.model.nmocap == 0 and joint.physics.model.nu == 14
+
+
+def test_make_sim_env_xml_file_override():
+    joint_scene = os.path.join(ASSETS_DIR, "stationary_ai/trossen_ai_scene_joint.xml")
+    env = make_sim_env(TransferCubeTask, joint_scene, cam_list=[])  # absolute path
+    assert env.physics.model.nu == 14
+    env = make_sim_env(TransferCubeTask, "stationary_ai/trossen_ai_scene_joint.xml", cam_list=[])
+    assert env.physics.model.nu == 14
+
+
+def test_make_sim_env_errors(tmp_path):
+    with pytest.raises(
+        UserError, match="unknown task 'sim_folding'; valid tasks: sim_transfer_cube"
+    ):
+        make_sim_env(TransferCubeTask, task_name="sim_folding")
+    with pytest.raises(UserError, match="task_class must be a class"):
+        make_sim_env(TransferCubeTask(), cam_list=[])
+    with pytest.raises(UserError, match="model file not found"):
+        make_sim_env(TransferCubeTask, str(tmp_path / "nope.xml"))
+
+
+def test_time_limit():
+    env = make_sim_env(TransferCubeTask, cam_list=[], time_limit=5 * DT)
+    ts = env.reset()
+    action = ts.observation["qpos"]
+    steps = 0
+    while not ts.last():
+        ts = env.step(action)
+        steps += 1
+    assert steps == 5
+    env.task.close()
+
+
+def test_onscreen_render_is_accepted():
+    env = make_sim_env(TransferCubeTask, onscreen_render=True, cam_list=[])
+    assert env.task.onscreen_render is True

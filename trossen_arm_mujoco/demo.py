@@ -1,0 +1,387 @@
+"""A short demo of the Stationary AI envs, behind ``python trossen_arm_mujoco/ee_sim_env.py``
+(mocap arms, flavour "ee") and ``python trossen_arm_mujoco/sim_env.py`` (joint position
+actuators, flavour "joint").
+
+With a display, a live MuJoCo viewer shows both arms following a smooth scripted motion in
+real time (close the window or wait ``--seconds``). Without one (or with ``--headless``) a few
+steps run and one PNG per camera is written to ``--out_dir``. Offscreen rendering without a
+display needs ``MUJOCO_GL=egl`` (or ``osmesa``) in the environment.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import warnings
+import zlib
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, STATIONARY_CAMERAS
+from trossen_arm_mujoco.errors import UserError, run_cli
+
+FLAVOURS = ("ee", "joint")
+HEADLESS_STEPS = 25
+IMAGE_SIZE = (480, 640)  # (height, width)
+VIEWER_START_TIMEOUT_S = 20.0
+
+# Scripted motion: periods (s) and amplitudes.
+CIRCLE_PERIOD = 4.0
+CIRCLE_RADIUS = 0.03  # m
+GRIPPER_PERIOD = 3.0
+RAMP_S = 1.0  # the motion fades in over this time, so nothing jumps at the start
+#: Joint sinusoids around START_ARM_POSE: (amplitude rad, period s) for joint_0..joint_5.
+JOINT_WAVES = ((0.35, 5.0), (0.2, 4.0), (0.2, 3.5), (0.4, 3.0), (0.4, 4.5), (0.8, 6.0))
+
+
+def _task_class(flavour: str) -> type:
+    if flavour == "ee":
+        from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
+
+        return TransferCubeEETask
+    from trossen_arm_mujoco.sim_env import TransferCubeTask
+
+    return TransferCubeTask
+
+
+# ----------------------------------------------------------------------------- motion
+def _ramp(t: float) -> float:
+    """Smooth 0 -> 1 over RAMP_S seconds (zero slope at both ends)."""
+    s = min(max(t / RAMP_S, 0.0), 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+def gripper_opening(t: float) -> float:
+    """Finger travel (m): starts open, closes and reopens smoothly."""
+    return 0.5 * GRIPPER_OPEN * (1.0 + math.cos(2.0 * math.pi * t / GRIPPER_PERIOD))
+
+
+def scripted_action(
+    flavour: str, first_obs: dict, low: np.ndarray, high: np.ndarray
+) -> Callable[[float], np.ndarray]:
+    """action(t) for the demo: a smooth motion that starts exactly at the initial pose.
+
+    ee: each mocap target circles (radius CIRCLE_RADIUS) in the vertical plane across the
+    arm, the two arms in opposite phase; joint: sinusoids around START_ARM_POSE. The
+    grippers open and close. Actions are clipped to the env's action bounds.
+    """
+    if flavour == "ee":
+        start_poses = (
+            (np.asarray(first_obs["mocap_pose_left"], dtype=float), 0.0),
+            (np.asarray(first_obs["mocap_pose_right"], dtype=float), math.pi),
+        )
+
+        def action(t: float) -> np.ndarray:
+            w = 2.0 * math.pi * t / CIRCLE_PERIOD
+            r = CIRCLE_RADIUS * _ramp(t)
+            parts = []
+            for pose, phase in start_poses:
+                offset = r * np.array([math.sin(w + phase), 0.0, math.cos(w + phase)])
+                parts.append(np.concatenate([pose[:3] + offset, pose[3:], [gripper_opening(t)]]))
+            return np.clip(np.concatenate(parts), low, high)
+
+        return action
+
+    start = np.asarray(first_obs["qpos"], dtype=float)
+
+    def action(t: float) -> np.ndarray:
+        a = start.copy()
+        ramp = _ramp(t)
+        for offset, phase in ((0, 0.0), (8, math.pi / 2)):
+            for j, (amp, period) in enumerate(JOINT_WAVES):
+                a[offset + j] += ramp * amp * math.sin(2.0 * math.pi * t / period + phase * j)
+            a[offset + 6 : offset + 8] = gripper_opening(t)
+        return np.clip(a, low, high)
+
+    return action
+
+
+# ----------------------------------------------------------------------------- PNG output
+def write_png(path: str | Path, image: np.ndarray) -> None:
+    """Write an RGB uint8 (H, W, 3) image as PNG (Pillow when available, else zlib)."""
+    img = np.ascontiguousarray(image, dtype=np.uint8)
+    if img.ndim != 3 or img.shape[2] != 3:
+        raise UserError(f"expected an RGB image (H, W, 3), got shape {img.shape}")
+    try:
+        from PIL import Image
+    except ImportError:
+        Path(path).write_bytes(encode_png(img))
+        return
+    Image.fromarray(img).save(path)
+
+
+def encode_png(image: np.ndarray) -> bytes:
+    """PNG bytes of an RGB uint8 (H, W, 3) image, without any imaging library."""
+    img = np.ascontiguousarray(image, dtype=np.uint8)
+    height, width, _ = img.shape
+    rows = np.concatenate([np.zeros((height, 1), np.uint8), img.reshape(height, -1)], axis=1)
+
+    def chunk(kind: bytes, payload: bytes) -> bytes:
+        crc = zlib.crc32(kind + payload) & 0xFFFFFFFF
+        return struct.pack(">I", len(payload)) + kind + payload + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # 8-bit RGB
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6))
+        + chunk(b"IEND", b"")
+    )
+
+
+# ----------------------------------------------------------------------------- display
+def display_problem() -> str | None:
+    """None when a live window can be opened, else why not (one short phrase)."""
+    if not os.environ.get("DISPLAY"):
+        return "no DISPLAY"
+    try:
+        import glfw
+    except Exception as exc:  # missing package or GLFW library
+        return f"GLFW unavailable ({exc})"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            if not glfw.init():
+                return f"glfw.init() failed on DISPLAY={os.environ['DISPLAY']}"
+            try:
+                glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
+                window = glfw.create_window(64, 64, "probe", None, None)
+                if not window:
+                    return "cannot create an OpenGL window"
+                glfw.destroy_window(window)
+            finally:
+                glfw.default_window_hints()
+                glfw.terminate()
+        except Exception as exc:
+            return f"GLFW error ({exc})"
+    return None
+
+
+def _launch_viewer(model, data, timeout: float = VIEWER_START_TIMEOUT_S):
+    """``mujoco.viewer.launch_passive`` that gives up after ``timeout`` s instead of hanging
+    (it waits forever when its window thread fails).
+
+    Returns (handle, threads): the threads the viewer started, to join after ``close()``.
+    """
+    import mujoco.viewer
+
+    result: dict = {}
+    before = set(threading.enumerate())
+
+    def target() -> None:
+        try:
+            result["handle"] = mujoco.viewer.launch_passive(
+                model, data, show_left_ui=False, show_right_ui=False
+            )
+        except BaseException as exc:  # reported to the caller below
+            result["error"] = exc
+
+    thread = threading.Thread(target=target, name="viewer-launch", daemon=True)
+    thread.start()
+    thread.join(timeout)
+    if "error" in result:
+        raise RuntimeError(f"viewer failed to start: {result['error']}")
+    if "handle" not in result:
+        raise RuntimeError(f"viewer did not open within {timeout:g} s")
+    started = [t for t in threading.enumerate() if t not in before and t is not thread]
+    return result["handle"], started
+
+
+def _close_viewer(viewer, threads: list[threading.Thread], timeout: float = 10.0) -> None:
+    """Close the window and wait for the viewer's threads to finish: exiting while the
+    render thread still swaps buffers can crash Xlib (GLXBadDrawable)."""
+    viewer.close()
+    deadline = time.monotonic() + timeout
+    for t in threads:
+        t.join(max(0.0, deadline - time.monotonic()))
+
+
+# ----------------------------------------------------------------------------- runs
+def run_live(flavour: str, seconds: float, seed: int | None) -> None:
+    """Live viewer, real-time pace, until ``seconds`` or the window is closed."""
+    from trossen_arm_mujoco.utils import make_sim_env
+
+    env = make_sim_env(_task_class(flavour), cam_list=[], random=seed, time_limit=float("inf"))
+    try:
+        ts = env.reset()
+        spec = env.action_spec()
+        action = scripted_action(flavour, ts.observation, spec.minimum, spec.maximum)
+        physics = env.physics
+        viewer, viewer_threads = _launch_viewer(physics.model.ptr, physics.data.ptr)
+        try:
+            viewer.cam.lookat[:] = (0.0, 0.0, 0.1)
+            viewer.cam.distance = 1.7
+            viewer.cam.azimuth = 160.0
+            viewer.cam.elevation = -30.0
+            print(
+                f"live viewer running ({flavour}): {seconds:g} s, close the window to stop",
+                flush=True,
+            )
+            start = time.monotonic()
+            step = 0
+            while viewer.is_running() and step * DT < seconds:
+                step += 1
+                lock = viewer.lock()
+                if lock is None:  # the window was closed just now
+                    break
+                with lock:
+                    env.step(action(step * DT))
+                viewer.sync()
+                lag = start + step * DT - time.monotonic()
+                if lag > 0:
+                    time.sleep(lag)
+                elif lag < -0.25:  # rendering is slower than real time: do not catch up
+                    start -= lag
+        finally:
+            _close_viewer(viewer, viewer_threads)
+    finally:
+        env.task.close()
+
+
+def run_headless(flavour: str, seconds: float, seed: int | None, out_dir: Path) -> list[Path]:
+    """Step the env briefly and save one PNG per camera; returns the written paths."""
+    from trossen_arm_mujoco.utils import make_sim_env
+
+    n_steps = max(1, min(HEADLESS_STEPS, round(seconds / DT)))
+    env = make_sim_env(
+        _task_class(flavour), cam_list=STATIONARY_CAMERAS, image_size=IMAGE_SIZE, random=seed
+    )
+    task = env.task
+    try:
+        task.render_enabled = False  # only the last observation's images are saved
+        ts = env.reset()
+        spec = env.action_spec()
+        action = scripted_action(flavour, ts.observation, spec.minimum, spec.maximum)
+        for step in range(1, n_steps + 1):
+            task.render_enabled = step == n_steps
+            ts = env.step(action(step * DT))
+        images = ts.observation["images"]
+        if set(images) != set(STATIONARY_CAMERAS):  # the task ignores render_enabled
+            images = task.scene(env.physics).render_images()
+        out_dir.mkdir(parents=True, exist_ok=True)
+        paths = []
+        for name in STATIONARY_CAMERAS:
+            path = out_dir / f"{flavour}_{name}.png"
+            write_png(path, images[name])
+            paths.append(path)
+        return paths
+    finally:
+        task.close()
+
+
+def build_parser(flavour: str) -> argparse.ArgumentParser:
+    script = "ee_sim_env.py" if flavour == "ee" else "sim_env.py"
+    kind = "mocap (end-effector)" if flavour == "ee" else "joint-position"
+    parser = argparse.ArgumentParser(
+        prog=f"python trossen_arm_mujoco/{script}",
+        description=f"Demo of the Stationary AI {kind} env: a live viewer when a display is "
+        "available, else one PNG per camera.",
+    )
+    parser.add_argument(
+        "--seconds",
+        type=float,
+        default=10.0,
+        help=f"length of the live demo (default 10); headless runs at most {HEADLESS_STEPS} "
+        f"steps of {DT} s",
+    )
+    parser.add_argument(
+        "--headless", action="store_true", help="never open a window; write camera PNGs"
+    )
+    parser.add_argument(
+        "--out_dir",
+        type=Path,
+        default=None,
+        help="folder for the PNGs (default: a new folder in the system temp dir)",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="cube placement seed (default 0)")
+    return parser
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _offscreen_backend() -> str:
+    """The GL backend MuJoCo picked when it was imported: "egl", "osmesa", "glfw", ..."""
+    import mujoco
+
+    return getattr(getattr(mujoco, "GLContext", None), "__module__", "").rpartition(".")[2]
+
+
+def _needs_egl_child() -> bool:
+    """True when offscreen rendering would go through GLFW without a display (Linux).
+
+    MuJoCo reads ``MUJOCO_GL`` once, at import; when it was imported before ``MUJOCO_GL``
+    was set, only a fresh process can render with EGL.
+    """
+    return (
+        sys.platform.startswith("linux")
+        and not os.environ.get("DISPLAY")
+        and _offscreen_backend() == "glfw"
+        and os.environ.get("MUJOCO_GL", "").lower() != "glfw"  # the user asked for GLFW
+    )
+
+
+def _rerun_with_egl(flavour: str, argv: Sequence[str] | None) -> int:
+    """Run the headless demo in a child process with ``MUJOCO_GL=egl``."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    repo_root = str(Path(__file__).resolve().parents[1])
+    env = dict(os.environ, MUJOCO_GL="egl")
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (repo_root, env.get("PYTHONPATH")) if p)
+    cmd = [sys.executable, "-m", "trossen_arm_mujoco.demo", flavour, "--headless", *args]
+    return subprocess.run(cmd, env=env, check=False).returncode
+
+
+def _main(flavour: str, argv: Sequence[str] | None) -> int:
+    if flavour not in FLAVOURS:
+        raise UserError(f"unknown demo flavour '{flavour}'; valid: {', '.join(FLAVOURS)}")
+    args = build_parser(flavour).parse_args(argv)
+    if not math.isfinite(args.seconds) or args.seconds <= 0:
+        raise UserError(f"--seconds must be a positive number, got {args.seconds}")
+    if not args.headless:
+        problem = display_problem()
+        if problem is None:
+            try:
+                run_live(flavour, args.seconds, args.seed)
+                return 0
+            except UserError:
+                raise
+            except Exception as exc:
+                problem = f"live viewer failed: {_first_line(exc)}"
+        print(f"note: {problem}; running headless and writing camera images instead", flush=True)
+    if _needs_egl_child():
+        return _rerun_with_egl(flavour, argv)
+    out_dir = args.out_dir or Path(tempfile.mkdtemp(prefix=f"trossen_demo_{flavour}_"))
+    try:
+        paths = run_headless(flavour, args.seconds, args.seed, out_dir)
+    except UserError:
+        raise
+    except Exception as exc:
+        hint = " (without a display, set MUJOCO_GL=egl)" if _offscreen_backend() == "glfw" else ""
+        raise UserError(f"offscreen rendering failed: {_first_line(exc)}{hint}") from exc
+    for path in paths:
+        print(path)
+    return 0
+
+
+def demo_main(flavour: str, argv: Sequence[str] | None = None) -> int:
+    """Run the demo; ``flavour`` is "ee" (mocap arms) or "joint" (joint actuators).
+
+    Returns the exit status: 0 on success, 2 for a user error (printed on one line).
+    """
+    return run_cli(lambda a: _main(flavour, a), argv)
+
+
+if __name__ == "__main__":
+    flavour_arg = sys.argv[1] if len(sys.argv) > 1 else "ee"
+    raise SystemExit(demo_main(flavour_arg, sys.argv[2:]))

@@ -1,0 +1,196 @@
+"""TrossenMujocoEnv: one gymnasium.Env over any registered task.
+
+The env adapts; it does not score or randomize. The task's sampler builds the world and
+samples episodes from ``self.np_random``; the task scores; ``gym.actions`` turns actions into
+commands (with the safety floor); ``gym.stepping`` advances time; ``gym.spaces`` shapes the
+observations.
+
+Keyword arguments (besides the task's config keys, which override its YAML file):
+    task: registered task name (``tasks.registry.names()``).
+    obs_type: ``state`` | ``pixels`` | ``pixels_state`` (see ``gym.spaces``).
+    action_mode: ``joint_position`` | ``joint_rel_position`` | ``ee_delta`` (see
+        ``gym.actions``).
+    render_mode: None | ``rgb_array`` | ``human`` (a passive MuJoCo viewer; without a
+        display: a warning at construction, and nothing is shown).
+    stepping: ``fast`` | ``paused`` | ``realtime`` (see ``gym.stepping``).
+    width, height: image size (pixels) of pixel observations and ``rgb_array`` renders.
+    cameras: cameras of pixel observations and renders; default: the scene's first one.
+
+Reward: the task's reward (dense shaping for the wxai tasks, 0-4 for transfer_cube).
+``terminated``: the task ended (``terminate_on_success``); time limits come from the
+registered ``max_episode_steps`` (TimeLimit). ``info``: ``is_success``, ``safety_clipped``
+and the task's diagnostics.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.gym.actions import ACTION_MODES, ActionMapper
+from trossen_arm_mujoco.gym.spaces import OBS_TYPES, ObservationBuilder
+from trossen_arm_mujoco.gym.stepping import STEPPING_MODES, make_stepper
+from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.task import Task
+
+RENDER_MODES = ("rgb_array", "human")
+ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "width",
+               "height", "cameras")  # fmt: skip
+
+
+def _check_choice(kind: str, value: Any, valid: Sequence[str]) -> None:
+    if value not in valid:
+        raise unknown_name_error(kind, str(value), valid)
+
+
+def has_display() -> bool:
+    """Whether a window can be opened (macOS/Windows always; Linux needs X11 or Wayland)."""
+    if not sys.platform.startswith("linux"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+class TrossenMujocoEnv(gymnasium.Env):
+    """Gymnasium env over a registered task (see the module docstring for the kwargs)."""
+
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 50}
+    goal_env = False
+
+    def __init__(
+        self,
+        task: str = "reach",
+        *,
+        obs_type: str = "state",
+        action_mode: str = "joint_position",
+        render_mode: str | None = None,
+        stepping: str = "fast",
+        width: int = 128,
+        height: int = 128,
+        cameras: Sequence[str] | None = None,
+        **config: Any,
+    ):
+        entry = registry.load(task)
+        defaults = entry.load_config()
+        for key in config:
+            if key not in defaults:
+                raise unknown_name_error("env option or config key", key,
+                                         [*ENV_OPTIONS, *defaults])  # fmt: skip
+        _check_choice("observation type", obs_type, OBS_TYPES)
+        _check_choice("action mode", action_mode, ACTION_MODES)
+        _check_choice("stepping mode", stepping, STEPPING_MODES)
+        if render_mode is not None:
+            _check_choice("render mode", render_mode, RENDER_MODES)
+        self._headless = render_mode == "human" and not has_display()
+        if self._headless:
+            warnings.warn(
+                "render_mode='human' needs a display (DISPLAY/WAYLAND_DISPLAY is not set); "
+                "nothing will be shown. Use render_mode='rgb_array' for images.",
+                stacklevel=2,
+            )
+        sampler_cls = entry.sampler_class()
+        if cameras is None:
+            cameras = sampler_cls.cameras[:1]
+        cameras = [cameras] if isinstance(cameras, str) else list(cameras)
+        if not cameras and (obs_type != "state" or render_mode == "rgb_array"):
+            raise UserError("pixel observations and rgb_array renders need at least one camera")
+        self.task_name = task
+        self.obs_type, self.action_mode, self.render_mode = obs_type, action_mode, render_mode
+        self.config = entry.load_config(**config)
+        self.sampler = sampler_cls(
+            self.config,
+            command_mode=action_mode,
+            camera_names=cameras,
+            height=height,
+            width=width,
+        )
+        self.scene = self.sampler.env
+        robot = self.scene.robots[sampler_cls.robot_name]
+        self.actions = ActionMapper(robot, sampler_cls.arms, action_mode, self.config)
+        self.probe = probe = self.sampler.make_task()  # episode-independent queries
+        self.observations = ObservationBuilder(
+            probe, obs_type, self.goal_env, len(cameras), height, width
+        )
+        self.action_space = gymnasium.spaces.Box(*self.actions.bounds(), dtype=np.float32)
+        self.observation_space = self.observations.space
+        self.metadata = {**self.metadata, "render_fps": int(round(1.0 / probe.policy_dt))}
+        self.stepper = make_stepper(stepping)
+        self.task: Task | None = None
+        self._viewer = None
+
+    # -- gymnasium API --------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self.action_space.seed(seed)
+            self.observation_space.seed(seed)
+        self.stepper.stop()
+        self.task = self.sampler.sample_task(self.np_random)
+        self.actions.reset(self.scene.data)
+        obs = self._observe()
+        info = self._info(False)
+        self.stepper.start(self.task)
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(self, action):
+        if self.task is None:
+            raise UserError("call reset() before step()")
+        with self.stepper.lock:
+            commands, clipped = self.actions(self.scene.data, action)
+        self.stepper.step(self.task, commands)
+        with self.stepper.lock:
+            obs = self._observe()
+            info = self._info(clipped)
+            reward, terminated = self._reward_terminated(obs, info)
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, terminated, False, info
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            with self.stepper.lock:
+                return np.concatenate(list(self.scene.render_images().values()), axis=1)
+        if self.render_mode == "human":
+            self._sync_viewer()
+        return None
+
+    def close(self):
+        self.stepper.close()
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+        self.sampler.close()
+
+    # -- internals ------------------------------------------------------------------------
+    def _observe(self) -> Any:
+        images = self.scene.render_images() if self.observations.needs_images else None
+        return self.observations.build(self.task, images)
+
+    def _info(self, clipped: bool) -> dict[str, Any]:
+        info = self.task.get_info()
+        info["safety_clipped"] = bool(clipped)
+        return info
+
+    def _reward_terminated(self, obs: Any, info: dict[str, Any]) -> tuple[float, bool]:
+        return float(self.task.get_reward()), bool(self.task.is_terminal())
+
+    def _sync_viewer(self) -> None:
+        if self._headless:
+            return
+        if self._viewer is None:
+            try:
+                import mujoco.viewer
+
+                self._viewer = mujoco.viewer.launch_passive(self.scene.model, self.scene.data)
+            except Exception as exc:  # no GL / no window system
+                raise UserError(f"cannot open the MuJoCo viewer: {exc}") from exc
+        with self.stepper.lock:
+            self._viewer.sync()

@@ -1,0 +1,60 @@
+"""TrossenMujocoGoalEnv: the goal-conditioned variant (for HER and friends).
+
+Observations are ``Dict(observation, achieved_goal, desired_goal)`` (see ``gym.spaces``).
+The reward depends on the goals only: ``goal_reward_type`` ``sparse`` (-1 until the achieved
+goal is within ``success_tolerance`` of the desired goal, then 0) or ``dense`` (-distance, m).
+``compute_reward``, ``compute_terminated`` and ``compute_truncated`` accept single goals (3,)
+or batches (..., 3); ``step`` uses the same functions on the observation it returns, so the
+two always agree.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.gym.env import TrossenMujocoEnv
+from trossen_arm_mujoco.tasks import registry
+
+
+class TrossenMujocoGoalEnv(TrossenMujocoEnv):
+    """Goal-conditioned gym env over a goal-conditioned task (reach, push, pick_place)."""
+
+    goal_env = True
+
+    def __init__(self, task: str = "reach", **kwargs: Any):
+        if not registry.load(task).task_class().goal_conditioned:
+            goal_tasks = [
+                n for n in registry.names() if registry.load(n).task_class().goal_conditioned
+            ]
+            raise UserError(
+                f"task '{task}' is not goal-conditioned; goal-conditioned tasks: "
+                + ", ".join(goal_tasks)
+            )
+        super().__init__(task, **kwargs)
+
+    def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray | float:
+        """Reward of goal pairs, shapes (..., 3) -> (...); a float for single goals."""
+        reward = self.probe.goal_reward(achieved_goal, desired_goal)
+        return float(reward) if np.ndim(reward) == 0 else reward
+
+    def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray | bool:
+        """Success when ``terminate_on_success``, else False; shapes (..., 3) -> (...)."""
+        success = self.probe.goal_success(achieved_goal, desired_goal)
+        done = success & bool(self.config.get("terminate_on_success", False))
+        return bool(done) if np.ndim(done) == 0 else done
+
+    def compute_truncated(self, achieved_goal, desired_goal, info) -> np.ndarray | bool:
+        """Always False (time limits come from the TimeLimit wrapper); shapes as above."""
+        shape = np.shape(achieved_goal)[:-1]
+        return False if shape == () else np.zeros(shape, dtype=bool)
+
+    def _reward_terminated(self, obs: Any, info: dict[str, Any]) -> tuple[float, bool]:
+        achieved, desired = obs["achieved_goal"], obs["desired_goal"]
+        info["is_success"] = bool(self.probe.goal_success(achieved, desired))
+        return (
+            float(self.compute_reward(achieved, desired, info)),
+            bool(self.compute_terminated(achieved, desired, info)),
+        )

@@ -1,0 +1,117 @@
+"""Observation spaces of the gym adapter and the conversion of task observations into them.
+
+Observation types (``obs_type``):
+
+- ``state``: float32 vector, the task's named state entries concatenated in
+  ``Task.observation_bounds`` order; goal-conditioned tasks in the plain env also append the
+  desired goal (3,) and desired - achieved (3,) (m).
+- ``pixels``: uint8 image (height, width * n_cameras, 3), the cameras side by side.
+- ``pixels_state``: Dict(pixels=image, state=vector).
+
+Goal envs return Dict(observation=..., achieved_goal=(3,), desired_goal=(3,)) where
+``observation`` is the state vector (``state``), the image (``pixels``), or the state vector
+with an extra ``pixels`` key (``pixels_state``).
+
+Every Box is finite; state values are clipped into their bounds (see each task's
+``observation_bounds``: joint ranges, velocity caps, the workspace box).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.tasks.task import Task
+
+OBS_TYPES = ("state", "pixels", "pixels_state")
+
+
+def _box(low: np.ndarray, high: np.ndarray) -> spaces.Box:
+    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+
+class ObservationBuilder:
+    """Builds the observation space from a (probe) task and converts task states.
+
+    Args:
+        task: any task of the family (bounds depend on config and model only).
+        obs_type: one of ``OBS_TYPES``.
+        goal_env: Dict observation with achieved/desired goals.
+        n_cameras, height, width: image layout for pixel observations.
+    """
+
+    def __init__(
+        self, task: Task, obs_type: str, goal_env: bool, n_cameras: int, height: int, width: int
+    ):
+        if obs_type not in OBS_TYPES:
+            raise unknown_name_error("observation type", obs_type, OBS_TYPES)
+        self.obs_type = obs_type
+        self.goal_env = goal_env
+        self.with_goal = task.goal_conditioned and not goal_env
+        bounds = dict(task.observation_bounds())
+        if task.goal_conditioned:
+            g_low, g_high = task.goal_bounds()
+            self.goal_low, self.goal_high = g_low.astype(np.float32), g_high.astype(np.float32)
+            if self.with_goal:
+                bounds["goal"] = (g_low, g_high)
+                bounds["goal_delta"] = (g_low - g_high, g_high - g_low)
+        self.keys = list(bounds)
+        self.state_space = _box(
+            np.concatenate([np.asarray(bounds[k][0], float) for k in self.keys]),
+            np.concatenate([np.asarray(bounds[k][1], float) for k in self.keys]),
+        )
+        self.image_space = spaces.Box(0, 255, (height, width * n_cameras, 3), dtype=np.uint8)
+        self.space = self._space()
+
+    @property
+    def needs_images(self) -> bool:
+        return self.obs_type != "state"
+
+    def _space(self) -> spaces.Space:
+        main = self.image_space if self.obs_type == "pixels" else self.state_space
+        if not self.goal_env:
+            if self.obs_type == "pixels_state":
+                return spaces.Dict({"pixels": self.image_space, "state": self.state_space})
+            return main
+        goal = spaces.Box(self.goal_low, self.goal_high, dtype=np.float32)
+        entries: dict[str, spaces.Space] = {"observation": main}
+        if self.obs_type == "pixels_state":
+            entries["pixels"] = self.image_space
+        entries["achieved_goal"] = goal
+        entries["desired_goal"] = spaces.Box(self.goal_low, self.goal_high, dtype=np.float32)
+        return spaces.Dict(entries)
+
+    def state(self, task: Task) -> np.ndarray:
+        """The task's state as the clipped float32 vector of ``state_space``."""
+        obs = task.get_observation()
+        if self.with_goal:
+            desired = task.desired_goal()
+            obs["goal"] = desired
+            obs["goal_delta"] = desired - task.achieved_goal()
+        vec = np.concatenate([np.asarray(obs[k], float).reshape(-1) for k in self.keys])
+        return np.clip(vec.astype(np.float32), self.state_space.low, self.state_space.high)
+
+    def goal(self, value: np.ndarray) -> np.ndarray:
+        return np.clip(np.asarray(value, np.float32), self.goal_low, self.goal_high)
+
+    def build(self, task: Task, images: dict[str, np.ndarray] | None) -> Any:
+        """The observation of the current state (``images``: camera -> (H, W, 3) uint8)."""
+        pixels = None
+        if self.needs_images:
+            pixels = np.concatenate(list((images or {}).values()), axis=1)
+        state = self.state(task) if self.obs_type != "pixels" else None
+        if not self.goal_env:
+            if self.obs_type == "pixels":
+                return pixels
+            if self.obs_type == "pixels_state":
+                return {"pixels": pixels, "state": state}
+            return state
+        out: dict[str, np.ndarray] = {"observation": pixels if state is None else state}
+        if self.obs_type == "pixels_state":
+            out["pixels"] = pixels
+        out["achieved_goal"] = self.goal(task.achieved_goal())
+        out["desired_goal"] = self.goal(task.desired_goal())
+        return out

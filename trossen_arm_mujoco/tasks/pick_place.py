@@ -1,0 +1,53 @@
+"""Pick and place: grasp the cube and bring it to a goal on the table or in the air.
+
+Config: ``config/pick_place.yaml`` (cube_low/high (x, y m), goal_low/high (x, y, z m),
+air_goal_probability, lift_bonus, lift_height, ...). Achieved goal = cube centre, desired
+goal = goal (world frame, m). Observations are those of ``push``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from trossen_arm_mujoco.tasks.push import PushSampler, PushTask, cube_rest_z
+
+
+class PickPlaceTask(PushTask):
+    """Bring the cube's centre within ``success_tolerance`` of a 3-D goal (m)."""
+
+    name: ClassVar[str] = "pick_place"
+
+    def lifted(self) -> bool:
+        """The cube is ``lift_height`` (m) or more above its resting height."""
+        rest = cube_rest_z(self.env, float(self.config["table_height"]))
+        return bool(self.cube_pos()[2] >= rest + float(self.config["lift_height"]))
+
+    def get_reward(self) -> float:
+        """Push's shaped reward + lift_bonus while the cube is lifted."""
+        return self.shaped_reward() + float(self.config["lift_bonus"]) * self.lifted()
+
+    def get_info(self) -> dict[str, Any]:
+        info = super().get_info()
+        info["lifted"] = self.lifted()
+        return info
+
+    def get_task_description(self) -> str:
+        x, y, z = self.goal
+        return f"pick up the red cube and place it at ({x:.3f}, {y:.3f}, {z:.3f}) m"
+
+
+class PickPlaceSampler(PushSampler):
+    """Cube as in push; goal (x, y) uniform, z uniform up to goal_high[2] with probability
+    ``air_goal_probability``, otherwise resting on the table."""
+
+    task_cls = PickPlaceTask
+
+    def sample_goal(self, rng: np.random.Generator, cube: np.ndarray) -> np.ndarray:
+        goal = super().sample_goal(rng, cube)
+        low, high = self.config["goal_low"], self.config["goal_high"]
+        in_air = rng.uniform() < float(self.config["air_goal_probability"])
+        z_air = rng.uniform(max(cube[2], low[2]), max(cube[2], high[2]))
+        goal[2] = z_air if in_air else cube[2]
+        return goal

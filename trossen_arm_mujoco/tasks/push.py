@@ -1,0 +1,118 @@
+"""Push: push a cube across the table onto a goal marked on the table.
+
+Config: ``config/push.yaml`` (cube_low/high, goal_low/high (x, y m), min_goal_distance,
+success_tolerance, reach_coef, distance_coef, success_bonus, ...). Achieved goal = cube
+centre, desired goal = goal (world frame, m).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
+from trossen_arm_mujoco.tasks.task import Bounds
+
+CUBE = ("cube", ("cube_joint", "cube"))
+MAX_GOAL_TRIES = 100
+
+
+def cube_rest_z(env: MujocoEnv, table_height: float) -> float:
+    """Height (m) of the centre of the cube resting on the table."""
+    cube = env.objects["cube"]
+    return float(table_height + env.model.geom_size[cube.geom_id][2])
+
+
+class PushTask(SingleArmTask):
+    """Bring the cube's centre within ``success_tolerance`` of the goal (m)."""
+
+    name: ClassVar[str] = "push"
+    marker_body: ClassVar[str] = "goal"
+
+    def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
+        super().__init__(env, config, goal)
+        self.cube = env.objects["cube"]
+        self.max_obj_vel = float(self.config["max_object_velocity"])
+
+    def cube_pos(self) -> np.ndarray:
+        """Cube centre, world frame (3,) m."""
+        return self.cube.get_pose(self.data)[:3]
+
+    def get_observation(self) -> dict[str, np.ndarray]:
+        """Robot state, then cube_pos (3,) m, cube_quat (4,) wxyz, cube_vel (6,) [m/s, rad/s],
+        cube_rel (3,) m = cube_pos - ee_pos."""
+        obs = self.robot_observation()
+        pose = self.cube.get_pose(self.data)
+        obs["cube_pos"] = pose[:3]
+        obs["cube_quat"] = pose[3:]
+        obs["cube_vel"] = self.cube.get_velocity(self.data)
+        obs["cube_rel"] = pose[:3] - obs["ee_pos"]
+        return obs
+
+    def observation_bounds(self) -> Bounds:
+        bounds = self.robot_bounds()
+        span = self.ws_high - self.ws_low
+        bounds["cube_pos"] = (self.ws_low.copy(), self.ws_high.copy())
+        bounds["cube_quat"] = (-np.ones(4), np.ones(4))
+        bounds["cube_vel"] = (np.full(6, -self.max_obj_vel), np.full(6, self.max_obj_vel))
+        bounds["cube_rel"] = (-span, span)
+        return bounds
+
+    def achieved_goal(self) -> np.ndarray:
+        return self.cube_pos()
+
+    def shaped_reward(self) -> float:
+        """-reach_coef * |ee - cube| - distance_coef * |cube - goal| + success_bonus * success."""
+        cube = self.cube_pos()
+        reach = float(np.linalg.norm(self.ee_pos() - cube))
+        dist = float(np.linalg.norm(cube - self.goal))
+        return (
+            -float(self.config["reach_coef"]) * reach
+            - float(self.config["distance_coef"]) * dist
+            + float(self.config["success_bonus"]) * self.judge_success()
+        )
+
+    def get_reward(self) -> float:
+        return self.shaped_reward()
+
+    def get_task_description(self) -> str:
+        x, y, _ = self.goal
+        return f"push the red cube to ({x:.3f}, {y:.3f}) m on the table"
+
+
+class PushSampler(SingleArmSampler):
+    """Cube uniform in [cube_low, cube_high] (x, y m) with a random yaw; goal uniform in
+    [goal_low, goal_high], at least ``min_goal_distance`` from the cube."""
+
+    task_cls = PushTask
+
+    def objects(self) -> dict[str, tuple[str, str | None]]:
+        return dict([CUBE])
+
+    def place_cube(self, rng: np.random.Generator) -> np.ndarray:
+        """Put the cube at a random resting pose; returns its centre (3,) m."""
+        xy = rng.uniform(self.config["cube_low"], self.config["cube_high"])
+        yaw = rng.uniform(-np.pi, np.pi)
+        z = cube_rest_z(self.env, float(self.config["table_height"]))
+        pose = [xy[0], xy[1], z, np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+        self.env.objects["cube"].set_pose(self.env.data, pose)
+        return np.array([xy[0], xy[1], z])
+
+    def sample_goal(self, rng: np.random.Generator, cube: np.ndarray) -> np.ndarray:
+        """Goal (3,) m on the table, away from the cube (rejection sampling, bounded tries)."""
+        low, high = self.config["goal_low"], self.config["goal_high"]
+        min_dist = float(self.config["min_goal_distance"])
+        goal = cube.copy()
+        for _ in range(MAX_GOAL_TRIES):
+            goal[:2] = rng.uniform(low[:2], high[:2])
+            if np.linalg.norm(goal[:2] - cube[:2]) >= min_dist:
+                break
+        return goal
+
+    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
+        self.perturb_arm(rng)
+        cube = self.place_cube(rng)
+        return {"goal": self.sample_goal(rng, cube)}

@@ -1,0 +1,52 @@
+"""Reach: move the wxai tool frame (``ee_site``) to a target sampled in a box.
+
+Config: ``config/reach.yaml`` (target_low/high, success_tolerance, distance_coef,
+success_bonus, ...). Achieved goal = tool-frame position, desired goal = target (world, m).
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
+from trossen_arm_mujoco.tasks.task import Bounds
+
+
+class ReachTask(SingleArmTask):
+    """Reach a target (m, world frame) with the tool frame."""
+
+    name: ClassVar[str] = "reach"
+    marker_body: ClassVar[str] = "target"
+
+    def get_observation(self) -> dict[str, np.ndarray]:
+        """Robot state only (see ``SingleArmTask.robot_observation``)."""
+        return self.robot_observation()
+
+    def observation_bounds(self) -> Bounds:
+        return self.robot_bounds()
+
+    def achieved_goal(self) -> np.ndarray:
+        return self.ee_pos()
+
+    def get_reward(self) -> float:
+        """-distance_coef * |ee - target| (m) + success_bonus * success."""
+        dist = float(np.linalg.norm(self.ee_pos() - self.goal))
+        bonus = float(self.config["success_bonus"]) * self.judge_success()
+        return -float(self.config["distance_coef"]) * dist + bonus
+
+    def get_task_description(self) -> str:
+        x, y, z = self.goal
+        return f"move the gripper tip to ({x:.3f}, {y:.3f}, {z:.3f}) m"
+
+
+class ReachSampler(SingleArmSampler):
+    """Random initial joints and a target uniform in [target_low, target_high] (m)."""
+
+    task_cls = ReachTask
+
+    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
+        self.perturb_arm(rng)
+        target = rng.uniform(self.config["target_low"], self.config["target_high"])
+        return {"goal": target}

@@ -1,0 +1,136 @@
+"""What the single-arm wxai tasks share: a goal-conditioned task over one arm and gripper,
+and a sampler that builds the table scene and perturbs the initial joints.
+
+Frames and units: world frame with the arm base at the origin and the table top at
+``table_height`` (m); goals and tool-frame (``ee_site``) positions in m.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from trossen_arm_mujoco.constants import GRIPPER_OPEN
+from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
+from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.sampler import TaskSampler
+from trossen_arm_mujoco.tasks.task import Bounds, Task
+
+GOAL_REWARD_TYPES = ("sparse", "dense")
+
+
+def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+    """Euclidean distance over the last axis; shapes (..., 3) -> (...)."""
+    return np.linalg.norm(np.asarray(achieved, float) - np.asarray(desired, float), axis=-1)
+
+
+class SingleArmTask(Task):
+    """A wxai task scored by the distance of an achieved goal to a desired goal (m).
+
+    Args:
+        env, config: see ``Task``; also reads ``success_tolerance``, ``goal_reward_type``,
+            ``workspace_low/high``, ``max_joint_velocity``.
+        goal: desired goal, world frame (3,) m; defaults to the workspace centre.
+    """
+
+    robot_name: ClassVar[str] = "wxai"
+    goal_conditioned: ClassVar[bool] = True
+    #: mocap body showing the goal in the scene.
+    marker_body: ClassVar[str] = ""
+
+    def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
+        super().__init__(env, config)
+        view = self.robot.view
+        self.arm = view.group("arm")
+        self.gripper = view.group("gripper")
+        self.tolerance = float(self.config["success_tolerance"])
+        self.reward_type = str(self.config["goal_reward_type"])
+        if self.reward_type not in GOAL_REWARD_TYPES:
+            raise unknown_name_error("goal reward type", self.reward_type, GOAL_REWARD_TYPES)
+        self.ws_low = np.asarray(self.config["workspace_low"], dtype=float)
+        self.ws_high = np.asarray(self.config["workspace_high"], dtype=float)
+        self.max_qvel = float(self.config["max_joint_velocity"])
+        centre = 0.5 * (self.ws_low + self.ws_high)
+        self.goal = centre if goal is None else np.asarray(goal, dtype=float).reshape(3).copy()
+        self._mocap = int(env.model.body_mocapid[lookup_id(env.model, "body", self.marker_body)])
+
+    # -- physics hooks --------------------------------------------------------------------
+    def initialize_episode(self) -> None:
+        """Show the goal: move the marker's mocap body there."""
+        self.data.mocap_pos[self._mocap] = self.goal
+
+    # -- robot state ----------------------------------------------------------------------
+    def ee_pos(self) -> np.ndarray:
+        """Tool-frame (ee_site) position, world frame (3,) m."""
+        return self.arm.get_frame_pose(self.data)[:3]
+
+    def robot_observation(self) -> dict[str, np.ndarray]:
+        """arm_qpos (6,) rad, arm_qvel (6,) rad/s, gripper (1,) finger travel m, ee_pos (3,)."""
+        return {
+            "arm_qpos": self.arm.get_qpos(self.data),
+            "arm_qvel": self.arm.get_qvel(self.data),
+            "gripper": self.gripper.get_noop_ctrl(self.data),
+            "ee_pos": self.ee_pos(),
+        }
+
+    def robot_bounds(self) -> Bounds:
+        lo, hi = self.gripper.ctrl_limits()
+        return {
+            "arm_qpos": (self.arm.joint_range[:, 0].copy(), self.arm.joint_range[:, 1].copy()),
+            "arm_qvel": (np.full(6, -self.max_qvel), np.full(6, self.max_qvel)),
+            "gripper": (lo, hi),
+            "ee_pos": (self.ws_low.copy(), self.ws_high.copy()),
+        }
+
+    # -- goals ----------------------------------------------------------------------------
+    def desired_goal(self) -> np.ndarray:
+        return self.goal.copy()
+
+    def goal_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of achieved and desired goals: the workspace box (m)."""
+        return self.ws_low.copy(), self.ws_high.copy()
+
+    def goal_success(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """Within ``success_tolerance``; shapes (..., 3) -> bool (...)."""
+        return goal_distance(achieved, desired) < self.tolerance
+
+    def goal_reward(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """``sparse``: -1 outside the tolerance, 0 inside; ``dense``: -distance (m).
+        Shapes (..., 3) -> float (...)."""
+        if self.reward_type == "sparse":
+            return -(~self.goal_success(achieved, desired)).astype(np.float64)
+        return -goal_distance(achieved, desired)
+
+    def judge_success(self) -> bool:
+        return bool(self.goal_success(self.achieved_goal(), self.desired_goal()))
+
+    def get_info(self) -> dict[str, Any]:
+        info = super().get_info()
+        info["goal_distance"] = float(goal_distance(self.achieved_goal(), self.goal))
+        return info
+
+
+class SingleArmSampler(TaskSampler):
+    """Builds a wxai table scene; the arm starts at ``init_arm_qpos`` (rad) plus uniform
+    noise of ``init_joint_noise`` (rad), the gripper at ``init_gripper`` (m, default open)."""
+
+    robot_name: ClassVar[str] = "wxai"
+    arms: ClassVar[tuple[tuple[str, str], ...]] = (("arm", "gripper"),)
+    cameras: ClassVar[tuple[str, ...]] = ("overview", "cam")
+
+    def robot_config(self) -> RobotConfig:
+        base = wxai_config()
+        fingers = float(self.config.get("init_gripper", GRIPPER_OPEN))
+        init = {"arm": list(self.config["init_arm_qpos"]), "gripper": [fingers, fingers]}
+        return RobotConfig(base.name, base.groups, init, base.command_mode)
+
+    def perturb_arm(self, rng: np.random.Generator) -> None:
+        """Add the initial joint noise to the arm (in place, within the joint limits)."""
+        noise = float(self.config.get("init_joint_noise", 0.0))
+        arm = self.env.robots[self.robot_name].view.group("arm")
+        q = arm.get_qpos(self.env.data) + rng.uniform(-noise, noise, size=arm.n_joints)
+        arm.set_qpos(self.env.data, np.clip(q, arm.joint_range[:, 0], arm.joint_range[:, 1]))

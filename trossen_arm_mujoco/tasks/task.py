@@ -1,0 +1,159 @@
+"""Task: what an episode is. It scores (reward, success), times and observes; it never
+randomizes (samplers do) and never computes control (controllers do).
+
+Timing: ``sim_dt`` is the model timestep, ``ctrl_dt`` the control period of the env and
+``policy_dt`` (default 0.02 s) the duration of one task step. One task step runs
+``policy_dt / ctrl_dt`` control ticks, each of ``ctrl_dt / sim_dt`` physics steps; both
+ratios must be whole numbers (``UserError`` otherwise).
+
+Lifecycle: a ``TaskSampler`` resets the env, randomizes the scene and builds the task, then
+calls ``task.reset()``; the caller then alternates ``step(action)`` and the queries
+(``is_done``, ``judge_success``, ``get_reward``, ``get_observation``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.sim.env import MujocoEnv, whole_ratio
+
+DEFAULT_POLICY_DT = 0.02
+
+Bounds = dict[str, tuple[np.ndarray, np.ndarray]]
+
+
+class Task:
+    """Base of every task.
+
+    Args:
+        env: the world of the episode (owned by the sampler).
+        config: task config (see ``tasks.config``); keys read here: ``policy_dt``,
+            ``max_episode_steps``, ``terminate_on_success``.
+
+    Subclasses set ``name``, ``robot_name`` and override the physics hooks
+    (``initialize_episode``, ``before_step``, ``after_step``), ``get_observation`` with
+    ``observation_bounds``, ``get_reward``, ``judge_success`` and ``get_task_description``.
+    Goal-conditioned tasks also override ``achieved_goal``, ``desired_goal``, ``goal_bounds``
+    and ``goal_reward``.
+    """
+
+    name: ClassVar[str] = ""
+    robot_name: ClassVar[str] = ""
+    goal_conditioned: ClassVar[bool] = False
+
+    def __init__(self, env: MujocoEnv, config: Mapping[str, Any]):
+        self.env = env
+        self.config = dict(config)
+        self.sim_dt = env.sim_dt
+        self.ctrl_dt = env.ctrl_dt
+        self.policy_dt = float(self.config.get("policy_dt", DEFAULT_POLICY_DT))
+        self.n_ctrl_steps = whole_ratio(self.policy_dt, self.ctrl_dt, "policy_dt", "ctrl_dt")
+        self.max_episode_steps = int(self.config.get("max_episode_steps", 0)) or None
+        self.n_steps = 0
+
+    # -- layers ---------------------------------------------------------------------------
+    @property
+    def robot(self):
+        """The robot this task acts through (``sim.env.MujocoEnv.robots[robot_name]``)."""
+        return self.env.robots[self.robot_name]
+
+    @property
+    def data(self):
+        return self.env.data
+
+    # -- physics hooks --------------------------------------------------------------------
+    def initialize_episode(self) -> None:
+        """Called by ``reset`` once the sampler has set the scene (e.g. place markers)."""
+
+    def before_step(self, action: Mapping[str, np.ndarray]) -> None:
+        """Hand the commands (move group -> command vector) to the robot."""
+        self.robot.update_control(action)
+
+    def after_step(self) -> None:
+        """Called after the physics of one task step (bookkeeping)."""
+
+    # -- episodic API ---------------------------------------------------------------------
+    def reset(self) -> dict[str, np.ndarray]:
+        """Start the episode from the current scene: counters to zero, controls holding the
+        state, hooks run. Returns the first observation."""
+        self.n_steps = 0
+        self.env.forward()
+        self.robot.hold(self.data)
+        self.initialize_episode()
+        self.env.forward()
+        return self.get_observation()
+
+    def apply_action(self, action: Mapping[str, np.ndarray]) -> None:
+        """First half of a step: validate and hand over the commands (no physics)."""
+        if not isinstance(action, Mapping):
+            raise UserError(
+                f"task '{self.name}': action must be a dict move group -> command, "
+                f"got {type(action).__name__}"
+            )
+        self.before_step(action)
+
+    def finish_step(self) -> None:
+        """Second half of a step, after the physics: count it and run ``after_step``."""
+        self.n_steps += 1
+        self.after_step()
+
+    def step(self, action: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], float, bool]:
+        """One task step: commands in, ``policy_dt`` of simulated time.
+
+        Returns:
+            (observation, reward, done).
+        """
+        self.apply_action(action)
+        self.env.step(self.n_ctrl_steps)
+        self.finish_step()
+        return self.get_observation(), self.get_reward(), self.is_done()
+
+    def is_terminal(self) -> bool:
+        """The episode ends for a reason other than time (success when
+        ``terminate_on_success``)."""
+        return bool(self.config.get("terminate_on_success", False)) and self.judge_success()
+
+    def is_done(self) -> bool:
+        """Terminal, or ``max_episode_steps`` task steps taken."""
+        timeout = self.max_episode_steps is not None and self.n_steps >= self.max_episode_steps
+        return timeout or self.is_terminal()
+
+    def judge_success(self) -> bool:
+        raise NotImplementedError
+
+    def get_task_description(self) -> str:
+        raise NotImplementedError
+
+    def get_reward(self) -> float:
+        raise NotImplementedError
+
+    def get_info(self) -> dict[str, Any]:
+        """Per-step diagnostics; always has ``is_success``."""
+        return {"is_success": self.judge_success()}
+
+    # -- observations ---------------------------------------------------------------------
+    def get_observation(self) -> dict[str, np.ndarray]:
+        """Named state vectors (float64), keys and shapes as in ``observation_bounds``."""
+        raise NotImplementedError
+
+    def observation_bounds(self) -> Bounds:
+        """name -> (low, high) of every ``get_observation`` entry; finite, from the config and
+        the model only (valid before any episode)."""
+        raise NotImplementedError
+
+    # -- goals (goal-conditioned tasks) ---------------------------------------------------
+    def achieved_goal(self) -> np.ndarray:
+        raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+
+    def desired_goal(self) -> np.ndarray:
+        raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+
+    def goal_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+
+    def goal_reward(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
