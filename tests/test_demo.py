@@ -268,7 +268,7 @@ def test_viewer_launch_gives_up_instead_of_hanging(monkeypatch):
     monkeypatch.setattr(mujoco_viewer, "launch_passive", never_returns)
     start = time.monotonic()
     with pytest.raises(RuntimeError, match="did not open within 0.5 s"):
-        demo._launch_viewer(None, None, timeout=0.5)
+        demo.launch_viewer(None, None, timeout=0.5)
     assert time.monotonic() - start < 5
 
 
@@ -280,7 +280,7 @@ def test_viewer_launch_error_is_reported(monkeypatch):
 
     monkeypatch.setattr(mujoco_viewer, "launch_passive", fails)
     with pytest.raises(RuntimeError, match="viewer failed to start: no window"):
-        demo._launch_viewer(None, None, timeout=5)
+        demo.launch_viewer(None, None, timeout=5)
 
 
 class FakeViewer:
@@ -307,7 +307,7 @@ class FakeViewer:
 
 def test_live_loop_stops_when_the_window_closes(monkeypatch, capsys):
     viewer = FakeViewer(frames=10)
-    monkeypatch.setattr(demo, "_launch_viewer", lambda model, data: (viewer, []))
+    monkeypatch.setattr(demo, "launch_viewer", lambda model, data: (viewer, []))
     start = time.monotonic()
     demo.run_live("joint", seconds=100.0, seed=0)
     assert viewer.synced == 10 and viewer.closed
@@ -317,7 +317,7 @@ def test_live_loop_stops_when_the_window_closes(monkeypatch, capsys):
 
 def test_live_loop_runs_in_real_time_for_the_given_seconds(monkeypatch):
     viewer = FakeViewer()
-    monkeypatch.setattr(demo, "_launch_viewer", lambda model, data: (viewer, []))
+    monkeypatch.setattr(demo, "launch_viewer", lambda model, data: (viewer, []))
     start = time.monotonic()
     demo.run_live("ee", seconds=0.3, seed=0)
     elapsed = time.monotonic() - start

@@ -17,9 +17,7 @@ import struct
 import subprocess
 import sys
 import tempfile
-import threading
 import time
-import warnings
 import zlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -28,11 +26,11 @@ import numpy as np
 
 from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.viewer import close_viewer, display_problem, launch_viewer
 
 FLAVOURS = ("ee", "joint")
 HEADLESS_STEPS = 25
 IMAGE_SIZE = (480, 640)  # (height, width)
-VIEWER_START_TIMEOUT_S = 20.0
 
 # Scripted motion: periods (s) and amplitudes.
 CIRCLE_PERIOD = 4.0
@@ -138,73 +136,6 @@ def encode_png(image: np.ndarray) -> bytes:
     )
 
 
-# ----------------------------------------------------------------------------- display
-def display_problem() -> str | None:
-    """None when a live window can be opened, else why not (one short phrase)."""
-    if not os.environ.get("DISPLAY"):
-        return "no DISPLAY"
-    try:
-        import glfw
-    except Exception as exc:  # missing package or GLFW library
-        return f"GLFW unavailable ({exc})"
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        try:
-            if not glfw.init():
-                return f"glfw.init() failed on DISPLAY={os.environ['DISPLAY']}"
-            try:
-                glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
-                window = glfw.create_window(64, 64, "probe", None, None)
-                if not window:
-                    return "cannot create an OpenGL window"
-                glfw.destroy_window(window)
-            finally:
-                glfw.default_window_hints()
-                glfw.terminate()
-        except Exception as exc:
-            return f"GLFW error ({exc})"
-    return None
-
-
-def _launch_viewer(model, data, timeout: float = VIEWER_START_TIMEOUT_S):
-    """``mujoco.viewer.launch_passive`` that gives up after ``timeout`` s instead of hanging
-    (it waits forever when its window thread fails).
-
-    Returns (handle, threads): the threads the viewer started, to join after ``close()``.
-    """
-    import mujoco.viewer
-
-    result: dict = {}
-    before = set(threading.enumerate())
-
-    def target() -> None:
-        try:
-            result["handle"] = mujoco.viewer.launch_passive(
-                model, data, show_left_ui=False, show_right_ui=False
-            )
-        except BaseException as exc:  # reported to the caller below
-            result["error"] = exc
-
-    thread = threading.Thread(target=target, name="viewer-launch", daemon=True)
-    thread.start()
-    thread.join(timeout)
-    if "error" in result:
-        raise RuntimeError(f"viewer failed to start: {result['error']}")
-    if "handle" not in result:
-        raise RuntimeError(f"viewer did not open within {timeout:g} s")
-    started = [t for t in threading.enumerate() if t not in before and t is not thread]
-    return result["handle"], started
-
-
-def _close_viewer(viewer, threads: list[threading.Thread], timeout: float = 10.0) -> None:
-    """Close the window and wait for the viewer's threads to finish: exiting while the
-    render thread still swaps buffers can crash Xlib (GLXBadDrawable)."""
-    viewer.close()
-    deadline = time.monotonic() + timeout
-    for t in threads:
-        t.join(max(0.0, deadline - time.monotonic()))
-
-
 # ----------------------------------------------------------------------------- runs
 def run_live(flavour: str, seconds: float, seed: int | None) -> None:
     """Live viewer, real-time pace, until ``seconds`` or the window is closed."""
@@ -216,7 +147,7 @@ def run_live(flavour: str, seconds: float, seed: int | None) -> None:
         spec = env.action_spec()
         action = scripted_action(flavour, ts.observation, spec.minimum, spec.maximum)
         physics = env.physics
-        viewer, viewer_threads = _launch_viewer(physics.model.ptr, physics.data.ptr)
+        viewer, viewer_threads = launch_viewer(physics.model.ptr, physics.data.ptr)
         try:
             viewer.cam.lookat[:] = (0.0, 0.0, 0.1)
             viewer.cam.distance = 1.7
@@ -242,7 +173,7 @@ def run_live(flavour: str, seconds: float, seed: int | None) -> None:
                 elif lag < -0.25:  # rendering is slower than real time: do not catch up
                     start -= lag
         finally:
-            _close_viewer(viewer, viewer_threads)
+            close_viewer(viewer, viewer_threads)
     finally:
         env.task.close()
 
