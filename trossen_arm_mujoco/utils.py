@@ -76,6 +76,8 @@ def make_sim_env(
         image_size=image_size,
         **task_kwargs,
     )
+    if hasattr(task, "scene"):
+        task.scene(physics)  # look names (cameras, joints, sites) up now, not at reset
     return control.Environment(
         physics,
         task,

@@ -17,6 +17,14 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 
 
+def _vector(name: str, value, size: int) -> np.ndarray:
+    """``value`` as a finite float vector of ``size`` values, else a one-line UserError."""
+    v = np.asarray(value, dtype=float).reshape(-1)
+    if v.shape != (size,):
+        raise UserError(f"{name}: expected {size} control values, got {v.size}")
+    return _finite(name, v)
+
+
 def _finite(name: str, value: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(value)):
         raise UserError(f"{name}: command contains NaN or inf: {np.round(value, 4).tolist()}")
@@ -128,7 +136,7 @@ class SimplyActuatedMoveGroup(MoveGroup):
         return data.ctrl[self.actuator_ids].copy()
 
     def set_ctrl(self, data, ctrl):
-        c = _finite(self.name, np.asarray(ctrl, dtype=float).reshape(self.ctrl_dim))
+        c = _vector(self.name, ctrl, self.ctrl_dim)
         data.ctrl[self.actuator_ids] = np.clip(c, self._ctrl_range[:, 0], self._ctrl_range[:, 1])
 
     def get_noop_ctrl(self, data):
@@ -170,7 +178,7 @@ class GripperGroup(MoveGroup):
         return data.ctrl[[self.actuator_id]].copy()
 
     def set_ctrl(self, data, ctrl):
-        c = _finite(self.name, np.asarray(ctrl, dtype=float).reshape(1))
+        c = _vector(self.name, ctrl, 1)
         data.ctrl[self.actuator_id] = np.clip(c[0], *self._ctrl_range)
 
     def get_noop_ctrl(self, data):
@@ -203,7 +211,7 @@ class MocapArmGroup(MJCFFrameMixin, MoveGroup):
         return np.concatenate([data.mocap_pos[self.mocap_id], data.mocap_quat[self.mocap_id]])
 
     def set_ctrl(self, data, ctrl):
-        c = _finite(self.name, np.asarray(ctrl, dtype=float).reshape(7))
+        c = _vector(self.name, ctrl, 7)
         norm = np.linalg.norm(c[3:])
         if norm < 1e-9:
             raise UserError(f"{self.name}: mocap quaternion has zero length")
