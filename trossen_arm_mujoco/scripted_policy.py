@@ -89,7 +89,9 @@ class PickAndTransferPolicy:
             np.array([cube_meet[0], cube_meet[1] - 0.015, right_meet[2] - 0.0175]), contact
         )
         left_pre = self._jitter(left_grasp + [0.0, 0.10, 0.0], free)
-        right_away = self._jitter(right_meet + [0.0, -0.05, 0.10], free)
+        # Release, back off toward the right base (pointing down stays within the wrist
+        # limits there), then return to the start pose.
+        right_away = self._jitter(right_meet + [0.0, -0.08, 0.02], free)
         left_hold = self._jitter(left_grasp + [0.0, 0.06, 0.02], free)
 
         o, c = GRIPPER_OPEN, GRIPPER_GRASP
@@ -102,8 +104,9 @@ class PickAndTransferPolicy:
             waypoint(220, right_meet, right_down, c),
             waypoint(330, right_meet, right_down, c),
             waypoint(350, right_meet, right_down, o),
-            waypoint(400, right_away, right_down, o),
-            waypoint(600, right_away, right_down, o),
+            waypoint(390, right_away, right_down, o),
+            waypoint(470, right0[:3], right0[3:], o),
+            waypoint(600, right0[:3], right0[3:], o),
         ]
         left = [
             waypoint(0, left0[:3], left_quat, o),

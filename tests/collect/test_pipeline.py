@@ -106,6 +106,12 @@ def test_full_episode_succeeds_without_images():
         rec.close()
     assert rewards[-1] == 4
     assert actions.shape == (600, 16)
+    low, high = rec.joint_env.task.action_bounds(rec.joint_env.physics)
+    assert np.all(actions >= low) and np.all(actions <= high)
+    # ... and the real-arm replay validation accepts them at the default 10 Hz
+    from trossen_arm_mujoco.real.validate import ArmLimits, validate_actions
+
+    validate_actions(actions, 10.0, ArmLimits.from_mjcf())
     # gripper columns carry the commanded values, equal within each gripper
     np.testing.assert_array_equal(actions[:, 6], actions[:, 7])
     np.testing.assert_array_equal(actions[:, 14], actions[:, 15])

@@ -105,6 +105,10 @@ class EpisodeRecorder:
             # so the joint env squeezes the cube as the EE env did.
             actions[t, 6:8] = ee_action[7]
             actions[t, 14:16] = ee_action[15]
+        # The mocap weld can press a joint slightly past its (soft) limit; the joint env and
+        # the real arm only accept targets within the limits, so record those.
+        low, high = self.joint_env.task.action_bounds(self.joint_env.physics)
+        np.clip(actions, low, high, out=actions)
         return actions, box_pose
 
     def replay(
