@@ -65,9 +65,7 @@ def launch_viewer(model, data, timeout: float | None = VIEWER_START_TIMEOUT_S):
 
     before = set(threading.enumerate())
     if timeout is None:  # in this thread (needed when this thread renders offscreen too)
-        handle = mujoco.viewer.launch_passive(
-            model, data, show_left_ui=False, show_right_ui=False
-        )
+        handle = mujoco.viewer.launch_passive(model, data, show_left_ui=False, show_right_ui=False)
         return handle, [t for t in threading.enumerate() if t not in before]
     result: dict = {}
 
