@@ -112,3 +112,47 @@ def network_guard(_network_guard_session: NetworkGuard) -> Iterator[NetworkGuard
         attempts = "; ".join(guard.blocked)
         guard.blocked.clear()
         pytest.fail(f"the test tried to reach the network: {attempts}", pytrace=False)
+
+
+# --- every episode recorded by the suite must replay on the real arm at its own rate -----
+RECORDED_EPISODES_CHECKED: list[str] = []
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _recorded_episodes_replay_at_50_fps(tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+    """At the end of the session, every episode file the recorder wrote anywhere under the
+    session's temporary folders (including those of CLI subprocesses) passes the real-replay
+    validator at 50 fps, as ``replay_episode_real.py --fps 50 --dry_run`` runs it, and says
+    so in its ``real_replay_checked`` attribute."""
+    yield
+    import h5py
+
+    from trossen_arm_mujoco.real.validate import TrajectoryError, validate_actions
+
+    failures = []
+    for path in sorted(tmp_path_factory.getbasetemp().rglob("episode_*.hdf5")):
+        try:
+            with h5py.File(path, "r") as f:
+                if "real_replay_checked" not in f.attrs:
+                    continue  # not written by the recorder (hand-made test files)
+                checked, actions = bool(f.attrs["real_replay_checked"]), f["action"][()]
+        except OSError:
+            continue  # a deliberately corrupt file
+        try:
+            validate_actions(actions, 50.0)
+        except TrajectoryError as exc:
+            failures.append(f"{path}: {exc}")
+            continue
+        if not checked:
+            failures.append(f"{path}: real_replay_checked is False")
+        RECORDED_EPISODES_CHECKED.append(str(path))
+    if failures:
+        pytest.fail("recorded episodes fail the real replay at 50 fps: " + "; ".join(failures))
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    if RECORDED_EPISODES_CHECKED:
+        terminalreporter.write_line(
+            f"real-replay check: {len(RECORDED_EPISODES_CHECKED)} recorded episode(s) pass "
+            "the validator at 50 fps"
+        )

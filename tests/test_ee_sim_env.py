@@ -41,12 +41,9 @@ class MyEETask(TrossenAIStationaryEETask):
             contact_pair = (name_geom_1, name_geom_2)
             all_contact_pairs.append(contact_pair)
 
-        def touching(a, b):
-            return (a, b) in all_contact_pairs or (b, a) in all_contact_pairs
-
-        touch_left_gripper = touching("red_box", "left/gripper_follower_left")
-        touch_right_gripper = touching("red_box", "right/gripper_follower_left")
-        touch_table = touching("red_box", "table")
+        touch_left_gripper = ("red_box", "left/gripper_follower_left") in all_contact_pairs
+        touch_right_gripper = ("red_box", "right/gripper_follower_left") in all_contact_pairs
+        touch_table = ("red_box", "table") in all_contact_pairs
 
         reward = 0
         if touch_right_gripper:
@@ -175,3 +172,37 @@ def test_generator_as_random():
 
     np.testing.assert_array_equal(first_cube(11), first_cube(11))
     assert not np.allclose(first_cube(11)[:2], first_cube(12)[:2])
+
+
+# --- the documented (ordered-pair) reward on scripted transfers ---------------------------
+class DocumentedRewardEETask(TransferCubeEETask):
+    """The cube transfer scored by the documentation's ordered-pair reward, verbatim."""
+
+    get_reward = MyEETask.get_reward
+
+
+def contact_pairs(physics) -> list[tuple[str, str]]:
+    data, model = physics.data, physics.model
+    return [
+        (model.id2name(data.contact[i].geom1, "geom"), model.id2name(data.contact[i].geom2, "geom"))
+        for i in range(data.ncon)
+    ]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_documented_reward_scores_4_on_scripted_transfers(seed):
+    from trossen_arm_mujoco.scripted_policy import PickAndTransferPolicy
+
+    env = make_sim_env(DocumentedRewardEETask, cam_list=[], random=seed)
+    ts = env.reset()
+    policy = PickAndTransferPolicy(inject_noise=False, rng=seed)
+    rewards, table_seen = [], 0
+    for t in range(600):
+        ts = env.step(policy(ts))
+        rewards.append(ts.reward)
+        if t < 50:  # the cube rests on the table, untouched
+            table_seen += ("red_box", "table") in contact_pairs(env.physics)
+    env.task.close()
+    assert table_seen == 50
+    assert rewards[-1] == 4
+    assert {1, 2, 4} <= set(rewards)  # right grasp, lifted, handed over (3 needs the table)

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
+import h5py
 import mujoco
 import numpy as np
 import pytest
@@ -42,12 +46,9 @@ class MyJointTask(TrossenAIStationaryTask):
             contact_pair = (name_geom_1, name_geom_2)
             all_contact_pairs.append(contact_pair)
 
-        def touching(a, b):
-            return (a, b) in all_contact_pairs or (b, a) in all_contact_pairs
-
-        touch_left_gripper = touching("red_box", "left/gripper_follower_left")
-        touch_right_gripper = touching("red_box", "right/gripper_follower_left")
-        touch_table = touching("red_box", "table")
+        touch_left_gripper = ("red_box", "left/gripper_follower_left") in all_contact_pairs
+        touch_right_gripper = ("red_box", "right/gripper_follower_left") in all_contact_pairs
+        touch_table = ("red_box", "table") in all_contact_pairs
 
         reward = 0
         if touch_right_gripper:
@@ -193,3 +194,59 @@ def test_tool_target_is_the_current_ee_pose():
     np.testing.assert_allclose(ts.observation["mocap_pose_right"], tool)
     assert abs(tool[0] - (-0.019982)) > 0.05  # it moved with the arm
     env.task.close()
+
+
+# --- the documented (ordered-pair) reward on a scripted transfer's joint replay -----------
+class DocumentedRewardTask(TransferCubeTask):
+    """The cube transfer scored by the documentation's ordered-pair reward, verbatim."""
+
+    get_reward = MyJointTask.get_reward
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_documented_reward_scores_4_on_joint_replay(seed):
+    from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings
+
+    recorder = EpisodeRecorder(RecordSettings())
+    actions, box_pose = recorder.scripted_rollout(np.random.default_rng(seed))
+    recorder.close()
+    env = make_sim_env(DocumentedRewardTask, cam_list=[], box_pose=box_pose)
+    env.reset()
+    rewards, table_seen = [], 0
+    for t, action in enumerate(actions):
+        rewards.append(env.step(action).reward)
+        if t < 50:
+            data, model = env.physics.data, env.physics.model
+            pairs = [
+                (
+                    model.id2name(data.contact[i].geom1, "geom"),
+                    model.id2name(data.contact[i].geom2, "geom"),
+                )
+                for i in range(data.ncon)
+            ]
+            table_seen += ("red_box", "table") in pairs
+    env.task.close()
+    assert table_seen == 50
+    assert rewards[-1] == 4
+    assert {1, 2, 4} <= set(rewards)
+
+
+# --- a transfer recorded with the vendor's own model grasps the cube here too -------------
+VENDOR_EPISODE = Path(__file__).parent / "data/fixtures/vendor_transfer_cube_600steps_noimages"
+
+
+def test_vendor_recorded_transfer_transfers_the_cube():
+    """The vendor package's successful episode (its fingers, its grasp), replayed as joint
+    actions from its cube spawn pose: the real-gripper finger geometry holds the cube."""
+    meta = json.loads(VENDOR_EPISODE.with_suffix(".json").read_text())
+    with h5py.File(VENDOR_EPISODE.with_suffix(".hdf5"), "r") as f:
+        actions = f["action"][()]
+    assert actions.shape == (600, 16)
+    pose = np.array([*meta["box_xyz_at_spawn"], *meta["box_quat"]])
+    env = make_sim_env(TransferCubeTask, cam_list=[], box_pose=pose)
+    env.reset()
+    rewards = [env.step(a).reward for a in actions]
+    lifted = env.physics.data.qpos[18]
+    env.task.close()
+    assert rewards[-1] == 4, f"final reward {rewards[-1]}, max {max(rewards)}"
+    assert lifted > 0.1  # held in the air by the left gripper

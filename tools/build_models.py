@@ -195,12 +195,32 @@ COLLISION = [
         (0.984808, 0, 0.173648, 0),
     ),
 ]
-# One flat pad per finger, from the carriage to the fingertip (link_6 x 0.0875 .. 0.156).
-# Its inner face sits at |y| = q - 0.1 mm in link_6, so the pad gap is 2q - 0.2 mm as on
-# the real gripper (fully closed: the pads just touch).
-PAD_HALF = (0.03428, 0.005, 0.0175)
-PAD_POS = {"carriage_left": (0.03528, -0.0181, -0.003), "carriage_right": (0.03528, 0.0181, -0.003)}
-PAD_NAME = {"carriage_left": "gripper_follower_left", "carriage_right": "gripper_follower_right"}
+# Finger collision geometry of the real gripper (facts C2): per finger two pads and a tip,
+# as box-shaped convex meshes (carriage frame: half-size, pos, quat). Meshes sort after boxes
+# in MuJoCo's contact ordering, so a contact with the box-shaped cube lists "red_box" first.
+# The tip's flat inner face holds a grasped cube and carries the finger's documented name;
+# the pads' names extend it.
+PAD_HALF = (0.0275, 0.005, 0.01)
+TIP_HALF = (0.00732, 0.00214, 0.00767)
+FINGER_NAME = {"carriage_left": "gripper_follower_left", "carriage_right": "gripper_follower_right"}
+FINGER_GEOMS = {  # body: [(name suffix, mesh, half-size, pos, quat)]
+    "carriage_right": [
+        ("", "wxai_finger_tip", TIP_HALF, (0.0622, 0.02083, -0.00105), (1, 0, 0, 0)),
+        ("_pad_upper", "wxai_finger_pad", PAD_HALF, (0.0286, 0.01436, 0.0037),
+         (0.99257, -0.00451, 0.10246, 0.06547)),
+        ("_pad_lower", "wxai_finger_pad", PAD_HALF, (0.0285, 0.01429, -0.00973),
+         (0.98344, 0.0133, -0.16893, 0.06427)),
+    ],
+    "carriage_left": [
+        ("", "wxai_finger_tip", TIP_HALF, (0.0622, -0.02083, -0.00105), (1, 0, 0, 0)),
+        ("_pad_upper", "wxai_finger_pad", PAD_HALF, (0.0286, -0.01436, 0.0037),
+         (0.99257, 0.00451, 0.10246, -0.06547)),
+        ("_pad_lower", "wxai_finger_pad", PAD_HALF, (0.0285, -0.01429, -0.00973),
+         (0.98344, -0.0133, -0.16893, -0.06427)),
+    ],
+}  # fmt: skip
+#: Box-shaped convex meshes: name -> half-size (m).
+BOX_MESHES = {"wxai_finger_pad": PAD_HALF, "wxai_finger_tip": TIP_HALF}
 
 EE_SITE = (0.156, 0, 0)
 WRIST_CAM_POS = (0.05864, 0.009, 0.05427)
@@ -243,7 +263,7 @@ def mjcf_defaults() -> str:
       <default class="wxai_collision">
         <geom group="3" density="0" rgba="0.5 0.5 0.5 0.3"/>
         <default class="wxai_pad">
-          <geom type="box" condim="4" friction="1.5 0.02 0.0001" rgba="0.3 0.3 0.3 0.3"/>
+          <geom type="mesh" condim="4" friction="1.5 0.02 0.0001" rgba="0.3 0.3 0.3 0.3"/>
         </default>
       </default>
     </default>
@@ -251,10 +271,22 @@ def mjcf_defaults() -> str:
 """
 
 
-def mjcf_arm_materials() -> str:
-    return """    <material name="wxai_black" rgba="0.12 0.12 0.13 1" specular="0.3" shininess="0.4"/>
+def box_mesh_vertices(half) -> str:
+    """The 8 corners of a box of half-size ``half`` centred at the origin, as MJCF text."""
+    hx, hy, hz = half
+    corners = [(sx * hx, sy * hy, sz * hz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    return "  ".join(fmt(c) for c in corners)
+
+
+def mjcf_box_mesh(name: str, half) -> str:
+    return f'    <mesh name="{name}" vertex="{box_mesh_vertices(half)}"/>\n'
+
+
+def mjcf_arm_assets() -> str:
+    meshes = "".join(mjcf_box_mesh(n, h) for n, h in BOX_MESHES.items())
+    return f"""    <material name="wxai_black" rgba="0.12 0.12 0.13 1" specular="0.3" shininess="0.4"/>
     <material name="wxai_grey" rgba="0.45 0.46 0.48 1" specular="0.4" shininess="0.5"/>
-"""
+{meshes}"""
 
 
 def mjcf_arm(prefix: str, pos, quat, camera_name: str, indent: int) -> str:
@@ -312,11 +344,11 @@ def mjcf_arm(prefix: str, pos, quat, camera_name: str, indent: int) -> str:
                     f'<geom name="{prefix}{name}_collision_{k}" class="wxai_collision" '
                     f'type="{gtype}" size="{fmt(size)}" pos="{fmt(gpos)}"{q}/>',
                 )
-        if name in PAD_POS:
+        for suffix, mesh, _half, gpos, gquat in FINGER_GEOMS.get(name, []):
             emit(
                 depth + 1,
-                f'<geom name="{prefix}{PAD_NAME[name]}" class="wxai_pad" '
-                f'size="{fmt(PAD_HALF)}" pos="{fmt(PAD_POS[name])}"/>',
+                f'<geom name="{prefix}{FINGER_NAME[name]}{suffix}" class="wxai_pad" '
+                f'mesh="{mesh}" pos="{fmt(gpos)}" quat="{fmt(gquat)}"/>',
             )
         if name == "link_6":
             emit(
@@ -376,7 +408,7 @@ def wxai_follower_xml() -> str:
 {OPTIONS}
 {mjcf_defaults()}
   <asset>
-{mjcf_arm_materials()}  </asset>
+{mjcf_arm_assets()}  </asset>
 
   <worldbody>
     <light name="top" pos="0 0 1.5" dir="0 0 -1" directional="true"/>
@@ -421,6 +453,12 @@ FIXED_CAMERAS = [
 ]
 
 
+#: The table top (half-size, m): a 2 cm slab whose top is at z = 0.02. Its collision geom
+#: "table" is a box-shaped convex mesh (contacts with the cube list "red_box" first); a
+#: plain box of the same size draws it.
+TABLE_HALF = (0.38, 0.61, 0.01)
+
+
 def trossen_ai_xml() -> str:
     frame = []
     for k, (half, pos, quat) in enumerate(FRAME_BOXES + CAMERA_BODIES):
@@ -454,7 +492,7 @@ def trossen_ai_xml() -> str:
   </visual>
 {mjcf_defaults()}
   <asset>
-{mjcf_arm_materials()}    <material name="frame" rgba="0.72 0.73 0.75 1" specular="0.5" shininess="0.6"/>
+{mjcf_arm_assets()}{mjcf_box_mesh("table_top", TABLE_HALF)}    <material name="frame" rgba="0.72 0.73 0.75 1" specular="0.5" shininess="0.6"/>
     <texture name="sky" type="skybox" builtin="gradient" rgb1="0.55 0.62 0.70" rgb2="0.12 0.13 0.15"
              width="32" height="512"/>
     <texture name="maple" type="2d" builtin="flat" rgb1="0.80 0.64 0.45" rgb2="0.72 0.55 0.38"
@@ -476,7 +514,9 @@ def trossen_ai_xml() -> str:
       <inertial pos="-0.0053748816 -0.00042686842 0.014104691" mass="15.2"
                 quat="0.135549 0.672695 0.710793 0.154534"
                 diaginertia="0.301156 0.287827 0.165329"/>
-      <geom name="table" type="box" size="0.38 0.61 0.01" pos="0 0 0.01" material="maple"/>
+      <geom name="table_visual" type="box" size="{fmt(TABLE_HALF)}" pos="0 0 0.01" material="maple"
+            contype="0" conaffinity="0"/>
+      <geom name="table" type="mesh" mesh="table_top" pos="0 0 0.01" group="3" rgba="0.8 0.6 0.4 0.3"/>
 {chr(10).join(frame)}
 {chr(10).join(cams)}
 {arms}    </body>
@@ -658,10 +698,11 @@ def wxai_follower_urdf() -> str:
                     f'    <collision><origin xyz="{fmt(gpos)}" rpy="{rpy}"/><geometry>'
                     f"{urdf_geometry(gtype, size)}</geometry></collision>"
                 )
-        if name in PAD_POS:
+        for suffix, _mesh, half, gpos, gquat in FINGER_GEOMS.get(name, []):
             out.append(
-                f'    <collision><origin xyz="{fmt(PAD_POS[name])}"/><geometry>'
-                f'<box size="{fmt(2 * np.asarray(PAD_HALF))}"/></geometry></collision>'
+                f'    <collision name="{FINGER_NAME[name]}{suffix}"><origin xyz="{fmt(gpos)}" '
+                f'rpy="{fmt(quat_to_rpy(gquat))}"/><geometry>'
+                f'<box size="{fmt(2 * np.asarray(half))}"/></geometry></collision>'
             )
         out.append("  </link>")
     for jname, (child, jtype, axis, rng, _arm, _act, vel, eff) in JOINTS.items():

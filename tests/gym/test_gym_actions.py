@@ -33,7 +33,7 @@ def test_ee_delta_moves_tool_frame(make_env):
     env = make_env(REACH, action_mode="ee_delta")
     env.reset(seed=0)
     x0 = env.unwrapped.task.ee_pos()
-    for _ in range(10):
+    for _ in range(15):  # 0.3 s: the joints' speed limits allow about 0.13 m here
         env.step(np.array([1.0, 0.0, 0.0, 0.0]))
     moved = env.unwrapped.task.ee_pos() - x0
     assert moved[0] > 0.1 and abs(moved[1]) < 0.02 and abs(moved[2]) < 0.02
@@ -44,10 +44,12 @@ def test_ee_delta_hold_orientation(make_env):
     env.reset(seed=0)
     arm = env.unwrapped.task.arm
     quat0 = arm.get_frame_pose(env.unwrapped.scene.data)[3:]
-    for _ in range(20):
+    # 10 steps: further on this command drives joint_3 and joint_2 onto their limits, where
+    # no IK can hold the orientation (even without speed limits it drifted 9 deg at step 15)
+    for _ in range(10):
         env.step(np.array([0.5, 0.7, 0.3, 0.0]))
-    quat = arm.get_frame_pose(env.unwrapped.scene.data)[3:]
-    assert abs(np.dot(quat, quat0)) > np.cos(np.radians(5) / 2)
+        quat = arm.get_frame_pose(env.unwrapped.scene.data)[3:]
+        assert abs(np.dot(quat, quat0)) > np.cos(np.radians(5) / 2)
 
 
 def test_safety_floor_ee_delta(make_env):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.metadata
 import sys
 import types
 
@@ -11,14 +12,19 @@ import pytest
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.real.clock import SimClock, WallClock
 from trossen_arm_mujoco.real.driver import (
+    DEFAULT_END_EFFECTOR,
     HOME_POSE,
     SLEEP_POSE,
     ArmDriver,
     TrossenArmDriver,
+    check_end_effector,
+    end_effector_presets,
     import_trossen_arm,
+    installed_version,
     resolve_presets,
     split_arms,
 )
+from trossen_arm_mujoco.real.gripper import GRIPPER_MAX, clamp_gripper
 from trossen_arm_mujoco.real.sim_driver import SimArmDriver
 
 
@@ -160,7 +166,7 @@ def test_trossen_backend_without_package_gives_install_hint(
 
 def _fake_trossen_arm(with_get_all: bool = True) -> types.ModuleType:
     mod = types.ModuleType("trossen_arm")
-    mod.__version__ = "0.0-fake"
+    mod.__version__ = "9.9-not-read"  # the real package has none; metadata is what counts
 
     class Model:
         __members__ = {"wxai_v0": "MODEL_WXAI"}
@@ -169,6 +175,9 @@ def _fake_trossen_arm(with_get_all: bool = True) -> types.ModuleType:
     class StandardEndEffector:
         wxai_v0_follower = "EE_FOLLOWER"
         wxai_v0_leader = "EE_LEADER"
+
+        def helper(self):  # pragma: no cover - a method is not a preset
+            return None
 
     class Driver:
         def configure(self, *args):  # pragma: no cover - never called
@@ -193,7 +202,78 @@ def test_trossen_presets_default_to_the_follower(monkeypatch: pytest.MonkeyPatch
     drv.cleanup()  # idempotent before configure
 
 
-def test_trossen_package_too_old_is_a_user_error(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize(("installed", "shown"), [("1.8.2", "1.8.2"), (None, "unknown")])
+def test_trossen_package_too_old_names_the_version_from_its_metadata(
+    installed: str | None, shown: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    asked: list[str] = []
+
+    def version(name: str) -> str:
+        asked.append(name)
+        if installed is None:
+            raise importlib.metadata.PackageNotFoundError(name)
+        return installed
+
+    monkeypatch.setattr(importlib.metadata, "version", version)
     monkeypatch.setitem(sys.modules, "trossen_arm", _fake_trossen_arm(with_get_all=False))
-    with pytest.raises(UserError, match=r"too old .*1\.9\.1"):
+    with pytest.raises(UserError, match=r"too old .*1\.9\.1") as info:
         TrossenArmDriver()
+    assert str(info.value).startswith(f"trossen_arm {shown} is too old")
+    assert "9.9-not-read" not in str(info.value) and asked == ["trossen_arm"]
+
+
+def test_installed_version_reads_the_real_metadata() -> None:
+    pytest.importorskip("trossen_arm")
+    assert installed_version() == importlib.metadata.version("trossen_arm") != "unknown"
+    assert installed_version("no-such-package-xyz") == "unknown"
+
+
+def test_end_effector_presets_of_a_fake_package(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(importlib.metadata, "version", lambda name: "0.1.0")
+    fake = _fake_trossen_arm()
+    assert end_effector_presets(fake) == ["wxai_v0_follower", "wxai_v0_leader"]  # no methods
+    with pytest.raises(UserError) as info:
+        check_end_effector(fake, "wxai_v0_follower_20250509")
+    assert str(info.value) == (
+        "unknown end effector 'wxai_v0_follower_20250509'; valid end effectors: "
+        "wxai_v0_follower, wxai_v0_leader (StandardEndEffector presets of the installed "
+        "trossen_arm 0.1.0)"
+    )
+
+
+def test_end_effector_presets_of_the_installed_package() -> None:
+    ta = pytest.importorskip("trossen_arm")
+    names = end_effector_presets(ta)
+    expected = sorted(
+        n
+        for n in dir(ta.StandardEndEffector)
+        if isinstance(getattr(ta.StandardEndEffector, n), ta.EndEffector)
+    )
+    assert names == expected and DEFAULT_END_EFFECTOR in names
+    if "wxai_v0_follower_20250509" in names:  # trossen_arm >= 1.11: dated presets
+        check_end_effector(ta, "wxai_v0_follower_20250509")
+    with pytest.raises(UserError, match="valid end effectors: .*wxai_v0_follower") as info:
+        check_end_effector(ta, "wxai_v0_gripper")
+    assert "\n" not in str(info.value)
+
+
+def test_clamp_gripper_counts_per_arm_and_leaves_the_input_alone() -> None:
+    commands = np.zeros((4, 2, 7))
+    commands[:, 0, 6] = [0.03, 0.04, 0.041, 0.044]  # left: 2 above (0.04 itself is fine)
+    commands[:, 1, 6] = [0.044, 0.0, 0.0, 0.0]  # right: 1 above
+    commands[:, :, 2] = 0.5  # joints are never touched
+    before = commands.copy()
+    out, clamp = clamp_gripper(commands)
+    np.testing.assert_array_equal(commands, before)
+    assert out[:, :, 6].max() == GRIPPER_MAX == clamp.gripper_max == 0.04
+    np.testing.assert_array_equal(out[:, :, 2], 0.5)
+    assert (clamp.count, clamp.total, clamp.per_arm) == (3, 8, {"left": 2, "right": 1})
+    assert clamp.max_excess == pytest.approx(0.004)
+    assert clamp.as_dict()["gripper_clamped"] == 3
+    assert clamp.describe() == (
+        "gripper commands above --gripper_max 0.04 m: 3 of 8 clamped to it "
+        "(left 2, right 1; largest excess 4.00 mm)"
+    )
+    none = clamp_gripper(commands, 0.044)[1]
+    assert none.count == 0 and none.max_excess == 0.0
+    assert none.describe() == "gripper commands above --gripper_max 0.044 m: none (0 of 8 clamped)"

@@ -11,6 +11,7 @@ import pytest
 
 from trossen_arm_mujoco.real.clock import SimClock
 from trossen_arm_mujoco.real.driver import SLEEP_POSE
+from trossen_arm_mujoco.real.gripper import clamp_gripper
 from trossen_arm_mujoco.real.replay import ReplayConfig, make_drivers, replay
 from trossen_arm_mujoco.real.sim_driver import SimArmDriver
 from trossen_arm_mujoco.real.stop import StopFlag, stop_on_signals
@@ -74,7 +75,10 @@ def test_full_replay_tracks_and_ends_asleep(smooth) -> None:
     assert result.steps_done == 20 and result.late_steps == 0
     times, cmd, meas = result.log.arrays()
     np.testing.assert_allclose(np.diff(times), 0.1, atol=1e-9)  # one period per step
-    np.testing.assert_array_equal(cmd.reshape(20, 2, 7), traj.commands)
+    sent, clamp = clamp_gripper(traj.commands, 0.04)  # the commands as sent: gripper <= 0.04
+    np.testing.assert_array_equal(cmd.reshape(20, 2, 7), sent)
+    assert result.gripper == clamp and clamp.count == np.count_nonzero(traj.commands[..., 6] > 0.04)
+    assert 0 < clamp.count < 40 and clamp.per_arm["left"] == clamp.per_arm["right"]
     err = result.log.errors()
     assert all(np.isfinite(e["rms"]) for e in err.values())
     assert err["left_joint_1"]["max"] < 0.1 and err["right_gripper"]["max"] < 0.005
@@ -125,11 +129,14 @@ def test_driver_error_mid_stream_stops_and_sleeps(smooth) -> None:
 def test_errors_while_shutting_down_are_reported_and_other_arm_still_sleeps(smooth) -> None:
     traj = validate_actions(smooth(10), 10.0)
     clock = SimClock()
-    # call 1 start, 2..11 streaming, 12 home fails; sleep (13) still sent
+    # call 1 start, 2..11 streaming, 12 home fails, 13 (its retry) and 14 (sleep) succeed
     drivers = {"left": FailingArm(clock, fail_on=12), "right": SimArmDriver(clock)}
     result = replay(traj, drivers, clock, ReplayConfig(fps=10.0, progress=False))
     assert result.exit_code == 1 and result.steps_done == 10
-    assert "shutdown failed: left arm: set_all_positions failed" in result.reason
+    assert result.reason == (
+        "replay streamed 10/10 steps; shutdown errors: left arm: set_all_positions (home) "
+        "failed: joint_3 driver overheated (error state 10) (the retry succeeded)"
+    )
     assert_asleep(result, drivers)
 
 

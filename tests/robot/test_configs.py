@@ -11,6 +11,7 @@ import pytest
 from trossen_arm_mujoco.constants import ASSETS_DIR, GRIPPER_OPEN, START_ARM_POSE
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import (
+    JOINT_VELOCITY_LIMITS,
     MoveGroupSpec,
     qpos16_to_dict,
     stationary_ai_joint_config,
@@ -97,3 +98,88 @@ def test_qpos16_to_dict():
     np.testing.assert_array_equal(d["left_gripper"], q[6:8])
     np.testing.assert_array_equal(d["right_arm"], q[8:14])
     np.testing.assert_array_equal(d["right_gripper"], q[14:16])
+
+
+URDF_ARM = (3.375, 3.375, 3.375, 7.0, 7.0, 7.0)  # rad/s
+URDF_FINGER = (0.0875,)  # m/s
+
+
+def test_joint_velocity_limits_table_is_the_urdf():
+    assert JOINT_VELOCITY_LIMITS == {
+        **{f"joint_{i}": v for i, v in enumerate(URDF_ARM)},
+        "right_carriage_joint": 0.0875,
+        "left_carriage_joint": 0.0875,
+    }
+
+
+@pytest.mark.parametrize(("make", "xml"), CONFIG_MODELS, ids=lambda v: getattr(v, "__name__", v))
+def test_default_configs_carry_the_urdf_limits(make, xml):
+    config = make()
+    view = config.build_view(mujoco.MjModel.from_xml_path(str(ASSETS / xml)))
+    for name, spec in config.groups.items():
+        group = view.group(name)
+        if spec.kind == "arm":
+            assert spec.velocity_limits == URDF_ARM and spec.rate_limit
+            np.testing.assert_array_equal(group.velocity_limits, URDF_ARM)
+        elif spec.kind == "gripper":
+            assert spec.velocity_limits == URDF_FINGER and spec.rate_limit
+            np.testing.assert_array_equal(group.velocity_limits, URDF_FINGER)
+        else:  # bases and mocap arms (driven by the weld) take none
+            assert spec.velocity_limits is None and group.velocity_limits is None
+
+
+def test_with_velocity_limits_and_with_rate_limit():
+    config = stationary_ai_joint_config()
+    slow = config.with_velocity_limits(left_gripper=[0.05], right_arm=np.full(6, 1.0))
+    assert slow.groups["left_gripper"].velocity_limits == (0.05,)
+    assert slow.groups["right_arm"].velocity_limits == (1.0,) * 6
+    assert config.groups["right_arm"].velocity_limits == URDF_ARM  # the original is unchanged
+    off = config.with_rate_limit(False)
+    assert not any(s.rate_limit for s in off.groups.values())
+    assert off.groups["left_arm"].velocity_limits == URDF_ARM  # kept on record
+    assert off.groups["left_arm"].enforced_velocity_limits is None
+    one = off.with_rate_limit(True, "left_arm")
+    assert one.groups["left_arm"].enforced_velocity_limits == URDF_ARM
+    assert one.groups["right_arm"].enforced_velocity_limits is None
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"))
+    view = one.build_view(model)
+    assert view.group("right_gripper").velocity_limits is None
+    np.testing.assert_array_equal(view.group("left_arm").velocity_limits, URDF_ARM)
+    with pytest.raises(UserError, match="unknown move group 'arm'.*left_arm"):
+        config.with_velocity_limits(arm=[1.0] * 6)
+    with pytest.raises(UserError, match="'left_base' has no velocity limits"):
+        config.with_rate_limit(True, "left_base")
+
+
+@pytest.mark.parametrize(
+    ("make_bad", "match"),
+    [
+        (lambda: wxai_config().with_velocity_limits(arm=[3.0, 3.0]), r"arm: expected 6 velocity"),
+        (lambda: wxai_config().with_velocity_limits(gripper=[0.1, 0.1]), r"expected 1 velocity"),
+        (lambda: wxai_config().with_velocity_limits(arm=[1, 1, 1, 1, 1, -1]), "positive"),
+        (lambda: wxai_config().with_velocity_limits(base=[1.0]), "takes no velocity limits"),
+        (
+            lambda: MoveGroupSpec("arm", ("a", "b"), ("a", "b"), velocity_limits=(1.0,)),
+            r"expected 2 velocity limits",
+        ),
+        (
+            lambda: MoveGroupSpec("mocap_arm", ("a",), velocity_limits=(1.0,)),
+            "'mocap_arm' move group takes no velocity limits",
+        ),
+    ],
+)
+def test_bad_velocity_limits_fail_in_one_line(make_bad, match):
+    with pytest.raises(UserError, match=match) as err:
+        make_bad()
+    assert "\n" not in str(err.value)
+
+
+def test_group_checks_its_velocity_limits():
+    model = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
+    view = wxai_config().build_view(model)
+    with pytest.raises(UserError, match=r"^arm: expected 6 velocity limits .*got 7$"):
+        view.group("arm").set_velocity_limits(np.ones(7))
+    with pytest.raises(UserError, match="velocity limits apply to joint-actuated"):
+        view.group("base").set_velocity_limits([1.0])
+    view.group("arm").set_velocity_limits(None)
+    assert view.group("arm").velocity_limits is None

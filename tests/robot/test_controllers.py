@@ -12,6 +12,8 @@ from trossen_arm_mujoco.constants import ASSETS_DIR
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.robot.configs import (
+    MoveGroupSpec,
+    RobotConfig,
     stationary_ai_joint_config,
     stationary_ai_mocap_config,
     wxai_config,
@@ -25,6 +27,7 @@ from trossen_arm_mujoco.robot.controllers import (
     make_controller,
 )
 from trossen_arm_mujoco.robot.kinematics import orientation_error
+from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.sim.env import MujocoEnv
 
 ASSETS = Path(ASSETS_DIR)
@@ -59,7 +62,9 @@ def test_joint_position_clips_to_limits():
     robot = env.robots["wxai"]
     robot.update_control({"arm": [0, -1.0, 0, 0, 0, 0]})  # joint_1 lower limit is 0
     out = robot.compute_control(env.data)
-    assert out["arm"][1] == 0.0
+    assert out["arm"][1] == pytest.approx(np.pi / 12 - 3.375 * CTRL_DT)  # on its way down
+    env.step(10)
+    assert robot.compute_control(env.data)["arm"][1] == 0.0
 
 
 def test_joint_rel_position_reaches_target_once():
@@ -86,8 +91,9 @@ def test_joint_rel_position_limits():
     low, high = ctrl.command_limits()
     np.testing.assert_allclose(high, -low)
     np.testing.assert_allclose(high[1], 3.14159)
+    assert ctrl.target(env.data, [0, -5, 0, 0, 0, 0])[1] == 0.0  # clipped at the joint limit
     out = ctrl.compute(env.data, [0, -5, 0, 0, 0, 0])
-    assert out[1] == 0.0  # clipped at the joint limit
+    assert out[1] == pytest.approx(np.pi / 12 - 3.375 * CTRL_DT)  # first tick toward it
 
 
 def test_ee_delta_moves_tool_frame_in_commanded_direction():
@@ -114,7 +120,7 @@ def test_ee_delta_with_rotation():
     np.testing.assert_allclose(high, [0.05, 0.05, 0.05, 0.2, 0.2, 0.2])
     mujoco.mj_forward(env.model, env.data)
     pose0 = arm.get_frame_pose(env.data)
-    q = ctrl.compute(env.data, [0, 0, 0, 0.1, 0, 0])
+    q = ctrl.target(env.data, [0, 0, 0, 0.1, 0, 0])  # the IK solution, before rate limiting
     env.data.qpos[arm.qpos_idx] = q
     mujoco.mj_kinematics(env.model, env.data)
     pose1 = arm.get_frame_pose(env.data)
@@ -195,3 +201,198 @@ def test_command_checks():
     assert pose.command_dim == 7
     with pytest.raises(UserError, match="expected 7 values"):
         pose.compute(data, np.zeros(3))
+
+
+# -- rate limiting -------------------------------------------------------------------------
+
+#: One hinge (rad) and one slide (m), each with a position actuator: enough for a rate limit.
+TOY_XML = """
+<mujoco>
+  <option timestep="0.002"/>
+  <worldbody>
+    <body name="link">
+      <joint name="hinge" type="hinge" axis="0 0 1" range="-3 3"/>
+      <geom type="capsule" size="0.02" fromto="0 0 0 0.2 0 0" mass="0.5"/>
+      <site name="tip" pos="0.2 0 0"/>
+    </body>
+    <body name="finger" pos="0 0.5 0">
+      <joint name="slide" type="slide" axis="1 0 0" range="0 0.05"/>
+      <geom type="box" size="0.01 0.01 0.01" mass="0.05"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <position name="hinge" joint="hinge" kp="50" kv="2" ctrlrange="-3 3"/>
+    <position name="slide" joint="slide" kp="500" kv="20" ctrlrange="0 0.05"/>
+  </actuator>
+</mujoco>
+"""
+TOY_LIMITS = {"arm": 2.0, "gripper": 0.05}  # rad/s, m/s
+
+
+def toy_config(arm_mode: str = "joint_position") -> RobotConfig:
+    return RobotConfig(
+        "toy",
+        {
+            "arm": MoveGroupSpec(
+                "arm", ("hinge",), ("hinge",), frame_site="tip", velocity_limits=(2.0,)
+            ),
+            "gripper": MoveGroupSpec("gripper", ("slide",), ("slide",), velocity_limits=(0.05,)),
+        },
+        command_mode={"arm": arm_mode, "gripper": "joint_position"},
+    )
+
+
+def toy(config: RobotConfig, ctrl_dt: float = 0.01):
+    model = mujoco.MjModel.from_xml_string(TOY_XML)
+    data = mujoco.MjData(model)
+    robot = Robot(model, config, ctrl_dt=ctrl_dt)
+    robot.reset(data)  # controls hold the joints at 0
+    return model, data, robot
+
+
+def run_ticks(model, data, robot, ticks: int) -> dict[str, np.ndarray]:
+    """Control history by group, (ticks + 1,) from the start, stepping physics in between."""
+    n_sub = int(round(robot.ctrl_dt / model.opt.timestep))
+    hist = {g: [robot.view.group(g).get_ctrl(data)[0]] for g in ("arm", "gripper")}
+    for _ in range(ticks):
+        robot.compute_control(data)
+        for g in hist:
+            hist[g].append(robot.view.group(g).get_ctrl(data)[0])
+        for _ in range(n_sub):
+            mujoco.mj_step(model, data)
+    return {g: np.array(h) for g, h in hist.items()}
+
+
+def test_step_command_advances_by_max_velocity_times_ctrl_dt():
+    model, data, robot = toy(toy_config(), ctrl_dt=0.01)
+    robot.update_control({"arm": [2.5], "gripper": [0.04]})
+    hist = run_ticks(model, data, robot, 150)
+    for group, target, ticks in (("arm", 2.5, 125), ("gripper", 0.04, 80)):
+        step = TOY_LIMITS[group] * 0.01  # 0.02 rad, 0.0005 m a tick
+        np.testing.assert_allclose(np.diff(hist[group][: ticks + 1]), step, rtol=1e-9)
+        np.testing.assert_allclose(hist[group][ticks:], target, rtol=1e-12)  # then holds
+    # back down: the same speed the other way, from the control applied now
+    robot.update_control({"arm": [-2.5]})
+    back = run_ticks(model, data, robot, 5)["arm"]
+    np.testing.assert_allclose(np.diff(back), -0.02, rtol=1e-9)
+
+
+def test_relative_command_is_resolved_once_then_approached_at_the_limit():
+    model, data, robot = toy(toy_config("joint_rel_position"))
+    robot.update_control({"arm": [1.0]})  # 50 ticks at 0.02 rad
+    hist = run_ticks(model, data, robot, 60)["arm"]
+    np.testing.assert_allclose(np.diff(hist[:51]), 0.02, rtol=1e-9)
+    np.testing.assert_allclose(hist[50:], 1.0, rtol=1e-12)  # not added again
+    assert robot.compute_control(data) == {}  # reached: nothing pending
+
+
+def test_rate_limit_off_jumps_at_once():
+    for config in (
+        toy_config().with_rate_limit(False),
+        toy_config().with_velocity_limits(arm=None, gripper=None),
+    ):
+        model, data, robot = toy(config)
+        assert robot.view.group("arm").velocity_limits is None
+        robot.update_control({"arm": [2.5], "gripper": [0.04]})
+        out = robot.compute_control(data)
+        np.testing.assert_allclose([out["arm"][0], out["gripper"][0]], [2.5, 0.04])
+    # per group: the gripper stays limited
+    model, data, robot = toy(toy_config().with_rate_limit(False, "arm"))
+    robot.update_control({"arm": [2.5], "gripper": [0.04]})
+    out = robot.compute_control(data)
+    np.testing.assert_allclose([out["arm"][0], out["gripper"][0]], [2.5, 0.0005])
+
+
+def test_ik_modes_of_a_joint_arm_are_rate_limited():
+    """ee_pose (IK) and ee_delta: a far target moves the joint targets by at most the limits
+    a tick, scaled as a whole so that the tool keeps its direction."""
+    for mode, command in (("ee_pose", None), ("ee_delta", [0.05, 0.0, -0.05])):
+        env = wxai_env(mode)
+        robot = env.robots["wxai"]
+        arm = robot.view.group("arm")
+        ctrl = robot.controllers["arm"]
+        if command is None:
+            p0 = arm.get_frame_pose(env.data)
+            command = np.concatenate([p0[:3] + [0.15, 0.1, -0.1], p0[3:]])
+        step = arm.velocity_limits * CTRL_DT
+        before = arm.get_ctrl(env.data)
+        wanted = ctrl.target(env.data, command) - before
+        robot.update_control({"arm": command})
+        moved = robot.compute_control(env.data)["arm"] - before
+        assert np.max(np.abs(wanted) / step) > 1.5  # the target is far
+        assert np.max(np.abs(moved) / step) == pytest.approx(1.0)  # the bottleneck joint
+        np.testing.assert_allclose(moved / np.linalg.norm(moved), wanted / np.linalg.norm(wanted))
+        for _ in range(50):
+            c0 = arm.get_ctrl(env.data)
+            env.step()
+            assert np.all(np.abs(arm.get_ctrl(env.data) - c0) <= step * (1 + 1e-9)), mode
+
+
+def test_mocap_ee_pose_is_not_rate_limited():
+    env = MujocoEnv(KIT_MOCAP, robots={"kit": stationary_ai_mocap_config()}, ctrl_dt=CTRL_DT)
+    env.reset()
+    robot = env.robots["kit"]
+    assert robot.view.group("left_arm").velocity_limits is None
+    pose = robot.view.group("left_arm").get_frame_pose(env.data) + [0.3, 0, 0, 0, 0, 0, 0]
+    robot.update_control({"left_arm": pose})
+    np.testing.assert_array_equal(robot.compute_control(env.data)["left_arm"], pose)
+
+
+#: Physical speed. The controls move at exactly the limit; the joints, driven by the model's
+#: position servos, follow with a lag of kv*v/kp. Averaged over a control tick (what a
+#: recording at the control rate sees) joints 0 and 3-5 and the fingers stay within 2 % of
+#: the limit (worst measured +0.2 %). The servos of joints 1 and 2 (kp 200, kv 10) are
+#: underdamped: damping ratio 0.66 for joint_2 and, for joint_1, 0.9 folded down to 0.39 with
+#: the arm stretched out, so their speed overshoots the ramp as it starts: measured +3.2 %
+#: (joint_1) and +8 % (joint_2) at SWEEP_POSE, up to +29 % for joints 0/1 at the worst
+#: stretched poses. That is the model's servo tuning, not the command. Instantaneous speeds
+#: at ctrl_dt 0.02 s also ripple around the tick average, the target being a staircase of
+#: 0.02 s steps (worst measured: joint_3 +9.8 %, joint_2 +10.7 %).
+TICK_TOL, UNDERDAMPED_TOL, RIPPLE_TOL = 0.02, 0.10, 0.12
+UNDERDAMPED = {("arm", 1), ("arm", 2)}
+SWEEPS = [("arm", j) for j in range(6)] + [("gripper", 0)]
+SWEEP_POSE = [0.0, 0.5, 0.5, 0.0, 0.0, 0.0]  # arm half folded: no joint sweep collides
+
+
+@pytest.mark.parametrize("ctrl_dt", [0.002, CTRL_DT])
+@pytest.mark.parametrize(("group", "index"), SWEEPS, ids=[f"{g}{i}" for g, i in SWEEPS])
+def test_physical_joint_speed_stays_at_the_limit(group, index, ctrl_dt):
+    """Each joint sweeps 80 % of its range both ways, commanded to the far end at once."""
+    model = mujoco.MjModel.from_xml_path(str(WXAI))
+    data = mujoco.MjData(model)
+    robot = Robot(model, wxai_config(), ctrl_dt=ctrl_dt)
+    g = robot.view.group(group)
+    limit = g.velocity_limits[index]
+    low, high = g.ctrl_limits()
+    mid, half = (low[index] + high[index]) / 2, 0.4 * (high[index] - low[index])
+    n_sub = int(round(ctrl_dt / model.opt.timestep))
+    picked = [index] if group == "arm" else [0, 1]  # the joint, or both fingers
+    dofs, qidx = g.dof_idx[picked], g.qpos_idx[picked]
+    tick_peak = inst_peak = 0.0
+    contacts = 0
+    for start, end in ((mid - half, mid + half), (mid + half, mid - half)):
+        robot.reset(data)
+        robot.view.group("arm").set_qpos(data, SWEEP_POSE)
+        q = g.get_qpos(data)
+        q[picked] = start
+        g.set_qpos(data, q)
+        mujoco.mj_forward(model, data)
+        robot.hold(data)
+        command = g.get_ctrl(data)
+        command[index] = end
+        robot.update_control({group: command})
+        for _ in range(int((abs(end - start) / limit + 0.5) / ctrl_dt)):
+            c0, q0 = g.get_ctrl(data)[index], data.qpos[qidx].copy()
+            robot.compute_control(data)
+            assert abs(g.get_ctrl(data)[index] - c0) <= limit * ctrl_dt * (1 + 1e-9)
+            for _ in range(n_sub):
+                mujoco.mj_step(model, data)
+                inst_peak = max(inst_peak, np.max(np.abs(data.qvel[dofs])) / limit)
+                contacts = max(contacts, data.ncon)
+            moved = data.qpos[qidx] - q0
+            tick_peak = max(tick_peak, np.max(np.abs(moved)) / ctrl_dt / limit)
+        assert contacts == 0  # a free sweep, no collision
+        np.testing.assert_allclose(data.qpos[qidx], end, atol=0.02)  # got there
+    tol = UNDERDAMPED_TOL if (group, index) in UNDERDAMPED else TICK_TOL
+    assert tick_peak <= 1 + tol, (tick_peak, inst_peak)
+    assert inst_peak <= 1 + (tol if ctrl_dt == model.opt.timestep else RIPPLE_TOL), inst_peak

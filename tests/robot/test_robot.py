@@ -17,8 +17,10 @@ from trossen_arm_mujoco.robot.configs import (
     stationary_ai_mocap_config,
     wxai_config,
 )
+from trossen_arm_mujoco.robot.controllers import EEDeltaController
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.sim.cameras import CameraSet
+from trossen_arm_mujoco.sim.env import MujocoEnv
 
 ASSETS = Path(ASSETS_DIR)
 KIT_JOINT = ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"
@@ -69,7 +71,9 @@ def test_update_control_rejects_bad_commands(kit, group, command, match):
 
 
 def test_update_control_accepts_lists_and_compute_returns_by_group(kit):
-    _, data, robot = kit
+    model, data, _ = kit
+    robot = Robot(model, stationary_ai_joint_config().with_rate_limit(False))  # one-tick jumps
+    robot.reset(data)
     target = [0.1, 0.5, 0.4, 0.0, 0.1, 0.0]
     robot.update_control({"right_arm": target, "right_gripper": [0.02]})
     out = robot.compute_control(data)
@@ -166,3 +170,63 @@ def test_config_for_the_wrong_model_fails_clearly():
     with pytest.raises(UserError, match=r"unknown (body|joint) 'left/.*valid"):
         Robot(model, stationary_ai_joint_config())
     Robot(model, wxai_config())  # the right config builds
+
+
+def test_ctrl_dt_defaults_to_the_timestep_and_reaches_the_controllers():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    robot = Robot(model, stationary_ai_joint_config())
+    assert robot.ctrl_dt == model.opt.timestep
+    robot = Robot(model, stationary_ai_joint_config(), ctrl_dt=0.02)
+    assert {c.ctrl_dt for c in robot.controllers.values()} == {0.02}
+    np.testing.assert_allclose(
+        robot.controllers["left_arm"].max_step, [0.0675] * 3 + [0.14] * 3
+    )  # rad per tick
+    np.testing.assert_allclose(robot.controllers["left_gripper"].max_step, [0.00175])  # m
+    env = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    assert env.robots["kit"].ctrl_dt == 0.02
+    for bad in (0.0, -0.01, float("nan")):
+        with pytest.raises(UserError, match="ctrl_dt must be a positive"):
+            Robot(model, stationary_ai_joint_config(), ctrl_dt=bad)
+
+
+def test_a_controller_swapped_in_without_ctrl_dt_takes_the_robots():
+    """As a sampler does when it swaps in a 6-D ee_delta controller after construction."""
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    data = mujoco.MjData(model)
+    robot = Robot(model, stationary_ai_joint_config(), ctrl_dt=0.02)
+    robot.reset(data)
+    arm = robot.view.group("left_arm")
+    robot.controllers["left_arm"] = EEDeltaController(arm, model, rotation=True)
+    robot.update_control({"left_arm": [0.05, 0, -0.05, 0, 0, 0]})
+    before = arm.get_ctrl(data)
+    moved = robot.compute_control(data)["left_arm"] - before
+    assert robot.controllers["left_arm"].ctrl_dt == 0.02
+    assert np.max(np.abs(moved) / (arm.velocity_limits * 0.02)) == pytest.approx(1.0)
+
+
+def test_rate_limit_starts_from_the_held_state(kit):
+    """No bookkeeping: after hold (or reset) the limit counts from the joints held."""
+    model, data, robot = kit
+    q = [0.2, 0.4, 0.3, 0.1, 0.0, -0.1]
+    data.qpos[8:14] = q
+    mujoco.mj_kinematics(model, data)
+    robot.hold(data)
+    robot.update_control({"right_arm": [2.0, 2.0, 2.0, 1.5, 1.5, 3.0]})
+    out = robot.compute_control(data)["right_arm"]
+    step = np.array([3.375] * 3 + [7.0] * 3) * model.opt.timestep
+    np.testing.assert_allclose(out, np.array(q) + step)
+
+
+def test_hold_and_reset_drop_a_pending_relative_target():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    data = mujoco.MjData(model)
+    config = stationary_ai_joint_config().with_command_modes(left_arm="joint_rel_position")
+    robot = Robot(model, config, ctrl_dt=0.02)
+    for stop in (robot.hold, robot.reset):
+        robot.reset(data)
+        robot.update_control({"left_arm": np.full(6, 0.5)})  # several ticks away
+        assert "left_arm" in robot.compute_control(data)
+        assert "left_arm" in robot.compute_control(data)  # still on its way
+        mujoco.mj_kinematics(model, data)
+        stop(data)
+        assert robot.compute_control(data) == {}

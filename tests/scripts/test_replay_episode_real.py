@@ -6,6 +6,7 @@ fail a test that opens a non-loopback connection or configures a real arm.
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import os
 import shutil
@@ -25,6 +26,7 @@ from trossen_arm_mujoco.constants import START_ARM_POSE
 from trossen_arm_mujoco.real import driver as driver_module
 from trossen_arm_mujoco.real.clock import Clock, SimClock
 from trossen_arm_mujoco.real.replay import make_drivers
+from trossen_arm_mujoco.real.sim_driver import SimArmDriver
 from trossen_arm_mujoco.scripts import replay_episode_real
 
 REPO = Path(__file__).resolve().parents[2]
@@ -145,6 +147,25 @@ def test_vendor_episode_full_replay_on_the_sim_twin(
     stem = folder / "replay" / "episode_0_sim"
     summary = json.loads(Path(f"{stem}_summary.json").read_text())
     assert summary["status"] == "completed" and summary["steps_done"] == 600
+    # gripper commands (index 6 and 14) above the controller's 0.04 m: clamped and counted
+    with h5py.File(VENDOR_600) as f:
+        grippers = f["action"][:, [6, 14]]
+    above = int(np.count_nonzero(grippers > 0.04))
+    assert 0 < above < grippers.size == summary["gripper_commands"] == 1200
+    assert summary["gripper_clamped"] == above and summary["gripper_max_m"] == 0.04
+    assert summary["gripper_clamped_per_arm"] == {
+        "left": int(np.count_nonzero(grippers[:, 0] > 0.04)),
+        "right": int(np.count_nonzero(grippers[:, 1] > 0.04)),
+    }
+    assert summary["gripper_max_excess_m"] == pytest.approx(grippers.max() - 0.04, abs=1e-6)
+    assert f"gripper commands above --gripper_max 0.04 m: {above} of 1200 clamped" in out
+    assert f"replay completed: 600 steps, {above} gripper command(s) clamped to 0.04 m" in out
+    with open(f"{stem}_tracking.csv") as f:
+        header, *rows = [line.split(",") for line in f.read().splitlines()]
+    for arm in ("left", "right"):
+        sent = np.array([float(r[header.index(f"cmd_{arm}_gripper")]) for r in rows])
+        assert sent.max() == pytest.approx(0.04)  # what was sent, after clamping
+    assert summary["end_effector"] == "wxai_v0_follower"
     assert summary["fps"] == 10.0 and summary["goal_time_s"] == pytest.approx(0.3)
     assert Path(f"{stem}_tracking.png").stat().st_size > 10_000
     assert len(Path(f"{stem}_tracking.csv").read_text().splitlines()) == 601
@@ -266,6 +287,9 @@ def test_sigint_mid_stream_returns_home_then_sleep(
         (["--fps", "0"], "--fps must be in (0, 1000]"),
         (["--goal_time_factor", "-1"], "--goal_time_factor must be in (0, 20]"),
         (["--episode_idx", "7"], "episode file not found"),
+        (["--gripper_max", "0"], "--gripper_max must be in (0, 0.044] m, got 0"),
+        (["--gripper_max", "0.05"], "--gripper_max must be in (0, 0.044] m, got 0.05"),
+        (["--gripper_max", "nan"], "--gripper_max must be in (0, 0.044] m"),
     ],
 )
 def test_bad_flags_are_one_line_errors(
@@ -274,6 +298,90 @@ def test_bad_flags_are_one_line_errors(
     write_episode(tmp_path, smooth_actions(5))
     rc = run(["--data_dir", str(tmp_path), "--backend", "sim", *argv], driver_factory=Spy())
     assert rc == 2 and expected in one_line_error(capsys)
+
+
+def test_gripper_max_sets_the_clamp_and_dry_run_reports_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    actions = smooth_actions(20)  # grippers close from 0.044 to 0.030 m
+    write_episode(tmp_path, actions)
+    rc = run(["--data_dir", str(tmp_path), "--dry_run", "--gripper_max", "0.035"])
+    out = capsys.readouterr().out
+    above = int(np.count_nonzero(actions[:, [6, 14]] > 0.035))
+    assert rc == 0 and 0 < above < 40
+    assert f"gripper commands above --gripper_max 0.035 m: {above} of 40 clamped" in out
+
+
+class PresetSpy(SimArmDriver):
+    """The twin, recording the end-effector preset it was configured with."""
+
+    presets: list[str] = []
+
+    def configure(self, ip_address: str, model: str, end_effector: str, clear_error: bool) -> None:
+        PresetSpy.presets.append(end_effector)
+        super().configure(ip_address, model, "wxai_v0_follower", clear_error)
+
+
+def preset_spy(backend: str, clock: Clock | None) -> tuple[dict[str, Any], Clock]:
+    clock = SimClock()
+    return {side: PresetSpy(clock) for side in ("left", "right")}, clock
+
+
+def test_end_effector_preset_reaches_configure(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    ta = pytest.importorskip("trossen_arm")
+    preset = "wxai_v0_follower_20250509"  # arms of 2025, in trossen_arm >= 1.11
+    if not hasattr(ta.StandardEndEffector, preset):
+        pytest.skip(f"trossen_arm {importlib.metadata.version('trossen_arm')} has no {preset}")
+    monkeypatch.setattr(PresetSpy, "presets", [])
+    write_episode(tmp_path, smooth_actions(5))
+    rc = run(["--data_dir", str(tmp_path), "--end_effector", preset], driver_factory=preset_spy)
+    assert rc == 0, capsys.readouterr().err
+    assert PresetSpy.presets == [preset, preset]  # backend trossen: sent to both arms
+    summary = json.loads((tmp_path / "replay/episode_0_trossen_summary.json").read_text())
+    assert summary["end_effector"] == preset
+    assert summary["trossen_arm_version"] == importlib.metadata.version("trossen_arm")
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim", "--end_effector", preset])
+    out = capsys.readouterr().out
+    assert rc == 0 and f"note: --end_effector {preset} is valid; the twin models" in out
+
+
+@pytest.mark.parametrize("backend", ["trossen", "sim"])
+def test_unknown_end_effector_lists_the_installed_presets(
+    backend: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ta = pytest.importorskip("trossen_arm")
+    valid = sorted(
+        n
+        for n in dir(ta.StandardEndEffector)
+        if isinstance(getattr(ta.StandardEndEffector, n), ta.EndEffector)
+    )
+    write_episode(tmp_path, smooth_actions(5))
+    spy = Spy()
+    argv = ["--data_dir", str(tmp_path), "--backend", backend, "--end_effector", "wxai_v9"]
+    rc = run(argv, driver_factory=spy)
+    line = one_line_error(capsys)
+    assert rc == 2 and spy.calls == [] and not (tmp_path / "replay").exists()
+    assert line == (
+        f"error: unknown end effector 'wxai_v9'; valid end effectors: {', '.join(valid)} "
+        f"(StandardEndEffector presets of the installed trossen_arm "
+        f"{importlib.metadata.version('trossen_arm')})"
+    )
+
+
+def test_sim_backend_without_trossen_arm_accepts_the_preset_with_a_note(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "trossen_arm", None)  # not importable, even if installed
+    write_episode(tmp_path, smooth_actions(5))
+    argv = ["--data_dir", str(tmp_path), "--backend", "sim", "--end_effector", "anything"]
+    rc = run(argv, driver_factory=Spy())
+    out = capsys.readouterr().out
+    assert rc == 0 and "replay completed: 5 steps" in out
+    assert "note: trossen_arm is not installed, so --end_effector anything is not checked" in out
+    summary = json.loads((tmp_path / "replay/episode_0_sim_summary.json").read_text())
+    assert summary["end_effector"] == "anything" and summary["trossen_arm_version"] is None
 
 
 def test_trossen_mujoco_replay_real_dispatch(

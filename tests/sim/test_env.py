@@ -101,12 +101,13 @@ def test_apply_control_does_not_step():
     env = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
     env.reset()
     robot = env.robots["kit"]
-    robot.update_control({"left_arm": np.full(6, 0.3)})
+    target = env.data.qpos[:6] + 0.05  # within one tick's reach (3.375 rad/s * 0.02 s)
+    robot.update_control({"left_arm": target})
     t0, q0 = env.data.time, env.data.qpos.copy()
     env.apply_control()
     assert env.data.time == t0
     np.testing.assert_array_equal(env.data.qpos, q0)
-    np.testing.assert_allclose(env.data.ctrl[:6], 0.3)
+    np.testing.assert_allclose(env.data.ctrl[:6], target)
 
 
 def test_warnings_are_reported_by_name():

@@ -8,6 +8,7 @@ import pytest
 from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, START_ARM_POSE, STATIONARY_CAMERAS
 from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.sim_env import TransferCubeTask
 from trossen_arm_mujoco.utils import make_sim_env
 
@@ -161,15 +162,16 @@ def test_joint_action_mapping():
     """Joint env: indices 6/14 (coupled fingers) are not commanded; 7/15 drive the grippers."""
     env = make_sim_env(TransferCubeTask, cam_list=[], random=0)
     env.reset()
+    # targets within one step's reach of the speed limits (3.375 rad/s, 0.0875 m/s; 0.02 s)
     action = np.array(START_ARM_POSE, dtype=float)
-    action[0] = 0.3
+    action[0] = 0.05
     action[6] = 0.0  # ignored
-    action[15] = 0.02
+    action[15] = GRIPPER_OPEN - 0.001
     env.step(action)
     ctrl = env.physics.data.ctrl
-    np.testing.assert_allclose(ctrl[0], 0.3)
+    np.testing.assert_allclose(ctrl[0], 0.05)
     np.testing.assert_allclose(ctrl[6], GRIPPER_OPEN)  # left gripper from action[7]
-    np.testing.assert_allclose(ctrl[13], 0.02)  # right gripper from action[15]
+    np.testing.assert_allclose(ctrl[13], GRIPPER_OPEN - 0.001)  # right gripper from action[15]
     env.task.close()
 
 
@@ -182,7 +184,9 @@ def test_ee_action_moves_mocap_targets():
     ts = env.step(action)
     np.testing.assert_allclose(env.physics.data.mocap_pos[0], action[0:3])
     np.testing.assert_allclose(ts.observation["mocap_pose_left"][:3], action[0:3])
-    np.testing.assert_allclose(ts.observation["gripper_ctrl"], [0.02, GRIPPER_OPEN])
+    # the finger target moves toward 0.02 at the carriage speed limit (0.0875 m/s)
+    closing = GRIPPER_OPEN - JOINT_VELOCITY_LIMITS["left_carriage_joint"] * DT
+    np.testing.assert_allclose(ts.observation["gripper_ctrl"], [closing, GRIPPER_OPEN])
     for _ in range(50):
         ts = env.step(action)
     tool = env.task.robot(env.physics).view.group("left_arm").get_frame_pose(env.physics.data.ptr)

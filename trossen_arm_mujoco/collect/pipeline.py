@@ -19,6 +19,13 @@ from trossen_arm_mujoco.constants import SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
 from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.real.validate import (
+    DATASET_JOINTS,
+    ArmLimits,
+    TrajectoryError,
+    validate_actions,
+)
+from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.scripted_policy import PickAndTransferPolicy
 from trossen_arm_mujoco.sim_env import TransferCubeTask
 from trossen_arm_mujoco.utils import make_sim_env
@@ -27,6 +34,29 @@ from trossen_arm_mujoco.utils import make_sim_env
 SCRIPTED_TASKS: dict[str, tuple[type, type, type]] = {
     "sim_transfer_cube": (TransferCubeEETask, TransferCubeTask, PickAndTransferPolicy),
 }
+
+
+#: Recording rate of the scripted tasks (Hz): one action per 0.02 s control period.
+RECORD_FPS = 50.0
+
+#: Speed limit of each of the 16 action values (URDF: rad/s for the joints, m/s for both
+#: finger values), in the qpos layout.
+ACTION_SPEED_LIMITS = np.tile([JOINT_VELOCITY_LIMITS[j] for j in DATASET_JOINTS], 2)
+
+
+def limit_speed(actions: np.ndarray, max_speed: np.ndarray, fps: float) -> int:
+    """Rate-limit a ``(T, D)`` trajectory in place: every value moves at most
+    ``max_speed / fps`` per step (``max_speed``: (D,), units per second). Returns how many
+    values were changed (0 when the trajectory was already within the limits)."""
+    max_step = np.asarray(max_speed, dtype=float) / fps
+    changed = 0
+    for t in range(1, len(actions)):
+        step = actions[t] - actions[t - 1]
+        fast = np.abs(step) > max_step
+        if fast.any():
+            changed += int(fast.sum())
+            actions[t] = actions[t - 1] + np.clip(step, -max_step, max_step)
+    return changed
 
 
 def episode_seed(base_seed: int, attempt: int) -> int:
@@ -80,6 +110,8 @@ class EpisodeRecorder:
         self.settings = settings
         self.step_hook = step_hook
         limit = settings.episode_len * 0.02 + 1.0
+        self.arm_limits = ArmLimits.from_mjcf()
+        self.last_speed_limited = 0
         self.ee_env = make_sim_env(ee_cls, cam_list=[], time_limit=limit)
         self.joint_env = make_sim_env(
             joint_cls,
@@ -89,7 +121,13 @@ class EpisodeRecorder:
         )
 
     def scripted_rollout(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """Phase 1. Returns (joint actions (T, 16), initial cube pose (7,))."""
+        """Phase 1. Returns (joint actions (T, 16), initial cube pose (7,)).
+
+        The actions are within the joint limits and, at the recording rate of 50 Hz, within
+        the real arm's joint and gripper speed limits (``ACTION_SPEED_LIMITS``): the scripted
+        policies plan below them, and any value that would still be faster is rate-limited
+        (``self.last_speed_limited`` counts them; normally 0).
+        """
         T = self.settings.episode_len
         task = self.ee_env.task
         task.rng = rng
@@ -109,6 +147,7 @@ class EpisodeRecorder:
         # the real arm only accept targets within the limits, so record those.
         low, high = self.joint_env.task.action_bounds(self.joint_env.physics)
         np.clip(actions, low, high, out=actions)
+        self.last_speed_limited = limit_speed(actions, ACTION_SPEED_LIMITS, RECORD_FPS)
         return actions, box_pose
 
     def replay(
@@ -163,6 +202,7 @@ class EpisodeRecorder:
         rng = np.random.default_rng(seed)
         actions, box_pose = self.scripted_rollout(rng)
         max_reward = float(self.joint_env.task.max_reward)
+        speed_ok, peak_use = self.check_real_replay(actions)
         attrs = {
             "task_name": s.task_name,
             "seed": seed,
@@ -171,6 +211,10 @@ class EpisodeRecorder:
             "inject_noise": bool(s.inject_noise),
             "box_pose": box_pose,
             "success": False,
+            "real_replay_fps": RECORD_FPS,
+            "real_replay_checked": speed_ok,
+            "peak_speed_fraction": peak_use,
+            "speed_limited_values": int(self.last_speed_limited),
             **(extra_attrs or {}),
         }
         with EpisodeWriter(
@@ -184,7 +228,7 @@ class EpisodeRecorder:
             overwrite=overwrite,
         ) as writer:
             rewards = self.replay(actions, box_pose, writer, progress)
-            success = bool(rewards[-1] == max_reward)
+            success = bool(rewards[-1] == max_reward) and speed_ok
             writer.set_attrs(
                 success=success,
                 final_reward=float(rewards[-1]),
@@ -193,6 +237,16 @@ class EpisodeRecorder:
         return EpisodeOutcome(
             attempt, seed, success, float(rewards[-1]), float(rewards.max()), Path(path)
         )
+
+    def check_real_replay(self, actions: np.ndarray) -> tuple[bool, float]:
+        """Run the real-replay validator at the recording rate, as
+        ``replay_episode_real.py --fps 50 --dry_run`` does. Returns (passed, largest
+        speed as a fraction of its limit; NaN when the check failed)."""
+        try:
+            trajectory = validate_actions(actions, RECORD_FPS, self.arm_limits)
+        except TrajectoryError:
+            return False, float("nan")
+        return True, float(np.max(trajectory.peak_speed / self.arm_limits.velocity))
 
     def close(self) -> None:
         for env in (self.ee_env, self.joint_env):

@@ -5,7 +5,9 @@ training code reads)::
 
     /                              attrs: sim=True, task_name, seed, success, episode_len,
                                           dt, camera_names, box_pose, package_version,
-                                          mujoco_version, schema_version
+                                          mujoco_version, schema_version; the recorder
+                                          adds real_replay_checked, real_replay_fps,
+                                          peak_speed_fraction, speed_limited_values
     /action                        float64 (T, 16)   joint targets, see constants.START_ARM_POSE
     /reward                        float64 (T,)
     /observations/qpos             float64 (T, 16)   rad (revolute) / m (fingers)

@@ -14,6 +14,16 @@ Gripper convention
     (index 7 / 15) is the same finger travel of the coupled twin finger (recorded
     values differ by < 0.1 mm) and is not sent; see :func:`split_arms`.
 
+Gripper range
+    The MJCF carriage travels 0 .. 0.044 m, but the arm controller limits the gripper to
+    0.04 m; see :mod:`trossen_arm_mujoco.real.gripper`, which clamps and counts.
+
+End-effector presets
+    ``configure`` takes the name of a ``trossen_arm.StandardEndEffector`` member.
+    :func:`end_effector_presets` reads the valid names from the installed package
+    (trossen_arm 1.11: ``wxai_v0_follower`` is the current follower preset, for the
+    2026-06-26 hardware; arms built in 2025 need ``wxai_v0_follower_20250509``).
+
 The real backend :class:`TrossenArmDriver` is imported lazily, so this module loads
 without the optional ``trossen_arm`` package (``pip install 'trossen-arm-mujoco[real]'``).
 The simulated twin lives in :mod:`trossen_arm_mujoco.real.sim_driver`.
@@ -22,6 +32,7 @@ The simulated twin lives in :mod:`trossen_arm_mujoco.real.sim_driver`.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from importlib import metadata
 from types import ModuleType
 from typing import Any, Protocol, runtime_checkable
 
@@ -104,24 +115,70 @@ def split_arms(row: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarra
     return row[0:7].copy(), row[8:15].copy()
 
 
-def import_trossen_arm() -> ModuleType:
-    """Import the optional ``trossen_arm`` package, or raise a one-line install hint."""
+def installed_version(package: str = "trossen_arm") -> str:
+    """Installed version of ``package`` from its metadata, ``"unknown"`` when there is none.
+
+    ``trossen_arm`` has no ``__version__``; pip's metadata is the only reliable source.
+    """
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def find_trossen_arm() -> ModuleType | None:
+    """The ``trossen_arm`` package if it can be imported, else None (no version check)."""
     try:
         import trossen_arm
     except ImportError:
+        return None
+    return trossen_arm
+
+
+def import_trossen_arm() -> ModuleType:
+    """Import the optional ``trossen_arm`` package, or raise a one-line install hint."""
+    trossen_arm = find_trossen_arm()
+    if trossen_arm is None:
         raise UserError(
             f"the trossen backend needs the 'trossen_arm' driver package, which is not "
             f"installed: {INSTALL_HINT}"
-        ) from None
+        )
     if not hasattr(trossen_arm, "TrossenArmDriver") or not hasattr(
         trossen_arm.TrossenArmDriver, "get_all_positions"
     ):
-        version = getattr(trossen_arm, "__version__", "unknown")
         raise UserError(
-            f"trossen_arm {version} is too old (needs >= 1.9.1, with get_all_positions): "
-            "pip install -U 'trossen-arm>=1.9.1'"
+            f"trossen_arm {installed_version()} is too old (needs >= 1.9.1, with "
+            "get_all_positions): pip install -U 'trossen-arm>=1.9.1'"
         )
     return trossen_arm
+
+
+def end_effector_presets(ta: ModuleType) -> list[str]:
+    """Names of the ``StandardEndEffector`` presets of the ``trossen_arm`` module ``ta``, sorted.
+
+    Read by introspection, so they always match the installed package: every public,
+    non-callable attribute (an ``EndEffector`` where the package defines that type).
+    """
+    cls = ta.StandardEndEffector
+    kind = getattr(ta, "EndEffector", None)
+    names = []
+    for name in dir(cls):
+        if name.startswith("_"):
+            continue
+        value = getattr(cls, name)
+        if isinstance(kind, type) and not isinstance(value, kind):
+            continue
+        if not callable(value):
+            names.append(name)
+    return sorted(names)
+
+
+def check_end_effector(ta: ModuleType, end_effector: str) -> None:
+    """Raise a one-line ``UserError`` listing the valid presets if ``end_effector`` is unknown."""
+    valid = end_effector_presets(ta)
+    if end_effector not in valid:
+        where = f"StandardEndEffector presets of the installed trossen_arm {installed_version()}"
+        raise unknown_name_error("end effector", end_effector, valid, where)
 
 
 def resolve_presets(ta: ModuleType, model: str, end_effector: str) -> tuple[Any, Any]:
@@ -134,9 +191,7 @@ def resolve_presets(ta: ModuleType, model: str, end_effector: str) -> tuple[Any,
     models = list(members) if members else [n for n in dir(ta.Model) if not n.startswith("_")]
     if model not in models:
         raise unknown_name_error("robot model", model, models)
-    effectors = [n for n in dir(ta.StandardEndEffector) if not n.startswith("_")]
-    if end_effector not in effectors:
-        raise unknown_name_error("end effector", end_effector, effectors)
+    check_end_effector(ta, end_effector)
     return getattr(ta.Model, model), getattr(ta.StandardEndEffector, end_effector)
 
 
@@ -146,7 +201,9 @@ class TrossenArmDriver:
     Constructing it only imports the package (an install hint when it is missing); the
     network is first used by :meth:`configure`. Defaults configure the **follower**
     end-effector preset (``StandardEndEffector.wxai_v0_follower``), which matches the
-    follower arms' fingers, unlike the vendor script's leader preset.
+    follower arms' fingers, unlike the vendor script's leader preset; in trossen_arm 1.11
+    that is the 2026-06-26 hardware, and arms built in 2025 need
+    ``wxai_v0_follower_20250509`` (see :func:`end_effector_presets`).
     """
 
     def __init__(self) -> None:

@@ -2,16 +2,18 @@
 
 :func:`replay` runs, for the two arms ``left`` and ``right``:
 
+0. clamp the gripper commands to ``gripper_max`` (:mod:`.gripper`; counted in the result);
 1. ``configure`` each arm (model, end-effector preset, address), position mode;
 2. move to the first command, over ``start_time`` (2 s; longer if the speed limits
    need it), and wait ``settle_time``;
 3. stream the commands at ``fps``: per step, ``set_all_positions(cmd, goal_time,
    blocking=False)`` to both arms with ``goal_time = goal_time_factor / fps``, wait
    until the step's deadline (``t0 + (k + 1) / fps``, so waits do not drift), then read
-   both arms' positions and log commanded vs measured;
-4. always, also after an error, SIGINT or SIGTERM: stop streaming, move every
-   configured arm home (``driver.HOME_POSE``), then to the sleep pose (all joints 0),
-   then ``cleanup``.
+   both arms' positions and log commanded (as sent) vs measured;
+4. always, after any exception (of any type, from any call), SIGINT or SIGTERM: stop
+   streaming, move every configured arm home (``driver.HOME_POSE``), then to the sleep
+   pose (all joints 0), then ``cleanup`` (:func:`.shutdown.shutdown`: each arm on its
+   own, each call retried once, every failure reported).
 
 SIGINT and SIGTERM are caught while replay runs (main thread only) and only set a stop
 flag, checked before every step; the previous handlers are restored afterwards. The
@@ -26,7 +28,6 @@ import signal
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from tqdm import tqdm
@@ -36,15 +37,32 @@ from trossen_arm_mujoco.real.clock import Clock, SimClock, WallClock
 from trossen_arm_mujoco.real.driver import (
     DEFAULT_END_EFFECTOR,
     DEFAULT_MODEL,
-    HOME_POSE,
-    SLEEP_POSE,
     ArmDriver,
     TrossenArmDriver,
 )
+from trossen_arm_mujoco.real.gripper import GRIPPER_MAX, GripperClamp, clamp_gripper
 from trossen_arm_mujoco.real.report import TrackingLog
+from trossen_arm_mujoco.real.shutdown import (
+    ArmStates,
+    DriverError,
+    call,
+    one_line,
+    read_positions,
+    shutdown,
+)
 from trossen_arm_mujoco.real.sim_driver import SimArmDriver
 from trossen_arm_mujoco.real.stop import StopFlag, stop_on_signals
 from trossen_arm_mujoco.real.validate import ARMS, ArmLimits, Trajectory, safe_move_time
+
+__all__ = [
+    "BACKENDS",
+    "DriverError",
+    "DriverFactory",
+    "ReplayConfig",
+    "ReplayResult",
+    "make_drivers",
+    "replay",
+]
 
 BACKENDS: tuple[str, ...] = ("trossen", "sim")
 
@@ -85,6 +103,7 @@ class ReplayConfig:
     home_time: float = 2.0
     sleep_time: float = 2.0
     settle_time: float = 0.5
+    gripper_max: float = GRIPPER_MAX
     progress: bool = True
 
     @property
@@ -105,6 +124,7 @@ class ReplayResult:
         exit_code: 0, 128 + signal number, or 1 for errors.
         final_positions: ``{arm: (7,)}`` measured after the sleep move (rad, m).
         late_steps: steps whose measurement came over half a period late.
+        gripper: the gripper commands clamped to ``config.gripper_max``.
     """
 
     log: TrackingLog
@@ -114,26 +134,12 @@ class ReplayResult:
     exit_code: int = 0
     final_positions: dict[str, np.ndarray] = field(default_factory=dict)
     late_steps: int = 0
+    gripper: GripperClamp | None = None
 
     @property
     def steps_done(self) -> int:
         """Steps streamed and logged."""
         return len(self.log)
-
-
-class DriverError(RuntimeError):
-    """A driver call failed; the message names the arm and the call."""
-
-
-def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
-
-
-def _call(side: str, what: str, fn: Callable[..., Any], *args: Any) -> Any:
-    try:
-        return fn(*args)
-    except Exception as exc:
-        raise DriverError(f"{side} arm: {what} failed: {_one_line(exc)}") from exc
 
 
 def _wait(clock: Clock, seconds: float, flag: StopFlag, chunk: float = 0.1) -> None:
@@ -143,96 +149,60 @@ def _wait(clock: Clock, seconds: float, flag: StopFlag, chunk: float = 0.1) -> N
         clock.sleep(min(chunk, left))
 
 
-def _move(
-    drivers: Mapping[str, ArmDriver],
-    sides: list[str],
-    goals: Mapping[str, np.ndarray],
-    minimum: float,
-    limits: ArmLimits,
+def _move_to_start(
+    drivers: Mapping[str, ArmDriver], goals: np.ndarray, minimum: float, limits: ArmLimits
 ) -> float:
-    """Send each arm in ``sides`` to its goal without blocking; returns the goal time (s)."""
-    current = {s: _call(s, "get_all_positions", drivers[s].get_all_positions) for s in sides}
-    goal_time = max(safe_move_time(current[s], goals[s], minimum, limits) for s in sides)
-    for s in sides:
-        _call(s, "set_all_positions", drivers[s].set_all_positions, goals[s], goal_time, False)
+    """Send both arms to their first commands without blocking; returns the goal time (s)."""
+    current = [read_positions(s, drivers[s]) for s in ARMS]
+    goal_time = max(safe_move_time(c, g, minimum, limits) for c, g in zip(current, goals))
+    for side, goal in zip(ARMS, goals, strict=True):
+        call(side, "set_all_positions (start)", drivers[side].set_all_positions, goal,
+             goal_time, False)  # fmt: skip
     return goal_time
 
 
 def _stream(
-    trajectory: Trajectory,
+    commands: np.ndarray,
     drivers: Mapping[str, ArmDriver],
     clock: Clock,
     config: ReplayConfig,
     limits: ArmLimits,
     flag: StopFlag,
-    configured: list[str],
+    states: ArmStates,
     result: ReplayResult,
 ) -> None:
     for side in ARMS:
         drv = drivers[side]
         args = (config.ips[side], config.model, config.end_effector, True)
-        _call(side, f"configure ({config.ips[side]})", drv.configure, *args)
-        configured.append(side)
-        _call(side, "set_all_modes_position", drv.set_all_modes_position)
+        states.attempted.append(side)
+        call(side, f"configure ({config.ips[side]})", drv.configure, *args)
+        states.configured.append(side)
+        call(side, "set_all_modes_position", drv.set_all_modes_position)
+        states.position_mode.append(side)
     if flag:
         return
-    first = dict(zip(ARMS, trajectory.commands[0], strict=True))
-    _wait(clock, _move(drivers, list(ARMS), first, config.start_time, limits), flag)
+    _wait(clock, _move_to_start(drivers, commands[0], config.start_time, limits), flag)
     _wait(clock, config.settle_time, flag)
     period, goal_time = 1.0 / config.fps, config.goal_time
     bar = tqdm(
-        total=trajectory.num_steps, desc="replay", unit="step", file=sys.stderr,
+        total=len(commands), desc="replay", unit="step", file=sys.stderr,
         disable=not config.progress, leave=False,
     )  # fmt: skip
     with bar:
         t0 = clock.now()
-        for k, cmd in enumerate(trajectory.commands):
+        for k, cmd in enumerate(commands):
             if flag:
                 return
             for a, side in enumerate(ARMS):
                 send = drivers[side].set_all_positions
-                _call(side, f"set_all_positions (step {k})", send, cmd[a], goal_time, False)
+                call(side, f"set_all_positions (step {k})", send, cmd[a], goal_time, False)
             deadline = t0 + (k + 1) * period
             clock.sleep(deadline - clock.now())
             if clock.now() > deadline + 0.5 * period:
                 result.late_steps += 1
-            meas = [_call(s, "get_all_positions", drivers[s].get_all_positions) for s in ARMS]
+            meas = [read_positions(s, drivers[s]) for s in ARMS]
             result.log.add(clock.now() - t0, cmd, np.stack(meas))
             bar.update(1)
-
-
-def _shutdown(
-    drivers: Mapping[str, ArmDriver],
-    configured: list[str],
-    clock: Clock,
-    config: ReplayConfig,
-    limits: ArmLimits,
-    result: ReplayResult,
-) -> list[str]:
-    """Home, sleep, cleanup every configured arm; each call is tried. Returns the errors."""
-    errors: list[str] = []
-    for pose, minimum in ((HOME_POSE, config.home_time), (SLEEP_POSE, config.sleep_time)):
-        goal_times = []
-        for side in configured:
-            try:
-                goal = {side: np.asarray(pose)}
-                goal_times.append(_move(drivers, [side], goal, minimum, limits))
-            except DriverError as exc:
-                errors.append(str(exc))
-        if goal_times:
-            clock.sleep(max(goal_times) + config.settle_time)
-    for side in configured:
-        try:
-            result.final_positions[side] = _call(
-                side, "get_all_positions", drivers[side].get_all_positions
-            )
-        except DriverError as exc:
-            errors.append(str(exc))
-        try:
-            _call(side, "cleanup", drivers[side].cleanup)
-        except DriverError as exc:
-            errors.append(str(exc))
-    return errors
 
 
 def replay(
@@ -244,34 +214,39 @@ def replay(
 ) -> ReplayResult:
     """Replay ``trajectory`` on ``drivers`` (``{"left", "right"}``); see the module doc.
 
-    Never raises for driver errors or signals: the outcome is in the result, after the
-    arms went home and to sleep.
+    Never raises for driver errors (of any exception type) or signals: the outcome is in
+    the result, after the arms went home and to sleep. The ``stopping: ...`` notice goes
+    to stdout, so that stderr holds only the caller's one-line error.
     """
     config = config if config is not None else ReplayConfig(fps=trajectory.fps)
     limits = limits if limits is not None else ArmLimits.from_mjcf()
     result = ReplayResult(log=TrackingLog(), steps_total=trajectory.num_steps)
-    flag, configured = StopFlag(), []
+    commands, result.gripper = clamp_gripper(trajectory.commands, config.gripper_max, ARMS)
+    flag, states = StopFlag(), ArmStates()
     with stop_on_signals(flag):
         try:
-            _stream(trajectory, drivers, clock, config, limits, flag, configured, result)
+            _stream(commands, drivers, clock, config, limits, flag, states, result)
         except KeyboardInterrupt:
             flag.set("interrupted by SIGINT (KeyboardInterrupt)", 128 + signal.SIGINT)
         except Exception as exc:
-            flag.set(_one_line(exc) if isinstance(exc, DriverError) else repr(exc), 1)
+            flag.set(one_line(exc), 1)
         finally:
             if flag:
                 print(
                     f"stopping: {flag.reason}; moving the arms home, then to sleep "
                     "(further Ctrl-C is ignored until they are asleep)",
-                    file=sys.stderr,
+                    flush=True,
                 )
-            shutdown_errors = _shutdown(drivers, configured, clock, config, limits, result)
+            result.final_positions, shutdown_errors = shutdown(
+                drivers, states, clock, config.home_time, config.sleep_time,
+                config.settle_time, limits,
+            )  # fmt: skip
     at = f"at step {result.steps_done}/{result.steps_total}"
     if flag:
         result.status = "failed" if flag.exit_code == 1 else "interrupted"
         result.reason, result.exit_code = f"replay stopped {at}: {flag.reason}", flag.exit_code
     if shutdown_errors:
         head = result.reason or f"replay streamed {result.steps_done}/{result.steps_total} steps"
-        result.reason = f"{head}; shutdown failed: {'; '.join(shutdown_errors)}"
+        result.reason = f"{head}; shutdown errors: {'; '.join(shutdown_errors)}"
         result.status, result.exit_code = "failed", result.exit_code or 1
     return result

@@ -4,10 +4,13 @@ Per replay, next to the episode in ``<data folder>/replay/``:
 
 - ``episode_<k>_<backend>_tracking.csv``: one row per streamed step: ``step``, ``time_s``
   (since streaming began, at the moment of measurement), then for each arm and driver
-  value (``left_joint_0`` ... ``right_gripper``) the commanded and measured position
-  (``cmd_*``, ``meas_*``; rad, gripper m);
+  value (``left_joint_0`` ... ``right_gripper``) the commanded position as sent (gripper
+  after clamping to ``--gripper_max``) and the measured one (``cmd_*``, ``meas_*``; rad,
+  gripper m);
 - ``episode_<k>_<backend>_summary.json``: RMS and max of measured - commanded per joint,
-  plus run metadata (status, reason, fps, goal time, clipped values);
+  plus run metadata (status, reason, fps, goal time, values clipped to the joint limits,
+  gripper commands clamped to ``--gripper_max``, end-effector preset, trossen_arm
+  version);
 - ``episode_<k>_<backend>_tracking.png``: commanded vs measured, one panel per joint.
 
 Files are written to a temporary name and then renamed, so a reader never sees half a

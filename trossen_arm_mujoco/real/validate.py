@@ -28,6 +28,7 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.real.sim_driver import ARM_XML
+from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 
 ARMS: tuple[str, str] = ("left", "right")
 
@@ -44,8 +45,9 @@ DRIVER_LABELS: tuple[str, ...] = (*(f"joint_{i}" for i in range(6)), "gripper")
 #: Units of the 7 driver values.
 DRIVER_UNITS: tuple[str, ...] = ("rad",) * 6 + ("m",)
 
-#: Velocity limits of the 7 driver values (URDF: rad/s x6, gripper carriage m/s).
-VELOCITY_LIMITS: tuple[float, ...] = (3.375, 3.375, 3.375, 7.0, 7.0, 7.0, 0.0875)
+#: Velocity limits of the 7 driver values (URDF: rad/s x6, gripper carriage m/s), from the
+#: robot layer's table.
+VELOCITY_LIMITS: tuple[float, ...] = tuple(JOINT_VELOCITY_LIMITS[j] for j in DATASET_JOINTS[:7])
 
 #: Allowed excess over VELOCITY_LIMITS, as a fraction: the check is conservative (it
 #: takes each step as a jump at the command rate, while the controller spreads each

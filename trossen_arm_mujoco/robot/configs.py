@@ -1,23 +1,26 @@
-"""Robot configs: which move groups a robot has, its initial joints and command modes.
+"""Robot configs: which move groups a robot has, its initial joints, command modes and
+joint speed limits.
 
 Configs are plain data; ``RobotConfig.build_view(model)`` looks every name up once.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.constants import GRIPPER_OPEN, START_ARM_POSE
-from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.move_group import (
     ArmMoveGroup,
     GripperGroup,
     ImmobileBaseGroup,
     MocapArmGroup,
     MoveGroup,
+    check_velocity_limits,
 )
 from trossen_arm_mujoco.robot.robot_view import RobotView
 
@@ -25,6 +28,20 @@ ARM_JOINTS = [f"joint_{i}" for i in range(6)]
 FINGER_JOINTS = ["right_carriage_joint", "left_carriage_joint"]
 START_ARM = list(START_ARM_POSE[:6])
 START_FINGERS = [GRIPPER_OPEN, GRIPPER_OPEN]
+ACTUATED_FINGER = "left_carriage_joint"  # the joint the "gripper" actuator drives
+
+JOINT_VELOCITY_LIMITS: dict[str, float] = {
+    "joint_0": 3.375,
+    "joint_1": 3.375,
+    "joint_2": 3.375,
+    "joint_3": 7.0,
+    "joint_4": 7.0,
+    "joint_5": 7.0,
+    "right_carriage_joint": 0.0875,
+    "left_carriage_joint": 0.0875,
+}
+"""Velocity limits of the real WidowX AI arm (its URDF), by unprefixed joint name:
+rad/s for the revolute joints, m/s for the gripper carriages."""
 
 
 @dataclass(frozen=True)
@@ -32,6 +49,11 @@ class MoveGroupSpec:
     """How to build one move group.
 
     kind: "arm" (joint actuators + tool frame), "mocap_arm", "gripper" or "base".
+    velocity_limits: max speed per control value, rad/s (hinge) or m/s (slide): one per
+        actuator for an arm, one for a gripper (its actuated finger); None for no limit
+        (mocap arms and bases take none). Joint-position controllers, and the IK modes of
+        joint-actuated arms, move the control by at most ``velocity_limits * ctrl_dt`` a tick.
+    rate_limit: False turns the rate limiting off while keeping ``velocity_limits`` on record.
     """
 
     kind: str
@@ -40,24 +62,51 @@ class MoveGroupSpec:
     frame_site: str = ""
     mocap_body: str = ""
     base_body: str = ""
+    velocity_limits: tuple[float, ...] | None = None
+    rate_limit: bool = True
+
+    def __post_init__(self) -> None:
+        if self.velocity_limits is not None:
+            limits = self.checked_velocity_limits(f"'{self.kind}' group", self.velocity_limits)
+            object.__setattr__(self, "velocity_limits", limits)
+
+    def checked_velocity_limits(self, name: str, limits: Sequence[float]) -> tuple[float, ...]:
+        """``limits`` validated for this kind of group (one-line UserError naming ``name``)."""
+        size = {"arm": len(self.actuators), "gripper": 1}.get(self.kind)
+        if size is None:
+            raise UserError(f"{name}: a '{self.kind}' move group takes no velocity limits")
+        return tuple(float(v) for v in check_velocity_limits(name, limits, size))
+
+    @property
+    def enforced_velocity_limits(self) -> tuple[float, ...] | None:
+        """The limits controllers enforce: ``velocity_limits`` unless ``rate_limit`` is off."""
+        return self.velocity_limits if self.rate_limit else None
 
     def build(self, model: mujoco.MjModel, name: str) -> MoveGroup:
+        group: MoveGroup
         if self.kind == "arm":
-            return ArmMoveGroup(model, name, self.joints, self.actuators, self.frame_site)
-        if self.kind == "mocap_arm":
-            return MocapArmGroup(model, name, self.joints, self.mocap_body, self.frame_site)
-        if self.kind == "gripper":
-            return GripperGroup(model, name, self.joints, self.actuators[0])
-        if self.kind == "base":
-            return ImmobileBaseGroup(model, name, self.base_body)
-        raise unknown_name_error(
-            "move group kind", self.kind, ["arm", "mocap_arm", "gripper", "base"]
-        )
+            group = ArmMoveGroup(model, name, self.joints, self.actuators, self.frame_site)
+        elif self.kind == "mocap_arm":
+            group = MocapArmGroup(model, name, self.joints, self.mocap_body, self.frame_site)
+        elif self.kind == "gripper":
+            group = GripperGroup(model, name, self.joints, self.actuators[0])
+        elif self.kind == "base":
+            group = ImmobileBaseGroup(model, name, self.base_body)
+        else:
+            raise unknown_name_error(
+                "move group kind", self.kind, ["arm", "mocap_arm", "gripper", "base"]
+            )
+        group.set_velocity_limits(self.enforced_velocity_limits)
+        return group
 
 
 @dataclass(frozen=True)
 class RobotConfig:
-    """A robot: its move groups, initial joint positions and command mode per group."""
+    """A robot: its move groups, initial joint positions and command mode per group.
+
+    Joint speed limits live in the group specs (``MoveGroupSpec.velocity_limits``); change
+    them with ``with_velocity_limits``, switch them off with ``with_rate_limit(False)``.
+    """
 
     name: str
     groups: dict[str, MoveGroupSpec]
@@ -69,13 +118,50 @@ class RobotConfig:
 
     def with_command_modes(self, **modes: str) -> RobotConfig:
         """A copy with some groups' command modes replaced."""
-        for group in modes:
+        self._check_groups(modes)
+        return replace(self, command_mode={**self.command_mode, **modes})
+
+    def with_velocity_limits(self, **limits: Sequence[float] | None) -> RobotConfig:
+        """A copy with some groups' velocity limits replaced (rad/s or m/s, one per control
+        value; None removes them), rate limiting on for those groups.
+
+        Example: ``config.with_velocity_limits(gripper=[0.05])``.
+        """
+        self._check_groups(limits)
+        groups = dict(self.groups)
+        for name, lim in limits.items():
+            vel = None if lim is None else groups[name].checked_velocity_limits(name, lim)
+            groups[name] = replace(groups[name], velocity_limits=vel, rate_limit=True)
+        return replace(self, groups=groups)
+
+    def with_rate_limit(self, enabled: bool, *groups: str) -> RobotConfig:
+        """A copy with rate limiting switched on or off for ``groups`` (default: all).
+
+        Example: ``wxai_config().with_rate_limit(False)`` lets targets jump instantly.
+        """
+        self._check_groups(groups)
+        names = groups or tuple(self.groups)
+        if enabled:
+            for name in groups:
+                if self.groups[name].velocity_limits is None:
+                    raise UserError(
+                        f"move group '{name}' has no velocity limits to enforce; "
+                        "set them with with_velocity_limits"
+                    )
+        new = dict(self.groups)
+        for name in names:
+            new[name] = replace(new[name], rate_limit=enabled)
+        return replace(self, groups=new)
+
+    def _check_groups(self, names) -> None:
+        for group in names:
             if group not in self.groups:
                 raise unknown_name_error("move group", group, self.groups)
-        return RobotConfig(self.name, self.groups, self.init_qpos, {**self.command_mode, **modes})
 
 
 def _arm_groups(prefix: str, mocap: bool, side: str = "") -> dict[str, MoveGroupSpec]:
+    """base, arm and gripper specs of one arm; joint-actuated groups carry the URDF limits
+    (``JOINT_VELOCITY_LIMITS``), mocap arms none (the weld drives them)."""
     g = f"{side}_" if side else ""
     joints = tuple(prefix + j for j in ARM_JOINTS)
     if mocap:
@@ -84,13 +170,20 @@ def _arm_groups(prefix: str, mocap: bool, side: str = "") -> dict[str, MoveGroup
         )
     else:
         arm = MoveGroupSpec(
-            "arm", joints, tuple(prefix + j for j in ARM_JOINTS), frame_site=f"{prefix}ee_site"
+            "arm",
+            joints,
+            tuple(prefix + j for j in ARM_JOINTS),
+            frame_site=f"{prefix}ee_site",
+            velocity_limits=tuple(JOINT_VELOCITY_LIMITS[j] for j in ARM_JOINTS),
         )
     return {
         f"{g}base": MoveGroupSpec("base", base_body=f"{prefix}base_link"),
         f"{g}arm": arm,
         f"{g}gripper": MoveGroupSpec(
-            "gripper", tuple(prefix + j for j in FINGER_JOINTS), (f"{prefix}gripper",)
+            "gripper",
+            tuple(prefix + j for j in FINGER_JOINTS),
+            (f"{prefix}gripper",),
+            velocity_limits=(JOINT_VELOCITY_LIMITS[ACTUATED_FINGER],),
         ),
     }
 

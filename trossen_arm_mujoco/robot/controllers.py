@@ -8,6 +8,12 @@ Command modes:
   joint-actuated arms reach it by IK.
 - ``ee_delta``: Cartesian tool-frame delta, (3,) [dx, dy, dz] (m) or (6,) with a rotation
   vector (rad), world frame, through differential IK.
+
+Rate limiting: a controller first works out the control ``target`` its command asks for, then
+``limit`` moves the control currently applied (``group.get_ctrl(data)``) toward it by at most
+``group.velocity_limits * ctrl_dt`` per value (rad or m) and clips it to the control range.
+It keeps no state: what it starts from is read from ``data`` every tick. Mocap arms are not
+rate-limited (their control is a pose).
 """
 
 from __future__ import annotations
@@ -29,13 +35,26 @@ from trossen_arm_mujoco.robot.move_group import (
 
 
 class Controller:
-    """Base: maps a command of ``command_dim`` values to the group's control vector."""
+    """Base: maps a command of ``command_dim`` values to the group's control vector.
+
+    Args:
+        group: the move group it drives.
+        model: compiled model.
+        ctrl_dt: control period (s), the time between two ``compute`` calls. None: not known
+            yet; a ``Robot`` running the controller sets its own, standalone the model
+            timestep is used.
+    """
 
     command_mode: ClassVar[str] = ""
+    relative: ClassVar[bool] = False  # command taken against the state once, then its target held
+    scale_step: ClassVar[bool] = False  # rate-limit by one factor for all values (IK modes)
 
-    def __init__(self, group: MoveGroup, model: mujoco.MjModel):
+    def __init__(self, group: MoveGroup, model: mujoco.MjModel, ctrl_dt: float | None = None):
         self.group = group
         self.model = model
+        if ctrl_dt is not None and not (np.isfinite(ctrl_dt) and ctrl_dt > 0):
+            raise UserError(f"{group.name}: ctrl_dt must be a positive number of seconds")
+        self.ctrl_dt = None if ctrl_dt is None else float(ctrl_dt)
 
     @property
     def command_dim(self) -> int:
@@ -44,8 +63,41 @@ class Controller:
     def command_limits(self) -> tuple[np.ndarray, np.ndarray]:
         return self.group.ctrl_limits()
 
-    def compute(self, data: mujoco.MjData, command: np.ndarray) -> np.ndarray:
+    @property
+    def max_step(self) -> np.ndarray | None:
+        """Most the control may move in one tick, (ctrl_dim,) rad or m; None: unlimited."""
+        limits = self.group.velocity_limits
+        if limits is None:
+            return None
+        dt = self.ctrl_dt if self.ctrl_dt is not None else float(self.model.opt.timestep)
+        return limits * dt
+
+    def target(self, data: mujoco.MjData, command: np.ndarray) -> np.ndarray:
+        """The control the command asks for, before rate limiting, (ctrl_dim,)."""
         raise NotImplementedError
+
+    def limit(self, data: mujoco.MjData, target: np.ndarray) -> np.ndarray:
+        """The control of this tick: from the applied control toward ``target`` by at most
+        ``max_step`` per value, then clipped to the control range; (ctrl_dim,).
+
+        Joint modes clip each value on its own; IK modes (``scale_step``) shrink the whole
+        step by one factor instead, so that the tool keeps its Cartesian direction.
+        """
+        u = np.asarray(target, dtype=float)
+        step = self.max_step
+        if step is not None:
+            current = self.group.get_ctrl(data)
+            delta = u - current
+            if self.scale_step:
+                u = current + delta / max(1.0, float(np.max(np.abs(delta) / step)))
+            else:
+                u = current + np.clip(delta, -step, step)
+        low, high = self.group.ctrl_limits()
+        return np.clip(u, low, high)
+
+    def compute(self, data: mujoco.MjData, command: np.ndarray) -> np.ndarray:
+        """The control of this tick for ``command`` (rate-limited), (ctrl_dim,)."""
+        return self.limit(data, self.target(data, command))
 
     def _check(self, command: np.ndarray) -> np.ndarray:
         cmd = np.asarray(command, dtype=float).reshape(-1)
@@ -69,27 +121,27 @@ class JointPosController(Controller):
 
     command_mode = "joint_position"
 
-    def __init__(self, group, model):
+    def __init__(self, group, model, ctrl_dt=None):
         if not isinstance(group, (SimplyActuatedMoveGroup, GripperGroup)):
             raise UserError(f"{group.name}: joint_position needs joint actuators")
-        super().__init__(group, model)
+        super().__init__(group, model, ctrl_dt)
 
-    def compute(self, data, command):
-        low, high = self.group.ctrl_limits()
-        return np.clip(self._check(command), low, high)
+    def target(self, data, command):
+        return self._check(command)
 
 
 class JointRelPosController(JointPosController):
     """``joint_rel_position``: the command is added to the current joint positions."""
 
     command_mode = "joint_rel_position"
+    relative = True
 
     def command_limits(self):
         low, high = self.group.ctrl_limits()
         span = high - low
         return -span, span
 
-    def compute(self, data, command):
+    def target(self, data, command):
         low, high = self.group.ctrl_limits()
         return np.clip(_actuated_qpos(self.group, data) + self._check(command), low, high)
 
@@ -98,11 +150,12 @@ class EEPoseController(Controller):
     """``ee_pose``: tool-frame pose; passed to a mocap body, or solved by IK for joint arms."""
 
     command_mode = "ee_pose"
+    scale_step = True
 
-    def __init__(self, group, model):
+    def __init__(self, group, model, ctrl_dt=None):
         if not isinstance(group, MJCFFrameMixin):
             raise UserError(f"{group.name}: ee_pose needs a tool frame")
-        super().__init__(group, model)
+        super().__init__(group, model, ctrl_dt)
         self._kin = None
         if not isinstance(group, MocapArmGroup):
             self._kin = Kinematics(
@@ -116,23 +169,30 @@ class EEPoseController(Controller):
     def command_limits(self):
         return np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]), np.array([2.0, 2.0, 2.0, 1, 1, 1, 1])
 
-    def compute(self, data, command):
+    def target(self, data, command):
         cmd = self._check(command)
         if self._kin is None:
             return cmd
         q, _ = self._kin.solve(data.qpos, cmd[:3], cmd[3:], iterations=30)
         return q
 
+    def limit(self, data, target):
+        if self._kin is None:
+            return np.asarray(target, dtype=float)  # the mocap pose, as is
+        return super().limit(data, target)
+
 
 class EEDeltaController(Controller):
     """``ee_delta``: Cartesian delta of the tool frame through differential IK."""
 
     command_mode = "ee_delta"
+    relative = True
+    scale_step = True
 
-    def __init__(self, group, model, rotation: bool = False):
+    def __init__(self, group, model, rotation: bool = False, ctrl_dt: float | None = None):
         if not isinstance(group, MJCFFrameMixin) or not isinstance(group, SimplyActuatedMoveGroup):
             raise UserError(f"{group.name}: ee_delta needs a joint-actuated arm with a tool frame")
-        super().__init__(group, model)
+        super().__init__(group, model, ctrl_dt)
         self.rotation = rotation
         self.kinematics = Kinematics(
             model, group.frame_site_id, group.qpos_idx, group.dof_idx, group.joint_range
@@ -148,7 +208,7 @@ class EEDeltaController(Controller):
             lim[3:] = 0.2
         return -lim, lim
 
-    def compute(self, data, command):
+    def target(self, data, command):
         return self.kinematics.delta_step(data.qpos, self._check(command))
 
 
@@ -158,8 +218,11 @@ CONTROLLERS: dict[str, type[Controller]] = {
 }
 
 
-def make_controller(mode: str, group: MoveGroup, model: mujoco.MjModel) -> Controller:
-    """Controller for a command mode; a UserError listing the valid modes when unknown."""
+def make_controller(
+    mode: str, group: MoveGroup, model: mujoco.MjModel, ctrl_dt: float | None = None
+) -> Controller:
+    """Controller for a command mode (``ctrl_dt``: control period, s); a UserError listing
+    the valid modes when unknown."""
     if mode not in CONTROLLERS:
         raise unknown_name_error("command mode", mode, CONTROLLERS)
-    return CONTROLLERS[mode](group, model)
+    return CONTROLLERS[mode](group, model, ctrl_dt=ctrl_dt)

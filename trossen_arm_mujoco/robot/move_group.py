@@ -31,6 +31,24 @@ def _finite(name: str, value: np.ndarray) -> np.ndarray:
     return value
 
 
+def check_velocity_limits(name: str, limits: Sequence[float], size: int) -> np.ndarray:
+    """``limits`` as a (size,) array of positive, finite speeds, else a one-line UserError.
+
+    Args:
+        name: move group name, for the message.
+        limits: max speed per control value (rad/s for hinge joints, m/s for slide joints).
+        size: the group's number of control values.
+    """
+    v = np.asarray(limits, dtype=float).reshape(-1)
+    if v.shape != (size,):
+        raise UserError(
+            f"{name}: expected {size} velocity limits (one per control value), got {v.size}"
+        )
+    if not np.all(np.isfinite(v) & (v > 0)):
+        raise UserError(f"{name}: velocity limits must be positive and finite, got {v.tolist()}")
+    return v
+
+
 class MoveGroup:
     """Joints of one robot that move together.
 
@@ -38,7 +56,12 @@ class MoveGroup:
         model: compiled MuJoCo model.
         name: group name (e.g. "left_arm").
         joint_names: 1-dof joints (hinge or slide) of the group, in command order.
+
+    ``velocity_limits`` (None or (ctrl_dim,), rad/s or m/s) is the speed that joint-position
+    controllers hold the group's control to; see ``set_velocity_limits``.
     """
+
+    rate_limitable = False  # whether the control is joint positions that velocity limits fit
 
     def __init__(self, model: mujoco.MjModel, name: str, joint_names: Sequence[str]):
         self.name = name
@@ -53,6 +76,24 @@ class MoveGroup:
         self.qpos_idx = model.jnt_qposadr[self.joint_ids].astype(int)
         self.dof_idx = model.jnt_dofadr[self.joint_ids].astype(int)
         self.joint_range = model.jnt_range[self.joint_ids].copy()  # (n, 2)
+        self.velocity_limits: np.ndarray | None = None
+
+    def set_velocity_limits(self, limits: Sequence[float] | None) -> None:
+        """Max speed per control value that controllers enforce, or None for no limit.
+
+        Args:
+            limits: (ctrl_dim,) speeds, rad/s for hinge joints and m/s for slide joints
+                (a gripper's one value is its actuated finger's speed).
+        """
+        if limits is None:
+            self.velocity_limits = None
+            return
+        if not self.rate_limitable:
+            raise UserError(
+                f"move group '{self.name}' ({type(self).__name__}) takes no joint-position "
+                "control; velocity limits apply to joint-actuated arms and grippers"
+            )
+        self.velocity_limits = check_velocity_limits(self.name, limits, self.ctrl_dim)
 
     @property
     def n_joints(self) -> int:
@@ -121,6 +162,8 @@ class MJCFFrameMixin:
 class SimplyActuatedMoveGroup(MoveGroup):
     """One position actuator per joint: the control is the joint target (rad or m)."""
 
+    rate_limitable = True
+
     def __init__(self, model, name, joint_names, actuator_names: Sequence[str]):
         super().__init__(model, name, joint_names)
         if len(actuator_names) != len(joint_names):
@@ -160,6 +203,8 @@ class GripperGroup(MoveGroup):
     qpos has both finger joints (m, 0 closed to 0.044 open); the control is one value: the
     target travel of the actuated finger (m).
     """
+
+    rate_limitable = True
 
     def __init__(self, model, name, joint_names, actuator_name: str):
         super().__init__(model, name, joint_names)

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 import mujoco
 import numpy as np
 
-from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import Controller, make_controller
 from trossen_arm_mujoco.robot.move_group import MocapArmGroup
@@ -20,17 +20,34 @@ class Robot:
     ``update_control`` stores the latest command per move group; ``compute_control`` turns
     the stored commands into controls and writes them to ``data.ctrl`` (or the mocap bodies).
     Groups without a command hold the control set at ``reset``. Physics is never stepped here.
+
+    Joint-actuated groups are rate-limited (``MoveGroupSpec.velocity_limits``): each call
+    of ``compute_control`` moves their control by at most ``velocity_limits * ctrl_dt``.
+    A relative command (``joint_rel_position``, ``ee_delta``) is taken against the joints
+    once, when first applied; its joint target is then approached over as many ticks as
+    the limits need, unless a newer command replaces it.
+
+    Args:
+        model: compiled model.
+        config: move groups, initial joints, command modes, velocity limits.
+        ctrl_dt: control period (s), the time between two ``compute_control`` calls;
+            default the model timestep. Controllers put into ``controllers`` later without
+            a ``ctrl_dt`` of their own take this one.
     """
 
-    def __init__(self, model: mujoco.MjModel, config: RobotConfig):
+    def __init__(self, model: mujoco.MjModel, config: RobotConfig, ctrl_dt: float | None = None):
         self.model = model
         self.config = config
+        self.ctrl_dt = float(model.opt.timestep) if ctrl_dt is None else float(ctrl_dt)
+        if not (np.isfinite(self.ctrl_dt) and self.ctrl_dt > 0):
+            raise UserError(f"ctrl_dt must be a positive number of seconds, got {ctrl_dt}")
         self.view: RobotView = config.build_view(model)
         self.controllers: dict[str, Controller] = {
-            g: make_controller(mode, self.view.group(g), model)
+            g: make_controller(mode, self.view.group(g), model, self.ctrl_dt)
             for g, mode in config.command_mode.items()
         }
         self._commands: dict[str, np.ndarray] = {}
+        self._targets: dict[str, np.ndarray] = {}  # resolved relative commands, not yet reached
 
     def update_control(self, commands: Mapping[str, np.ndarray]) -> None:
         """Store commands, group name -> vector of that group's ``command_dim`` values."""
@@ -43,11 +60,22 @@ class Robot:
         """Compute and apply the controls of the commanded groups; returns them by group."""
         out = {}
         for name, cmd in list(self._commands.items()):
-            ctrl = self.controllers[name].compute(data, cmd)
+            controller = self.controllers[name]
+            if controller.ctrl_dt is None:
+                controller.ctrl_dt = self.ctrl_dt
+            if controller.relative:  # applied once: its target holds until reached
+                self._targets[name] = controller.target(data, cmd)
+                del self._commands[name]
+            else:
+                out[name] = controller.compute(data, cmd)
+        for name, target in list(self._targets.items()):
+            controller = self.controllers[name]
+            out[name] = controller.limit(data, target)
+            low, high = controller.group.ctrl_limits()
+            if np.array_equal(out[name], np.clip(target, low, high)):
+                del self._targets[name]  # reached: the control now holds it
+        for name, ctrl in out.items():
             self.view.group(name).set_ctrl(data, ctrl)
-            out[name] = ctrl
-            if self.controllers[name].command_mode in ("joint_rel_position", "ee_delta"):
-                del self._commands[name]  # relative: applied once, then the new target holds
         return out
 
     def reset(self, data: mujoco.MjData) -> None:
@@ -60,12 +88,14 @@ class Robot:
         for name in self.config.init_qpos:
             data.qvel[self.view.group(name).dof_idx] = 0.0
         self._commands.clear()
+        self._targets.clear()
         mujoco.mj_kinematics(self.model, data)
         self.hold(data)
 
     def hold(self, data: mujoco.MjData) -> None:
         """Set every control to hold the current state (kinematics must be up to date)."""
         self._commands.clear()
+        self._targets.clear()
         for group in self.view.move_groups.values():
             if isinstance(group, MocapArmGroup):
                 group.set_ctrl(data, group.get_frame_pose(data))

@@ -2,11 +2,13 @@
 
 The whole trajectory is validated first (shape, finite values, joint limits, joint
 speeds at ``--fps``); any violation is one line and exit status 2, before any driver is
-created. Then both arms are configured, move to the first action over 2 s, follow the
-actions at ``--fps``, and finally go home and to the sleep pose; an error, Ctrl-C or
-SIGTERM stops streaming and still runs the home/sleep sequence. Tracking results (CSV,
-JSON summary, PNG) go to ``<data folder>/replay/``. Also available as
-``trossen-mujoco replay-real``.
+created. Gripper commands above ``--gripper_max`` (the controller's range, 0.04 m) are
+clamped and counted. Then both arms are configured with the ``--end_effector`` preset,
+move to the first action over 2 s, follow the actions at ``--fps``, and finally go home
+and to the sleep pose; any error, Ctrl-C or SIGTERM stops streaming and still runs the
+home/sleep/cleanup sequence on every configured arm, and the exit status is non-zero
+with one line on stderr. Tracking results (CSV, JSON summary, PNG) go to
+``<data folder>/replay/``. Also available as ``trossen-mujoco replay-real``.
 
 Examples::
 
@@ -16,9 +18,9 @@ Examples::
     # rehearse on the simulated twin (faster than real time)
     python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
         --backend sim
-    # real arms (needs: pip install 'trossen-arm-mujoco[real]')
+    # real arms (needs: pip install 'trossen-arm-mujoco[real]'); arms built in 2025
     python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
-        --left_ip 192.168.1.5 --right_ip 192.168.1.4
+        --left_ip 192.168.1.5 --right_ip 192.168.1.4 --end_effector wxai_v0_follower_20250509
 """
 
 from __future__ import annotations
@@ -37,7 +39,15 @@ from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.reader import episode_path, load_episode, resolve_data_dir
 from trossen_arm_mujoco.errors import UserError, run_cli
 from trossen_arm_mujoco.real.clock import Clock
-from trossen_arm_mujoco.real.driver import DEFAULT_END_EFFECTOR, DEFAULT_MODEL
+from trossen_arm_mujoco.real.driver import (
+    DEFAULT_END_EFFECTOR,
+    DEFAULT_MODEL,
+    check_end_effector,
+    find_trossen_arm,
+    import_trossen_arm,
+    installed_version,
+)
+from trossen_arm_mujoco.real.gripper import GRIPPER_MAX, clamp_gripper
 from trossen_arm_mujoco.real.replay import (
     BACKENDS,
     DriverFactory,
@@ -76,6 +86,24 @@ def build_parser() -> argparse.ArgumentParser:
         default=3.0,
         help="goal time of each command, in command periods (default 3: goal time 3/fps)",
     )
+    p.add_argument(
+        "--end_effector",
+        default=DEFAULT_END_EFFECTOR,
+        help=f"end-effector preset: a trossen_arm.StandardEndEffector member of the installed "
+        f"trossen_arm, read at run time; an unknown name fails, listing the valid ones "
+        f"(default {DEFAULT_END_EFFECTOR}, the current follower preset; arms built in 2025 "
+        f"need wxai_v0_follower_20250509). With --backend sim or --dry_run it is checked the "
+        f"same way when trossen_arm is installed and accepted unchecked, with a note, when it "
+        f"is not; the simulated twin models the follower gripper whatever the preset",
+    )
+    p.add_argument(
+        "--gripper_max",
+        type=float,
+        default=GRIPPER_MAX,
+        help=f"largest gripper command sent (m); the arm controller's range ends at "
+        f"{GRIPPER_MAX:g} m while recordings reach 0.044 m. Larger commands are clamped to it "
+        f"and counted in the summary (default {GRIPPER_MAX:g})",
+    )
     p.add_argument("--dry_run", action="store_true", help="validate and report only; nothing moves")
     p.add_argument("--no_progress", action="store_true", help="no progress bar")
     return p
@@ -97,10 +125,15 @@ def main(
         raise UserError(f"--fps must be in (0, 1000], got {args.fps:g}")
     if not (math.isfinite(args.goal_time_factor) and 0 < args.goal_time_factor <= 20):
         raise UserError(f"--goal_time_factor must be in (0, 20], got {args.goal_time_factor:g}")
+    limits = ArmLimits.from_mjcf()
+    top = float(limits.driver_upper[-1])
+    if not (math.isfinite(args.gripper_max) and 0 < args.gripper_max <= top):
+        raise UserError(f"--gripper_max must be in (0, {top:g}] m, got {args.gripper_max:g}")
+    ee_note = _check_end_effector(args.end_effector, args.backend, args.dry_run)
     folder = resolve_data_dir(args.root_dir, args.data_dir)
     episode = load_episode(episode_path(folder, args.episode_idx))
-    limits = ArmLimits.from_mjcf()
     trajectory = validate_actions(episode.action, args.fps, limits)
+    gripper = clamp_gripper(trajectory.commands, args.gripper_max)[1]
     speed = episode.dt * args.fps  # replay speed relative to the recording
     pace = "the recorded speed" if abs(speed - 1) < 1e-9 else f"{speed:.3g}x the recorded speed"
     print(
@@ -108,6 +141,9 @@ def main(
         f"at --fps {args.fps:g} ({pace}, recorded at {1.0 / episode.dt:g} Hz), "
         f"goal time {args.goal_time_factor / args.fps:.3g} s per command"
     )
+    print(gripper.describe())
+    if ee_note:
+        print(ee_note)
     if args.dry_run:
         print(format_trajectory_report(trajectory, limits))
         print("dry run: trajectory is valid; no driver was created and nothing moved")
@@ -125,7 +161,9 @@ def main(
         goal_time_factor=args.goal_time_factor,
         ips={"left": args.left_ip, "right": args.right_ip},
         model=DEFAULT_MODEL,
-        end_effector=DEFAULT_END_EFFECTOR,
+        # the twin models one gripper: it is configured with its default preset
+        end_effector=args.end_effector if args.backend == "trossen" else DEFAULT_END_EFFECTOR,
+        gripper_max=args.gripper_max,
         progress=not args.no_progress,
     )
     result = replay(trajectory, drivers, run_clock, config, limits)
@@ -143,6 +181,9 @@ def main(
         "late_steps": result.late_steps,
         "clipped_values": trajectory.clipped,
         "max_clip": trajectory.max_clip,
+        **(result.gripper or gripper).as_dict(),
+        "end_effector": args.end_effector,
+        "trossen_arm_version": installed_version() if find_trossen_arm() else None,
         "measured_at": "end of each command period, just before the next command",
         "final_positions": {k: v.tolist() for k, v in result.final_positions.items()},
     }
@@ -163,8 +204,30 @@ def main(
     if result.exit_code:
         print(f"error: {result.reason}", file=sys.stderr)
         return result.exit_code
-    print(f"replay completed: {result.steps_done} steps; arms are home and asleep")
+    clamped = (result.gripper or gripper).count
+    print(
+        f"replay completed: {result.steps_done} steps, {clamped} gripper command(s) clamped "
+        f"to {args.gripper_max:g} m; arms are home and asleep"
+    )
     return 0
+
+
+def _check_end_effector(name: str, backend: str, dry_run: bool) -> str | None:
+    """Check ``--end_effector`` against the installed trossen_arm; returns a note or None.
+
+    Raises:
+        UserError: an unknown preset (listing the valid ones), or the trossen backend
+            without trossen_arm (install hint).
+    """
+    ta = find_trossen_arm()
+    if ta is None:
+        if backend == "trossen" and not dry_run:
+            import_trossen_arm()  # raises the install hint
+        return f"note: trossen_arm is not installed, so --end_effector {name} is not checked"
+    check_end_effector(ta, name)
+    if backend == "sim" and name != DEFAULT_END_EFFECTOR:
+        return f"note: --end_effector {name} is valid; the twin models the follower gripper"
+    return None
 
 
 def cli(

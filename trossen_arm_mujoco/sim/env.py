@@ -51,7 +51,8 @@ class MujocoEnv:
 
     Args:
         xml_path: MJCF scene to load (or pass ``physics``).
-        robots: robot name -> config; each becomes a ``Robot`` over the model.
+        robots: robot name -> config; each becomes a ``Robot`` over the model, controlled
+            every ``ctrl_dt`` (its velocity limits are enforced per control tick).
         objects: object name -> (free joint name, geom name or None).
         camera_names, height, width: cameras rendered by ``render_images``.
         ctrl_dt: control period (s); default: one physics step.
@@ -81,7 +82,9 @@ class MujocoEnv:
         self.sim_dt = float(self.model.opt.timestep)
         self.ctrl_dt = float(ctrl_dt) if ctrl_dt is not None else self.sim_dt
         self.n_substeps = whole_ratio(self.ctrl_dt, self.sim_dt, "ctrl_dt", "sim_dt")
-        self.robots = {n: Robot(self.model, c) for n, c in (robots or {}).items()}
+        self.robots = {
+            n: Robot(self.model, c, ctrl_dt=self.ctrl_dt) for n, c in (robots or {}).items()
+        }
         self.objects = {
             n: FreeJointObject(self.model, j, g) for n, (j, g) in (objects or {}).items()
         }
