@@ -22,7 +22,6 @@ from tqdm import tqdm
 
 from trossen_arm_mujoco.collect.pipeline import (
     ACTION_SPEED_LIMITS,
-    RECORD_FPS,
     EpisodeRecorder,
     RecordSettings,
     episode_seed,
@@ -33,6 +32,7 @@ LABELS = ["j0", "j1", "j2", "j3", "j4", "j5", "finger_r", "finger_l"]
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--task", default="sim_transfer_cube", help="a task with a scripted policy")
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--noise", action="store_true")
     parser.add_argument("--seed", type=int, default=0)
@@ -45,6 +45,7 @@ def main() -> None:
         np.maximum(measured, np.abs(obs["qvel"]) / ACTION_SPEED_LIMITS, out=measured)
 
     settings = RecordSettings(
+        task_name=args.task,
         episode_len=args.episode_len, inject_noise=args.noise, base_seed=args.seed
     )
     recorder = EpisodeRecorder(settings, step_hook=track)
@@ -56,22 +57,23 @@ def main() -> None:
         rng = np.random.default_rng(episode_seed(args.seed, k))
         actions, box_pose = recorder.scripted_rollout(rng)
         limited += recorder.last_speed_limited
-        ee_ok += int(recorder.ee_env.task.get_reward(recorder.ee_env.physics) == 4)
-        speeds = np.abs(np.diff(actions, axis=0)) * RECORD_FPS / ACTION_SPEED_LIMITS
+        ee_ok += int(recorder.scripted_success())
+        speeds = np.abs(np.diff(actions, axis=0)) * recorder.fps / ACTION_SPEED_LIMITS
         np.maximum(commanded, speeds.max(axis=0), out=commanded)
         validated += int(recorder.check_real_replay(actions)[0])
         rewards = recorder.replay(actions, box_pose)
-        if rewards[-1] == 4:
+        if rewards[-1] == recorder.max_reward:
             joint_ok += 1
         else:
             failed.append(k)
     wall = time.perf_counter() - start
     recorder.close()
     n = args.episodes
-    print(f"noise={args.noise} episodes={n} wall={wall:.1f}s ({wall / n:.2f}s/episode)")
+    print(f"task={args.task} noise={args.noise} episodes={n} wall={wall:.1f}s")
+    print(f"per episode: {wall / n:.2f} s")
     print(f"phase 1 (EE env) success:    {ee_ok}/{n} = {100 * ee_ok / n:.1f}%")
     print(f"phase 2 (joint env) success: {joint_ok}/{n} = {100 * joint_ok / n:.1f}%")
-    print(f"real-replay validator at {RECORD_FPS:g} fps: {validated}/{n} pass")
+    print(f"real-replay validator at {recorder.fps:g} fps: {validated}/{n} pass")
     print(f"action values rate-limited by the recorder: {limited}")
     for name, fractions in (("commanded", commanded), ("measured", measured)):
         per_joint = np.maximum(fractions[:8], fractions[8:])  # worst of both arms

@@ -10,11 +10,9 @@ import contextlib
 import os
 import select
 import shutil
-import struct
 import subprocess
 import sys
 import time
-import zlib
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -23,39 +21,17 @@ import pytest
 
 from trossen_arm_mujoco import demo
 from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, START_ARM_POSE, STATIONARY_CAMERAS
-from trossen_arm_mujoco.demo import demo_main, encode_png, scripted_action, write_png
+from trossen_arm_mujoco.demo import demo_main, scripted_action
 from trossen_arm_mujoco.utils import make_sim_env
 
 REPO = Path(__file__).resolve().parents[1]
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-def decode_png(data: bytes) -> np.ndarray:
-    """Minimal decoder for 8-bit RGB PNGs with filter type 0 (what encode_png writes)."""
-    assert data[:8] == PNG_SIGNATURE
-    pos, idat, width = 8, b"", None
-    while pos < len(data):
-        (length,) = struct.unpack(">I", data[pos : pos + 4])
-        kind = data[pos + 4 : pos + 8]
-        payload = data[pos + 8 : pos + 8 + length]
-        (crc,) = struct.unpack(">I", data[pos + 8 + length : pos + 12 + length])
-        assert crc == zlib.crc32(kind + payload) & 0xFFFFFFFF
-        if kind == b"IHDR":
-            width, height, depth, colour = struct.unpack(">IIBB", payload[:10])
-            assert (depth, colour) == (8, 2)
-        elif kind == b"IDAT":
-            idat += payload
-        pos += 12 + length
-    rows = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(height, 1 + 3 * width)
-    assert np.all(rows[:, 0] == 0)
-    return rows[:, 1:].reshape(height, width, 3)
-
-
 def read_png(path: Path) -> np.ndarray:
-    try:
-        from PIL import Image
-    except ImportError:
-        return decode_png(path.read_bytes())
+    from PIL import Image
+
+    assert path.read_bytes()[:8] == PNG_SIGNATURE
     with Image.open(path) as img:
         return np.asarray(img.convert("RGB"))
 
@@ -175,35 +151,6 @@ def test_help(capsys):
 
 
 # ----------------------------------------------------------------------------- pieces
-def test_png_encoder_roundtrip():
-    rng = np.random.default_rng(0)
-    img = rng.integers(0, 256, size=(7, 5, 3), dtype=np.uint8)
-    np.testing.assert_array_equal(decode_png(encode_png(img)), img)
-    try:
-        from PIL import Image
-    except ImportError:
-        return
-    import io
-
-    with Image.open(io.BytesIO(encode_png(img))) as decoded:
-        np.testing.assert_array_equal(np.asarray(decoded), img)
-
-
-def test_write_png_without_pillow(tmp_path, monkeypatch):
-    monkeypatch.setitem(sys.modules, "PIL", None)  # import PIL -> ImportError
-    img = np.zeros((4, 6, 3), np.uint8)
-    img[1, 2] = (255, 10, 0)
-    write_png(tmp_path / "x.png", img)
-    np.testing.assert_array_equal(decode_png((tmp_path / "x.png").read_bytes()), img)
-
-
-def test_write_png_rejects_non_rgb(tmp_path):
-    from trossen_arm_mujoco.errors import UserError
-
-    with pytest.raises(UserError, match="RGB"):
-        write_png(tmp_path / "x.png", np.zeros((4, 4), np.uint8))
-
-
 @pytest.mark.parametrize("flavour", ["ee", "joint"])
 def test_scripted_motion_starts_at_the_initial_pose_and_is_smooth(flavour):
     task = demo._task_class(flavour)

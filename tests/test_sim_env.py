@@ -208,9 +208,9 @@ def test_documented_reward_scores_4_on_joint_replay(seed):
     from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings
 
     recorder = EpisodeRecorder(RecordSettings())
-    actions, box_pose = recorder.scripted_rollout(np.random.default_rng(seed))
+    actions, poses = recorder.scripted_rollout(np.random.default_rng(seed))
     recorder.close()
-    env = make_sim_env(DocumentedRewardTask, cam_list=[], box_pose=box_pose)
+    env = make_sim_env(DocumentedRewardTask, cam_list=[], box_pose=poses["box"])
     env.reset()
     rewards, table_seen = [], 0
     for t, action in enumerate(actions):

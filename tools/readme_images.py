@@ -13,8 +13,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
+from trossen_arm_mujoco.assets import STATIONARY_CAMERAS  # noqa: E402
 from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings, episode_seed  # noqa: E402
-from trossen_arm_mujoco.constants import STATIONARY_CAMERAS  # noqa: E402
+from trossen_arm_mujoco.robot.layout import KIT_LAYOUT  # noqa: E402
 
 
 def main() -> None:
@@ -23,16 +24,12 @@ def main() -> None:
     parser.add_argument("--out", default="docs/images")
     args = parser.parse_args()
     rec = EpisodeRecorder(RecordSettings(cam_names=tuple(STATIONARY_CAMERAS)))
-    actions, box = rec.scripted_rollout(np.random.default_rng(episode_seed(0, 0)))
-    env = rec.joint_env
-    env.task.box_pose = box
-    env.task.render_enabled = False
-    env.reset()
+    actions, poses = rec.scripted_rollout(np.random.default_rng(episode_seed(0, 0)))
+    task = rec.joint_sampler.sample_task(0, object_poses=poses)
     for t in range(args.step):
-        env.task.render_enabled = t == args.step - 1
-        ts = env.step(actions[t])
+        task.step(KIT_LAYOUT.joint_commands(actions[t]))
     os.makedirs(args.out, exist_ok=True)
-    for cam, img in ts.observation["images"].items():
+    for cam, img in rec.joint_env.render_images().items():
         path = os.path.join(args.out, f"{cam}.png")
         Image.fromarray(img).save(path, optimize=True)
         print(path)

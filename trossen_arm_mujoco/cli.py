@@ -10,6 +10,8 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+from trossen_arm_mujoco.errors import report_error, unknown_name_error
+
 SUBCOMMANDS = {
     "record": "trossen_arm_mujoco.scripts.record_sim_episodes",
     "visualize": "trossen_arm_mujoco.scripts.visualize_eps",
@@ -32,10 +34,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     name, rest = args[0], args[1:]
     if name not in SUBCOMMANDS:
-        print(
-            f"error: unknown subcommand '{name}'; valid: {', '.join(SUBCOMMANDS)}", file=sys.stderr
+        return report_error(
+            unknown_name_error("subcommand", name, SUBCOMMANDS, "see 'trossen-mujoco --help'")
         )
-        return 2
     module = importlib.import_module(SUBCOMMANDS[name])
     return int(module.cli(rest) or 0)
 

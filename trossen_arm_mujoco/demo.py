@@ -13,12 +13,10 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import struct
 import subprocess
 import sys
 import tempfile
 import time
-import zlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -26,6 +24,7 @@ import numpy as np
 
 from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.images import encode_png, write_png  # noqa: F401  (re-exported)
 from trossen_arm_mujoco.viewer import close_viewer, display_problem, launch_viewer
 
 FLAVOURS = ("ee", "joint")
@@ -42,13 +41,10 @@ JOINT_WAVES = ((0.35, 5.0), (0.2, 4.0), (0.2, 3.5), (0.4, 3.0), (0.4, 4.5), (0.8
 
 
 def _task_class(flavour: str) -> type:
-    if flavour == "ee":
-        from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
+    """The cube transfer's dm_control task class in ``flavour``, from the task registry."""
+    from trossen_arm_mujoco.tasks.dm_tasks import dm_task_class
 
-        return TransferCubeEETask
-    from trossen_arm_mujoco.sim_env import TransferCubeTask
-
-    return TransferCubeTask
+    return dm_task_class("sim_transfer_cube", flavour)
 
 
 # ----------------------------------------------------------------------------- motion
@@ -103,39 +99,6 @@ def scripted_action(
     return action
 
 
-# ----------------------------------------------------------------------------- PNG output
-def write_png(path: str | Path, image: np.ndarray) -> None:
-    """Write an RGB uint8 (H, W, 3) image as PNG (Pillow when available, else zlib)."""
-    img = np.ascontiguousarray(image, dtype=np.uint8)
-    if img.ndim != 3 or img.shape[2] != 3:
-        raise UserError(f"expected an RGB image (H, W, 3), got shape {img.shape}")
-    try:
-        from PIL import Image
-    except ImportError:
-        Path(path).write_bytes(encode_png(img))
-        return
-    Image.fromarray(img).save(path)
-
-
-def encode_png(image: np.ndarray) -> bytes:
-    """PNG bytes of an RGB uint8 (H, W, 3) image, without any imaging library."""
-    img = np.ascontiguousarray(image, dtype=np.uint8)
-    height, width, _ = img.shape
-    rows = np.concatenate([np.zeros((height, 1), np.uint8), img.reshape(height, -1)], axis=1)
-
-    def chunk(kind: bytes, payload: bytes) -> bytes:
-        crc = zlib.crc32(kind + payload) & 0xFFFFFFFF
-        return struct.pack(">I", len(payload)) + kind + payload + struct.pack(">I", crc)
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)  # 8-bit RGB
-    return (
-        b"\x89PNG\r\n\x1a\n"
-        + chunk(b"IHDR", header)
-        + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6))
-        + chunk(b"IEND", b"")
-    )
-
-
 # ----------------------------------------------------------------------------- runs
 def run_live(flavour: str, seconds: float, seed: int | None) -> None:
     """Live viewer, real-time pace, until ``seconds`` or the window is closed."""
@@ -179,25 +142,27 @@ def run_live(flavour: str, seconds: float, seed: int | None) -> None:
 
 
 def run_headless(flavour: str, seconds: float, seed: int | None, out_dir: Path) -> list[Path]:
-    """Step the env briefly and save one PNG per camera; returns the written paths."""
+    """Step the env briefly and save one PNG per camera; returns the written paths.
+
+    The env renders nothing while it steps (``cam_list=[]``); the cameras are rendered once,
+    after the last step.
+    """
+    from trossen_arm_mujoco.sim.cameras import CameraSet
     from trossen_arm_mujoco.utils import make_sim_env
 
     n_steps = max(1, min(HEADLESS_STEPS, round(seconds / DT)))
-    env = make_sim_env(
-        _task_class(flavour), cam_list=STATIONARY_CAMERAS, image_size=IMAGE_SIZE, random=seed
-    )
+    env = make_sim_env(_task_class(flavour), cam_list=[], random=seed)
     task = env.task
+    cameras = None
     try:
-        task.render_enabled = False  # only the last observation's images are saved
         ts = env.reset()
         spec = env.action_spec()
         action = scripted_action(flavour, ts.observation, spec.minimum, spec.maximum)
         for step in range(1, n_steps + 1):
-            task.render_enabled = step == n_steps
-            ts = env.step(action(step * DT))
-        images = ts.observation["images"]
-        if set(images) != set(STATIONARY_CAMERAS):  # the task ignores render_enabled
-            images = task.scene(env.physics).render_images()
+            env.step(action(step * DT))
+        physics = env.physics
+        cameras = CameraSet(physics.model.ptr, STATIONARY_CAMERAS, *IMAGE_SIZE)
+        images = cameras.render_all(physics.data.ptr)
         out_dir.mkdir(parents=True, exist_ok=True)
         paths = []
         for name in STATIONARY_CAMERAS:
@@ -206,6 +171,8 @@ def run_headless(flavour: str, seconds: float, seed: int | None, out_dir: Path) 
             paths.append(path)
         return paths
     finally:
+        if cameras is not None:
+            cameras.close()
         task.close()
 
 

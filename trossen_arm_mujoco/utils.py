@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 
 import numpy as np
 from dm_control.rl import control
 
-from trossen_arm_mujoco.constants import ASSETS_DIR, DT, SIM_TASK_CONFIGS
+from trossen_arm_mujoco.assets import asset_path
+from trossen_arm_mujoco.constants import DT, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.sim.env import load_physics
+from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.transfer_cube import sample_cube_pose
 
 __all__ = ["Quaternion", "make_sim_env", "sample_box_pose"]
@@ -31,7 +32,7 @@ def sample_box_pose(rng: np.random.Generator | int | None = None) -> np.ndarray:
 
 def resolve_asset(xml_file: str) -> str:
     """Absolute path of a model: as given when absolute, else relative to ASSETS_DIR."""
-    return xml_file if os.path.isabs(xml_file) else os.path.join(ASSETS_DIR, xml_file)
+    return str(asset_path(xml_file))
 
 
 def make_sim_env(
@@ -53,7 +54,7 @@ def make_sim_env(
             user subclass of ``TrossenAIStationaryEETask`` / ``TrossenAIStationaryTask``.
         xml_file: scene path, relative to ``ASSETS_DIR`` unless absolute; default: the task
             class's scene (``stationary_ai/trossen_ai_scene.xml`` or ``..._scene_joint.xml``).
-        task_name: a key of ``SIM_TASK_CONFIGS``.
+        task_name: a key of ``SIM_TASK_CONFIGS`` (checked; the task class decides the task).
         onscreen_render: kept for compatibility; live display is done by the scripts.
         cam_list: cameras rendered into ``observation["images"]``; None = all 4, [] = none.
         image_size: (height, width) of the images.
@@ -63,7 +64,7 @@ def make_sim_env(
         ``control.Environment`` whose ``reset()``/``step(action)`` return time steps with
         ``.observation`` and ``.reward``; control period ``DT`` = 0.02 s.
     """
-    if task_name not in SIM_TASK_CONFIGS:
+    if registry.ALIASES.get(task_name, task_name) not in SIM_TASK_CONFIGS:
         raise unknown_name_error("task", task_name, SIM_TASK_CONFIGS)
     if not isinstance(task_class, type):
         raise UserError(f"task_class must be a class, got {type(task_class).__name__}")

@@ -106,7 +106,7 @@ def test_full_episode_succeeds_without_images():
         rec.close()
     assert rewards[-1] == 4
     assert actions.shape == (600, 16)
-    low, high = rec.joint_env.task.action_bounds(rec.joint_env.physics)
+    low, high = rec.action_low, rec.action_high
     assert np.all(actions >= low) and np.all(actions <= high)
     # ... and the real-arm replay validation accepts them at the default 10 Hz
     from trossen_arm_mujoco.real.validate import ArmLimits, validate_actions

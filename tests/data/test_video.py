@@ -122,3 +122,45 @@ def test_video_memory_stays_flat(tmp_path, make_episode):
     finally:
         tracemalloc.stop()
     assert peak < 2_000_000
+
+
+def test_failed_video_keeps_the_old_file_and_leaves_no_temp(tmp_path, make_episode, monkeypatch):
+    path = tmp_path / "episode_0.hdf5"
+    make_episode(path, num_steps=4, cams=["a"], height=24, width=32)
+    out = tmp_path / "videos" / "episode_0.mp4"
+    out.parent.mkdir()
+    out.write_bytes(b"previous video")
+    real_compose = video.CameraGrid.compose
+    calls = []
+
+    def compose_then_fail(self, frames):
+        calls.append(1)
+        if len(calls) == 3:
+            raise OSError("disk full")
+        return real_compose(self, frames)
+
+    monkeypatch.setattr(video.CameraGrid, "compose", compose_then_fail)
+    with pytest.raises(OSError, match="disk full"):
+        write_episode_video(load_episode(path), out)
+    assert out.read_bytes() == b"previous video"
+    assert sorted(p.name for p in out.parent.iterdir()) == ["episode_0.mp4"]
+
+
+def test_failed_plot_keeps_the_old_file_and_leaves_no_temp(tmp_path, make_episode, monkeypatch):
+    from matplotlib.figure import Figure
+
+    path = tmp_path / "episode_0.hdf5"
+    make_episode(path, num_steps=3, cams=[])
+    out = tmp_path / "episode_0_joints.png"
+    out.write_bytes(b"previous plot")
+
+    def savefig_then_fail(self, fname, **kwargs):
+        with open(fname, "wb") as f:
+            f.write(b"\x89PNG partial")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(Figure, "savefig", savefig_then_fail)
+    with pytest.raises(OSError, match="disk full"):
+        plot_joints(load_episode(path), out)
+    assert out.read_bytes() == b"previous plot"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["episode_0.hdf5", "episode_0_joints.png"]

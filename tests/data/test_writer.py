@@ -250,3 +250,40 @@ def test_memory_stays_flat(tmp_path):
     finally:
         tracemalloc.stop()
     assert peak < 2_000_000
+
+
+def test_no_clobbering_without_hard_links(tmp_path, monkeypatch):
+    """On a file system without hard links the episode is still committed by rename, and a
+    file that appeared meanwhile is still never replaced."""
+
+    def no_links(src, dst):
+        raise PermissionError("hard links not supported")
+
+    monkeypatch.setattr("trossen_arm_mujoco.fileio.os.link", no_links)
+    with EpisodeWriter(tmp_path / "episode_0.hdf5", 1, attrs=ATTRS) as w:
+        w.append(**_step(cams=()))
+    assert load_episode(tmp_path / "episode_0.hdf5").num_steps == 1
+    path = tmp_path / "episode_1.hdf5"
+    with pytest.raises(EpisodeWriteError, match="appeared while writing"):
+        with EpisodeWriter(path, 1, attrs=ATTRS) as w:
+            w.append(**_step(cams=()))
+            path.write_bytes(b"other run")
+    assert path.read_bytes() == b"other run"
+    assert _files(tmp_path) == ["episode_0.hdf5", "episode_1.hdf5"]
+
+
+def test_commit_is_flushed_to_disk(tmp_path, monkeypatch):
+    """close() fsyncs the episode file before the rename and the folder after it."""
+    import os
+
+    from trossen_arm_mujoco import fileio
+
+    synced = []
+    monkeypatch.setattr(fileio, "fsync_file", lambda p: synced.append(("file", str(p))))
+    monkeypatch.setattr(fileio, "fsync_dir", lambda p: synced.append(("dir", str(p))))
+    path = tmp_path / "episode_0.hdf5"
+    with EpisodeWriter(path, 1, attrs=ATTRS) as w:
+        w.append(**_step(cams=()))
+        assert synced == []
+    assert synced == [("file", str(tmp_path / ".episode_0.hdf5.tmp")), ("dir", str(tmp_path))]
+    assert os.path.exists(path)

@@ -11,7 +11,40 @@ from trossen_arm_mujoco.tasks.task import Task
 
 
 def test_names():
-    assert registry.names() == ["pick_place", "push", "reach", "transfer_cube"]
+    assert registry.names() == ["pick_place", "push", "reach", "sim_transfer_cube"]
+
+
+def test_old_names_are_aliases():
+    assert registry.load("transfer_cube") is registry.load("sim_transfer_cube")
+    assert registry.canonical("transfer_cube") == "sim_transfer_cube"
+
+
+def test_sim_task_configs_are_derived_from_the_registry():
+    from trossen_arm_mujoco.constants import SIM_TASK_CONFIGS
+
+    assert SIM_TASK_CONFIGS == registry.sim_task_configs()
+    assert set(SIM_TASK_CONFIGS) == set(registry.scripted_names())
+    assert SIM_TASK_CONFIGS["sim_transfer_cube"] == {
+        "num_episodes": 1,
+        "episode_len": 600,
+        "onscreen_render": False,
+        "inject_noise": False,
+        "cam_names": ["cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist"],
+    }
+
+
+@pytest.mark.parametrize("name", registry.scripted_names())
+def test_scripted_entries_have_policy_and_ee_flavour(name):
+    entry = registry.load(name)
+    policy = entry.policy_class()
+    assert callable(policy) and hasattr(policy, "generate_trajectory")
+    assert policy.minimum_episode_len <= entry.record["episode_len"]
+    assert "ee_scene" in entry.load_config()
+
+
+def test_task_without_policy_says_so():
+    with pytest.raises(UserError, match="no scripted policy"):
+        registry.load("reach").policy_class()
 
 
 def test_unknown_name_lists_valid_names():

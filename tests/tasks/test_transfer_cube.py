@@ -211,3 +211,77 @@ def test_reward_needs_the_named_geoms():
     model = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
     with pytest.raises(UserError, match="unknown geom 'red_box'"):
         TransferCubeReward(model)
+
+
+# --- the task and sampler (one implementation for every front door) ----------------------
+@pytest.fixture(scope="module")
+def sampler():
+    from trossen_arm_mujoco.tasks import registry
+
+    s = registry.make_sampler("sim_transfer_cube")
+    yield s
+    s.close()
+
+
+def test_cube_spawn_is_sample_cube_pose(sampler):
+    task = sampler.sample_task(11)
+    expected = sample_cube_pose(np.random.default_rng(11))
+    np.testing.assert_allclose(task.get_observation()["env_state"], expected)
+    np.testing.assert_allclose(task.get_observation()["qpos"], START_ARM_POSE)
+    assert task.object_poses().keys() == {"box"}
+
+
+def test_given_object_poses_win(sampler):
+    pose = np.array([0.05, -0.1, BOX_REST_Z, 1.0, 0.0, 0.0, 0.0])
+    task = sampler.sample_task(11, object_poses={"box": pose})
+    np.testing.assert_allclose(task.env_state(), pose)
+    with pytest.raises(UserError, match="box"):
+        sampler.sample_task(11, object_poses={"peg": pose})
+
+
+def test_reward_is_transfer_cube_reward(sampler):
+    task = sampler.sample_task(0)
+    reference = TransferCubeReward(sampler.env.model)
+    for _ in range(5):
+        task.step({})
+        assert task.get_reward() == reference(sampler.env.data) == 0
+    assert task.judge_success() is False
+    assert isinstance(task.reward_fn, TransferCubeReward)
+
+
+def test_every_finger_geom_counts_for_the_reward(sampler):
+    reward = TransferCubeReward(sampler.env.model)
+    names = {mujoco.mj_id2name(sampler.env.model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in reward.left}
+    assert names == {
+        f"left/gripper_follower_{f}{part}"
+        for f in ("left", "right")
+        for part in ("", "_pad_upper", "_pad_lower")
+    }
+
+
+def test_commands_reach_both_arms(sampler):
+    task = sampler.sample_task(0)
+    view = task.robot.view
+    target = view.group("right_arm").get_qpos(task.data) + 0.2
+    for _ in range(30):
+        task.step({"right_arm": target, "right_gripper": np.array([0.02])})
+    np.testing.assert_allclose(view.group("right_arm").get_qpos(task.data), target, atol=0.03)
+    assert view.group("right_gripper").get_qpos(task.data)[1] == pytest.approx(0.02, abs=0.003)
+
+
+def test_ee_flavour_drives_the_mocap_arms():
+    from trossen_arm_mujoco.tasks import registry
+
+    ee = registry.make_sampler("transfer_cube", flavour="ee")  # the old name is an alias
+    try:
+        task = ee.sample_task(3)
+        obs = task.policy_observation()
+        target = obs["mocap_pose_right"].copy()
+        target[2] += 0.05
+        for _ in range(25):
+            task.step({"right_arm": target})
+        np.testing.assert_allclose(task.tool_pose("right"), target, atol=1e-9)
+        site = task.robot.view.group("right_arm").get_frame_pose(task.data)
+        np.testing.assert_allclose(site[:3], target[:3], atol=2e-3)
+    finally:
+        ee.close()

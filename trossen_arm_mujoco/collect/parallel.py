@@ -23,6 +23,8 @@ from tqdm import tqdm
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
 from trossen_arm_mujoco.data.reader import episode_path, list_episodes, load_episode
 from trossen_arm_mujoco.data.writer import remove_stale_temp_files
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.fileio import publish
 
 STAGING = ".staging"
 
@@ -159,10 +161,12 @@ class DatasetRecorder:
                 )
                 return False
             final = episode_path(self.folder, index)
-            if final.exists() and not self.overwrite:
-                raise FileExistsError(f"{final} appeared during the run")
-            os.replace(outcome.path, final)
-            outcome.path = final
+            try:
+                outcome.path = publish(outcome.path, final, overwrite=self.overwrite)
+            except FileExistsError:
+                raise UserError(
+                    f"{final} appeared during the run; refusing to overwrite it"
+                ) from None
         report.saved.append(outcome)
         status = "success" if outcome.success else "failure"
         self.log(

@@ -1,10 +1,14 @@
-"""Two-phase data collection of one episode.
+"""Two-phase data collection of one episode, for any registered task with a scripted policy.
 
-Phase 1: the scripted policy drives the end-effector (mocap) env; nothing is rendered. The
-arm joint trajectory is kept, with the finger values replaced by the gripper commands.
-Phase 2: that trajectory is replayed as actions in the joint env, which behaves like the real
-arms; only the requested cameras are rendered, and every step is streamed to the episode
-file, so memory stays flat in the episode length. Success is judged in phase 2.
+Phase 1: the task's scripted policy drives the end-effector (mocap) flavour of the task;
+nothing is rendered. The arm joint trajectory is kept, with the finger values replaced by the
+gripper commands. Phase 2: that trajectory is replayed as actions in the joint flavour, which
+behaves like the real arms, from the same initial object poses; only the requested cameras
+are rendered, and every step is streamed to the episode file, so memory stays flat in the
+episode length. Success is judged in phase 2.
+
+Tasks are reached only through ``tasks.registry`` (task, sampler, policy, config); the task's
+``policy_dt`` is the recording period.
 """
 
 from __future__ import annotations
@@ -15,10 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from trossen_arm_mujoco.constants import SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.writer import EpisodeWriter
-from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
-from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.real.validate import (
     DATASET_JOINTS,
     ArmLimits,
@@ -26,18 +27,8 @@ from trossen_arm_mujoco.real.validate import (
     validate_actions,
 )
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
-from trossen_arm_mujoco.scripted_policy import PickAndTransferPolicy
-from trossen_arm_mujoco.sim_env import TransferCubeTask
-from trossen_arm_mujoco.utils import make_sim_env
-
-#: task name -> (EE task class, joint task class, scripted policy class)
-SCRIPTED_TASKS: dict[str, tuple[type, type, type]] = {
-    "sim_transfer_cube": (TransferCubeEETask, TransferCubeTask, PickAndTransferPolicy),
-}
-
-
-#: Recording rate of the scripted tasks (Hz): one action per 0.02 s control period.
-RECORD_FPS = 50.0
+from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.tasks import registry
 
 #: Speed limit of each of the 16 action values (URDF: rad/s for the joints, m/s for both
 #: finger values), in the qpos layout.
@@ -57,6 +48,15 @@ def limit_speed(actions: np.ndarray, max_speed: np.ndarray, fps: float) -> int:
             changed += int(fast.sum())
             actions[t] = actions[t - 1] + np.clip(step, -max_step, max_step)
     return changed
+
+
+class TimeStep:
+    """What a scripted policy is called with: ``ts.observation`` (dict), as in dm_control."""
+
+    __slots__ = ("observation",)
+
+    def __init__(self, observation: dict):
+        self.observation = observation
 
 
 def episode_seed(base_seed: int, attempt: int) -> int:
@@ -95,95 +95,118 @@ StepHook = Callable[[int, dict, object], None]
 
 
 class EpisodeRecorder:
-    """Owns the two envs (built once, reused for every episode) and records episodes.
+    """Owns the task's two flavours (built once, reused for every episode) and records
+    episodes.
 
     Args:
         settings: run settings (task, length, cameras, compression, seed).
-        step_hook: called after each phase-2 step with (t, observation, joint env), e.g. a
-            live view.
+        step_hook: called after each phase-2 step with (t, observation, joint ``MujocoEnv``),
+            e.g. a live view.
     """
 
     def __init__(self, settings: RecordSettings, step_hook: StepHook | None = None):
-        if settings.task_name not in SCRIPTED_TASKS:
-            raise unknown_name_error("task", settings.task_name, SCRIPTED_TASKS)
-        ee_cls, joint_cls, self.policy_cls = SCRIPTED_TASKS[settings.task_name]
+        self.entry = registry.load(settings.task_name)
+        self.policy_cls = self.entry.policy_class()
         self.settings = settings
         self.step_hook = step_hook
-        limit = settings.episode_len * 0.02 + 1.0
         self.arm_limits = ArmLimits.from_mjcf()
         self.last_speed_limited = 0
-        self.ee_env = make_sim_env(ee_cls, cam_list=[], time_limit=limit)
-        self.joint_env = make_sim_env(
-            joint_cls,
-            cam_list=list(settings.cam_names),
-            image_size=(settings.height, settings.width),
-            time_limit=limit,
+        self.ee_sampler = registry.make_sampler(self.entry.name, flavour="ee")
+        self.joint_sampler = registry.make_sampler(
+            self.entry.name,
+            flavour="joint",
+            camera_names=settings.cam_names,
+            height=settings.height,
+            width=settings.width,
         )
+        self.ee_task = None
+        self.joint_task = None
+        probe = self.joint_sampler.make_task()
+        self.policy_dt = probe.policy_dt
+        self.fps = 1.0 / self.policy_dt
+        self.max_reward = float(probe.max_reward)
+        view = self.joint_sampler.env.robots[probe.robot_name].view
+        ranges = np.concatenate([view.group(g).joint_range for g in KIT_LAYOUT.groups])
+        self.action_low, self.action_high = ranges[:, 0].copy(), ranges[:, 1].copy()
 
-    def scripted_rollout(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """Phase 1. Returns (joint actions (T, 16), initial cube pose (7,)).
+    @property
+    def joint_env(self):
+        """The joint-flavour world (``sim.env.MujocoEnv``)."""
+        return self.joint_sampler.env
 
-        The actions are within the joint limits and, at the recording rate of 50 Hz, within
+    @property
+    def ee_env(self):
+        """The end-effector-flavour world (``sim.env.MujocoEnv``)."""
+        return self.ee_sampler.env
+
+    def scripted_rollout(self, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+        """Phase 1. Returns (joint actions (T, 16), initial object poses {name: (7,)}).
+
+        The actions are within the joint limits and, at the recording rate (50 Hz), within
         the real arm's joint and gripper speed limits (``ACTION_SPEED_LIMITS``): the scripted
         policies plan below them, and any value that would still be faster is rate-limited
         (``self.last_speed_limited`` counts them; normally 0).
         """
         T = self.settings.episode_len
-        task = self.ee_env.task
-        task.rng = rng
-        ts = self.ee_env.reset()
-        box_pose = np.asarray(ts.observation["env_state"], dtype=float).copy()
+        task = self.ee_task = self.ee_sampler.sample_task(rng)
+        poses = task.object_poses()
         policy = self.policy_cls(inject_noise=self.settings.inject_noise, rng=rng)
-        actions = np.empty((T, 16))
+        actions = np.empty((T, KIT_LAYOUT.size))
+        ts = TimeStep(task.policy_observation())
         for t in range(T):
-            ee_action = policy(ts)
-            ts = self.ee_env.step(ee_action)
-            actions[t] = ts.observation["qpos"]
+            ee_action = np.asarray(policy(ts), dtype=float)
+            task.step(EE_LAYOUT.commands(ee_action))
+            obs = task.policy_observation()
+            ts = TimeStep(obs)
+            actions[t] = obs["qpos"]
             # Fingers: command the gripper targets, not the measured (blocked) finger travel,
-            # so the joint env squeezes the cube as the EE env did.
-            actions[t, 6:8] = ee_action[7]
-            actions[t, 14:16] = ee_action[15]
-        # The mocap weld can press a joint slightly past its (soft) limit; the joint env and
-        # the real arm only accept targets within the limits, so record those.
-        low, high = self.joint_env.task.action_bounds(self.joint_env.physics)
-        np.clip(actions, low, high, out=actions)
-        self.last_speed_limited = limit_speed(actions, ACTION_SPEED_LIMITS, RECORD_FPS)
-        return actions, box_pose
+            # so the joint flavour squeezes the objects as the EE flavour did.
+            for side in SIDES:
+                grip = ee_action[EE_LAYOUT.groups[f"{side}_gripper"]][0]
+                actions[t, KIT_LAYOUT.fingers(side)] = grip
+        # The mocap weld can press a joint slightly past its (soft) limit; the joint flavour
+        # and the real arm only accept targets within the limits, so record those.
+        np.clip(actions, self.action_low, self.action_high, out=actions)
+        self.last_speed_limited = limit_speed(actions, ACTION_SPEED_LIMITS, self.fps)
+        return actions, poses
+
+    def scripted_success(self) -> bool:
+        """Whether phase 1 ended in success (the EE flavour's judgement)."""
+        return self.ee_task is not None and bool(self.ee_task.judge_success())
 
     def replay(
         self,
         actions: np.ndarray,
-        box_pose: np.ndarray,
+        object_poses: dict,
         writer: EpisodeWriter | None = None,
         progress: Callable[[], None] | None = None,
     ) -> np.ndarray:
-        """Phase 2: replay joint actions from ``box_pose``; returns rewards (T,).
+        """Phase 2: replay joint actions from ``object_poses``; returns rewards (T,).
 
         Each step appends (observation before the action, action, reward after it) to
         ``writer``; the observation after the last action is not rendered.
         """
         T = len(actions)
-        task = self.joint_env.task
-        task.box_pose = np.asarray(box_pose, dtype=float)
-        task.render_enabled = True
-        ts = self.joint_env.reset()
+        task = self.joint_task = self.joint_sampler.sample_task(0, object_poses=object_poses)
+        env = self.joint_sampler.env
         rewards = np.empty(T)
+        obs = task.get_observation()
         for t in range(T):
-            obs = ts.observation
-            task.render_enabled = t < T - 1
-            ts = self.joint_env.step(actions[t])
-            rewards[t] = ts.reward
+            images = env.render_images() if writer is not None else {}
+            task.step(KIT_LAYOUT.joint_commands(actions[t]))
+            rewards[t] = task.get_reward()
             if writer is not None:
                 writer.append(
                     qpos=obs["qpos"],
                     qvel=obs["qvel"],
                     action=actions[t],
-                    reward=ts.reward,
+                    reward=rewards[t],
                     env_state=obs["env_state"],
-                    images=obs["images"],
+                    images=images,
                 )
+            obs = task.get_observation()
             if self.step_hook is not None:
-                self.step_hook(t, ts.observation, self.joint_env)
+                self.step_hook(t, obs, env)
             if progress is not None:
                 progress()
         return rewards
@@ -200,18 +223,21 @@ class EpisodeRecorder:
         s = self.settings
         seed = episode_seed(s.base_seed, attempt)
         rng = np.random.default_rng(seed)
-        actions, box_pose = self.scripted_rollout(rng)
-        max_reward = float(self.joint_env.task.max_reward)
+        actions, poses = self.scripted_rollout(rng)
+        max_reward = self.max_reward
         speed_ok, peak_use = self.check_real_replay(actions)
         attrs = {
-            "task_name": s.task_name,
+            "task_name": self.entry.name,
             "seed": seed,
             "base_seed": int(s.base_seed),
             "attempt": int(attempt),
             "inject_noise": bool(s.inject_noise),
-            "box_pose": box_pose,
+            "dt": self.policy_dt,
+            **({"box_pose": poses["box"]} if "box" in poses else {}),
+            "initial_env_state": np.concatenate(list(poses.values())),
+            "object_names": list(poses),
             "success": False,
-            "real_replay_fps": RECORD_FPS,
+            "real_replay_fps": self.fps,
             "real_replay_checked": speed_ok,
             "peak_speed_fraction": peak_use,
             "speed_limited_values": int(self.last_speed_limited),
@@ -227,7 +253,7 @@ class EpisodeRecorder:
             attrs=attrs,
             overwrite=overwrite,
         ) as writer:
-            rewards = self.replay(actions, box_pose, writer, progress)
+            rewards = self.replay(actions, poses, writer, progress)
             success = bool(rewards[-1] == max_reward) and speed_ok
             writer.set_attrs(
                 success=success,
@@ -239,20 +265,20 @@ class EpisodeRecorder:
         )
 
     def check_real_replay(self, actions: np.ndarray) -> tuple[bool, float]:
-        """Run the real-replay validator at the recording rate, as
-        ``replay_episode_real.py --fps 50 --dry_run`` does. Returns (passed, largest
-        speed as a fraction of its limit; NaN when the check failed)."""
+        """Run the real-replay validator at the recording rate (1 / policy_dt), as
+        ``replay_episode_real.py --fps 50 --dry_run`` does. Returns (passed, largest speed
+        as a fraction of its limit; NaN when the check failed)."""
         try:
-            trajectory = validate_actions(actions, RECORD_FPS, self.arm_limits)
+            trajectory = validate_actions(actions, self.fps, self.arm_limits)
         except TrajectoryError:
             return False, float("nan")
         return True, float(np.max(trajectory.peak_speed / self.arm_limits.velocity))
 
     def close(self) -> None:
-        for env in (self.ee_env, self.joint_env):
-            env.task.close()
+        self.ee_sampler.close()
+        self.joint_sampler.close()
 
 
 def default_cameras(task_name: str) -> list[str]:
     """The cameras a task records by default."""
-    return list(SIM_TASK_CONFIGS[task_name]["cam_names"])
+    return list(registry.load(task_name).record["cam_names"])

@@ -18,13 +18,14 @@ from typing import Any
 import h5py
 import numpy as np
 
-from trossen_arm_mujoco.constants import DT, STATIONARY_CAMERAS
+from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
 from trossen_arm_mujoco.data.schema import (
     EPISODE_FILE_RE,
     SCHEMA,
     SCHEMAS,
     episode_file_name,
 )
+from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
 from trossen_arm_mujoco.errors import UserError
 
 
@@ -83,7 +84,7 @@ class Episode:
 
     @property
     def dt(self) -> float:
-        """Step period (s): the ``dt`` attribute, else ``constants.DT``."""
+        """Step period (s): the ``dt`` attribute, else ``VENDOR_DT`` (0.02 s)."""
         return float(self.attrs.get("dt", DT))
 
     @property

@@ -29,22 +29,26 @@ from typing import Any
 import h5py
 import numpy as np
 
+from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+
+#: Step period (s) of files without a ``dt`` attribute (vendor files: recorded at 50 Hz), and
+#: the writer's default; the recorder passes its task's ``policy_dt``.
+VENDOR_DT: float = 0.02
+
 #: Current schema version, stored in the ``schema_version`` root attribute.
 SCHEMA_VERSION: int = 1
 
 #: Width of qpos, qvel and action vectors (two arms x (6 joints + 2 fingers)).
-NUM_JOINTS: int = 16
+NUM_JOINTS: int = KIT_LAYOUT.size
 
 #: Width of env_state: cube position xyz (m) + orientation quaternion wxyz.
 ENV_STATE_DIM: int = 7
 
-#: Joint labels in qpos/action order (plots, messages).
-JOINT_NAMES: tuple[str, ...] = tuple(
-    f"{side}_{name}"
-    for side in ("left", "right")
-    for name in ("joint_0", "joint_1", "joint_2", "joint_3", "joint_4", "joint_5",
-                 "finger_left", "finger_right")
-)  # fmt: skip
+#: Joint labels and units in qpos/action order (plots, messages), from the kit layout:
+#: ``left_joint_0`` .. ``left_joint_5``, ``left_right_carriage_joint`` (index 6, the coupled
+#: finger), ``left_left_carriage_joint`` (index 7, the actuated one), then the right arm.
+JOINT_NAMES: tuple[str, ...] = KIT_LAYOUT.names
+JOINT_UNITS: tuple[str, ...] = KIT_LAYOUT.units
 
 #: Compression choices for the image datasets.
 COMPRESSIONS: tuple[str, ...] = ("none", "gzip", "lzf")

@@ -20,8 +20,9 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.data.reader import Episode
-from trossen_arm_mujoco.data.schema import JOINT_NAMES, NUM_JOINTS
+from trossen_arm_mujoco.data.schema import JOINT_NAMES, JOINT_UNITS, NUM_JOINTS
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.fileio import atomic_path
 
 #: H.264 encoders tried in order.
 H264_ENCODERS: tuple[str, ...] = ("libx264", "libopenh264", "h264")
@@ -63,7 +64,6 @@ def grid_shape(num_cameras: int) -> tuple[int, int]:
 
 def _label_patch(text: str, tile_h: int, tile_w: int) -> np.ndarray:
     """White camera name on a black box, uint8 ``(h, w, 3)`` no larger than the tile."""
-    _require("PIL", "pillow")
     from PIL import Image, ImageDraw, ImageFont
 
     size = max(10, tile_h // 24)
@@ -120,10 +120,6 @@ def _even(n: int) -> int:
     return n + (n % 2)
 
 
-def _temp_path(out_path: Path) -> Path:
-    return out_path.with_name(f".{out_path.name}.tmp")
-
-
 def write_episode_video(
     episode: Episode,
     out_path: str | os.PathLike[str],
@@ -157,9 +153,8 @@ def write_episode_video(
     encoder = h264_encoder()
     out_path = Path(out_path).expanduser()
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _temp_path(out_path)
     rate = Fraction(fps).limit_denominator(1001)
-    try:
+    with atomic_path(out_path) as tmp:
         with (
             av.open(str(tmp), "w", format="mp4", options={"movflags": "+faststart"}) as out,
             episode.open_frames() as frames,
@@ -176,9 +171,6 @@ def write_episode_video(
                 frame = av.VideoFrame.from_ndarray(image, format="rgb24")
                 out.mux(stream.encode(frame))
             out.mux(stream.encode(None))
-        os.replace(tmp, out_path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return out_path
 
 
@@ -218,7 +210,7 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
         ax.plot(time, episode.qpos[:, j], label="qpos", linewidth=1.2)
         ax.plot(time, episode.action[:, j], "--", label="action", linewidth=1.0)
         ax.set_title(JOINT_NAMES[j], fontsize=9)
-        ax.set_ylabel("m" if "finger" in JOINT_NAMES[j] else "rad", fontsize=8)
+        ax.set_ylabel(JOINT_UNITS[j], fontsize=8)
         ax.tick_params(labelsize=7)
     for ax in axes[-4:]:
         ax.set_xlabel("time (s)", fontsize=8)
@@ -227,10 +219,6 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
     if "success" in episode.attrs:
         title += f"  (success: {episode.attrs['success']})"
     fig.suptitle(title)
-    tmp = _temp_path(out_png)
-    try:
+    with atomic_path(out_png) as tmp:
         fig.savefig(tmp, format="png", dpi=dpi)
-        os.replace(tmp, out_png)
-    finally:
-        tmp.unlink(missing_ok=True)
     return out_png

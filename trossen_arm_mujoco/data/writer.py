@@ -16,9 +16,10 @@ from typing import Any
 import h5py
 import numpy as np
 
-from trossen_arm_mujoco.constants import DT
 from trossen_arm_mujoco.data.schema import COMPRESSIONS, SCHEMA, encode_attr, temp_file_name
+from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.fileio import publish
 
 #: Attributes that follow from the writer's arguments; callers may not change them.
 _WRITER_ATTRS = frozenset({"sim", "episode_len", "camera_names", "schema_version"})
@@ -284,33 +285,17 @@ class EpisodeWriter:
             self._file.flush()
             self._file.close()
             self._file = None
-            _fsync_path(self.temp_path)
-            self._publish()
+            try:
+                publish(self.temp_path, self.path, overwrite=self.overwrite)
+            except FileExistsError:
+                raise EpisodeWriteError(
+                    f"{self.path} appeared while writing; refusing to overwrite it"
+                ) from None
         except BaseException:
             self.abort()
             raise
         self._committed = True
-        _fsync_dir(self.path.parent)
         return self.path
-
-    def _publish(self) -> None:
-        if self.overwrite:
-            os.replace(self.temp_path, self.path)
-            return
-        try:
-            os.link(self.temp_path, self.path)  # fails if the final name exists: no clobber
-        except FileExistsError:
-            raise EpisodeWriteError(
-                f"{self.path} appeared while writing; refusing to overwrite it"
-            ) from None
-        except OSError:  # file system without hard links
-            if self.path.exists():
-                raise EpisodeWriteError(
-                    f"{self.path} appeared while writing; refusing to overwrite it"
-                ) from None
-            os.replace(self.temp_path, self.path)
-            return
-        self.temp_path.unlink()
 
     def abort(self) -> None:
         """Discard the episode: close and delete the temporary file (idempotent)."""
@@ -321,28 +306,6 @@ class EpisodeWriter:
                 pass
             self._file = None
         self.temp_path.unlink(missing_ok=True)
-
-
-def _fsync_path(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _fsync_dir(folder: Path) -> None:
-    """Persist a rename (best effort: not every platform can open a folder)."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def remove_stale_temp_files(folder: str | os.PathLike[str]) -> list[Path]:

@@ -39,6 +39,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
 
 #: Values per arm sent to / read from a driver: 6 joints (rad) + gripper (m).
 NUM_ARM_VALUES: int = 7
@@ -110,9 +111,10 @@ def split_arms(row: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarra
         (6 joints in rad, then the right-carriage finger travel in m).
     """
     row = np.asarray(row, dtype=np.float64)
-    if row.shape != (16,):
-        raise ValueError(f"expected 16 values, got shape {row.shape}")
-    return row[0:7].copy(), row[8:15].copy()
+    if row.shape != (KIT_LAYOUT.size,):
+        raise ValueError(f"expected {KIT_LAYOUT.size} values, got shape {row.shape}")
+    left, right = (row[KIT_LAYOUT.driver_slice(side)].copy() for side in ("left", "right"))
+    return left, right
 
 
 def installed_version(package: str = "trossen_arm") -> str:

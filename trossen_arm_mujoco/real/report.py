@@ -22,7 +22,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from trossen_arm_mujoco.fileio import atomic_path
 from trossen_arm_mujoco.real.validate import ARMS, DRIVER_LABELS, DRIVER_UNITS
 
 #: Column labels of the 14 logged values: ``left_joint_0`` ... ``right_gripper``.
@@ -98,14 +98,9 @@ def format_error_table(errors: dict[str, dict[str, Any]]) -> str:
 
 
 def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
-    """Write via ``write(tmp)`` into a temporary sibling of ``path``, then rename."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
+    """``write(tmp)`` into a temporary file that becomes ``path`` only once complete."""
+    with atomic_path(path) as tmp:
         write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def _csv_text(log: TrackingLog) -> str:
@@ -171,7 +166,7 @@ def write_outputs(
         "plot": out_dir / f"{stem}_tracking.png",
     }
     csv_text = _csv_text(log)
-    _atomic_write(paths["csv"], lambda tmp: tmp.write_text(csv_text))
+    _atomic_write(paths["csv"], lambda tmp: tmp.write_text(csv_text, encoding="utf-8"))
     data = dict(summary)
     data["tracking_error"] = log.errors()
     if len(log):
@@ -184,5 +179,5 @@ def write_outputs(
         paths["plot"] = None
         data["plot"] = "not written: no step was streamed"
     text = json.dumps(data, indent=2)
-    _atomic_write(paths["summary"], lambda tmp: tmp.write_text(text + "\n"))
+    _atomic_write(paths["summary"], lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
     return paths

@@ -28,7 +28,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from trossen_arm_mujoco.constants import ASSETS_DIR
+from trossen_arm_mujoco.assets import ASSETS_DIR
 from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.real.clock import SimClock

@@ -29,15 +29,12 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.real.sim_driver import ARM_XML
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
+from trossen_arm_mujoco.robot.layout import ARM_VALUES, KIT_LAYOUT
 
 ARMS: tuple[str, str] = ("left", "right")
 
 #: MJCF joints of one arm in dataset order (8 values per arm).
-DATASET_JOINTS: tuple[str, ...] = (
-    *(f"joint_{i}" for i in range(6)),
-    "right_carriage_joint",
-    "left_carriage_joint",
-)
+DATASET_JOINTS: tuple[str, ...] = ARM_VALUES
 
 #: Labels of the 7 values sent to a driver.
 DRIVER_LABELS: tuple[str, ...] = (*(f"joint_{i}" for i in range(6)), "gripper")
@@ -162,7 +159,7 @@ def validate_actions(
     clipped_mask = excess > 0
     clipped = np.clip(actions, lower, upper)
 
-    commands = np.stack([clipped[:, 0:7], clipped[:, 8:15]], axis=1)  # (T, 2, 7)
+    commands = np.stack([clipped[:, KIT_LAYOUT.driver_slice(a)] for a in ARMS], axis=1)  # (T,2,7)
     if commands.shape[0] > 1:
         steps = np.abs(np.diff(commands, axis=0))  # (T-1, 2, 7), per command period
         peak = steps.max(axis=0) * fps

@@ -12,8 +12,14 @@ from dataclasses import dataclass, field, replace
 import mujoco
 import numpy as np
 
-from trossen_arm_mujoco.constants import GRIPPER_OPEN, START_ARM_POSE
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.layout import (
+    ARM_JOINTS,
+    FINGER_JOINTS,
+    GRIPPER_OPEN,
+    KIT_LAYOUT,
+    START_ARM_POSE,
+)
 from trossen_arm_mujoco.robot.move_group import (
     ArmMoveGroup,
     GripperGroup,
@@ -24,8 +30,6 @@ from trossen_arm_mujoco.robot.move_group import (
 )
 from trossen_arm_mujoco.robot.robot_view import RobotView
 
-ARM_JOINTS = [f"joint_{i}" for i in range(6)]
-FINGER_JOINTS = ["right_carriage_joint", "left_carriage_joint"]
 START_ARM = list(START_ARM_POSE[:6])
 START_FINGERS = [GRIPPER_OPEN, GRIPPER_OPEN]
 ACTUATED_FINGER = "left_carriage_joint"  # the joint the "gripper" actuator drives
@@ -225,11 +229,5 @@ def stationary_ai_mocap_config() -> RobotConfig:
 
 
 def qpos16_to_dict(qpos: np.ndarray) -> dict[str, np.ndarray]:
-    """Split the 16-value kit layout into per-group joint vectors."""
-    q = np.asarray(qpos, dtype=float)
-    return {
-        "left_arm": q[0:6],
-        "left_gripper": q[6:8],
-        "right_arm": q[8:14],
-        "right_gripper": q[14:16],
-    }
+    """Split the 16-value kit layout into per-group joint vectors (``KIT_LAYOUT.split``)."""
+    return {g: v.copy() for g, v in KIT_LAYOUT.split(np.asarray(qpos, dtype=float)).items()}

@@ -11,10 +11,13 @@ to ``<root_dir>/<data_dir>/episode_<k>.hdf5``. Unset flags come from
 from __future__ import annotations
 
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
-    import os
     import sys
+    from pathlib import Path
 
-    sys.path[0] = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    sys.path[0] = str(
+        next(p for p in Path(__file__).resolve().parents if not (p / "__init__.py").is_file())
+    )
+    import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
 
 import argparse
 import signal
@@ -25,7 +28,7 @@ from pathlib import Path
 
 from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.schema import COMPRESSIONS
-from trossen_arm_mujoco.errors import UserError, run_cli, unknown_name_error
+from trossen_arm_mujoco.errors import EXIT_INTERRUPTED, UserError, run_cli, unknown_name_error
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -231,7 +234,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "continue",
             file=sys.stderr,
         )
-        return 130
+        return EXIT_INTERRUPTED
     print(f"recorded {len(saved)} episode(s) in {wall:.1f} s")
     if args.skip_failed:
         print(f"attempts: {report.attempts} (bound {recorder.max_attempts(num_episodes)})")
@@ -267,7 +270,7 @@ def _live_view_hook(settings):
 
     def hook(t: int, observation: dict, env) -> None:
         if holder[0] is None:
-            holder[0] = LiveViewer.open(env.physics.model.ptr, env.physics.data.ptr)
+            holder[0] = LiveViewer.open(env.model, env.data)
         if holder[0] is not None:
             holder[0].update(observation.get("images"))
 

@@ -25,6 +25,15 @@ Examples::
 
 from __future__ import annotations
 
+if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
+    import sys
+    from pathlib import Path
+
+    sys.path[0] = str(
+        next(p for p in Path(__file__).resolve().parents if not (p / "__init__.py").is_file())
+    )
+    import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
+
 import argparse
 import functools
 import math
@@ -32,12 +41,9 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-if __package__ in (None, ""):  # run as a file: python trossen_arm_mujoco/scripts/...
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-
 from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.reader import episode_path, load_episode, resolve_data_dir
-from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.errors import UserError, report_error, run_cli
 from trossen_arm_mujoco.real.clock import Clock
 from trossen_arm_mujoco.real.driver import (
     DEFAULT_END_EFFECTOR,
@@ -192,8 +198,9 @@ def main(
         paths = write_outputs(out_dir, stem, result.log, summary)
     except OSError as exc:
         also = f"; {result.reason}" if result.reason else ""
-        print(f"error: cannot write the replay results to {out_dir}: {exc}{also}", file=sys.stderr)
-        return result.exit_code or 1
+        return report_error(
+            f"cannot write the replay results to {out_dir}: {exc}{also}", result.exit_code or 1
+        )
     if result.steps_done:
         print(f"tracking error (measured - commanded) over {result.steps_done} steps:")
         print(format_error_table(result.log.errors()))
@@ -202,8 +209,7 @@ def main(
     if paths["plot"] is None and result.steps_done:
         print(f"note: no plot: matplotlib is not installed ({PLOT_HINT})")
     if result.exit_code:
-        print(f"error: {result.reason}", file=sys.stderr)
-        return result.exit_code
+        return report_error(result.reason, result.exit_code)
     clamped = (result.gripper or gripper).count
     print(
         f"replay completed: {result.steps_done} steps, {clamped} gripper command(s) clamped "

@@ -11,13 +11,19 @@ Example::
 
 from __future__ import annotations
 
+if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
+    import sys
+    from pathlib import Path
+
+    sys.path[0] = str(
+        next(p for p in Path(__file__).resolve().parents if not (p / "__init__.py").is_file())
+    )
+    import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
+
 import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-
-if __package__ in (None, ""):  # run as a file: python trossen_arm_mujoco/scripts/visualize_eps.py
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from tqdm import tqdm
 

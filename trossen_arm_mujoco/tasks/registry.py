@@ -1,23 +1,29 @@
-"""Task registry: task name -> (task class, sampler class, default config).
+"""Task registry: the ONE way every front door reaches a task.
 
-Classes are named by import path and imported on first use, so listing tasks is cheap.
+An entry names everything about a task: its task class (reward, success, description,
+observations), its sampler (scenes of both flavours, randomization), its YAML config, its
+scripted policy when it has one, and the recording defaults the record CLI starts from.
+``SIM_TASK_CONFIGS`` (``constants.py``) is derived from the entries that have a scripted
+policy. Classes are named by import path and imported on first use, so listing is cheap.
 
     >>> from trossen_arm_mujoco.tasks import registry
     >>> sampler = registry.make_sampler("reach", command_mode="ee_delta", success_tolerance=0.03)
     >>> task = sampler.sample_task(seed=0)
+
+Adding a task = one task module (task + sampler), one scripted policy module (optional), one
+YAML file in ``config/``, one ``TaskEntry`` below (and a gym id in ``gym/registration.py``).
 """
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
+from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.tasks.config import load_task_config
-from trossen_arm_mujoco.tasks.sampler import TaskSampler
-from trossen_arm_mujoco.tasks.task import Task
 
 
 def _import(path: str) -> Any:
@@ -27,61 +33,114 @@ def _import(path: str) -> Any:
 
 @dataclass(frozen=True)
 class TaskEntry:
-    """One registered task: import paths ("module:Class") and its YAML config name."""
+    """One registered task.
+
+    Attributes:
+        name: the task's name (what ``--task_name`` and ``load`` take).
+        task, sampler: import paths ``"module:Class"`` of the ``Task`` and ``TaskSampler``.
+        config: name of its YAML file in ``config/``.
+        description: one line for listings.
+        policy: import path of the scripted EE policy (``record``), "" when none.
+        aliases: other names accepted for it.
+        record: recording defaults (``num_episodes``, ``episode_len``, ``onscreen_render``,
+            ``inject_noise``, ``cam_names``) of tasks with a scripted policy.
+    """
 
     name: str
     task: str
     sampler: str
     config: str
     description: str = ""
+    policy: str = ""
+    aliases: tuple[str, ...] = ()
+    record: dict[str, Any] = field(default_factory=dict)
 
-    def task_class(self) -> type[Task]:
+    def task_class(self) -> type:
         return _import(self.task)
 
-    def sampler_class(self) -> type[TaskSampler]:
+    def sampler_class(self) -> type:
         return _import(self.sampler)
+
+    def policy_class(self) -> type:
+        """The scripted policy class; a UserError when the task has none."""
+        if not self.policy:
+            from trossen_arm_mujoco.errors import UserError
+
+            raise UserError(f"task '{self.name}' has no scripted policy")
+        return _import(self.policy)
 
     def load_config(self, **overrides: Any) -> dict[str, Any]:
         """``config/<config>.yaml`` with keyword overrides (unknown keys -> UserError)."""
         return load_task_config(self.config, **overrides)
 
 
+def _record_defaults(episode_len: int) -> dict[str, Any]:
+    return {
+        "num_episodes": 1,
+        "episode_len": episode_len,
+        "onscreen_render": False,
+        "inject_noise": False,
+        "cam_names": list(STATIONARY_CAMERAS),
+    }
+
+
 _PKG = "trossen_arm_mujoco.tasks"
-TASKS: dict[str, TaskEntry] = {
-    e.name: e
-    for e in (
-        TaskEntry(
-            "reach", f"{_PKG}.reach:ReachTask", f"{_PKG}.reach:ReachSampler", "reach",
-            "wxai: move the tool frame to a target",
-        ),
-        TaskEntry(
-            "push", f"{_PKG}.push:PushTask", f"{_PKG}.push:PushSampler", "push",
-            "wxai: push a cube onto a goal on the table",
-        ),
-        TaskEntry(
-            "pick_place", f"{_PKG}.pick_place:PickPlaceTask",
-            f"{_PKG}.pick_place:PickPlaceSampler", "pick_place",
-            "wxai: bring a cube to a goal on the table or in the air",
-        ),
-        TaskEntry(
-            "transfer_cube", f"{_PKG}.transfer_cube_task:TransferTask",
-            f"{_PKG}.transfer_cube_task:TransferCubeSampler", "transfer_cube",
-            "Stationary AI: hand a cube from the right arm to the left",
-        ),
-    )
-}  # fmt: skip
+_POL = "trossen_arm_mujoco.policies"
+ENTRIES: tuple[TaskEntry, ...] = (
+    TaskEntry(
+        "reach", f"{_PKG}.reach:ReachTask", f"{_PKG}.reach:ReachSampler", "reach",
+        "wxai: move the tool frame to a target",
+    ),
+    TaskEntry(
+        "push", f"{_PKG}.push:PushTask", f"{_PKG}.push:PushSampler", "push",
+        "wxai: push a cube onto a goal on the table",
+    ),
+    TaskEntry(
+        "pick_place", f"{_PKG}.pick_place:PickPlaceTask",
+        f"{_PKG}.pick_place:PickPlaceSampler", "pick_place",
+        "wxai: bring a cube to a goal on the table or in the air",
+    ),
+    TaskEntry(
+        "sim_transfer_cube", f"{_PKG}.transfer_cube:TransferCube",
+        f"{_PKG}.transfer_cube:TransferCubeSampler", "transfer_cube",
+        "Stationary AI: hand a cube from the right arm to the left",
+        policy=f"{_POL}.transfer_cube:PickAndTransferPolicy",
+        aliases=("transfer_cube",),
+        record=_record_defaults(600),
+    ),
+)  # fmt: skip
+
+#: name -> entry, and alias -> entry.
+TASKS: dict[str, TaskEntry] = {e.name: e for e in ENTRIES}
+ALIASES: dict[str, str] = {alias: e.name for e in ENTRIES for alias in e.aliases}
 
 
 def names() -> list[str]:
-    """Registered task names, sorted."""
+    """Registered task names, sorted (aliases not included)."""
     return sorted(TASKS)
 
 
-def load(name: str) -> TaskEntry:
-    """The entry of a task; a UserError listing the valid names when unknown."""
+def canonical(name: str) -> str:
+    """The registered name of ``name`` (itself, or the task an alias points to)."""
+    name = ALIASES.get(name, name)
     if name not in TASKS:
-        raise unknown_name_error("task", name, TASKS)
-    return TASKS[name]
+        raise unknown_name_error("task", name, sorted([*TASKS, *ALIASES]))
+    return name
+
+
+def load(name: str) -> TaskEntry:
+    """The entry of a task (or alias); a UserError listing the valid names when unknown."""
+    return TASKS[canonical(name)]
+
+
+def scripted_names() -> list[str]:
+    """Tasks that can be recorded with a scripted policy."""
+    return sorted(n for n, e in TASKS.items() if e.policy)
+
+
+def sim_task_configs() -> dict[str, dict[str, Any]]:
+    """``SIM_TASK_CONFIGS``: recording defaults of every task with a scripted policy."""
+    return {e.name: dict(e.record) for e in ENTRIES if e.policy}
 
 
 def make_sampler(
@@ -91,9 +150,12 @@ def make_sampler(
     camera_names: Sequence[str] = (),
     height: int = 480,
     width: int = 640,
+    flavour: str = "joint",
+    physics: Any = None,
     **overrides: Any,
-) -> TaskSampler:
-    """The sampler of a task (it builds the env), config overridden by keyword."""
+):
+    """The sampler of a task (it builds the env), config overridden by keyword; see
+    ``TaskSampler`` for the arguments."""
     entry = load(name)
     config = entry.load_config(**overrides)
     return entry.sampler_class()(
@@ -102,4 +164,6 @@ def make_sampler(
         camera_names=camera_names,
         height=height,
         width=width,
+        flavour=flavour,
+        physics=physics,
     )

@@ -12,10 +12,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from trossen_arm_mujoco.constants import GRIPPER_OPEN
 from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
+from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
 from trossen_arm_mujoco.tasks.task import Bounds, Task

@@ -1,40 +1,53 @@
-"""dm_control task base for the Stationary AI kit, shared by the EE and joint front doors.
+"""dm_control task bases for the Stationary AI kit: the documented customization API.
 
-It configures the layers (robot config, cameras, cube object, reward) over the dm_control
-``Physics`` it is handed; ``ee_sim_env.py`` and ``sim_env.py`` choose the flavour.
+``TrossenAIStationaryEETask`` (mocap arms, 16-value EE action) and ``TrossenAIStationaryTask``
+(14 joint actuators, 16-value joint action in the qpos layout) configure the layers (robot
+config, cameras, objects) over the dm_control ``Physics`` they are handed; dm_control steps.
+A custom task subclasses one of them and overrides ``initialize_episode(physics)``,
+``get_env_state(physics)`` and ``get_reward(physics)``. Registered tasks are served by the
+adapters in ``tasks/dm_tasks.py``; ``ee_sim_env.py`` and ``sim_env.py`` re-export all of them.
 """
 
 from __future__ import annotations
 
 import collections
 from collections.abc import Sequence
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
-from dm_control.mujoco.engine import Physics
 from dm_control.suite import base
 from dm_env import specs
 
-from trossen_arm_mujoco.constants import DT, STATIONARY_CAMERAS
+from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.robot.configs import RobotConfig
+from trossen_arm_mujoco.robot.configs import (
+    RobotConfig,
+    stationary_ai_joint_config,
+    stationary_ai_mocap_config,
+)
+from trossen_arm_mujoco.robot.layout import EE_LAYOUT, GRIPPER_OPEN, KIT_LAYOUT
 from trossen_arm_mujoco.sim.env import MujocoEnv
-from trossen_arm_mujoco.tasks.transfer_cube import TransferCubeReward
+from trossen_arm_mujoco.tasks.bimanual import LAYOUT_GROUPS, ROBOT_NAME
+from trossen_arm_mujoco.tasks.task import DEFAULT_POLICY_DT
 
-LAYOUT_GROUPS = ("left_arm", "left_gripper", "right_arm", "right_gripper")
+#: Objects of the cube scenes, for custom tasks on them: name -> (free joint, geom).
+CUBE_OBJECTS = {"box": ("red_box_joint", "red_box")}
 
 
 class StationaryTaskBase(base.Task):
     """Common part of ``TrossenAIStationaryEETask`` and ``TrossenAIStationaryTask``.
 
     Args:
-        random: int seed or ``np.random.Generator`` for this task's randomization.
+        random: int seed or ``np.random.Generator``: this task's one source of randomness.
         onscreen_render: accepted for compatibility (display is done by the scripts).
-        cam_list: cameras to render into observations; None = all four, [] = none.
+        cam_list: cameras rendered into every observation; None = all four, [] = none (then
+            no GL context is ever opened).
         image_size: (height, width) of rendered images.
     """
 
-    DEFAULT_XML = ""
+    DEFAULT_XML: ClassVar[str] = ""
+    FLAVOUR: ClassVar[str] = ""
 
     def __init__(
         self,
@@ -43,72 +56,63 @@ class StationaryTaskBase(base.Task):
         cam_list: Sequence[str] | None = None,
         image_size: tuple[int, int] = (480, 640),
     ):
-        if isinstance(random, np.random.Generator):
-            self.rng = random
-            super().__init__(random=int(random.integers(2**31)))
-        else:
-            super().__init__(random=random)
+        self.rng = random if isinstance(random, np.random.Generator) else None
+        if self.rng is None:
             self.rng = np.random.default_rng(random)
+        # dm_control's own RandomState is unused by these tasks; seed it from our generator.
+        super().__init__(random=int(self.rng.integers(2**31)))
         self.onscreen_render = onscreen_render
         self.cam_list = list(STATIONARY_CAMERAS if cam_list is None else cam_list)
         self.image_size = tuple(image_size)
-        #: Render camera images into observations (the recorder turns it off for steps whose
-        #: observation is not stored).
-        self.render_enabled = True
         self._scene: MujocoEnv | None = None
-        self._scene_physics: Physics | None = None
-        self._reward: TransferCubeReward | None = None
-        self._reward_model = None
+        self._scene_physics: Any = None
 
     # -- layers -------------------------------------------------------------------------
     def robot_config(self) -> RobotConfig:
         raise NotImplementedError
 
-    def scene(self, physics: Physics) -> MujocoEnv:
+    def build_scene(self, physics) -> MujocoEnv:
+        """The layered world over ``physics`` (custom tasks: the cube scenes' objects)."""
+        return MujocoEnv(
+            physics=physics,
+            robots={ROBOT_NAME: self.robot_config()},
+            objects=CUBE_OBJECTS if _has_joint(physics, "red_box_joint") else {},
+            camera_names=self.cam_list,
+            height=self.image_size[0],
+            width=self.image_size[1],
+            ctrl_dt=DEFAULT_POLICY_DT,
+        )
+
+    def scene(self, physics) -> MujocoEnv:
         """The layered world over ``physics``, built once per physics (names looked up once)."""
         if self._scene is None or self._scene_physics is not physics:
             if self._scene is not None:
                 self._scene.close()
-            self._scene = MujocoEnv(
-                physics=physics,
-                robots={"stationary_ai": self.robot_config()},
-                objects={"box": ("red_box_joint", "red_box")},
-                camera_names=self.cam_list,
-                height=self.image_size[0],
-                width=self.image_size[1],
-                ctrl_dt=DT,
-            )
+            self._scene = self.build_scene(physics)
             self._scene_physics = physics
-            self._layout = self._scene.robots["stationary_ai"].view.qpos_indices(LAYOUT_GROUPS)
+            self._layout = self._scene.robots[ROBOT_NAME].view.qpos_indices(LAYOUT_GROUPS)
         return self._scene
 
-    def robot(self, physics: Physics):
-        return self.scene(physics).robots["stationary_ai"]
-
-    def transfer_reward(self, physics: Physics) -> int:
-        """The transfer-cube reward (0-4), see ``tasks.transfer_cube``."""
-        if self._reward is None or self._reward_model is not physics.model.ptr:
-            self._reward = TransferCubeReward(physics.model.ptr)
-            self._reward_model = physics.model.ptr
-        return self._reward(physics.data.ptr)
+    def robot(self, physics):
+        return self.scene(physics).robots[ROBOT_NAME]
 
     def close(self) -> None:
         if self._scene is not None:
             self._scene.close()
 
     # -- dm_control hooks ---------------------------------------------------------------
-    def action_spec(self, physics: Physics) -> specs.BoundedArray:
+    def action_spec(self, physics) -> specs.BoundedArray:
         low, high = self.action_bounds(physics)
         return specs.BoundedArray((16,), np.float64, low, high, name="action")
 
-    def action_bounds(self, physics: Physics) -> tuple[np.ndarray, np.ndarray]:
+    def action_bounds(self, physics) -> tuple[np.ndarray, np.ndarray]:
         raise NotImplementedError
 
-    def initialize_robots(self, physics: Physics) -> None:
+    def initialize_robots(self, physics) -> None:
         """Arms at ``START_ARM_POSE`` at rest; controls (and mocap bodies) hold that pose."""
         self.robot(physics).reset(physics.data.ptr)
 
-    def initialize_episode(self, physics: Physics) -> None:
+    def initialize_episode(self, physics) -> None:
         """Finish episode setup: every control holds the state the subclass has set."""
         mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
         self.robot(physics).hold(physics.data.ptr)
@@ -117,7 +121,7 @@ class StationaryTaskBase(base.Task):
     def split_action(self, action: np.ndarray) -> dict[str, np.ndarray]:
         raise NotImplementedError
 
-    def before_step(self, action, physics: Physics) -> None:
+    def before_step(self, action, physics) -> None:
         a = np.asarray(action, dtype=float).reshape(-1)
         if a.shape != (16,):
             raise UserError(f"action must have 16 values, got {a.size}")
@@ -127,17 +131,17 @@ class StationaryTaskBase(base.Task):
         robot.update_control(self.split_action(a))
         robot.compute_control(physics.data.ptr)
 
-    def get_observation(self, physics: Physics) -> collections.OrderedDict:
+    def get_observation(self, physics) -> collections.OrderedDict:
         """qpos (16), qvel (16), env_state, images (requested cameras), mocap_pose_left/right
         (7 each, tool-frame target [xyz, quat wxyz]), gripper_ctrl (2, m)."""
         scene = self.scene(physics)
         data = physics.data.ptr
-        view = scene.robots["stationary_ai"].view
+        view = scene.robots[ROBOT_NAME].view
         obs: collections.OrderedDict = collections.OrderedDict()
         obs["qpos"] = data.qpos[self._layout].copy()
         obs["qvel"] = data.qvel[self._layout].copy()
         obs["env_state"] = self.get_env_state(physics)
-        obs["images"] = scene.render_images() if self.render_enabled else {}
+        obs["images"] = scene.render_images()
         obs["mocap_pose_left"] = self.tool_target(physics, "left_arm")
         obs["mocap_pose_right"] = self.tool_target(physics, "right_arm")
         obs["gripper_ctrl"] = np.concatenate(
@@ -145,11 +149,76 @@ class StationaryTaskBase(base.Task):
         )
         return obs
 
-    def tool_target(self, physics: Physics, arm: str) -> np.ndarray:
+    def tool_target(self, physics, arm: str) -> np.ndarray:
         raise NotImplementedError
 
-    def get_env_state(self, physics: Physics) -> np.ndarray:
+    def get_env_state(self, physics) -> np.ndarray:
         raise NotImplementedError
 
-    def get_reward(self, physics: Physics) -> float:
+    def get_reward(self, physics) -> float:
         raise NotImplementedError
+
+
+def _has_joint(physics, name: str) -> bool:
+    return mujoco.mj_name2id(physics.model.ptr, mujoco.mjtObj.mjOBJ_JOINT, name) >= 0
+
+
+class TrossenAIStationaryEETask(StationaryTaskBase):
+    """Bimanual task with mocap-driven arms (scene ``stationary_ai/trossen_ai_scene.xml``).
+
+    Action (16): ``[left xyz (m), left quat wxyz, left gripper (m), right ...]``, world frame
+    (``robot.layout.EE_LAYOUT``). Subclass it and override ``initialize_episode(physics)``
+    (call ``self.initialize_robots(physics)`` first and ``super().initialize_episode(physics)``
+    last), ``get_env_state(physics)`` and ``get_reward(physics)``.
+    """
+
+    DEFAULT_XML = "stationary_ai/trossen_ai_scene.xml"
+    FLAVOUR = "ee"
+
+    def robot_config(self) -> RobotConfig:
+        return stationary_ai_mocap_config()
+
+    def action_bounds(self, physics):
+        pose_low = [-1.0, -1.0, 0.0, -1, -1, -1, -1]
+        pose_high = [1.0, 1.0, 1.5, 1, 1, 1, 1]
+        low = np.array(pose_low + [0.0] + pose_low + [0.0])
+        high = np.array(pose_high + [GRIPPER_OPEN] + pose_high + [GRIPPER_OPEN])
+        return low, high
+
+    def split_action(self, action: np.ndarray) -> dict[str, np.ndarray]:
+        return EE_LAYOUT.commands(action)
+
+    def tool_target(self, physics, arm: str) -> np.ndarray:
+        """The mocap pose commanded to ``arm`` ([xyz, quat wxyz], world)."""
+        return self.robot(physics).view.group(arm).get_ctrl(physics.data.ptr)
+
+
+class TrossenAIStationaryTask(StationaryTaskBase):
+    """Bimanual task with joint position actuators (scene ``trossen_ai_scene_joint.xml``).
+
+    Action (16) in the qpos layout (``robot.layout.KIT_LAYOUT``): each arm's 6 joints and its
+    gripper (the actuated finger value, index 7 / 15) go to position actuators; the coupled
+    finger values (index 6 / 14) are not commanded separately. Subclass it and override
+    ``initialize_episode(physics)`` (e.g. inside ``physics.reset_context()`` set
+    ``physics.named.data.qpos[:16] = START_ARM_POSE``, then call
+    ``super().initialize_episode(physics)``), ``get_env_state`` and ``get_reward``.
+    """
+
+    DEFAULT_XML = "stationary_ai/trossen_ai_scene_joint.xml"
+    FLAVOUR = "joint"
+
+    def robot_config(self) -> RobotConfig:
+        return stationary_ai_joint_config()
+
+    def action_bounds(self, physics):
+        """Joint limits in the qpos layout (rad / m)."""
+        view = self.robot(physics).view
+        ranges = np.concatenate([view.group(g).joint_range for g in LAYOUT_GROUPS])
+        return ranges[:, 0].copy(), ranges[:, 1].copy()
+
+    def split_action(self, action: np.ndarray) -> dict[str, np.ndarray]:
+        return KIT_LAYOUT.joint_commands(action)
+
+    def tool_target(self, physics, arm: str) -> np.ndarray:
+        """The arm's current tool-frame (ee_site) pose [xyz, quat wxyz], world frame."""
+        return self.robot(physics).view.group(arm).get_frame_pose(physics.data.ptr)

@@ -1,15 +1,20 @@
-"""Bimanual cube transfer: the reward (0-4) and the cube's spawn distribution.
+"""Bimanual cube transfer: the right arm picks the cube up and hands it to the left arm.
 
-This is the one implementation of the transfer-cube reward; the dm_control envs, the
-gymnasium env and the recording pipeline all call it.
+The one implementation of this task for every front door (dm_control envs, gymnasium env,
+recorder): the reward (0-4), the cube's spawn distribution, the task (``TransferCube``) and
+its sampler (``TransferCubeSampler``). Config: ``config/transfer_cube.yaml``; scripted policy:
+``policies/transfer_cube.py``; registered as ``sim_transfer_cube`` (alias ``transfer_cube``).
 """
 
 from __future__ import annotations
+
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask
 
 #: Cube spawn region on the table (world frame, m): x, y uniform; z = resting height.
 BOX_X_RANGE = (-0.15, 0.15)
@@ -27,22 +32,31 @@ def sample_cube_pose(rng: np.random.Generator) -> np.ndarray:
     return np.array([x, y, BOX_REST_Z, 1.0, 0.0, 0.0, 0.0])
 
 
+def finger_geoms(model: mujoco.MjModel, side: str) -> set[int]:
+    """Ids of every collision geom of ``side``'s fingers (``<side>/gripper_follower*``)."""
+    prefix = f"{side}/gripper_follower"
+    found = {
+        g
+        for g in range(model.ngeom)
+        if (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "").startswith(prefix)
+    }
+    lookup_id(model, "geom", f"{prefix}_left")  # fails with the valid names when absent
+    return found
+
+
 class TransferCubeReward:
     """Reward of the transfer: 1 right gripper touches the cube, 2 and the cube is off the
     table, 3 left gripper touches it, 4 left touches it and it is off the table.
 
-    Geom ids are looked up once here; calls only scan ``data.contact``.
+    Any collision geom of a finger counts (tip and pads). Geom ids are looked up once here;
+    calls only scan ``data.contact``.
     """
 
     def __init__(self, model: mujoco.MjModel):
         self.box = lookup_id(model, "geom", "red_box")
         self.table = lookup_id(model, "geom", "table")
-        self.left = {
-            lookup_id(model, "geom", f"left/gripper_follower_{f}") for f in ("left", "right")
-        }
-        self.right = {
-            lookup_id(model, "geom", f"right/gripper_follower_{f}") for f in ("left", "right")
-        }
+        self.left = finger_geoms(model, "left")
+        self.right = finger_geoms(model, "right")
 
     def touching(self, data: mujoco.MjData) -> tuple[bool, bool, bool]:
         """(right gripper touches cube, left gripper touches cube, cube touches table)."""
@@ -67,3 +81,36 @@ class TransferCubeReward:
         if left and not table:
             reward = 4
         return reward
+
+
+class TransferCube(BimanualTask):
+    """Hand the cube from the right gripper to the left one, lifted off the table.
+    Sparse reward 0-4 (``TransferCubeReward``); success = 4."""
+
+    name: ClassVar[str] = "sim_transfer_cube"
+    objects: ClassVar[tuple[str, ...]] = ("box",)
+    max_reward: ClassVar[float] = MAX_REWARD
+
+    def __init__(self, env, config):
+        super().__init__(env, config)
+        self.reward_fn = TransferCubeReward(env.model)
+
+    def get_reward(self) -> int:
+        """Sparse 0-4 (see ``TransferCubeReward``)."""
+        return self.reward_fn(self.data)
+
+    def get_task_description(self) -> str:
+        return "pick up the red cube with the right arm and hand it over to the left arm"
+
+
+class TransferCubeSampler(BimanualSampler):
+    """Arms at ``START_ARM_POSE``; the cube resting at ``sample_cube_pose(rng)``."""
+
+    task_cls = TransferCube
+
+    def objects(self) -> dict[str, tuple[str, str | None]]:
+        return {"box": ("red_box_joint", "red_box")}
+
+    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
+        self.env.objects["box"].set_pose(self.env.data, sample_cube_pose(rng))
+        return {}

@@ -1,0 +1,49 @@
+"""``trossen-mujoco``: usage, subcommand dispatch and the one-line error for a bad name."""
+
+from __future__ import annotations
+
+import importlib
+
+import pytest
+
+from trossen_arm_mujoco import cli
+
+
+@pytest.mark.parametrize("argv", [[], ["-h"], ["--help"]])
+def test_usage_lists_every_subcommand(argv, capsys):
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: trossen-mujoco")
+    for name in cli.SUBCOMMANDS:
+        assert f"  {name} " in out
+
+
+def test_unknown_subcommand_is_one_error_line(capsys):
+    assert cli.main(["recrod", "--data_dir", "x"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err == (
+        "error: unknown subcommand 'recrod'; valid subcommands: record, replay-real, "
+        "visualize (see 'trossen-mujoco --help')\n"
+    )
+
+
+@pytest.mark.parametrize("name", sorted(cli.SUBCOMMANDS))
+def test_every_subcommand_module_has_a_cli(name):
+    module = importlib.import_module(cli.SUBCOMMANDS[name])
+    assert callable(module.cli)
+
+
+def test_dispatch_passes_the_remaining_arguments(monkeypatch):
+    seen = []
+    module = importlib.import_module(cli.SUBCOMMANDS["visualize"])
+    monkeypatch.setattr(module, "cli", lambda argv: seen.append(argv) or 7)
+    assert cli.main(["visualize", "--data_dir", "d", "--fps", "10"]) == 7
+    assert seen == [["--data_dir", "d", "--fps", "10"]]
+
+
+def test_subcommand_help_exits_zero(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["visualize", "--help"])
+    assert exc.value.code == 0
+    assert "--data_dir" in capsys.readouterr().out

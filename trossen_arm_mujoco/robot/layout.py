@@ -1,0 +1,128 @@
+"""The 16-value qpos/action layout of the Stationary AI kit, defined once.
+
+Left arm then right arm; per arm 6 revolute joints (rad) then the two coupled finger joints
+(m, 0 closed .. 0.044 open): ``right_carriage_joint`` (coupled, index 6 / 14) and
+``left_carriage_joint`` (actuated by the gripper, index 7 / 15). The recorded action uses
+the same layout, with the finger columns holding the gripper command.
+
+Users of the layout: the dm_control envs (observation slicing and action splitting), the
+dataset schema's labels, the recorder, the real replay (7 driver values per arm) and the
+gym adapter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Gripper finger travel (m): fully open; and closed on the 25 mm cube.
+GRIPPER_OPEN: float = 0.044
+GRIPPER_CLOSED: float = 0.012
+
+#: Arm joints of one wxai arm, then its finger joints (MJCF names without prefix).
+ARM_JOINTS: tuple[str, ...] = tuple(f"joint_{i}" for i in range(6))
+FINGER_JOINTS: tuple[str, ...] = ("right_carriage_joint", "left_carriage_joint")
+ARM_VALUES: tuple[str, ...] = ARM_JOINTS + FINGER_JOINTS
+SIDES: tuple[str, ...] = ("left", "right")
+
+
+@dataclass(frozen=True)
+class KitLayout:
+    """Names, units and slices of the 16-value vector (and the per-arm 8-value blocks).
+
+    Attributes:
+        names: 16 labels ``"<side>_<joint>"``, e.g. ``"left_joint_0"``,
+            ``"left_right_carriage_joint"``.
+        units: 16 units, ``"rad"`` or ``"m"``.
+        groups: move-group name -> slice of the 16 values (``left_arm`` 0:6, ``left_gripper``
+            6:8, ``right_arm`` 8:14, ``right_gripper`` 14:16): the robot configs' group names.
+    """
+
+    size: int = 16
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(f"{side}_{joint}" for side in SIDES for joint in ARM_VALUES)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return (("rad",) * 6 + ("m",) * 2) * 2
+
+    @property
+    def groups(self) -> dict[str, slice]:
+        return {
+            "left_arm": slice(0, 6),
+            "left_gripper": slice(6, 8),
+            "right_arm": slice(8, 14),
+            "right_gripper": slice(14, 16),
+        }
+
+    def arm(self, side: str) -> slice:
+        """The 6 joint values of ``side`` ("left" or "right")."""
+        return self.groups[f"{side}_arm"]
+
+    def fingers(self, side: str) -> slice:
+        """The 2 finger values of ``side``."""
+        return self.groups[f"{side}_gripper"]
+
+    def gripper_index(self, side: str) -> int:
+        """Index of the actuated finger (``left_carriage_joint``): 7 / 15."""
+        return self.fingers(side).start + 1
+
+    def driver_slice(self, side: str) -> slice:
+        """The 7 values sent to a real arm: 6 joints + the coupled finger (0:7 / 8:15)."""
+        start = self.arm(side).start
+        return slice(start, start + 7)
+
+    def split(self, vector: np.ndarray) -> dict[str, np.ndarray]:
+        """Per move group views of a (16,) vector (joint values, both fingers)."""
+        v = np.asarray(vector)
+        return {group: v[s] for group, s in self.groups.items()}
+
+    def joint_commands(self, action: np.ndarray) -> dict[str, np.ndarray]:
+        """A (16,) joint action as robot commands: 6 joint targets per arm and one gripper
+        target (the actuated finger's value) per gripper."""
+        a = np.asarray(action, dtype=float)
+        out: dict[str, np.ndarray] = {}
+        for side in SIDES:
+            out[f"{side}_arm"] = a[self.arm(side)]
+            g = self.gripper_index(side)
+            out[f"{side}_gripper"] = a[g : g + 1]
+        return out
+
+
+#: The layout of the Stationary AI kit (both arms).
+KIT_LAYOUT = KitLayout()
+
+
+@dataclass(frozen=True)
+class EELayout:
+    """The 16-value end-effector action of the mocap env: per arm ``[xyz (m), quat wxyz,
+    gripper (m)]``, left then right (world frame; gripper = finger travel)."""
+
+    size: int = 16
+
+    @property
+    def groups(self) -> dict[str, slice]:
+        return {
+            "left_arm": slice(0, 7),
+            "left_gripper": slice(7, 8),
+            "right_arm": slice(8, 15),
+            "right_gripper": slice(15, 16),
+        }
+
+    def commands(self, action: np.ndarray) -> dict[str, np.ndarray]:
+        """A (16,) EE action as robot commands (tool pose per arm, one gripper value)."""
+        a = np.asarray(action, dtype=float)
+        return {group: a[s] for group, s in self.groups.items()}
+
+
+#: The layout of the end-effector (mocap) action.
+EE_LAYOUT = EELayout()
+
+#: Arm pose at episode start, 16 values in the kit layout.
+START_ARM_POSE: list[float] = [
+    0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
+    0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
+]  # fmt: skip

@@ -1,0 +1,128 @@
+"""Shared parts of the Stationary AI (bimanual) tasks: the kit's robot, its two flavours,
+free objects on the table, and the observations every bimanual task gives.
+
+Flavours of one task: ``"joint"`` (14 position actuators, as the real arms; config key
+``scene``) and ``"ee"`` (each arm's link_6 welded to a mocap body; config key ``ee_scene``).
+The scripted policies act in the ``ee`` flavour; recordings are replayed in ``joint``.
+
+Observations (all float64, world frame): ``qpos`` (16) and ``qvel`` (16) in the kit layout
+(``robot.layout.KIT_LAYOUT``, rad / m, rad/s / m/s), ``env_state`` (7 per object: position
+xyz m + quaternion wxyz, in ``objects`` order) and ``env_vel`` (6 per object: linear m/s,
+angular rad/s). ``policy_observation`` adds the tool poses ``mocap_pose_left`` /
+``mocap_pose_right`` ([xyz, quat wxyz]; the commanded mocap pose in ``ee``, the ``ee_site``
+pose in ``joint``), the names the scripted policies and the dm_control envs use.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
+from trossen_arm_mujoco.robot.configs import (
+    RobotConfig,
+    stationary_ai_joint_config,
+    stationary_ai_mocap_config,
+)
+from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.robot.move_group import MocapArmGroup
+from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.sampler import TaskSampler
+from trossen_arm_mujoco.tasks.task import Bounds, Task
+
+ROBOT_NAME = "stationary_ai"
+LAYOUT_GROUPS = tuple(KIT_LAYOUT.groups)
+
+
+class BimanualTask(Task):
+    """Base of the Stationary AI tasks. Subclasses set ``name``, ``objects`` (names of the
+    sampler's free objects, in ``env_state`` order) and implement the scoring."""
+
+    robot_name: ClassVar[str] = ROBOT_NAME
+    objects: ClassVar[tuple[str, ...]] = ()
+    #: Highest reward (success).
+    max_reward: ClassVar[float] = 1.0
+
+    def __init__(self, env: MujocoEnv, config: Mapping[str, Any]):
+        super().__init__(env, config)
+        view = self.robot.view
+        self.layout = view.qpos_indices(LAYOUT_GROUPS)
+        self.layout_dofs = view.dof_indices(LAYOUT_GROUPS)
+        ranges = np.concatenate([view.group(g).joint_range for g in LAYOUT_GROUPS])
+        self.qpos_low, self.qpos_high = ranges[:, 0].copy(), ranges[:, 1].copy()
+        self.max_qvel = float(self.config["max_joint_velocity"])
+        self.max_obj_vel = float(self.config["max_object_velocity"])
+        self.ws_low = np.asarray(self.config["workspace_low"], dtype=float)
+        self.ws_high = np.asarray(self.config["workspace_high"], dtype=float)
+        self.bodies = [env.objects[name] for name in self.objects]
+        self._arms = {side: view.group(f"{side}_arm") for side in ("left", "right")}
+
+    # -- state ----------------------------------------------------------------------------
+    def env_state(self) -> np.ndarray:
+        """Poses of the objects, (7 * n_objects,): [xyz m, quat wxyz] each."""
+        if not self.bodies:
+            return np.zeros(0)
+        return np.concatenate([b.get_pose(self.data) for b in self.bodies])
+
+    def object_poses(self) -> dict[str, np.ndarray]:
+        """Object name -> pose (7,), e.g. to start a replay from the same scene."""
+        return {name: b.get_pose(self.data) for name, b in zip(self.objects, self.bodies)}
+
+    def tool_pose(self, side: str) -> np.ndarray:
+        """Tool-frame target of one arm, [xyz m, quat wxyz] (7,): the commanded mocap pose
+        for mocap arms, the current ``ee_site`` pose for joint arms."""
+        arm = self._arms[side]
+        if isinstance(arm, MocapArmGroup):
+            return arm.get_ctrl(self.data)
+        return arm.get_frame_pose(self.data)
+
+    def get_observation(self) -> dict[str, np.ndarray]:
+        """qpos (16), qvel (16), env_state (7 per object), env_vel (6 per object)."""
+        vel = [b.get_velocity(self.data) for b in self.bodies]
+        return {
+            "qpos": self.data.qpos[self.layout].copy(),
+            "qvel": self.data.qvel[self.layout_dofs].copy(),
+            "env_state": self.env_state(),
+            "env_vel": np.concatenate(vel) if vel else np.zeros(0),
+        }
+
+    def policy_observation(self) -> dict[str, np.ndarray]:
+        """``get_observation`` plus ``mocap_pose_left`` / ``mocap_pose_right`` (tool poses)."""
+        obs = self.get_observation()
+        obs["mocap_pose_left"] = self.tool_pose("left")
+        obs["mocap_pose_right"] = self.tool_pose("right")
+        return obs
+
+    def observation_bounds(self) -> Bounds:
+        n = len(self.objects)
+        pose_low = np.concatenate([self.ws_low, -np.ones(4)])
+        pose_high = np.concatenate([self.ws_high, np.ones(4)])
+        return {
+            "qpos": (self.qpos_low.copy(), self.qpos_high.copy()),
+            "qvel": (np.full(16, -self.max_qvel), np.full(16, self.max_qvel)),
+            "env_state": (np.tile(pose_low, n), np.tile(pose_high, n)),
+            "env_vel": (np.full(6 * n, -self.max_obj_vel), np.full(6 * n, self.max_obj_vel)),
+        }
+
+    def judge_success(self) -> bool:
+        return self.get_reward() >= self.max_reward
+
+
+class BimanualSampler(TaskSampler):
+    """Base of the Stationary AI samplers: the kit robot in either flavour, arms starting at
+    ``START_ARM_POSE`` (the scene keyframe) and cameras of the kit."""
+
+    robot_name: ClassVar[str] = ROBOT_NAME
+    arms: ClassVar[tuple[tuple[str, str], ...]] = (
+        ("left_arm", "left_gripper"),
+        ("right_arm", "right_gripper"),
+    )
+    cameras: ClassVar[tuple[str, ...]] = tuple(STATIONARY_CAMERAS)
+
+    def robot_config(self) -> RobotConfig:
+        return stationary_ai_joint_config()
+
+    def ee_robot_config(self) -> RobotConfig:
+        return stationary_ai_mocap_config()

@@ -1,0 +1,128 @@
+"""dm_control adapters of the registered bimanual tasks (``TransferCubeEETask``, ...).
+
+An adapter is a thin ``TrossenAIStationaryEETask`` / ``TrossenAIStationaryTask`` whose world
+is built by the task's registered sampler over the dm_control ``Physics``, and whose hooks
+delegate to the registered task: ``initialize_episode`` places the objects with the
+sampler (from this task's generator, or from the poses given at construction),
+``get_env_state`` and ``get_reward`` ask the task. Subclasses may still override any hook.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.stationary import (
+    StationaryTaskBase,
+    TrossenAIStationaryEETask,
+    TrossenAIStationaryTask,
+)
+
+#: Cube pose used by ``TransferCubeTask`` at the next reset when no ``box_pose`` is given
+#: (vendor-compatible hand-over: ``sim_env.BOX_POSE[0] = pose`` before ``env.reset()``).
+BOX_POSE: list[np.ndarray | None] = [None]
+
+
+class RegisteredTaskMixin(StationaryTaskBase):
+    """Serves registered task ``task_name`` through the dm_control hooks.
+
+    Args (besides the base's):
+        object_poses: object name -> initial pose [xyz, quat wxyz] used at every reset
+            instead of sampled ones (e.g. to replay a recorded episode).
+    """
+
+    task_name: ClassVar[str] = ""
+
+    def __init__(self, *args: Any, object_poses: Mapping[str, Any] | None = None, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self.object_poses = (
+            None
+            if object_poses is None
+            else {k: np.asarray(v, dtype=float) for k, v in object_poses.items()}
+        )
+        self.entry = registry.load(self.task_name)
+        self.max_reward = self.entry.task_class().max_reward
+        self.sampler = None
+        self.task = None
+
+    def build_scene(self, physics) -> MujocoEnv:
+        self.sampler = registry.make_sampler(
+            self.task_name,
+            flavour=self.FLAVOUR,
+            physics=physics,
+            camera_names=self.cam_list,
+            height=self.image_size[0],
+            width=self.image_size[1],
+        )
+        return self.sampler.env
+
+    def episode_object_poses(self) -> Mapping[str, Any] | None:
+        """Poses placed at the next reset (None: sampled from this task's generator)."""
+        return self.object_poses
+
+    def initialize_episode(self, physics) -> None:
+        self.initialize_robots(physics)
+        self.scene(physics)
+        self.task = self.sampler.start_episode(self.rng, self.episode_object_poses())
+        super().initialize_episode(physics)
+
+    def get_env_state(self, physics) -> np.ndarray:
+        """Poses of the task's objects, [xyz, quat wxyz] each (7 per object)."""
+        return self.task.env_state()
+
+    def get_reward(self, physics):
+        return self.task.get_reward()
+
+
+class TransferCubeEETask(RegisteredTaskMixin, TrossenAIStationaryEETask):
+    """Pick the cube with the right arm and hand it to the left arm; reward 0-4 (mocap)."""
+
+    task_name = "sim_transfer_cube"
+
+
+class TransferCubeTask(RegisteredTaskMixin, TrossenAIStationaryTask):
+    """The cube transfer in the joint env; the cube starts at ``box_pose`` (or
+    ``BOX_POSE[0]``, or a pose sampled from this task's generator)."""
+
+    task_name = "sim_transfer_cube"
+
+    def __init__(self, *args: Any, box_pose: np.ndarray | None = None, **kwargs: Any):
+        if box_pose is not None:
+            kwargs["object_poses"] = {"box": box_pose}
+        super().__init__(*args, **kwargs)
+
+    @property
+    def box_pose(self) -> np.ndarray | None:
+        return None if self.object_poses is None else self.object_poses["box"]
+
+    def episode_object_poses(self):
+        if self.object_poses is None and BOX_POSE[0] is not None:
+            return {"box": BOX_POSE[0]}
+        return self.object_poses
+
+
+_ADAPTERS: dict[tuple[str, str], type] = {
+    ("sim_transfer_cube", "ee"): TransferCubeEETask,
+    ("sim_transfer_cube", "joint"): TransferCubeTask,
+}
+
+
+def dm_task_class(name: str, flavour: str) -> type:
+    """The dm_control task class of registered task ``name`` in ``flavour`` ("ee" or
+    "joint"): a documented class when there is one, else an adapter made (once) here."""
+    name = registry.canonical(name)
+    key = (name, flavour)
+    if key not in _ADAPTERS:
+        config = registry.load(name).load_config()
+        scene_key = {"ee": "ee_scene", "joint": "scene"}[flavour]
+        base = TrossenAIStationaryEETask if flavour == "ee" else TrossenAIStationaryTask
+        _ADAPTERS[key] = type(
+            f"{name}_{flavour}_task",
+            (RegisteredTaskMixin, base),
+            {"task_name": name, "DEFAULT_XML": config[scene_key]},
+        )
+    return _ADAPTERS[key]
