@@ -46,7 +46,9 @@ def main() -> None:
 
     settings = RecordSettings(
         task_name=args.task,
-        episode_len=args.episode_len, inject_noise=args.noise, base_seed=args.seed
+        episode_len=args.episode_len,
+        inject_noise=args.noise,
+        base_seed=args.seed,
     )
     recorder = EpisodeRecorder(settings, step_hook=track)
     start = time.perf_counter()
