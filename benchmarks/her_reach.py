@@ -12,19 +12,13 @@ Needs the ``rl`` extra (stable-baselines3 and torch).
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import gymnasium as gym
+import torch
+from stable_baselines3 import SAC, HerReplayBuffer
 
-# torch (and the triton it loads) before anything opens GL: on machines rendering with Mesa
-# (llvmpipe), loading triton's LLVM after Mesa's libLLVM crashes the process.
-import gymnasium as gym  # noqa: E402
-import torch  # noqa: E402
-import torch._dynamo  # noqa: E402,F401
-from stable_baselines3 import SAC, HerReplayBuffer  # noqa: E402
-
-import trossen_arm_mujoco  # noqa: E402,F401  (registers the env ids)
+import trossen_arm_mujoco  # noqa: F401  (registers the env ids; state envs open no GL)
 
 ENV_ID = "TrossenMujoco/WXAIReachGoal-v0"
 EVAL_SEED_OFFSET = 1_000_000

@@ -2,6 +2,7 @@
 
     python benchmarks/scripted_success.py --episodes 200            # without noise
     python benchmarks/scripted_success.py --episodes 200 --noise    # with noise
+    python benchmarks/scripted_success.py --task sim_insertion --episodes 100 [--noise]
 
 Runs both phases per seed (scripted mocap rollout, joint replay) exactly as recording does,
 without cameras, and prints successes, the rate and the wall time, plus how close the
@@ -36,7 +37,9 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--noise", action="store_true")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--episode_len", type=int, default=600)
+    parser.add_argument(
+        "--episode_len", type=int, default=None, help="default: the task's recording default"
+    )
     args = parser.parse_args()
 
     measured = np.zeros(16)
@@ -44,9 +47,12 @@ def main() -> None:
     def track(_t: int, obs: dict, _env) -> None:
         np.maximum(measured, np.abs(obs["qvel"]) / ACTION_SPEED_LIMITS, out=measured)
 
+    from trossen_arm_mujoco.tasks import registry
+
+    episode_len = args.episode_len or registry.load(args.task).record["episode_len"]
     settings = RecordSettings(
         task_name=args.task,
-        episode_len=args.episode_len,
+        episode_len=episode_len,
         inject_noise=args.noise,
         base_seed=args.seed,
     )

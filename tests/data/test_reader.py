@@ -123,7 +123,7 @@ def test_empty_file(tmp_path):
         (lambda f: f["observations/qvel"].__setitem__((2, 0), np.inf), "qvel contains NaN"),
         (lambda f: f.__delitem__("observations/qvel"), "missing dataset /observations/qvel"),
         (lambda f: f.__delitem__("reward"), "missing dataset /reward"),
-        (lambda f: f.attrs.__delitem__("box_pose"), r"missing root attributes \['box_pose'\]"),
+        (lambda f: f.attrs.__delitem__("seed"), r"missing root attributes \['seed'\]"),
         (lambda f: f.attrs.__setitem__("schema_version", 99), "schema_version 99"),
         (lambda f: f.attrs.__setitem__("episode_len", 7), "episode_len=7"),
         (

@@ -28,16 +28,19 @@ DOCUMENTED_ARRAYS = {
     "observations/env_state": ((7,), np.float64),
 }
 DOCUMENTED_ATTRS = {
-    "sim", "task_name", "seed", "success", "episode_len", "dt", "camera_names", "box_pose",
+    "sim", "task_name", "seed", "success", "episode_len", "dt", "camera_names",
     "package_version", "mujoco_version", "schema_version",
 }  # fmt: skip
+#: Checked when present, not required (written for tasks with the cube).
+OPTIONAL_CHECKED_ATTRS = {"box_pose"}
 
 
 def test_schema_object_matches_documented_layout():
     assert SCHEMA.version == SCHEMA_VERSION == 1
     assert SCHEMAS[1] is SCHEMA
     assert {spec.path: (spec.width, spec.dtype) for spec in SCHEMA.arrays} == DOCUMENTED_ARRAYS
-    assert set(SCHEMA.attrs) == DOCUMENTED_ATTRS == set(ATTR_KINDS)
+    assert set(SCHEMA.attrs) == DOCUMENTED_ATTRS
+    assert set(ATTR_KINDS) == DOCUMENTED_ATTRS | OPTIONAL_CHECKED_ATTRS
     assert SCHEMA.image_path("cam_high") == "observations/images/cam_high"
     assert SCHEMA.image_dtype == np.uint8
     assert SCHEMA.image_chunks(480, 640) == (1, 480, 640, 3)
@@ -65,7 +68,7 @@ def test_written_file_has_documented_layout(tmp_path, make_episode):
             assert images.dtype == np.uint8
             assert images.chunks == (1, 24, 32, 3)
         attrs = dict(f.attrs)
-    assert set(attrs) == DOCUMENTED_ATTRS
+    assert set(attrs) == DOCUMENTED_ATTRS | OPTIONAL_CHECKED_ATTRS  # the fixture writes box_pose
     assert isinstance(attrs["sim"], np.bool_) and attrs["sim"]
     assert attrs["schema_version"] == 1
     assert attrs["episode_len"] == 3

@@ -287,3 +287,19 @@ def test_commit_is_flushed_to_disk(tmp_path, monkeypatch):
         assert synced == []
     assert synced == [("file", str(tmp_path / ".episode_0.hdf5.tmp")), ("dir", str(tmp_path))]
     assert os.path.exists(path)
+
+
+def test_env_state_width_is_chosen_per_episode(tmp_path):
+    """Tasks with two objects (peg insertion) store 14 env_state values per step."""
+    path = tmp_path / "episode_0.hdf5"
+    with EpisodeWriter(path, episode_len=2, attrs=ATTRS, env_state_dim=14) as w:
+        for _ in range(2):
+            w.append(np.zeros(16), np.zeros(16), np.zeros(16), 0.0, np.arange(14.0), {})
+    ep = load_episode(path)
+    assert ep.env_state.shape == (2, 14)
+    np.testing.assert_array_equal(ep.env_state[1], np.arange(14.0))
+    with pytest.raises(EpisodeWriteError, match=r"env_state has shape \(7,\), expected \(14,\)"):
+        with EpisodeWriter(tmp_path / "episode_1.hdf5", episode_len=1, attrs=ATTRS,
+                           env_state_dim=14) as w:  # fmt: skip
+            w.append(np.zeros(16), np.zeros(16), np.zeros(16), 0.0, np.zeros(7), {})
+    assert not (tmp_path / "episode_1.hdf5").exists()

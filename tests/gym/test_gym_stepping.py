@@ -48,11 +48,8 @@ def test_paused_sleeps_the_remainder():
             def step(n):
                 pass
 
-        def apply_action(self, commands):
-            pass
-
-        def finish_step(self):
-            pass
+        def advance(self, commands):
+            self.env.step(self.n_ctrl_steps)
 
     stepper.step(FakeTask(), {})
     assert slept == [pytest.approx(0.015)]
@@ -94,3 +91,40 @@ def test_unknown_stepping_lists_modes(make_env):
         make_env(REACH, stepping="turbo")
     with pytest.raises(UserError, match="fast"):
         make_stepper("slow")
+
+
+@pytest.mark.parametrize("stepping", ["fast", "paused"])
+def test_regimes_advance_time_through_the_env_step_loop(make_env, stepping):
+    """One gym step = Task.advance = policy_dt / ctrl_dt ticks of MujocoEnv.step."""
+    env = make_env(REACH, stepping=stepping, ctrl_dt=0.01)
+    env.reset(seed=0)
+    scene = env.unwrapped.scene
+    calls = []
+    original = scene.step
+    scene.step = lambda n=1: (calls.append(n), original(n))
+    t0 = scene.data.time
+    env.step(env.action_space.sample())
+    assert calls == [2]  # policy_dt 0.02 s / ctrl_dt 0.01 s, from the task's config
+    assert scene.data.time - t0 == pytest.approx(env.unwrapped.task.policy_dt)
+
+
+def test_realtime_ticks_through_env_step_and_keeps_moving_toward_the_action(make_env):
+    """The background thread runs env.step(1) per tick: a far joint target is approached
+    at the rate limit tick after tick, not just once when the action arrives."""
+    env = make_env(REACH, stepping="realtime")
+    env.reset(seed=0)
+    u = env.unwrapped
+    scene, arm = u.scene, u.task.arm
+    calls = []
+    original = scene.step
+    scene.step = lambda n=1: (calls.append(n), original(n))
+    with u.stepper.lock:
+        c0 = arm.get_ctrl(scene.data)
+    action = np.ones(env.action_space.shape, dtype=np.float32)  # every joint to its upper end
+    env.step(action)
+    time.sleep(0.3)
+    with u.stepper.lock:
+        moved = np.abs(arm.get_ctrl(scene.data) - c0)
+    max_step = arm.velocity_limits * u.task.ctrl_dt
+    assert calls and set(calls) == {1}
+    assert np.max(moved / max_step) > 3  # several ticks' worth, at the limit

@@ -75,7 +75,7 @@ def test_existing_episodes_are_never_overwritten(tmp_path, capsys):
 @pytest.mark.parametrize(
     "extra, needle",
     [
-        (["--task_name", "sim_insertion"], "unknown task 'sim_insertion'"),
+        (["--task_name", "sim_folding"], "unknown task 'sim_folding'"),
         (["--cam_names", "cam_top"], "unknown camera 'cam_top'"),
         (["--episode_len", "0"], "--episode_len must be at least 1"),
         (["--num_episodes", "0"], "--num_episodes must be at least 1"),

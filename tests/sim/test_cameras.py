@@ -105,3 +105,52 @@ def test_wrist_camera_moves_with_the_arm(kit):
         cams.close()
     assert np.linalg.norm(data.cam_xpos[wrist] - cam_pos[wrist]) > 0.05
     np.testing.assert_array_equal(data.cam_xpos[high], cam_pos[high])  # fixed to the frame
+
+
+def test_forked_child_of_a_rendering_process_cannot_render(kit, monkeypatch):
+    """In a process forked from one with a GL context, rendering would hang: the first
+    render fails at once with a one-line error naming the fix."""
+    from trossen_arm_mujoco.sim import cameras as cameras_module
+
+    model, data = kit
+    monkeypatch.setattr(cameras_module, "_forked_from_gl", True)
+    cams = CameraSet(model, ["cam_high"], H, W)
+    with pytest.raises(UserError, match='context="spawn"') as err:
+        cams.render(data, "cam_high")
+    assert "\n" not in str(err.value) and cams._renderer is None
+    with pytest.raises(UserError, match="forked"):
+        cameras_module.check_can_render()
+    monkeypatch.setattr(cameras_module, "_forked_from_gl", False)
+    cameras_module.check_can_render()  # nothing to say in a fresh process
+
+
+def test_gl_opened_after_a_render(kit):
+    from trossen_arm_mujoco.sim import cameras as cameras_module
+
+    model, data = kit
+    cams = CameraSet(model, ["cam_high"], H, W)
+    cams.render(data, "cam_high")
+    assert cameras_module.gl_opened()
+    cams.close()
+
+
+def test_unclosed_renderer_exits_cleanly():
+    """A renderer never closed is closed at exit, before MuJoCo terminates its EGL display
+    (no 'Exception ignored ... EGLError' noise at interpreter shutdown)."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import gymnasium as gym\n"
+        "import trossen_arm_mujoco\n"
+        "env = gym.make('TrossenMujoco/WXAIReach-v0', obs_type='pixels', width=32, height=24)\n"
+        "print(env.reset(seed=0)[0].shape)\n"  # and no env.close()
+    )
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    proc = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "(24, 32, 3)" in proc.stdout
+    assert "Exception ignored" not in proc.stderr, proc.stderr

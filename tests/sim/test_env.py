@@ -127,3 +127,77 @@ def test_rendering_through_the_env():
     assert images["cam_high"].shape == (24, 32, 3) and images["cam_high"].dtype == np.uint8
     env.close()
     env.close()  # idempotent
+
+
+def _arm_moves(env: MujocoEnv) -> np.ndarray:
+    env.reset()
+    env.objects["box"].set_pose(env.data, [0.05, -0.05, 0.0325, 1, 0, 0, 0])
+    env.forward()
+    env.robots["kit"].update_control({"left_arm": env.data.qpos[:6] + 0.3})
+    env.step(30)
+    return env.data.qpos.copy()
+
+
+def test_env_without_physics_runs_on_plain_mujoco_and_matches_dm_control():
+    """Without a Physics the env owns a plain MjModel/MjData and steps with mj_step; the
+    trajectory is bit for bit the one of the same env over a dm_control Physics."""
+    kwargs = dict(
+        robots={"kit": stationary_ai_joint_config()},
+        objects={"box": ("red_box_joint", "red_box")},
+        ctrl_dt=0.02,
+    )
+    plain = MujocoEnv(KIT_JOINT, **kwargs)
+    assert plain.physics is None
+    assert isinstance(plain.model, mujoco.MjModel) and isinstance(plain.data, mujoco.MjData)
+    over_physics = MujocoEnv(physics=load_physics(KIT_JOINT), **kwargs)
+    np.testing.assert_array_equal(_arm_moves(plain), _arm_moves(over_physics))
+
+
+def test_env_over_a_model_and_data():
+    model = mujoco.MjModel.from_xml_path(str(WXAI))
+    data = mujoco.MjData(model)
+    env = MujocoEnv(model=model, data=data, robots={"wxai": wxai_config()}, ctrl_dt=0.02)
+    assert env.model is model and env.data is data and env.physics is None
+    env.reset()
+    env.step(3)
+    assert data.time == pytest.approx(0.06)
+    assert MujocoEnv(model=model).data is not data  # a new MjData when none is given
+
+
+def test_load_model_errors(tmp_path):
+    from trossen_arm_mujoco.sim.env import load_model
+
+    with pytest.raises(UserError, match="model file not found"):
+        load_model(tmp_path / "missing.xml")
+    broken = tmp_path / "broken.xml"
+    broken.write_text("<mujoco><worldbody><body></mujoco>")
+    with pytest.raises(UserError, match="cannot load model") as err:
+        load_model(broken)
+    assert "\n" not in str(err.value)
+    with pytest.raises(UserError, match="cannot load model"):
+        MujocoEnv(broken)
+
+
+def test_one_stepping_loop_control_then_physics():
+    """step(n): n control ticks, each the robots' control and then ctrl_dt / sim_dt
+    physics steps; nothing else advances time."""
+    env = MujocoEnv(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=0.01)
+    env.reset()
+    calls = []
+    env.robots["wxai"].compute_control = lambda data: calls.append(("control", data.time))
+    physics = env._physics_step
+    env._physics_step = lambda n: (calls.append(("physics", n)), physics(n))
+    env.step(3)
+    assert [c[0] for c in calls] == ["control", "physics"] * 3
+    assert all(n == 5 for kind, n in calls if kind == "physics")
+    assert [t for kind, t in calls if kind == "control"] == pytest.approx([0.0, 0.01, 0.02])
+
+
+def test_cameras_open_no_renderer_until_an_image_is_asked_for():
+    env = MujocoEnv(KIT_JOINT, camera_names=["cam_high"], height=24, width=32)
+    env.reset()
+    env.step(2)
+    assert env.cameras._renderer is None
+    env.render_images()
+    assert env.cameras._renderer is not None
+    env.close()

@@ -11,7 +11,7 @@ from trossen_arm_mujoco.tasks.task import Task
 
 
 def test_names():
-    assert registry.names() == ["pick_place", "push", "reach", "sim_transfer_cube"]
+    assert registry.names() == ["pick_place", "push", "reach", "sim_insertion", "sim_transfer_cube"]
 
 
 def test_old_names_are_aliases():

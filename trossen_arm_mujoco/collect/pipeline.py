@@ -251,6 +251,7 @@ class EpisodeRecorder:
             width=s.width,
             compression=s.compression,
             attrs=attrs,
+            env_state_dim=len(attrs["initial_env_state"]),
             overwrite=overwrite,
         ) as writer:
             rewards = self.replay(actions, poses, writer, progress)

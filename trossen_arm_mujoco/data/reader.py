@@ -45,7 +45,8 @@ class Episode:
         path: the file.
         qpos, qvel, action: float64 ``(T, 16)`` (rad, rad/s; fingers m, m/s).
         reward: float64 ``(T,)``, None for vendor files.
-        env_state: float64 ``(T, 7)`` cube xyz + quat wxyz, None for vendor files.
+        env_state: float64 ``(T, 7k)`` object poses (xyz + quat wxyz each; the cube
+            transfer: k = 1), None for vendor files.
         camera_names: cameras with an image dataset, in recording order.
         image_shapes: ``{camera: (H, W, 3)}``.
         attrs: root attributes as plain Python values (str, int, float, bool, list).
@@ -234,7 +235,10 @@ def _load(f: h5py.File, path: Path, load_images: bool) -> Episode:
         want = "(T, " + ", ".join(map(str, spec.width)) + ")" if spec.width else "(T,)"
         if not isinstance(node, h5py.Dataset):
             raise EpisodeError(f"{path}: /{spec.path} is a group, expected a dataset {want}")
-        if node.ndim != 1 + len(spec.width) or node.shape[1:] != spec.width:
+        width_ok = node.shape[1:] == spec.width or (
+            spec.variable and node.ndim == 2 and node.shape[1] % spec.width[0] == 0 < node.shape[1]
+        )
+        if node.ndim != 1 + len(spec.width) or not width_ok:
             raise EpisodeError(f"{path}: /{spec.path} has shape {node.shape}, expected {want}")
         if node.dtype.kind != "f":
             raise EpisodeError(

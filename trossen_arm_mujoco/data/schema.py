@@ -4,15 +4,17 @@ One file ``episode_<k>.hdf5`` holds one episode of ``T`` steps (the layout ACT-s
 training code reads)::
 
     /                              attrs: sim=True, task_name, seed, success, episode_len,
-                                          dt, camera_names, box_pose, package_version,
+                                          dt, camera_names, package_version,
                                           mujoco_version, schema_version; the recorder
-                                          adds real_replay_checked, real_replay_fps,
+                                          adds box_pose (tasks with the cube),
+                                          initial_env_state, object_names,
+                                          real_replay_checked, real_replay_fps,
                                           peak_speed_fraction, speed_limited_values
     /action                        float64 (T, 16)   joint targets, see constants.START_ARM_POSE
     /reward                        float64 (T,)
     /observations/qpos             float64 (T, 16)   rad (revolute) / m (fingers)
     /observations/qvel             float64 (T, 16)   rad/s / m/s
-    /observations/env_state        float64 (T, 7)    cube pose: xyz (m) + quat wxyz
+    /observations/env_state        float64 (T, 7k)   object poses: xyz (m) + quat wxyz each
     /observations/images/<cam>     uint8 (T, H, W, 3), chunked (1, H, W, 3)
 
 Files recorded by the vendor package ("vendor files") hold only ``sim`` and the
@@ -41,7 +43,8 @@ SCHEMA_VERSION: int = 1
 #: Width of qpos, qvel and action vectors (two arms x (6 joints + 2 fingers)).
 NUM_JOINTS: int = KIT_LAYOUT.size
 
-#: Width of env_state: cube position xyz (m) + orientation quaternion wxyz.
+#: Width of env_state per object: position xyz (m) + orientation quaternion wxyz; the cube
+#: transfer has one object (7 values), peg insertion two (peg then socket, 14 values).
 ENV_STATE_DIM: int = 7
 
 #: Joint labels and units in qpos/action order (plots, messages), from the kit layout:
@@ -66,12 +69,15 @@ class ArraySpec:
         width: per-step shape; ``()`` for a scalar per step, ``(16,)`` for a vector.
         dtype: dtype the writer stores.
         vendor: True when vendor files have this dataset too (required on load).
+        variable: True when the vector length is chosen per episode (``width`` is then the
+            default): ``env_state`` holds 7 values per object of the task.
     """
 
     path: str
     width: tuple[int, ...]
     dtype: np.dtype
     vendor: bool
+    variable: bool = False
 
     def shape(self, num_steps: int) -> tuple[int, ...]:
         """Full dataset shape for an episode of ``num_steps`` steps."""
@@ -125,7 +131,7 @@ SCHEMA_V1 = EpisodeSchema(
         ArraySpec("observations/qvel", (NUM_JOINTS,), _F64, vendor=True),
         ArraySpec("action", (NUM_JOINTS,), _F64, vendor=True),
         ArraySpec("reward", (), _F64, vendor=False),
-        ArraySpec("observations/env_state", (ENV_STATE_DIM,), _F64, vendor=False),
+        ArraySpec("observations/env_state", (ENV_STATE_DIM,), _F64, vendor=False, variable=True),
     ),
     image_group="observations/images",
     image_dtype=np.dtype(np.uint8),
@@ -137,7 +143,6 @@ SCHEMA_V1 = EpisodeSchema(
         "episode_len",
         "dt",
         "camera_names",
-        "box_pose",
         "package_version",
         "mujoco_version",
         "schema_version",

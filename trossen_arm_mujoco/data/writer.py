@@ -16,7 +16,13 @@ from typing import Any
 import h5py
 import numpy as np
 
-from trossen_arm_mujoco.data.schema import COMPRESSIONS, SCHEMA, encode_attr, temp_file_name
+from trossen_arm_mujoco.data.schema import (
+    COMPRESSIONS,
+    ENV_STATE_DIM,
+    SCHEMA,
+    encode_attr,
+    temp_file_name,
+)
 from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import publish
@@ -66,7 +72,8 @@ class EpisodeWriter:
         camera_names: cameras whose images every step carries (may be empty).
         height, width: image size in pixels (480, 640 at documented settings).
         compression: ``"none"`` | ``"gzip"`` | ``"lzf"``, for the image datasets.
-        attrs: root attributes; ``task_name``, ``seed``, ``success`` and ``box_pose`` must be
+        env_state_dim: values per step of ``env_state`` (7 per object of the task).
+        attrs: root attributes; ``task_name``, ``seed`` and ``success`` must be
             set before :meth:`close` (here or with :meth:`set_attrs`).
         overwrite: replace an existing final file instead of refusing.
     """
@@ -81,8 +88,19 @@ class EpisodeWriter:
         compression: str = "none",
         attrs: Mapping[str, Any] | None = None,
         overwrite: bool = False,
+        env_state_dim: int = ENV_STATE_DIM,
     ) -> None:
         self.path = Path(path).expanduser()
+        if int(env_state_dim) < 1 or int(env_state_dim) % ENV_STATE_DIM:
+            raise EpisodeWriteError(
+                f"env_state_dim must be a positive multiple of {ENV_STATE_DIM} (7 values per "
+                f"object), got {env_state_dim}"
+            )
+        #: Per-step shape of every numeric dataset (``env_state`` chosen per episode).
+        self.widths = {
+            name: (int(env_state_dim),) if spec.variable else spec.width
+            for name, spec in zip(SCHEMA.array_names, SCHEMA.arrays, strict=True)
+        }
         self.temp_path = self.path.with_name(temp_file_name(self.path.name))
         self.episode_len = int(episode_len)
         self.camera_names = list(camera_names)
@@ -140,7 +158,7 @@ class EpisodeWriter:
         self._arrays = {}
         for name, spec in zip(SCHEMA.array_names, SCHEMA.arrays, strict=True):
             self._arrays[name] = self._file.create_dataset(
-                spec.path, shape=spec.shape(self.episode_len), dtype=spec.dtype
+                spec.path, shape=(self.episode_len, *self.widths[name]), dtype=spec.dtype
             )
         self._file.require_group(SCHEMA.image_group)
         self._images = {
@@ -198,7 +216,7 @@ class EpisodeWriter:
         Args:
             qpos, qvel, action: 16 finite values each (rad, rad/s for joints; m, m/s fingers).
             reward: finite scalar.
-            env_state: 7 finite values, cube xyz (m) + quat wxyz.
+            env_state: ``env_state_dim`` finite values, object poses xyz (m) + quat wxyz.
             images: ``{camera: uint8 (H, W, 3)}`` for exactly the writer's cameras.
         """
         if self._file is None:
@@ -230,9 +248,9 @@ class EpisodeWriter:
             raise EpisodeWriteError(
                 f"step {t}: {name} must be numeric, got {type(value).__name__}"
             ) from None
-        if arr.shape != spec.width:
+        if arr.shape != self.widths[name]:
             raise EpisodeWriteError(
-                f"step {t}: {name} has shape {arr.shape}, expected {spec.width}"
+                f"step {t}: {name} has shape {arr.shape}, expected {self.widths[name]}"
             )
         if not np.all(np.isfinite(arr)):
             raise EpisodeWriteError(f"step {t}: {name} contains NaN or inf: {arr.tolist()}")

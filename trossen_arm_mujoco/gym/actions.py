@@ -19,6 +19,7 @@ until the target is above the floor. Either way the step reports ``safety_clippe
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -70,6 +71,17 @@ class ActionMapper:
         arm_dim = 3 if mode == "ee_delta" else 6
         self.sizes = [arm_dim + 1 for _ in self.arms]
         self.dim = sum(self.sizes)
+        # per arm, looked up once: action slices, and the centre and half-width of the arm's
+        # and the gripper's control ranges ([-1, 1] maps onto centre -/+ half-width)
+        self._parts = []
+        start = 0
+        for (arm, gripper), size in zip(self.arms, self.sizes, strict=True):
+            a_low, a_high = arm.ctrl_limits()
+            g_low, g_high = gripper.ctrl_limits()
+            self._parts.append((arm, gripper, start, start + size - 1,
+                                0.5 * (a_low + a_high), 0.5 * (a_high - a_low),
+                                0.5 * (g_low + g_high), 0.5 * (g_high - g_low)))  # fmt: skip
+            start += size
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Action bounds: -1 and +1, float32 (dim,)."""
@@ -84,58 +96,59 @@ class ActionMapper:
     ) -> tuple[dict[str, np.ndarray], bool]:
         """(commands by move group, whether the safety floor changed the action)."""
         a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (self.dim,):
+        if a.shape[0] != self.dim:
             raise UserError(f"action must have {self.dim} values, got {a.size}")
-        if not np.all(np.isfinite(a)):
+        # a @ a is finite iff every value is (or a huge one overflowed: check exactly then)
+        if not math.isfinite(a @ a) and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        a = np.clip(a, -1.0, 1.0)
+        a = np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip(a, -1, 1), without its overhead
         commands: dict[str, np.ndarray] = {}
         clipped = False
-        start = 0
-        for (arm, gripper), size in zip(self.arms, self.sizes, strict=True):
-            part = a[start : start + size]
-            start += size
-            cmd, hit = self._arm_command(data, arm, part[:-1])
+        for arm, gripper, start, grip, a_mid, a_half, g_mid, g_half in self._parts:
+            cmd, hit = self._arm_command(data, arm, a[start:grip], a_mid, a_half)
             commands[arm.name] = cmd
             clipped |= hit
-            low, high = gripper.ctrl_limits()
-            commands[gripper.name] = low + 0.5 * (part[-1:] + 1.0) * (high - low)
+            commands[gripper.name] = g_mid + g_half * a[grip : grip + 1]
         return commands, clipped
 
     # -- per mode -------------------------------------------------------------------------
-    def _arm_command(self, data, arm, a: np.ndarray) -> tuple[np.ndarray, bool]:
+    def _arm_command(self, data, arm, a, mid, half) -> tuple[np.ndarray, bool]:
         if self.mode == "ee_delta":
             return self._ee_delta(data, arm, a)
         q_now = arm.get_qpos(data)
         if self.mode == "joint_position":
-            low, high = arm.ctrl_limits()
-            target = low + 0.5 * (a + 1.0) * (high - low)
+            move = None
+            target = mid + half * a
         else:
-            target = q_now + a * self.rel_limit
+            move = a * self.rel_limit
+            target = q_now + move
         fraction, hit = self._safe_fraction(data, arm, q_now, target)
+        if not hit:
+            return (target if move is None else move), False
         target = q_now + fraction * (target - q_now)
-        return (target if self.mode == "joint_position" else target - q_now), hit
+        return (target if move is None else target - q_now), True
 
     def _ee_delta(self, data, arm, a: np.ndarray) -> tuple[np.ndarray, bool]:
-        pose = arm.get_frame_pose(data)
+        z = data.site_xpos[arm.frame_site_id, 2]
         delta = a * self.ee_limit
         hit = False
-        if pose[2] + delta[2] < self.floor_z:
-            delta[2] = min(self.floor_z - pose[2], self.ee_limit)
+        if z + delta[2] < self.floor_z:
+            delta[2] = min(self.floor_z - z, self.ee_limit)
             hit = True
         if not self.hold:
             return delta, hit
-        ref = self.ref_quat.get(arm.name, pose[3:])
-        rot = np.clip(orientation_error(ref, pose[3:]), -MAX_ROTATION_STEP, MAX_ROTATION_STEP)
+        quat = arm.get_frame_pose(data)[3:]
+        ref = self.ref_quat.get(arm.name, quat)
+        rot = np.clip(orientation_error(ref, quat), -MAX_ROTATION_STEP, MAX_ROTATION_STEP)
         return np.concatenate([delta, rot]), hit
 
     def _safe_fraction(self, data, arm, q_now, target) -> tuple[float, bool]:
         """Largest tried fraction of the move whose tool frame stays above the floor."""
         kin = self.kin[arm.name]
-        if kin.site_pose(data.qpos, target)[2] >= self.floor_z:
+        if kin.site_position(data.qpos, target)[2] >= self.floor_z:
             return 1.0, False
         for fraction in BACKOFF:
             q = q_now + fraction * (target - q_now)
-            if kin.site_pose(data.qpos, q)[2] >= self.floor_z:
+            if kin.site_position(data.qpos, q)[2] >= self.floor_z:
                 return fraction, True
         return 0.0, True

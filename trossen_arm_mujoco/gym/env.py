@@ -37,6 +37,7 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.actions import ACTION_MODES, ActionMapper
 from trossen_arm_mujoco.gym.spaces import OBS_TYPES, ObservationBuilder
 from trossen_arm_mujoco.gym.stepping import STEPPING_MODES, make_stepper
+from trossen_arm_mujoco.sim.cameras import check_can_render
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.task import Task
 
@@ -60,7 +61,8 @@ def has_display() -> bool:
 class TrossenMujocoEnv(gymnasium.Env):
     """Gymnasium env over a registered task (see the module docstring for the kwargs)."""
 
-    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 50}
+    # render_fps: 1 / policy_dt of the task (its YAML config), set per instance
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": None}
     goal_env = False
 
     def __init__(
@@ -98,8 +100,11 @@ class TrossenMujocoEnv(gymnasium.Env):
         if cameras is None:
             cameras = sampler_cls.cameras[:1]
         cameras = [cameras] if isinstance(cameras, str) else list(cameras)
-        if not cameras and (obs_type != "state" or render_mode == "rgb_array"):
+        renders = obs_type != "state" or render_mode == "rgb_array"
+        if renders and not cameras:
             raise UserError("pixel observations and rgb_array renders need at least one camera")
+        if renders:
+            check_can_render()  # fail now, not with a hang at the first image
         self.task_name = task
         self.obs_type, self.action_mode, self.render_mode = obs_type, action_mode, render_mode
         self.config = entry.load_config(**config)

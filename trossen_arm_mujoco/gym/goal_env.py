@@ -53,8 +53,8 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
 
     def _reward_terminated(self, obs: Any, info: dict[str, Any]) -> tuple[float, bool]:
         achieved, desired = obs["achieved_goal"], obs["desired_goal"]
-        info["is_success"] = bool(self.probe.goal_success(achieved, desired))
-        return (
-            float(self.compute_reward(achieved, desired, info)),
-            bool(self.compute_terminated(achieved, desired, info)),
-        )
+        success = bool(self.probe.goal_success(achieved, desired))
+        info["is_success"] = success
+        # compute_terminated(achieved, desired, info), from the success just computed
+        terminated = success and bool(self.config.get("terminate_on_success", False))
+        return float(self.compute_reward(achieved, desired, info)), terminated

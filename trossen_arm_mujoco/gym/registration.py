@@ -21,7 +21,8 @@ ENV_IDS: dict[str, tuple[str, str, dict[str, Any]]] = {
     f"{NAMESPACE}/WXAIReach-v0": (_ENV, "reach", {}),
     f"{NAMESPACE}/WXAIPush-v0": (_ENV, "push", {}),
     f"{NAMESPACE}/WXAIPickPlace-v0": (_ENV, "pick_place", {}),
-    f"{NAMESPACE}/StationaryAITransferCube-v0": (_ENV, "transfer_cube", {}),
+    f"{NAMESPACE}/StationaryAITransferCube-v0": (_ENV, "sim_transfer_cube", {}),
+    f"{NAMESPACE}/StationaryAIInsertion-v0": (_ENV, "sim_insertion", {}),
     f"{NAMESPACE}/WXAIReachGoal-v0": (_GOAL_ENV, "reach", {}),
     f"{NAMESPACE}/WXAIPushGoal-v0": (_GOAL_ENV, "push", {}),
     f"{NAMESPACE}/WXAIPickPlaceGoal-v0": (_GOAL_ENV, "pick_place", {}),
@@ -29,9 +30,9 @@ ENV_IDS: dict[str, tuple[str, str, dict[str, Any]]] = {
 
 
 def _max_episode_steps(task: str) -> int:
-    from trossen_arm_mujoco.tasks.config import CONFIG_DIR, read_yaml
+    from trossen_arm_mujoco.tasks import registry
 
-    return int(read_yaml(CONFIG_DIR / f"{task}.yaml")["max_episode_steps"])
+    return int(registry.load(task).load_config()["max_episode_steps"])
 
 
 def register_envs() -> list[str]:

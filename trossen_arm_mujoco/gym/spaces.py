@@ -65,6 +65,7 @@ class ObservationBuilder:
         )
         self.image_space = spaces.Box(0, 255, (height, width * n_cameras, 3), dtype=np.uint8)
         self.space = self._space()
+        self._low, self._high = self.state_space.low, self.state_space.high
 
     @property
     def needs_images(self) -> bool:
@@ -91,11 +92,21 @@ class ObservationBuilder:
             desired = task.desired_goal()
             obs["goal"] = desired
             obs["goal_delta"] = desired - task.achieved_goal()
-        vec = np.concatenate([np.asarray(obs[k], float).reshape(-1) for k in self.keys])
-        return np.clip(vec.astype(np.float32), self.state_space.low, self.state_space.high)
+        parts = [obs[k] for k in self.keys]
+        try:  # the usual case: every entry a 1-D array
+            vec = np.concatenate(parts, dtype=np.float32)
+        except (ValueError, TypeError):
+            vec = None
+        if vec is None or vec.shape != self._low.shape:  # scalars, 0-d or n-d entries
+            vec = np.concatenate([np.asarray(p, float).reshape(-1) for p in parts])
+            vec = vec.astype(np.float32)
+        # np.clip(vec, low, high), in place and without its overhead
+        return np.minimum(np.maximum(vec, self._low, out=vec), self._high, out=vec)
 
     def goal(self, value: np.ndarray) -> np.ndarray:
-        return np.clip(np.asarray(value, np.float32), self.goal_low, self.goal_high)
+        """A goal as float32 (3,), clipped into the goal bounds (a new array)."""
+        g = np.array(value, dtype=np.float32)
+        return np.minimum(np.maximum(g, self.goal_low, out=g), self.goal_high, out=g)
 
     def build(self, task: Task, images: dict[str, np.ndarray] | None) -> Any:
         """The observation of the current state (``images``: camera -> (H, W, 3) uint8)."""

@@ -6,12 +6,16 @@
   the simulation waits while the policy thinks.
 - ``realtime``: a background thread advances physics in wall-clock time, one control tick
   (``ctrl_dt``) at a time, also while the policy thinks. ``step`` hands the action over and
-  returns at once; observations are the latest state. The control of an action is computed
-  once, when it arrives, and held until the next one. If the thread falls behind by more
-  than ``MAX_LAG`` seconds (e.g. a slow render holding the lock), it drops the backlog
-  (counted in ``dropped_s``) instead of racing to catch up.
+  returns at once; observations are the latest state. The robots keep working on the latest
+  action every tick (rate-limited moves continue until reached) until the next one arrives.
+  If the thread falls behind by more than ``MAX_LAG`` seconds (e.g. a slow render holding
+  the lock), it drops the backlog (counted in ``dropped_s``) instead of racing to catch up.
 
-All access to the simulation state goes through ``stepper.lock``.
+Every regime advances time through the one stepping loop, ``sim.env.MujocoEnv.step``:
+``fast`` and ``paused`` through ``Task.advance`` (``policy_dt / ctrl_dt`` ticks), ``realtime``
+with ``env.step(1)`` per tick. Timing comes from the task (``policy_dt``, ``ctrl_dt`` from its
+YAML config) and the model (``sim_dt``). All access to the simulation state goes through
+``stepper.lock``.
 """
 
 from __future__ import annotations
@@ -50,9 +54,7 @@ class Stepper:
         """Stop advancing the simulation (before a reset or close)."""
 
     def step(self, task: Task, commands: Mapping[str, np.ndarray]) -> None:
-        task.apply_action(commands)
-        task.env.step(task.n_ctrl_steps)
-        task.finish_step()
+        task.advance(commands)
 
     def close(self) -> None:
         self.stop()
@@ -86,7 +88,6 @@ class RealtimeStepper(Stepper):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._task: Task | None = None
-        self._pending: Mapping[str, np.ndarray] | None = None
         self.dropped_s = 0.0
         self.error: BaseException | None = None
 
@@ -96,7 +97,7 @@ class RealtimeStepper(Stepper):
 
     def start(self, task: Task) -> None:
         self.stop()
-        self._task, self._pending, self.error = task, None, None
+        self._task, self.error = task, None
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="trossen-realtime", daemon=True)
         self._thread.start()
@@ -114,7 +115,6 @@ class RealtimeStepper(Stepper):
             self.start(task)
         with self._lock:
             task.apply_action(commands)  # validates now, in the caller's thread
-            self._pending = commands
             task.finish_step()
 
     def _run(self) -> None:
@@ -125,10 +125,7 @@ class RealtimeStepper(Stepper):
         try:
             while not self._stop.is_set():
                 with self._lock:
-                    if self._pending is not None:
-                        env.apply_control()
-                        self._pending = None
-                    env.physics.step(env.n_substeps)
+                    env.step(1)
                     ahead = (env.data.time - sim0) - (time.perf_counter() - wall0)
                 if ahead > 0:
                     self._stop.wait(ahead)

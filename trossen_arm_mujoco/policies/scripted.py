@@ -14,6 +14,8 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.quaternion import Quaternion
+from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
+from trossen_arm_mujoco.tasks.task import DEFAULT_POLICY_DT
 
 Waypoint = dict
 
@@ -71,3 +73,63 @@ def add_position_noise(
             w["xyz"] = w["xyz"] + rng.uniform(-scale, scale, size=3)
         out.append(w)
     return out
+
+
+#: Planned gripper speed of the scripted policies: 80 % of the real carriage's speed limit
+#: (0.0875 m/s), so recordings replay on the real arm at their own rate.
+GRIPPER_PLAN_SPEED: float = 0.8 * JOINT_VELOCITY_LIMITS["left_carriage_joint"]
+
+
+def steps_for(distance: float, speed: float, dt: float = DEFAULT_POLICY_DT) -> int:
+    """Whole policy steps (``dt`` s each) to cover ``distance`` at ``speed`` at most."""
+    return int(np.ceil(abs(distance) / (speed * dt)))
+
+
+class BimanualWaypointPolicy:
+    """Base of the scripted bimanual policies of the end-effector env.
+
+    Called with a time step whose ``observation`` has ``mocap_pose_left``,
+    ``mocap_pose_right`` (tool poses) and ``env_state``; returns the 16-value EE action
+    ``[left xyz, left quat wxyz, left gripper, right xyz, right quat, right gripper]``. On the
+    first call ``generate_trajectory(ts_first)`` builds ``left_trajectory`` and
+    ``right_trajectory`` from the subclass's ``plan(observation)``.
+
+    Args:
+        inject_noise: perturb waypoint positions (see the subclass), drawn from ``rng`` only.
+        rng: ``np.random.Generator`` or int seed for the noise.
+    """
+
+    #: Steps the plan needs before the task can be judged.
+    minimum_episode_len: int = 0
+
+    def __init__(self, inject_noise: bool = False, rng: np.random.Generator | int | None = None):
+        self.inject_noise = inject_noise
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        self.step_count = 0
+        self.left_trajectory: list[Waypoint] = []
+        self.right_trajectory: list[Waypoint] = []
+
+    def plan(self, obs: dict) -> tuple[list[Waypoint], list[Waypoint]]:
+        """(left, right) waypoint lists from the first observation."""
+        raise NotImplementedError
+
+    def generate_trajectory(self, ts_first) -> None:
+        """Build ``left_trajectory`` and ``right_trajectory`` from the first time step."""
+        left, right = self.plan(ts_first.observation)
+        check_waypoints(left, "left trajectory")
+        check_waypoints(right, "right trajectory")
+        self.left_trajectory, self.right_trajectory = left, right
+
+    def _jitter(self, point, scale: float) -> np.ndarray:
+        """point + U(-scale, scale) per axis, from this policy's generator only."""
+        point = np.asarray(point, dtype=float)
+        return point + self.rng.uniform(-scale, scale, 3) if scale else point
+
+    def __call__(self, ts) -> np.ndarray:
+        """16-value EE action for the current step."""
+        if self.step_count == 0:
+            self.generate_trajectory(ts)
+        left = interpolate(self.left_trajectory, self.step_count)
+        right = interpolate(self.right_trajectory, self.step_count)
+        self.step_count += 1
+        return np.concatenate([left, right])

@@ -19,13 +19,13 @@ from __future__ import annotations
 import numpy as np
 
 from trossen_arm_mujoco.policies.scripted import (
+    GRIPPER_PLAN_SPEED,
+    BimanualWaypointPolicy,
     Waypoint,
-    check_waypoints,
-    interpolate,
+    steps_for,
     waypoint,
 )
 from trossen_arm_mujoco.quaternion import Quaternion
-from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 
 #: Finger travel commanded to grasp the 25 mm cube (pads would meet at 12.6 mm; the
@@ -33,20 +33,14 @@ from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 GRIPPER_GRASP = 0.008
 #: Where the cube is handed over (world, m).
 MEET_POINT = np.array([0.0, -0.12, 0.18])
-#: The real gripper's carriage speed limit (URDF, m/s); the plan opens and closes the fingers
-#: at :data:`GRIPPER_PLAN_FRACTION` of it, so recordings replay at their own 50 Hz.
-GRIPPER_SPEED_LIMIT = JOINT_VELOCITY_LIMITS["left_carriage_joint"]
-GRIPPER_PLAN_FRACTION = 0.8
-#: Steps (0.02 s each) to move the fingers between open and grasp (26 at 0.07 m/s).
-GRIPPER_STEPS = int(
-    np.ceil((GRIPPER_OPEN - GRIPPER_GRASP) / (GRIPPER_PLAN_FRACTION * GRIPPER_SPEED_LIMIT * 0.02))
-)
+#: Steps to move the fingers between open and grasp at the planned gripper speed (26).
+GRIPPER_STEPS = steps_for(GRIPPER_OPEN - GRIPPER_GRASP, GRIPPER_PLAN_SPEED)
 #: Noise scales (m): free-space waypoints, and waypoints that touch the cube.
 NOISE_FREE = 0.01
 NOISE_CONTACT = 0.002
 
 
-class PickAndTransferPolicy:
+class PickAndTransferPolicy(BimanualWaypointPolicy):
     """Scripted transfer of the cube from the right gripper to the left gripper.
 
     Args:
@@ -58,16 +52,8 @@ class PickAndTransferPolicy:
     #: Steps (0.02 s) the plan needs: the left arm holds the lifted cube alone from step 436.
     minimum_episode_len: int = 440
 
-    def __init__(self, inject_noise: bool = False, rng: np.random.Generator | int | None = None):
-        self.inject_noise = inject_noise
-        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-        self.step_count = 0
-        self.left_trajectory: list[Waypoint] = []
-        self.right_trajectory: list[Waypoint] = []
-
-    def generate_trajectory(self, ts_first) -> None:
-        """Build ``left_trajectory`` and ``right_trajectory`` from the first time step."""
-        obs = ts_first.observation
+    def plan(self, obs: dict) -> tuple[list[Waypoint], list[Waypoint]]:
+        """(left, right) waypoints from the first observation (see the module doc)."""
         left0 = np.asarray(obs["mocap_pose_left"], dtype=float)
         right0 = np.asarray(obs["mocap_pose_right"], dtype=float)
         box = np.asarray(obs["env_state"], dtype=float)[:3]
@@ -128,20 +114,4 @@ class PickAndTransferPolicy:
             waypoint(436, left_hold, left_quat, c),
             waypoint(600, left_hold, left_quat, c),
         ]
-        check_waypoints(left, "left trajectory")
-        check_waypoints(right, "right trajectory")
-        self.left_trajectory, self.right_trajectory = left, right
-
-    def _jitter(self, point, scale: float) -> np.ndarray:
-        """point + U(-scale, scale) per axis, from this policy's generator only."""
-        point = np.asarray(point, dtype=float)
-        return point + self.rng.uniform(-scale, scale, 3) if scale else point
-
-    def __call__(self, ts) -> np.ndarray:
-        """16-value EE action for the current step."""
-        if self.step_count == 0:
-            self.generate_trajectory(ts)
-        left = interpolate(self.left_trajectory, self.step_count)
-        right = interpolate(self.right_trajectory, self.step_count)
-        self.step_count += 1
-        return np.concatenate([left, right])
+        return left, right

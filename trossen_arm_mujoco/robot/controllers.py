@@ -18,6 +18,7 @@ rate-limited (their control is a pose).
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import mujoco
@@ -55,6 +56,10 @@ class Controller:
         if ctrl_dt is not None and not (np.isfinite(ctrl_dt) and ctrl_dt > 0):
             raise UserError(f"{group.name}: ctrl_dt must be a positive number of seconds")
         self.ctrl_dt = None if ctrl_dt is None else float(ctrl_dt)
+        self._step_key: tuple | None = None  # (velocity limits, dt) the cached step is for
+        self._step: np.ndarray | None = None
+        self._neg_step: np.ndarray | None = None
+        self._dim: int | None = None
 
     @property
     def command_dim(self) -> int:
@@ -72,8 +77,23 @@ class Controller:
         dt = self.ctrl_dt if self.ctrl_dt is not None else float(self.model.opt.timestep)
         return limits * dt
 
+    def _steps(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """(``max_step``, its negative), cached until the limits or ``ctrl_dt`` change."""
+        limits = self.group.velocity_limits
+        dt = self.ctrl_dt if self.ctrl_dt is not None else float(self.model.opt.timestep)
+        key = self._step_key
+        if key is None or key[0] is not limits or key[1] != dt:
+            self._step = None if limits is None else limits * dt
+            self._neg_step = None if limits is None else -self._step
+            self._step_key = (limits, dt)
+        return self._step, self._neg_step
+
     def target(self, data: mujoco.MjData, command: np.ndarray) -> np.ndarray:
         """The control the command asks for, before rate limiting, (ctrl_dim,)."""
+        return self._target(data, self._check(command))
+
+    def _target(self, data: mujoco.MjData, cmd: np.ndarray) -> np.ndarray:
+        """``target`` for a command already through ``_check``."""
         raise NotImplementedError
 
     def limit(self, data: mujoco.MjData, target: np.ndarray) -> np.ndarray:
@@ -83,17 +103,20 @@ class Controller:
         Joint modes clip each value on its own; IK modes (``scale_step``) shrink the whole
         step by one factor instead, so that the tool keeps its Cartesian direction.
         """
-        u = np.asarray(target, dtype=float)
-        step = self.max_step
-        if step is not None:
-            current = self.group.get_ctrl(data)
-            delta = u - current
+        group = self.group
+        step, neg_step = self._steps()
+        if step is None:
+            u = np.array(target, dtype=float)
+        else:
+            current = group.get_ctrl(data)
+            u = np.subtract(target, current, dtype=float)  # the step wanted
             if self.scale_step:
-                u = current + delta / max(1.0, float(np.max(np.abs(delta) / step)))
-            else:
-                u = current + np.clip(delta, -step, step)
-        low, high = self.group.ctrl_limits()
-        return np.clip(u, low, high)
+                u /= max(1.0, float((np.abs(u) / step).max()))
+            else:  # np.clip(u, -step, step), in place and without its overhead
+                np.minimum(np.maximum(u, neg_step, out=u), step, out=u)
+            u += current
+        # np.clip(u, low, high), in place
+        return np.minimum(np.maximum(u, group._ctrl_low, out=u), group._ctrl_high, out=u)
 
     def compute(self, data: mujoco.MjData, command: np.ndarray) -> np.ndarray:
         """The control of this tick for ``command`` (rate-limited), (ctrl_dim,)."""
@@ -101,12 +124,15 @@ class Controller:
 
     def _check(self, command: np.ndarray) -> np.ndarray:
         cmd = np.asarray(command, dtype=float).reshape(-1)
-        if cmd.shape != (self.command_dim,):
+        if self._dim is None:
+            self._dim = self.command_dim
+        if cmd.shape[0] != self._dim:
             raise UserError(
                 f"{self.group.name} ({self.command_mode}): expected {self.command_dim} values, "
                 f"got {cmd.size}"
             )
-        if not np.all(np.isfinite(cmd)):
+        # cmd @ cmd is finite iff every value is (or a huge one overflowed: check exactly then)
+        if not math.isfinite(cmd @ cmd) and not np.isfinite(cmd).all():
             raise UserError(f"{self.group.name}: command contains NaN or inf")
         return cmd
 
@@ -126,8 +152,8 @@ class JointPosController(Controller):
             raise UserError(f"{group.name}: joint_position needs joint actuators")
         super().__init__(group, model, ctrl_dt)
 
-    def target(self, data, command):
-        return self._check(command)
+    def _target(self, data, cmd):
+        return cmd
 
 
 class JointRelPosController(JointPosController):
@@ -141,9 +167,10 @@ class JointRelPosController(JointPosController):
         span = high - low
         return -span, span
 
-    def target(self, data, command):
-        low, high = self.group.ctrl_limits()
-        return np.clip(_actuated_qpos(self.group, data) + self._check(command), low, high)
+    def _target(self, data, cmd):
+        group = self.group
+        q = _actuated_qpos(group, data) + cmd
+        return np.minimum(np.maximum(q, group._ctrl_low), group._ctrl_high)
 
 
 class EEPoseController(Controller):
@@ -169,8 +196,7 @@ class EEPoseController(Controller):
     def command_limits(self):
         return np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]), np.array([2.0, 2.0, 2.0, 1, 1, 1, 1])
 
-    def target(self, data, command):
-        cmd = self._check(command)
+    def _target(self, data, cmd):
         if self._kin is None:
             return cmd
         q, _ = self._kin.solve(data.qpos, cmd[:3], cmd[3:], iterations=30)
@@ -208,8 +234,8 @@ class EEDeltaController(Controller):
             lim[3:] = 0.2
         return -lim, lim
 
-    def target(self, data, command):
-        return self.kinematics.delta_step(data.qpos, self._check(command))
+    def _target(self, data, cmd):
+        return self.kinematics.delta_step(data.qpos, cmd)
 
 
 CONTROLLERS: dict[str, type[Controller]] = {

@@ -26,9 +26,20 @@ def orientation_error(target_quat: np.ndarray, quat: np.ndarray) -> np.ndarray:
 
 
 def damped_least_squares(jac: np.ndarray, err: np.ndarray, damping: float = 1e-3) -> np.ndarray:
-    """dq = J^T (J J^T + damping^2 I)^-1 err; jac (m, n), err (m,) -> (n,)."""
+    """dq = J^T (J J^T + damping^2 I)^-1 err; jac (m, n), err (m,) -> (n,).
+
+    J J^T + damping^2 I is symmetric positive definite for damping > 0: solved by MuJoCo's
+    Cholesky (a fraction of ``np.linalg.solve``'s overhead at these sizes); LU otherwise."""
+    a = jac @ jac.T
+    m = a.shape[0]
+    a.flat[:: m + 1] += damping**2
+    rhs = np.ascontiguousarray(err, dtype=float)
+    if damping > 0 and mujoco.mju_cholFactor(a, 0.0) == m:
+        x = np.empty(m)
+        mujoco.mju_cholSolve(x, a, rhs)
+        return jac.T @ x
     jjt = jac @ jac.T
-    return jac.T @ np.linalg.solve(jjt + damping**2 * np.eye(jjt.shape[0]), err)
+    return jac.T @ np.linalg.solve(jjt + damping**2 * np.eye(m), rhs)
 
 
 class Kinematics:
@@ -54,21 +65,32 @@ class Kinematics:
         self.qpos_idx = np.asarray(qpos_idx, dtype=int)
         self.dof_idx = np.asarray(dof_idx, dtype=int)
         self.joint_range = np.asarray(joint_range, dtype=float)
+        self._low = self.joint_range[:, 0].copy()
+        self._high = self.joint_range[:, 1].copy()
         self._data = mujoco.MjData(model)
 
-    def _load(self, qpos_full: np.ndarray, q: np.ndarray | None = None) -> None:
+    def _load(self, qpos_full: np.ndarray, q: np.ndarray | None = None, com: bool = True) -> None:
+        """Scratch state at ``qpos_full`` (group joints replaced by ``q``): kinematics, and
+        with ``com`` the COM-based quantities Jacobians need."""
         self._data.qpos[:] = qpos_full
         if q is not None:
             self._data.qpos[self.qpos_idx] = q
         mujoco.mj_kinematics(self.model, self._data)
-        mujoco.mj_comPos(self.model, self._data)
+        if com:
+            mujoco.mj_comPos(self.model, self._data)
 
     def site_pose(self, qpos_full: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Site pose for the full qpos (nq,), optionally with the group joints replaced by q."""
-        self._load(qpos_full, q)
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, self._data.site_xmat[self.site_id])
-        return np.concatenate([self._data.site_xpos[self.site_id], quat])
+        self._load(qpos_full, q, com=False)
+        pose = np.empty(7)
+        pose[:3] = self._data.site_xpos[self.site_id]
+        mujoco.mju_mat2Quat(pose[3:], self._data.site_xmat[self.site_id])
+        return pose
+
+    def site_position(self, qpos_full: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """Site position (3,) m, world frame; as ``site_pose`` without the orientation."""
+        self._load(qpos_full, q, com=False)
+        return self._data.site_xpos[self.site_id].copy()
 
     def jacobian(self, qpos_full: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Site Jacobian (6, n) w.r.t. the group joints, rows [linear; angular], world frame."""
@@ -88,11 +110,17 @@ class Kinematics:
         Returns:
             (n,) joint positions, clipped to the joint limits.
         """
-        q = qpos_full[self.qpos_idx].copy()
-        jac = self.jacobian(qpos_full)
-        rows = slice(0, 3) if len(twist) == 3 else slice(0, 6)
-        dq = damped_least_squares(jac[rows], np.asarray(twist, dtype=float), damping)
-        return np.clip(q + dq, self.joint_range[:, 0], self.joint_range[:, 1])
+        q = qpos_full[self.qpos_idx]  # a copy (fancy indexing)
+        twist = np.asarray(twist, dtype=float)
+        if twist.shape not in ((3,), (6,)):
+            raise ValueError(f"twist must have 3 or 6 values, got shape {twist.shape}")
+        self._load(qpos_full)
+        jac = np.zeros((len(twist), self.model.nv))
+        rot = jac[3:] if len(twist) == 6 else None
+        mujoco.mj_jacSite(self.model, self._data, jac[:3], rot, self.site_id)
+        dq = damped_least_squares(jac[:, self.dof_idx], twist, damping)
+        # np.clip(q + dq, low, high), without its overhead
+        return np.minimum(np.maximum(q + dq, self._low), self._high)
 
     def solve(
         self,

@@ -49,6 +49,13 @@ def check_velocity_limits(name: str, limits: Sequence[float], size: int) -> np.n
     return v
 
 
+def _frozen(values) -> np.ndarray:
+    """A read-only float copy (limits shared by the hot paths, never handed out)."""
+    out = np.array(values, dtype=float)
+    out.flags.writeable = False
+    return out
+
+
 class MoveGroup:
     """Joints of one robot that move together.
 
@@ -77,6 +84,7 @@ class MoveGroup:
         self.dof_idx = model.jnt_dofadr[self.joint_ids].astype(int)
         self.joint_range = model.jnt_range[self.joint_ids].copy()  # (n, 2)
         self.velocity_limits: np.ndarray | None = None
+        self._ctrl_low = self._ctrl_high = _frozen(np.zeros(0))  # ctrl_limits(), shared
 
     def set_velocity_limits(self, limits: Sequence[float] | None) -> None:
         """Max speed per control value that controllers enforce, or None for no limit.
@@ -127,6 +135,12 @@ class MoveGroup:
         if np.asarray(ctrl).size:
             raise UserError(f"move group '{self.name}' takes no control")
 
+    def _write_ctrl(self, data: mujoco.MjData, ctrl: np.ndarray) -> None:
+        """``set_ctrl`` for a control the robot layer computed itself: already of the right
+        shape, finite and within ``ctrl_limits`` (controllers' ``limit`` makes it so), so
+        nothing is checked again. Groups override it where that saves work."""
+        self.set_ctrl(data, ctrl)
+
     def get_noop_ctrl(self, data: mujoco.MjData) -> np.ndarray:
         """A control that holds the current state."""
         return np.zeros(0)
@@ -147,9 +161,15 @@ class MJCFFrameMixin:
 
     def get_frame_pose(self, data: mujoco.MjData) -> np.ndarray:
         """World pose of the frame site, [x, y, z, qw, qx, qy, qz] (m)."""
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, data.site_xmat[self.frame_site_id])
-        return np.concatenate([data.site_xpos[self.frame_site_id], quat])
+        pose = np.empty(7)
+        pose[:3] = data.site_xpos[self.frame_site_id]
+        mujoco.mju_mat2Quat(pose[3:], data.site_xmat[self.frame_site_id])
+        return pose
+
+    def get_frame_position(self, data: mujoco.MjData) -> np.ndarray:
+        """World position of the frame site, [x, y, z] (m): ``get_frame_pose(data)[:3]``
+        without working out the orientation."""
+        return data.site_xpos[self.frame_site_id].copy()
 
     def get_frame_jacobian(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """Jacobian of the frame site w.r.t. all dofs, shape (6, nv): rows [linear; angular],
@@ -170,17 +190,27 @@ class SimplyActuatedMoveGroup(MoveGroup):
             raise UserError(f"{name}: one actuator per joint is required")
         self.actuator_ids = np.array([lookup_id(model, "actuator", a) for a in actuator_names])
         self._ctrl_range = model.actuator_ctrlrange[self.actuator_ids].copy()
+        self._ctrl_low, self._ctrl_high = (
+            _frozen(self._ctrl_range[:, 0]),
+            _frozen(self._ctrl_range[:, 1]),
+        )
+        ids = self.actuator_ids
+        contiguous = len(ids) > 0 and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids)))
+        self._ctrl_sel = slice(int(ids[0]), int(ids[0]) + len(ids)) if contiguous else ids
 
     @property
     def ctrl_dim(self) -> int:
         return len(self.actuator_ids)
 
     def get_ctrl(self, data):
-        return data.ctrl[self.actuator_ids].copy()
+        return data.ctrl[self._ctrl_sel].copy()
 
     def set_ctrl(self, data, ctrl):
         c = _vector(self.name, ctrl, self.ctrl_dim)
         data.ctrl[self.actuator_ids] = np.clip(c, self._ctrl_range[:, 0], self._ctrl_range[:, 1])
+
+    def _write_ctrl(self, data, ctrl):
+        data.ctrl[self._ctrl_sel] = ctrl
 
     def get_noop_ctrl(self, data):
         return self.get_qpos(data)
@@ -214,6 +244,10 @@ class GripperGroup(MoveGroup):
             raise UserError(f"{name}: actuator '{actuator_name}' drives none of {joint_names}")
         self.actuated_qpos_idx = int(model.jnt_qposadr[joint_of_actuator])
         self._ctrl_range = model.actuator_ctrlrange[self.actuator_id].copy()
+        self._ctrl_low, self._ctrl_high = (
+            _frozen(self._ctrl_range[:1]),
+            _frozen(self._ctrl_range[1:]),
+        )
 
     @property
     def ctrl_dim(self) -> int:
@@ -225,6 +259,9 @@ class GripperGroup(MoveGroup):
     def set_ctrl(self, data, ctrl):
         c = _vector(self.name, ctrl, 1)
         data.ctrl[self.actuator_id] = np.clip(c[0], *self._ctrl_range)
+
+    def _write_ctrl(self, data, ctrl):
+        data.ctrl[self.actuator_id] = ctrl[0]
 
     def get_noop_ctrl(self, data):
         return np.array([data.qpos[self.actuated_qpos_idx]])
@@ -247,6 +284,8 @@ class MocapArmGroup(MJCFFrameMixin, MoveGroup):
         if self.mocap_id < 0:
             raise UserError(f"{name}: body '{mocap_body}' is not a mocap body")
         self._init_frame(model, frame_site)
+        self._ctrl_low = _frozen(np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]))
+        self._ctrl_high = _frozen(np.array([2.0, 2.0, 2.0, 1, 1, 1, 1]))
 
     @property
     def ctrl_dim(self) -> int:
@@ -267,7 +306,7 @@ class MocapArmGroup(MJCFFrameMixin, MoveGroup):
         return self.get_ctrl(data)
 
     def ctrl_limits(self):
-        return np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]), np.array([2.0, 2.0, 2.0, 1, 1, 1, 1])
+        return self._ctrl_low.copy(), self._ctrl_high.copy()
 
 
 class ImmobileBaseGroup(MoveGroup):

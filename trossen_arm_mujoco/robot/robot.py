@@ -47,7 +47,8 @@ class Robot:
             for g, mode in config.command_mode.items()
         }
         self._commands: dict[str, np.ndarray] = {}
-        self._targets: dict[str, np.ndarray] = {}  # resolved relative commands, not yet reached
+        # resolved relative commands not yet reached: (target, target within ctrl limits)
+        self._targets: dict[str, tuple[np.ndarray, np.ndarray]] = {}
 
     def update_control(self, commands: Mapping[str, np.ndarray]) -> None:
         """Store commands, group name -> vector of that group's ``command_dim`` values."""
@@ -59,23 +60,27 @@ class Robot:
     def compute_control(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """Compute and apply the controls of the commanded groups; returns them by group."""
         out = {}
-        for name, cmd in list(self._commands.items()):
-            controller = self.controllers[name]
-            if controller.ctrl_dt is None:
-                controller.ctrl_dt = self.ctrl_dt
-            if controller.relative:  # applied once: its target holds until reached
-                self._targets[name] = controller.target(data, cmd)
-                del self._commands[name]
-            else:
-                out[name] = controller.compute(data, cmd)
-        for name, target in list(self._targets.items()):
-            controller = self.controllers[name]
-            out[name] = controller.limit(data, target)
-            low, high = controller.group.ctrl_limits()
-            if np.array_equal(out[name], np.clip(target, low, high)):
-                del self._targets[name]  # reached: the control now holds it
+        controllers = self.controllers
+        if self._commands:
+            for name, cmd in list(self._commands.items()):
+                controller = controllers[name]
+                if controller.ctrl_dt is None:
+                    controller.ctrl_dt = self.ctrl_dt
+                target = controller._target(data, cmd)  # cmd was checked by update_control
+                if controller.relative:  # applied once: its target holds until reached
+                    group = controller.group
+                    reached = np.minimum(np.maximum(target, group._ctrl_low), group._ctrl_high)
+                    self._targets[name] = (target, reached)
+                    del self._commands[name]
+                else:
+                    out[name] = controller.limit(data, target)
+        if self._targets:
+            for name, (target, reached) in list(self._targets.items()):
+                ctrl = out[name] = controllers[name].limit(data, target)
+                if (ctrl == reached).all():
+                    del self._targets[name]  # reached: the control now holds it
         for name, ctrl in out.items():
-            self.view.group(name).set_ctrl(data, ctrl)
+            controllers[name].group._write_ctrl(data, ctrl)
         return out
 
     def reset(self, data: mujoco.MjData) -> None:

@@ -158,6 +158,9 @@ def _raise_interrupt(signum, frame):  # SIGTERM -> same clean path as Ctrl-C
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    from trossen_arm_mujoco.tasks.registry import ALIASES
+
+    args.task_name = ALIASES.get(args.task_name, args.task_name)  # old names keep working
     if args.task_name not in SIM_TASK_CONFIGS:
         raise unknown_name_error("task", args.task_name, SIM_TASK_CONFIGS)
     config = SIM_TASK_CONFIGS[args.task_name]

@@ -1,7 +1,22 @@
-"""Named cameras rendered offscreen with one renderer reused for every frame."""
+"""Named cameras rendered offscreen with one renderer reused for every frame.
+
+GL is opened only when an image is asked for: a ``CameraSet`` creates its renderer (and so
+the GL context) on its first render, never at construction.
+
+Forked processes: a process forked from one that had opened a GL context cannot open one
+itself (MuJoCo's EGL/Mesa state does not survive ``fork``; rendering hangs). Such a child
+gets a one-line ``UserError`` naming the fix (``check_can_render``) instead. Processes made
+with the ``spawn`` or ``forkserver`` start method are fresh and render normally; state-only
+envs never render and work in forked children too.
+"""
 
 from __future__ import annotations
 
+import atexit
+import functools
+import os
+import sys
+import weakref
 from collections.abc import Sequence
 
 import mujoco
@@ -9,6 +24,44 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.names import lookup_id, names_of
+
+_gl_pid: int | None = None  # process that opened a GL context through this module
+_forked_from_gl = False  # this process was forked from one with a GL context
+
+
+def gl_opened() -> bool:
+    """Whether this process (or the one it was forked from) has opened a GL context: a
+    renderer of this package, or MuJoCo's EGL display."""
+    if _gl_pid is not None:
+        return True
+    egl = sys.modules.get("mujoco.egl")
+    return egl is not None and getattr(egl, "EGL_DISPLAY", None) is not None
+
+
+def _after_fork_in_child() -> None:
+    global _forked_from_gl
+    _forked_from_gl = _forked_from_gl or gl_opened()
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def check_can_render() -> None:
+    """A UserError when this process was forked from one that had opened a GL context
+    (rendering here would hang); nothing otherwise."""
+    if _forked_from_gl:
+        raise UserError(
+            "cannot render in a process forked from one that has rendered (MuJoCo's GL "
+            "context does not survive fork); create the envs in fresh processes: "
+            'gymnasium.vector.AsyncVectorEnv(env_fns, context="spawn") (or "forkserver"), '
+            "or render nothing before forking"
+        )
+
+
+def _close_at_exit(ref: weakref.ref) -> None:
+    cameras = ref()
+    if cameras is not None:
+        cameras.close()
 
 
 class CameraSet:
@@ -42,6 +95,7 @@ class CameraSet:
             )
         self.height, self.width = height, width
         self._renderer: mujoco.Renderer | None = None
+        self._at_exit = None  # closes the renderer at exit, before MuJoCo terminates EGL
 
     @staticmethod
     def available(model: mujoco.MjModel) -> list[str]:
@@ -55,15 +109,28 @@ class CameraSet:
         """One image, uint8 (height, width, 3)."""
         self.check(name)
         if self._renderer is None:
-            self._renderer = mujoco.Renderer(self.model, self.height, self.width)
+            self._renderer = self._open_renderer()
         self._renderer.update_scene(data, camera=self.ids[name])
         return self._renderer.render()
+
+    def _open_renderer(self) -> mujoco.Renderer:
+        global _gl_pid
+        check_can_render()
+        renderer = mujoco.Renderer(self.model, self.height, self.width)
+        _gl_pid = os.getpid()
+        # registered after the renderer (and so after MuJoCo's eglTerminate): runs before it
+        self._at_exit = functools.partial(_close_at_exit, weakref.ref(self))
+        atexit.register(self._at_exit)
+        return renderer
 
     def render_all(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """Images of every camera of the set, by name."""
         return {n: self.render(data, n) for n in self.names}
 
     def close(self) -> None:
+        if self._at_exit is not None:
+            atexit.unregister(self._at_exit)
+            self._at_exit = None
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

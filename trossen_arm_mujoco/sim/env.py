@@ -2,22 +2,32 @@
 
 Timing: ``sim_dt`` is the model timestep; every ``ctrl_dt`` the robots compute their control,
 then physics runs ``ctrl_dt / sim_dt`` steps. The ratio must be a whole number.
+``MujocoEnv.step`` is the one stepping loop of the package: tasks and every gym stepping
+regime advance time through it.
+
+No GL: the env works on a plain ``mujoco.MjModel``/``MjData`` and imports nothing that opens
+a GL context (dm_control is imported only by ``load_physics``, for the dm_control front
+doors); cameras create their renderer on the first image.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import mujoco
-import numpy as np
-from dm_control import mujoco as dm_mujoco
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.objects import FreeJointObject
+
+if TYPE_CHECKING:
+    import numpy as np
+    from dm_control.mujoco import Physics
 
 
 def whole_ratio(longer: float, shorter: float, longer_name: str, shorter_name: str) -> int:
@@ -34,27 +44,57 @@ def whole_ratio(longer: float, shorter: float, longer_name: str, shorter_name: s
     return n
 
 
-def load_physics(xml_path: str | Path) -> dm_mujoco.Physics:
-    """dm_control Physics from an MJCF file, with one-line errors for missing/broken files."""
+def _one_line(exc: Exception) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _check_file(xml_path: str | Path) -> Path:
     path = Path(xml_path)
     if not path.is_file():
         raise UserError(f"model file not found: {path}")
+    return path
+
+
+def load_model(xml_path: str | Path) -> mujoco.MjModel:
+    """Compiled model from an MJCF file (no GL), with one-line errors for missing/broken
+    files."""
+    path = _check_file(xml_path)
+    try:
+        return mujoco.MjModel.from_xml_path(str(path))
+    except Exception as exc:
+        raise UserError(f"cannot load model {path}: {_one_line(exc)}") from exc
+
+
+def load_physics(xml_path: str | Path) -> Physics:
+    """dm_control Physics from an MJCF file, with one-line errors for missing/broken files.
+
+    Imports dm_control here (its import initializes the display of its GL backend), so only
+    the dm_control front doors pay for it.
+    """
+    path = _check_file(xml_path)
+    from dm_control import mujoco as dm_mujoco
+
     try:
         return dm_mujoco.Physics.from_xml_path(str(path))
     except Exception as exc:  # dm_control wraps mujoco's ValueError in several types
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UserError(f"cannot load model {path}: {first}") from exc
+        raise UserError(f"cannot load model {path}: {_one_line(exc)}") from exc
 
 
 class MujocoEnv:
-    """Owns a dm_control ``Physics`` and the robots, objects and cameras living in it.
+    """Owns the model and data of a scene and the robots, objects and cameras living in it.
 
     Args:
-        xml_path: MJCF scene to load (or pass ``physics``).
+        xml_path: MJCF scene to load (or pass ``model`` [and ``data``], or ``physics``).
+        physics: a dm_control ``Physics`` to work on (the dm_control front doors); its
+            ``step`` then advances physics, as dm_control does. Without it the env uses a
+            plain ``mujoco.MjModel``/``MjData`` and ``mujoco.mj_step``.
+        model, data: a compiled model (and its data; default a new ``MjData``).
         robots: robot name -> config; each becomes a ``Robot`` over the model, controlled
             every ``ctrl_dt`` (its velocity limits are enforced per control tick).
         objects: object name -> (free joint name, geom name or None).
-        camera_names, height, width: cameras rendered by ``render_images``.
+        camera_names, height, width: cameras rendered by ``render_images`` (the renderer is
+            created on the first image).
         ctrl_dt: control period (s); default: one physics step.
         keyframe: keyframe loaded at reset when the model has it.
     """
@@ -63,7 +103,9 @@ class MujocoEnv:
         self,
         xml_path: str | Path | None = None,
         *,
-        physics: dm_mujoco.Physics | None = None,
+        physics: Physics | None = None,
+        model: mujoco.MjModel | None = None,
+        data: mujoco.MjData | None = None,
         robots: Mapping[str, RobotConfig] | None = None,
         objects: Mapping[str, tuple[str, str | None]] | None = None,
         camera_names: Sequence[str] = (),
@@ -72,13 +114,17 @@ class MujocoEnv:
         ctrl_dt: float | None = None,
         keyframe: str = "home",
     ):
-        if physics is None:
+        if physics is not None:
+            model, data = physics.model.ptr, physics.data.ptr
+        elif model is None:
             if xml_path is None:
-                raise UserError("MujocoEnv needs an xml_path or a physics")
-            physics = load_physics(xml_path)
+                raise UserError("MujocoEnv needs an xml_path or a physics (or a compiled model)")
+            model = load_model(xml_path)
+        if data is None:
+            data = mujoco.MjData(model)
         self.physics = physics
-        self.model: mujoco.MjModel = physics.model.ptr
-        self.data: mujoco.MjData = physics.data.ptr
+        self.model: mujoco.MjModel = model
+        self.data: mujoco.MjData = data
         self.sim_dt = float(self.model.opt.timestep)
         self.ctrl_dt = float(ctrl_dt) if ctrl_dt is not None else self.sim_dt
         self.n_substeps = whole_ratio(self.ctrl_dt, self.sim_dt, "ctrl_dt", "sim_dt")
@@ -90,6 +136,10 @@ class MujocoEnv:
         }
         self.cameras = CameraSet(self.model, camera_names, height, width)
         self.keyframe_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+        # bound once: the physics of a tick is this one call
+        self._physics_step = (
+            physics.step if physics is not None else partial(mujoco.mj_step, model, data)
+        )
 
     def reset(self) -> None:
         """Keyframe (or model defaults), robots at their initial joints, controls at no-op."""
@@ -106,17 +156,22 @@ class MujocoEnv:
 
     def apply_control(self) -> None:
         """Let every robot compute and write its control (no physics step)."""
+        data = self.data
         for robot in self.robots.values():
-            robot.compute_control(self.data)
+            robot.compute_control(data)
 
     def step(self, n_ctrl_steps: int = 1) -> None:
-        """Advance ``n_ctrl_steps`` control periods: control, then ``n_substeps`` physics steps."""
+        """Advance ``n_ctrl_steps`` control ticks; each tick: every robot computes and writes
+        its control, then ``n_substeps`` (= ctrl_dt / sim_dt) physics steps."""
+        data, n, physics_step, robots = self.data, self.n_substeps, self._physics_step, self.robots
         for _ in range(n_ctrl_steps):
-            self.apply_control()
-            self.physics.step(self.n_substeps)
+            for robot in robots.values():
+                robot.compute_control(data)
+            physics_step(n)
 
     def render_images(self) -> dict[str, np.ndarray]:
-        """Images of the configured cameras, uint8 (H, W, 3) by name."""
+        """Images of the configured cameras, uint8 (H, W, 3) by name (the first call opens
+        the GL context)."""
         return self.cameras.render_all(self.data)
 
     def warnings(self) -> list[str]:

@@ -18,9 +18,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
+from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import (
     RobotConfig,
     stationary_ai_joint_config,
@@ -34,6 +36,18 @@ from trossen_arm_mujoco.tasks.task import Bounds, Task
 
 ROBOT_NAME = "stationary_ai"
 LAYOUT_GROUPS = tuple(KIT_LAYOUT.groups)
+
+
+def finger_geoms(model: mujoco.MjModel, side: str) -> set[int]:
+    """Ids of every collision geom of ``side``'s fingers (``<side>/gripper_follower*``)."""
+    prefix = f"{side}/gripper_follower"
+    found = {
+        g
+        for g in range(model.ngeom)
+        if (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "").startswith(prefix)
+    }
+    lookup_id(model, "geom", f"{prefix}_left")  # fails with the valid names when absent
+    return found
 
 
 class BimanualTask(Task):

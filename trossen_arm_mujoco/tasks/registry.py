@@ -108,6 +108,14 @@ ENTRIES: tuple[TaskEntry, ...] = (
         aliases=("transfer_cube",),
         record=_record_defaults(600),
     ),
+    TaskEntry(
+        "sim_insertion", f"{_PKG}.insertion:InsertionTask",
+        f"{_PKG}.insertion:InsertionSampler", "insertion",
+        "Stationary AI: insert a peg (right arm) into a socket (left arm) above the table",
+        policy=f"{_POL}.insertion:InsertionPolicy",
+        aliases=("insertion",),
+        record=_record_defaults(400),
+    ),
 )  # fmt: skip
 
 #: name -> entry, and alias -> entry.

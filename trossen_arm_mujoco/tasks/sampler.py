@@ -99,8 +99,10 @@ class TaskSampler:
             width=width,
             ctrl_dt=float(self.config["ctrl_dt"]),
         )
-        if flavour == "joint" and command_mode == "ee_delta" and self.config.get(
-            "hold_orientation", False
+        if (
+            flavour == "joint"
+            and command_mode == "ee_delta"
+            and self.config.get("hold_orientation", False)
         ):
             self._use_six_dof_ee_delta()
         self.task_cls(self.env, self.config)  # fail now on bad timing, not at the first reset
@@ -132,9 +134,7 @@ class TaskSampler:
         raise NotImplementedError
 
     # -- API ------------------------------------------------------------------------------
-    def sample_task(
-        self, seed: Seed = None, object_poses: Mapping[str, Any] | None = None
-    ) -> Task:
+    def sample_task(self, seed: Seed = None, object_poses: Mapping[str, Any] | None = None) -> Task:
         """A ready task: env reset, scene randomized from ``seed``, task built and reset.
 
         Args:

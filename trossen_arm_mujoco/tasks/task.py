@@ -101,15 +101,20 @@ class Task:
         self.n_steps += 1
         self.after_step()
 
+    def advance(self, action: Mapping[str, np.ndarray]) -> None:
+        """One task step without the queries: commands in, then ``n_ctrl_steps`` control
+        ticks of ``env.step`` (``policy_dt`` of simulated time), then ``finish_step``."""
+        self.apply_action(action)
+        self.env.step(self.n_ctrl_steps)
+        self.finish_step()
+
     def step(self, action: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], float, bool]:
         """One task step: commands in, ``policy_dt`` of simulated time.
 
         Returns:
             (observation, reward, done).
         """
-        self.apply_action(action)
-        self.env.step(self.n_ctrl_steps)
-        self.finish_step()
+        self.advance(action)
         return self.get_observation(), self.get_reward(), self.is_done()
 
     def is_terminal(self) -> bool:

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
-from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask
+from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 
 #: Cube spawn region on the table (world frame, m): x, y uniform; z = resting height.
 BOX_X_RANGE = (-0.15, 0.15)
@@ -30,18 +30,6 @@ def sample_cube_pose(rng: np.random.Generator) -> np.ndarray:
     x = rng.uniform(*BOX_X_RANGE)
     y = rng.uniform(*BOX_Y_RANGE)
     return np.array([x, y, BOX_REST_Z, 1.0, 0.0, 0.0, 0.0])
-
-
-def finger_geoms(model: mujoco.MjModel, side: str) -> set[int]:
-    """Ids of every collision geom of ``side``'s fingers (``<side>/gripper_follower*``)."""
-    prefix = f"{side}/gripper_follower"
-    found = {
-        g
-        for g in range(model.ngeom)
-        if (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or "").startswith(prefix)
-    }
-    lookup_id(model, "geom", f"{prefix}_left")  # fails with the valid names when absent
-    return found
 
 
 class TransferCubeReward:

@@ -1,0 +1,168 @@
+"""Bimanual peg insertion: the left arm picks up the socket, the right arm the peg, both lift
+them and the peg goes into the socket above the table.
+
+The one implementation of this task for every front door (dm_control envs, gymnasium env,
+recorder): the reward (0-4, ``InsertionReward``), the spawn distribution
+(``sample_insertion_poses``), the task (``InsertionTask``) and its sampler
+(``InsertionSampler``). Config: ``config/insertion.yaml``; scenes:
+``stationary_ai/trossen_ai_insertion_scene_joint.xml`` (joint flavour) and
+``stationary_ai/trossen_ai_insertion_scene.xml`` (mocap flavour); scripted policy:
+``policies/insertion.py``.
+
+Objects (world frame, m): the peg is a 20 x 20 x 120 mm bar (geom ``peg``, free joint
+``peg_joint``, qpos 16..22), the socket a 32 x 32 x 60 mm square tube (free joint
+``socket_joint``, qpos 23..29) with walls ``socket-1``..``socket-4``, a closed end
+``socket-bottom`` and a ``pin`` on the inside of that end. Both lie along y; the socket opens
+toward -y, and its 26 x 26 mm hole leaves 3 mm around the peg.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+
+from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
+
+TABLE_TOP_Z = 0.02
+#: Half-sizes of the peg (x, y, z) and outer half-size of the socket's square section (m).
+PEG_HALF = (0.01, 0.06, 0.01)
+SOCKET_OUTER_HALF = 0.016
+SOCKET_HALF_LENGTH = 0.03
+#: Inner half-size of the socket's square hole (m): 3 mm of clearance around the peg.
+SOCKET_INNER_HALF = 0.013
+#: Distance from the socket's centre to its mouth (-y) and to the pin's face (m, along y).
+SOCKET_MOUTH_Y = -SOCKET_HALF_LENGTH
+PIN_FACE_Y = 0.019
+PEG_REST_Z = TABLE_TOP_Z + PEG_HALF[2]
+SOCKET_REST_Z = TABLE_TOP_Z + SOCKET_OUTER_HALF
+
+#: Spawn regions (world, m; uniform): the peg on the right half of the table (y < 0), the
+#: socket on the left half (y > 0), both in front of the arms and within their reach.
+PEG_X_RANGE = (-0.05, 0.10)
+PEG_Y_RANGE = (-0.20, -0.10)
+SOCKET_X_RANGE = (-0.05, 0.10)
+SOCKET_Y_RANGE = (0.10, 0.20)
+MAX_REWARD = 4
+
+PEG_GEOM = "peg"
+SOCKET_GEOMS = ("socket-1", "socket-2", "socket-3", "socket-4", "socket-bottom", "pin")
+PIN_GEOM = "pin"
+TABLE_GEOM = "table"
+
+
+def sample_insertion_poses(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Random resting poses of the peg and the socket, each [x, y, z, 1, 0, 0, 0] (world, m):
+    the peg on the right half of the table, the socket on the left half, both lying along y.
+    """
+    peg = np.array(
+        [rng.uniform(*PEG_X_RANGE), rng.uniform(*PEG_Y_RANGE), PEG_REST_Z, 1.0, 0.0, 0.0, 0.0]
+    )
+    socket = np.array(
+        [
+            rng.uniform(*SOCKET_X_RANGE),
+            rng.uniform(*SOCKET_Y_RANGE),
+            SOCKET_REST_Z,
+            1.0,
+            0.0,
+            0.0,
+            0.0,
+        ]
+    )
+    return peg, socket
+
+
+class InsertionReward:
+    """Reward of the insertion, 0-4 (each stage includes the ones before):
+
+    1. both grippers touch their objects (right fingers the peg, left fingers the socket);
+    2. and neither object touches the table (both lifted);
+    3. and the peg touches the socket (any of its geoms);
+    4. and the peg touches the ``pin`` at the socket's bottom (inserted).
+
+    Geom ids are looked up once here; calls only scan ``data.contact``.
+    """
+
+    def __init__(self, model: mujoco.MjModel):
+        self.peg = lookup_id(model, "geom", PEG_GEOM)
+        self.socket = {lookup_id(model, "geom", g) for g in SOCKET_GEOMS}
+        self.pin = lookup_id(model, "geom", PIN_GEOM)
+        self.table = lookup_id(model, "geom", TABLE_GEOM)
+        self.left = finger_geoms(model, "left")
+        self.right = finger_geoms(model, "right")
+
+    def contacts(self, data: mujoco.MjData) -> dict[str, bool]:
+        """Which of the reward's contacts exist now (names as in the stages above)."""
+        peg_partners: set[int] = set()
+        socket_partners: set[int] = set()
+        pin_peg = False
+        for i in range(data.ncon):
+            g1, g2 = int(data.contact.geom1[i]), int(data.contact.geom2[i])
+            for a, b in ((g1, g2), (g2, g1)):
+                if a == self.peg:
+                    peg_partners.add(b)
+                    pin_peg |= b == self.pin
+                elif a in self.socket:
+                    socket_partners.add(b)
+        return {
+            "right_peg": bool(peg_partners & self.right),
+            "left_socket": bool(socket_partners & self.left),
+            "peg_table": self.table in peg_partners,
+            "socket_table": self.table in socket_partners,
+            "peg_socket": bool(peg_partners & self.socket),
+            "peg_pin": pin_peg,
+        }
+
+    def __call__(self, data: mujoco.MjData) -> int:
+        c = self.contacts(data)
+        if not (c["right_peg"] and c["left_socket"]):
+            return 0
+        if c["peg_table"] or c["socket_table"]:
+            return 1
+        if not c["peg_socket"]:
+            return 2
+        return 4 if c["peg_pin"] else 3
+
+
+class InsertionTask(BimanualTask):
+    """Insert the peg (right arm) into the socket (left arm), both held above the table.
+    Sparse reward 0-4 (``InsertionReward``); success = 4.
+
+    Observations: ``qpos`` (16), ``qvel`` (16), ``env_state`` (14: peg pose then socket
+    pose, [xyz m, quat wxyz] each) and ``env_vel`` (12).
+    """
+
+    name: ClassVar[str] = "sim_insertion"
+    objects: ClassVar[tuple[str, ...]] = ("peg", "socket")
+    max_reward: ClassVar[float] = MAX_REWARD
+
+    def __init__(self, env, config):
+        super().__init__(env, config)
+        self.reward_fn = InsertionReward(env.model)
+
+    def get_reward(self) -> int:
+        """Sparse 0-4 (see ``InsertionReward``)."""
+        return self.reward_fn(self.data)
+
+    def get_task_description(self) -> str:
+        return (
+            "pick up the blue socket with the left arm and the red peg with the right arm, "
+            "lift both and insert the peg into the socket"
+        )
+
+
+class InsertionSampler(BimanualSampler):
+    """Arms at ``START_ARM_POSE``; peg and socket resting at ``sample_insertion_poses(rng)``."""
+
+    task_cls = InsertionTask
+
+    def objects(self) -> dict[str, tuple[str, str | None]]:
+        return {"peg": ("peg_joint", PEG_GEOM), "socket": ("socket_joint", "socket-1")}
+
+    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
+        peg, socket = sample_insertion_poses(rng)
+        self.env.objects["peg"].set_pose(self.env.data, peg)
+        self.env.objects["socket"].set_pose(self.env.data, socket)
+        return {}
