@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
-from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
+from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
 from trossen_arm_mujoco.tasks.task import Bounds
 
 CUBE = ("cube", ("cube_joint", "cube"))
@@ -67,12 +67,12 @@ class PushTask(SingleArmTask):
     def shaped_reward(self) -> float:
         """-reach_coef * |ee - cube| - distance_coef * |cube - goal| + success_bonus * success."""
         cube = self.cube_pos()
-        reach = float(np.linalg.norm(self.ee_pos() - cube))
-        dist = float(np.linalg.norm(cube - self.goal))
+        reach = float(goal_distance(self.ee_pos(), cube))
+        dist = float(goal_distance(cube, self.goal))
         return (
             -float(self.config["reach_coef"]) * reach
             - float(self.config["distance_coef"]) * dist
-            + float(self.config["success_bonus"]) * self.judge_success()
+            + float(self.config["success_bonus"]) * (dist < self.tolerance)
         )
 
     def get_reward(self) -> float:

@@ -10,7 +10,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
+from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
 from trossen_arm_mujoco.tasks.task import Bounds
 
 
@@ -32,8 +32,8 @@ class ReachTask(SingleArmTask):
 
     def get_reward(self) -> float:
         """-distance_coef * |ee - target| (m) + success_bonus * success."""
-        dist = float(np.linalg.norm(self.ee_pos() - self.goal))
-        bonus = float(self.config["success_bonus"]) * self.judge_success()
+        dist = float(goal_distance(self.ee_pos(), self.goal))
+        bonus = float(self.config["success_bonus"]) * (dist < self.tolerance)
         return -float(self.config["distance_coef"]) * dist + bonus
 
     def get_task_description(self) -> str:

@@ -7,6 +7,7 @@ Frames and units: world frame with the arm base at the origin and the table top 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -25,7 +26,10 @@ GOAL_REWARD_TYPES = ("sparse", "dense")
 
 def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
     """Euclidean distance over the last axis; shapes (..., 3) -> (...)."""
-    return np.linalg.norm(np.asarray(achieved, float) - np.asarray(desired, float), axis=-1)
+    diff = np.asarray(achieved, float) - np.asarray(desired, float)
+    if diff.ndim == 1:  # one pair, every step: skip norm's generality
+        return np.float64(math.sqrt(diff @ diff))
+    return np.linalg.norm(diff, axis=-1)
 
 
 class SingleArmTask(Task):
@@ -66,7 +70,7 @@ class SingleArmTask(Task):
     # -- robot state ----------------------------------------------------------------------
     def ee_pos(self) -> np.ndarray:
         """Tool-frame (ee_site) position, world frame (3,) m."""
-        return self.arm.get_frame_pose(self.data)[:3]
+        return self.arm.get_frame_position(self.data)
 
     def robot_observation(self) -> dict[str, np.ndarray]:
         """arm_qpos (6,) rad, arm_qvel (6,) rad/s, gripper (1,) finger travel m, ee_pos (3,)."""
@@ -109,9 +113,9 @@ class SingleArmTask(Task):
         return bool(self.goal_success(self.achieved_goal(), self.desired_goal()))
 
     def get_info(self) -> dict[str, Any]:
-        info = super().get_info()
-        info["goal_distance"] = float(goal_distance(self.achieved_goal(), self.goal))
-        return info
+        """``is_success`` and ``goal_distance`` (m), from one distance computation."""
+        dist = float(goal_distance(self.achieved_goal(), self.goal))
+        return {"is_success": dist < self.tolerance, "goal_distance": dist}
 
 
 class SingleArmSampler(TaskSampler):
