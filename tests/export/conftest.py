@@ -8,7 +8,6 @@ import h5py
 import numpy as np
 import pytest
 
-from trossen_arm_mujoco.data.reader import list_episodes, load_episode
 from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.scripts.record_sim_episodes import cli as record_cli
 
@@ -74,28 +73,13 @@ def to_float32(path: Path) -> None:
             f.create_dataset(name, data=data)
 
 
-def expected_arrays(data_dir: Path, tasks: list[str]) -> dict[str, np.ndarray]:
-    """What the export must hold, per episode ``i`` (see tests/export/lerobot_check.py)."""
-    out: dict[str, np.ndarray] = {"tasks": np.array(tasks)}
-    for i, (_, path) in enumerate(list_episodes(data_dir)):
-        ep = load_episode(path, load_images=True)
-        out[f"state_{i}"] = ep.qpos.astype(np.float32)
-        out[f"velocity_{i}"] = ep.qvel.astype(np.float32)
-        out[f"action_{i}"] = ep.action.astype(np.float32)
-        out[f"reward_{i}"] = ep.reward.astype(np.float32)
-        out[f"success_{i}"] = ep.reward >= 4
-        for cam, frames in ep.images.items():
-            out[f"images_{cam}_{i}"] = frames
-    return out
-
-
-@pytest.fixture
+@pytest.fixture(scope="session")
 def make_episode():
     """Factory: ``make_episode(path, steps, cams, seed, size=(48, 64), compression="none")``."""
     return write_episode
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def make_float32():
     """``make_float32(path)`` rewrites an episode's numeric datasets as float32."""
     return to_float32
