@@ -36,6 +36,19 @@ def test_image_stats_per_channel_in_unit_range():
     assert np.allclose(stats["std"], 0.0)
 
 
+def test_image_stats_from_histograms_equal_direct_stats():
+    rng = np.random.default_rng(1)
+    frames = [rng.integers(0, 256, size=(7, 9, 3), dtype=np.uint8) for _ in range(3)]
+    frames.append(np.full((7, 9, 3), 17, np.uint8))
+    stats = st.image_stats(frames)
+    pixels = np.concatenate([f.reshape(-1, 3) for f in frames]) / 255.0
+    direct = st.array_stats(pixels)
+    for name in STAT_NAMES:
+        if name != "count":
+            assert np.allclose(stats[name].ravel(), direct[name]), name
+    assert stats["count"].tolist() == [4]
+
+
 def test_image_sampling_and_downsampling():
     assert st.image_sample_indices(7).tolist() == list(range(7))
     idx = st.image_sample_indices(600)

@@ -73,10 +73,37 @@ def downsample(frame: np.ndarray) -> np.ndarray:
 
 
 def image_stats(frames: Sequence[np.ndarray]) -> Stats:
-    """Per-channel stats of sampled uint8 frames ``(H, W, 3)``, in [0, 1], shape (3, 1, 1)."""
-    pixels = np.concatenate([np.asarray(f).reshape(-1, 3) for f in frames], axis=0)
-    stats = _describe(pixels.astype(np.float64) / 255.0, len(frames))
-    return {k: v if k == "count" else v.reshape(3, 1, 1) for k, v in stats.items()}
+    """Per-channel stats of sampled uint8 frames ``(H, W, 3)``, in [0, 1], shape (3, 1, 1).
+
+    Computed from each channel's 256-level histogram: exact (quantiles interpolate linearly
+    between pixel values, as ``np.quantile``) and linear in the number of pixels.
+    """
+    pixels = np.concatenate([np.asarray(f, dtype=np.uint8).reshape(-1, 3) for f in frames])
+    levels = np.arange(256) / 255.0
+    per_channel = []
+    for c in range(3):
+        hist = np.bincount(pixels[:, c], minlength=256)
+        n = int(hist.sum())
+        present = np.flatnonzero(hist)
+        mean = float(hist @ levels) / n
+        stats = {
+            "min": levels[present[0]],
+            "max": levels[present[-1]],
+            "mean": mean,
+            "std": np.sqrt(float(hist @ np.square(levels - mean)) / n),
+        }
+        ends = np.cumsum(hist)  # pixel ranks [ends[v-1], ends[v]) hold level v
+        for name, q in zip(STAT_NAMES[5:], QUANTILES, strict=True):
+            rank = q * (n - 1)
+            lo, hi = np.searchsorted(ends, [np.floor(rank), np.ceil(rank)], side="right")
+            stats[name] = levels[lo] + (rank - np.floor(rank)) * (levels[hi] - levels[lo])
+        per_channel.append(stats)
+    out: Stats = {
+        name: np.array([ch[name] for ch in per_channel], dtype=np.float64).reshape(3, 1, 1)
+        for name in per_channel[0]
+    }
+    out["count"] = np.array([len(frames)], dtype=np.int64)
+    return {name: out[name] for name in STAT_NAMES}
 
 
 def aggregate(episode_stats: Sequence[Stats]) -> Stats:
