@@ -33,8 +33,8 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.export import lerobot_format as fmt
 from trossen_arm_mujoco.export import lerobot_stats as st
 from trossen_arm_mujoco.export.deps import require
+from trossen_arm_mujoco.export.lerobot_plan import ExportPlan, plan_export
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo, VideoSettings
-from trossen_arm_mujoco.tasks import registry
 
 #: A dataset name: ``<owner>/<name>`` as on the Hugging Face Hub.
 REPO_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -51,88 +51,6 @@ class ExportSummary:
     fps: int
     tasks: list[str]
     seconds: float
-
-
-@dataclass
-class _Plan:
-    """Checked facts about the episodes to export."""
-
-    episodes: list[Episode]
-    fps: int
-    cameras: list[str]
-    image_shapes: dict[str, tuple[int, int, int]]
-    with_reward: bool
-    tasks: list[str]  # distinct descriptions, task_index order
-    task_index: list[int]  # per episode
-    max_reward: list[float | None]  # per episode
-
-
-def _fps(episode: Episode) -> int:
-    rate = 1.0 / episode.dt
-    fps = round(rate)
-    if fps < 1 or abs(rate - fps) > 1e-6 * rate:
-        raise UserError(
-            f"{episode.path.name}: step period dt={episode.dt:g} s gives {rate:g} frames/s; "
-            "LeRobot datasets need a whole number of frames per second"
-        )
-    return fps
-
-
-def _plan(episodes: list[Episode], task: str | None) -> _Plan:
-    first = episodes[0]
-    fps = _fps(first)
-    tasks: list[str] = []
-    task_index: list[int] = []
-    max_reward: list[float | None] = []
-    for ep in episodes:
-        if _fps(ep) != fps:
-            raise UserError(
-                f"{ep.path.name} runs at {_fps(ep)} frames/s but {first.path.name} at {fps}; "
-                "export episodes of one rate together"
-            )
-        if ep.camera_names != first.camera_names or ep.image_shapes != first.image_shapes:
-            raise UserError(
-                f"{ep.path.name} has cameras {_describe_cams(ep)} but {first.path.name} has "
-                f"{_describe_cams(first)}; every episode of a dataset needs the same cameras"
-            )
-        if (ep.reward is None) != (first.reward is None):
-            has, lacks = (ep, first) if first.reward is None else (first, ep)
-            raise UserError(
-                f"{has.path.name} has rewards but {lacks.path.name} has none (a vendor "
-                "recording?); export them separately"
-            )
-        name = ep.attrs.get("task_name")
-        entry = registry.load(name) if isinstance(name, str) and name else None
-        if task is None and entry is None:
-            raise UserError(
-                f"{ep.path.name} has no task_name attribute (a vendor recording?); "
-                "describe the task with --task 'what the robot does'"
-            )
-        text = task if task is not None else entry.description
-        if text not in tasks:
-            tasks.append(text)
-        task_index.append(tasks.index(text))
-        if ep.reward is not None and entry is None:
-            raise UserError(
-                f"{ep.path.name} has rewards but no task_name to judge success with; "
-                f"valid task names: {', '.join(registry.names())}"
-            )
-        max_reward.append(None if entry is None else float(entry.task_class().max_reward))
-    return _Plan(
-        episodes=episodes,
-        fps=fps,
-        cameras=list(first.camera_names),
-        image_shapes={cam: first.image_shapes[cam] for cam in first.camera_names},
-        with_reward=first.reward is not None,
-        tasks=tasks,
-        task_index=task_index,
-        max_reward=max_reward,
-    )
-
-
-def _describe_cams(ep: Episode) -> str:
-    cams = [f"{cam} {h}x{w}" for cam, (h, w, _) in ep.image_shapes.items()]
-    return "[" + ", ".join(cams) + "]" if cams else "none"
 
 
 def _prepare_output(output: Path, overwrite: bool) -> None:
@@ -187,7 +105,7 @@ def export_lerobot(
     found = list_episodes(data_dir)
     if not found:
         raise UserError(f"no episode_<k>.hdf5 files in {data_dir}; record episodes first")
-    plan = _plan([load_episode(path) for _, path in found], task)
+    plan = plan_export([load_episode(path) for _, path in found], task)
     video = video or VideoSettings()
     if plan.cameras:
         video.check_available()
@@ -198,9 +116,7 @@ def export_lerobot(
     shutil.rmtree(tmp, ignore_errors=True)
     try:
         frames = _write_dataset(tmp, plan, video, progress)
-        if output.exists():
-            shutil.rmtree(output)
-        os.replace(tmp, output)
+        _publish(tmp, output)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return ExportSummary(
@@ -212,6 +128,23 @@ def export_lerobot(
         tasks=plan.tasks,
         seconds=time.perf_counter() - start,
     )
+
+
+def _publish(tmp: Path, output: Path) -> None:
+    """Move the finished dataset ``tmp`` onto ``output`` (empty, or a dataset to replace:
+    it is moved aside first and put back if the move fails)."""
+    if not output.exists():
+        os.replace(tmp, output)
+        return
+    old = output.with_name(f".{output.name}.old")
+    shutil.rmtree(old, ignore_errors=True)
+    os.replace(output, old)
+    try:
+        os.replace(tmp, output)
+    except BaseException:
+        os.replace(old, output)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
 
 
 def _check_repo_id(repo_id: str) -> None:
@@ -250,7 +183,9 @@ class _DataFiles:
             self._writer = None
 
 
-def _frame_columns(ep: Episode, plan: _Plan, i: int, first_index: int) -> dict[str, np.ndarray]:
+def _frame_columns(
+    ep: Episode, plan: ExportPlan, i: int, first_index: int
+) -> dict[str, np.ndarray]:
     """Per-frame values of episode ``i`` for every non-video feature."""
     T = ep.num_steps
     cols = {key: getattr(ep, attr).astype(np.float32) for key, attr in fmt.VECTOR_FEATURES.items()}
@@ -291,7 +226,7 @@ def _encode_camera(ep: Episode, cam: str, writer: CameraVideo) -> list[np.ndarra
     return samples
 
 
-def _write_dataset(root: Path, plan: _Plan, video: VideoSettings, progress: bool) -> int:
+def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress: bool) -> int:
     """Write the whole dataset into ``root``; returns the number of frames."""
     infos = {cam: video.info(h, w, plan.fps) for cam, (h, w, _) in plan.image_shapes.items()}
     features = fmt.build_features(plan.image_shapes, infos, plan.with_reward)
