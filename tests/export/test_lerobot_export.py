@@ -252,6 +252,11 @@ def _dataset_in(folder: Path, mk) -> None:
             ["--repo_id", "no-slash"],
             "--repo_id must look like",
         ),
+        (
+            lambda d, o, mk: _dataset_in(d, mk),
+            ["--vcodec", "h264", "--crf", "60"],
+            "--crf for h264 must be in 0..51",
+        ),
         (lambda d, o, mk: _dataset_in(d, mk), ["--task", "  "], "--task must not be empty"),
         (
             lambda d, o, mk: (

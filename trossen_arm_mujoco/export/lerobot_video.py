@@ -27,6 +27,7 @@ from trossen_arm_mujoco.export.lerobot_format import FileIndex
 #: Codec choice -> PyAV encoder name, and its default CRF.
 ENCODERS: dict[str, str] = {"libsvtav1": "libsvtav1", "h264": "libx264"}
 DEFAULT_CRF: dict[str, int] = {"libsvtav1": 30, "h264": 23}
+MAX_CRF: dict[str, int] = {"libsvtav1": 63, "h264": 51}
 PIX_FMTS: tuple[str, ...] = ("yuv420p", "yuv444p")
 #: libsvtav1 speed preset (LeRobot's default: 12, the fastest).
 SVTAV1_PRESET = 12
@@ -58,8 +59,9 @@ class VideoSettings:
             raise UserError(f"unknown pixel format '{self.pix_fmt}'; valid: {', '.join(PIX_FMTS)}")
         if self.codec == "libsvtav1" and self.pix_fmt != "yuv420p":
             raise UserError("libsvtav1 encodes yuv420p only; for yuv444p use --vcodec h264")
-        if self.crf is not None and not 0 <= self.crf <= 63:
-            raise UserError(f"crf must be in 0..63, got {self.crf}")
+        top = MAX_CRF[self.codec]
+        if self.crf is not None and not 0 <= self.crf <= top:
+            raise UserError(f"--crf for {self.codec} must be in 0..{top}, got {self.crf}")
         if self.gop < 1:
             raise UserError(f"gop must be at least 1, got {self.gop}")
 
