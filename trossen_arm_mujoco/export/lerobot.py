@@ -100,7 +100,7 @@ def export_lerobot(
     """
     start = time.perf_counter()
     _check_repo_id(repo_id)
-    data_dir, output = Path(data_dir).expanduser(), Path(output).expanduser()
+    data_dir, output = Path(data_dir).expanduser(), Path(output).expanduser().resolve()
     require("pyarrow")
     found = list_episodes(data_dir)
     if not found:
