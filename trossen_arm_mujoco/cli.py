@@ -1,7 +1,8 @@
 """``trossen-mujoco`` command: one entry point for every script.
 
 Subcommands: ``record`` (scripts/record_sim_episodes.py), ``visualize``
-(scripts/visualize_eps.py), ``replay-real`` (scripts/replay_episode_real.py).
+(scripts/visualize_eps.py), ``replay-real`` (scripts/replay_episode_real.py), ``export``
+(scripts/export_dataset.py).
 """
 
 from __future__ import annotations
@@ -16,13 +17,15 @@ SUBCOMMANDS = {
     "record": "trossen_arm_mujoco.scripts.record_sim_episodes",
     "visualize": "trossen_arm_mujoco.scripts.visualize_eps",
     "replay-real": "trossen_arm_mujoco.scripts.replay_episode_real",
+    "export": "trossen_arm_mujoco.scripts.export_dataset",
 }
 
 USAGE = (
-    "usage: trossen-mujoco {record,visualize,replay-real} [flags]\n"
+    "usage: trossen-mujoco {record,visualize,replay-real,export} [flags]\n"
     "  record       scripted rollouts -> HDF5 episodes\n"
     "  visualize    HDF5 episodes -> mp4 camera grid + joint plots\n"
     "  replay-real  replay an episode on two arms (or their simulated twin)\n"
+    "  export       HDF5 episodes -> LeRobot v3.0 dataset (parquet + mp4)\n"
     "Run 'trossen-mujoco <subcommand> --help' for its flags."
 )
 

@@ -1,0 +1,149 @@
+"""Exports loaded by the real ``LeRobotDataset`` (LeRobot needs Python >= 3.12).
+
+LeRobot cannot be installed next to this package's Python 3.11 environment, so the check
+runs in a separate interpreter: ``TROSSEN_LEROBOT_PYTHON`` names a Python with
+``lerobot[dataset]`` installed (``.ci/run`` creates one and sets it). Three exports are
+loaded with the pyav and torchcodec video backends:
+
+- ``recorded``: recorder episodes (2 x 20 steps, 2 cameras 48x64, gzip images) as
+  H.264 yuv444p: frames within PSNR 35 dB of the HDF5 images.
+- ``recorded_av1``: the same with the default encoding (AV1 yuv420p, as LeRobot): at 48x64
+  half-resolution colour caps PSNR near 33 dB, so the bound is 28 dB here.
+- ``rolled``: written episodes with a moving square (float32 arrays, gzip and lzf images),
+  one data and video file per episode: every frame comes back in its place.
+
+State, velocity, action and reward must come back bit for bit as float32.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pyarrow")
+pytest.importorskip("av")
+
+from trossen_arm_mujoco.data.reader import list_episodes, load_episode  # noqa: E402
+from trossen_arm_mujoco.data.schema import JOINT_NAMES  # noqa: E402
+from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
+from trossen_arm_mujoco.export import lerobot_format as fmt  # noqa: E402
+from trossen_arm_mujoco.tasks import registry  # noqa: E402
+
+CHECK = Path(__file__).with_name("lerobot_check.py")
+ENV = "TROSSEN_LEROBOT_PYTHON"
+BACKENDS = ("pyav", "torchcodec")
+HIGH_FIDELITY = VideoSettings(codec="h264", pix_fmt="yuv444p", crf=12)
+
+
+def _lerobot_python() -> str:
+    python = os.environ.get(ENV, "")
+    if not python:
+        pytest.skip(f"{ENV} is not set: point it at a Python >= 3.12 with lerobot[dataset]")
+    if not Path(python).is_file():
+        pytest.skip(f"{ENV}={python} does not exist")
+    return python
+
+
+def _expected(data_dir: Path, tasks: list[str], out: Path) -> Path:
+    """The source values the loader must return (see lerobot_check.py), as an .npz."""
+    arrays: dict[str, np.ndarray] = {"tasks": np.array(tasks)}
+    for i, (_, path) in enumerate(list_episodes(data_dir)):
+        ep = load_episode(path, load_images=True)
+        arrays[f"state_{i}"] = ep.qpos.astype(np.float32)
+        arrays[f"velocity_{i}"] = ep.qvel.astype(np.float32)
+        arrays[f"action_{i}"] = ep.action.astype(np.float32)
+        arrays[f"reward_{i}"] = ep.reward.astype(np.float32)
+        arrays[f"success_{i}"] = ep.reward >= 4
+        for cam, frames in ep.images.items():
+            arrays[f"images_{cam}_{i}"] = frames
+    np.savez(out, **arrays)
+    return out
+
+
+@pytest.fixture(scope="module")
+def loaded(request, make_episode, make_float32, tmp_path_factory) -> dict:
+    """Export three datasets and load them all in one run of the LeRobot Python."""
+    python = _lerobot_python()  # skip before recording when there is no LeRobot
+    recorded = request.getfixturevalue("recorded")
+    tmp = tmp_path_factory.mktemp("lerobot_load")
+    transfer = registry.load("sim_transfer_cube").description
+    datasets = []
+    for name, video in (("recorded", HIGH_FIDELITY), ("recorded_av1", VideoSettings())):
+        export_lerobot(recorded, tmp / name, f"test/{name}", video=video, progress=False)
+        expected = _expected(recorded, [transfer] * 2, tmp / f"{name}.npz")
+        datasets.append({"name": name, "root": str(tmp / name), "repo_id": f"test/{name}"})
+        datasets[-1]["expected"] = str(expected)
+
+    rolled = tmp / "rolled_eps"  # float32 arrays in two files, compressed images in two
+    for k, (steps, compression) in enumerate(((12, "none"), (9, "gzip"), (10, "lzf"))):
+        make_episode(rolled / f"episode_{k}.hdf5", steps, ["top"], k, compression=compression)
+        if k:
+            make_float32(rolled / f"episode_{k}.hdf5")
+    mp = pytest.MonkeyPatch()
+    mp.setattr(fmt, "DATA_FILES_SIZE_MB", 1e-6)  # every episode in its own files
+    mp.setattr(fmt, "VIDEO_FILES_SIZE_MB", 1e-6)
+    try:
+        export_lerobot(
+            rolled, tmp / "rolled", "test/rolled", video=HIGH_FIDELITY, task="stack", progress=False
+        )
+    finally:
+        mp.undo()
+    expected = _expected(rolled, ["stack"] * 3, tmp / "rolled.npz")
+    datasets.append(
+        {"name": "rolled", "root": str(tmp / "rolled"), "repo_id": "test/rolled",
+         "expected": str(expected)}
+    )  # fmt: skip
+
+    spec = tmp / "spec.json"
+    spec.write_text(json.dumps({"datasets": datasets, "backends": list(BACKENDS)}))
+    env = {**os.environ, "HF_HUB_OFFLINE": "1", "HF_HOME": str(tmp / "hf_home")}
+    proc = subprocess.run(
+        [python, str(CHECK), str(spec)], capture_output=True, text=True, env=env, timeout=600
+    )
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("RESULT ")]
+    assert proc.returncode == 0 and lines, f"{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    return json.loads(lines[-1][len("RESULT ") :])
+
+
+def _runs(loaded: dict, backend: str) -> dict:
+    run = loaded["runs"][backend]
+    if "unavailable" in run:
+        pytest.skip(f"{backend} cannot load (FFmpeg libraries missing?): {run['unavailable']}")
+    return run
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_frames_and_arrays_match_the_episodes(loaded, backend):
+    run = _runs(loaded, backend)
+    for name, episodes, frames in (("recorded", 2, 40), ("recorded_av1", 2, 40), ("rolled", 3, 31)):
+        got = run[name]
+        assert (got["num_episodes"], got["num_frames"], got["fps"]) == (episodes, frames, 50)
+        assert got["names"] == list(JOINT_NAMES)
+        assert got["max_abs"] == {"state": 0.0, "velocity": 0.0, "action": 0.0, "reward": 0.0}
+        assert got["dtypes"]["state"] == got["dtypes"]["action"] == "float32"
+        assert got["success_equal"] and got["task_equal"]
+        assert got["order"] == [[e, t] for e, n in enumerate(_lengths(name)) for t in range(n)]
+        assert "observation.state" in got["stats_keys"]
+    assert run["recorded"]["cameras"] == ["cam_high", "cam_left_wrist"]
+    assert run["recorded"]["tasks"] == [registry.load("sim_transfer_cube").description]
+
+
+def _lengths(name: str) -> list[int]:
+    return [12, 9, 10] if name == "rolled" else [20, 20]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_video_frames_within_codec_tolerance(loaded, backend):
+    run = _runs(loaded, backend)
+    for cam, value in run["recorded"]["min_psnr"].items():
+        assert value >= 35.0, (cam, value)
+    for cam, value in run["recorded_av1"]["min_psnr"].items():
+        assert value >= 28.0, (cam, value)
+    assert min(run["rolled"]["min_psnr"].values()) >= 35.0
+    assert run["rolled"]["misaligned"] == []
+    assert run["recorded"]["misaligned"] == []

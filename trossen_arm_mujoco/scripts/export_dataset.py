@@ -1,0 +1,130 @@
+"""Export recorded episodes to another dataset format (also ``trossen-mujoco export``).
+
+    python trossen_arm_mujoco/scripts/export_dataset.py --format lerobot \\
+        --data_dir sim_transfer_cube --output ~/datasets/transfer_cube --repo_id me/transfer_cube
+
+``--format lerobot`` writes a LeRobot v3.0 dataset (see ``trossen_arm_mujoco.export``) that
+``LeRobotDataset(repo_id, root=output)`` loads; it needs the ``lerobot`` extra
+(pyarrow, PyAV), not LeRobot itself.
+"""
+
+from __future__ import annotations
+
+if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
+    import sys
+    from pathlib import Path
+
+    sys.path[0] = str(
+        next(p for p in Path(__file__).resolve().parents if not (p / "__init__.py").is_file())
+    )
+    import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from trossen_arm_mujoco.constants import ROOT_DIR
+from trossen_arm_mujoco.data.reader import resolve_data_dir
+from trossen_arm_mujoco.errors import UserError, run_cli
+
+FORMATS = ("lerobot",)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line flags."""
+    p = argparse.ArgumentParser(
+        prog="trossen-mujoco export",
+        description="Export recorded HDF5 episodes as a LeRobot v3.0 dataset (parquet + mp4).",
+    )
+    p.add_argument(
+        "--format", default="lerobot", choices=FORMATS, help="dataset format (default: lerobot)"
+    )
+    p.add_argument(
+        "--data_dir",
+        required=True,
+        help="episode folder, relative to --root_dir unless absolute (e.g. sim_transfer_cube)",
+    )
+    p.add_argument("--root_dir", default=ROOT_DIR, help=f"root of datasets (default: {ROOT_DIR})")
+    p.add_argument(
+        "--output",
+        required=True,
+        help="dataset folder to create (relative to the current folder unless absolute); "
+        "must be missing or empty",
+    )
+    p.add_argument(
+        "--repo_id",
+        required=True,
+        help="dataset name <owner>/<name>, what LeRobotDataset(repo_id, root=...) is given",
+    )
+    p.add_argument(
+        "--task",
+        default=None,
+        help="task description for every episode (default: the task registry's description "
+        "of each episode's task; required for vendor recordings)",
+    )
+    p.add_argument(
+        "--vcodec",
+        default="libsvtav1",
+        choices=("libsvtav1", "h264"),
+        help="video codec (default: libsvtav1 = AV1, as LeRobot)",
+    )
+    p.add_argument(
+        "--pix_fmt",
+        default="yuv420p",
+        choices=("yuv420p", "yuv444p"),
+        help="video pixel format; yuv444p keeps full colour resolution (h264 only; "
+        "default: yuv420p)",
+    )
+    p.add_argument(
+        "--crf",
+        type=int,
+        default=None,
+        help="video quality, lower is better and larger (default: 30 for libsvtav1, 23 for h264)",
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the LeRobot dataset already in --output (once the new one is complete)",
+    )
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Export ``--data_dir``; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    from trossen_arm_mujoco.export import VideoSettings, export_lerobot
+
+    data_dir = resolve_data_dir(args.root_dir, args.data_dir)
+    if not data_dir.is_dir():
+        raise UserError(
+            f"data folder not found: {data_dir} (--root_dir {args.root_dir}, --data_dir "
+            f"{args.data_dir}); record episodes first or fix the flags"
+        )
+    if args.task is not None and not args.task.strip():
+        raise UserError("--task must not be empty")
+    video = VideoSettings(codec=args.vcodec, pix_fmt=args.pix_fmt, crf=args.crf)
+    summary = export_lerobot(
+        data_dir,
+        args.output,
+        args.repo_id,
+        task=args.task,
+        video=video,
+        overwrite=args.overwrite,
+    )
+    rate = summary.frames / max(summary.seconds, 1e-9)
+    cams = ", ".join(summary.cameras) or "none"
+    print(
+        f"exported {summary.episodes} episode(s), {summary.frames} frames at {summary.fps} fps "
+        f"(cameras: {cams}) to {summary.output} in {summary.seconds:.1f} s ({rate:.0f} frames/s)"
+    )
+    print(f"load it with: LeRobotDataset('{args.repo_id}', root='{summary.output.resolve()}')")
+    return 0
+
+
+def cli(argv: Sequence[str] | None = None) -> int:
+    """Entry point: like :func:`main`, with user errors as one line and exit status 2."""
+    return run_cli(main, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(cli())
