@@ -41,7 +41,7 @@ def test_state_observation(make_env):
     assert obs.shape == (22,) and obs.dtype == np.float32
     assert env.observation_space.contains(obs)
     assert info == {"is_success": False, "goal_distance": info["goal_distance"],
-                    "safety_clipped": False}  # fmt: skip
+                    "safety_clipped": False, "safety_links": ""}  # fmt: skip
 
 
 def test_pixels_and_render(make_env):
