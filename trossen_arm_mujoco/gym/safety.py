@@ -68,32 +68,61 @@ def _subtree(model: mujoco.MjModel, root: int) -> list[int]:
     return out
 
 
+def _as_slice(idx: np.ndarray) -> slice | np.ndarray:
+    """A slice for consecutive indices (cheaper to read and write through), else them."""
+    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+        return slice(int(idx[0]), int(idx[0]) + len(idx))
+    return idx
+
+
 class _ArmPoints:
-    """Points of one arm in its bodies' frames: owner body, local position, radius."""
+    """Points of one arm in its bodies' frames, as one matrix: the lowest point is one
+    product with the bodies' poses.
+
+    ``matrix`` (N, 4K + 1): row of point p (of the k-th body) holds [p (3), 1] in columns
+    4k..4k+3 and -radius in the last, so that ``matrix @ v`` with v = [per body: third row
+    of its rotation (3), its z (1); then 1] is the world z of every point's lowest reach.
+    """
 
     def __init__(self, model: mujoco.MjModel, group) -> None:
         root = int(model.jnt_bodyid[group.joint_ids[0]])
-        bodies = set(_subtree(model, root))
-        owners, points, radii = [], [], []
+        self.bodies = np.array(_subtree(model, root), dtype=int)
+        column = {int(b): k for k, b in enumerate(self.bodies)}
+        rows, owners = [], []
         for g in range(model.ngeom):
             body = int(model.geom_bodyid[g])
-            if body not in bodies or not (model.geom_contype[g] or model.geom_conaffinity[g]):
+            if body not in column or not (model.geom_contype[g] or model.geom_conaffinity[g]):
                 continue
             local, radius = geom_points(model, g)
             rot = np.empty(9)
             mujoco.mju_quat2Mat(rot, model.geom_quat[g])
-            points.append(model.geom_pos[g] + local @ rot.reshape(3, 3).T)
-            owners.append(np.full(len(local), body))
-            radii.append(np.full(len(local), radius))
+            for point in model.geom_pos[g] + local @ rot.reshape(3, 3).T:
+                rows.append((column[body], point, radius))
         site = getattr(group, "frame_site_id", None)
         if site is not None:
-            points.append(model.site_pos[site][None, :])
-            owners.append(np.array([int(model.site_bodyid[site])]))
-            radii.append(np.zeros(1))
-        self.owner = np.concatenate(owners)
-        self.points = np.concatenate(points)
-        self.radius = np.concatenate(radii)
-        self.qpos_idx = np.asarray(group.qpos_idx, dtype=int)
+            rows.append((column[int(model.site_bodyid[site])], model.site_pos[site], 0.0))
+        k_bodies = len(self.bodies)
+        self.matrix = np.zeros((len(rows), 4 * k_bodies + 1))
+        for r, (k, point, radius) in enumerate(rows):
+            self.matrix[r, 4 * k : 4 * k + 3] = point
+            self.matrix[r, 4 * k + 3] = 1.0
+            self.matrix[r, -1] = -radius
+            owners.append(int(self.bodies[k]))
+        self.owner = np.array(owners, dtype=int)
+        self.vector = np.zeros(4 * k_bodies + 1)
+        self.vector[-1] = 1.0
+        self._per_body = self.vector[:-1].reshape(k_bodies, 4)  # a view: filled in place
+        self.body_sel = _as_slice(self.bodies)
+        self.qpos_sel = _as_slice(np.asarray(group.qpos_idx, dtype=int))
+
+    def lowest(self, data: mujoco.MjData) -> tuple[float, int]:
+        """(lowest world z (m), body id of that point) at ``data``'s body poses."""
+        per_body, sel = self._per_body, self.body_sel
+        per_body[:, :3] = data.xmat[sel, 6:9]
+        per_body[:, 3] = data.xpos[sel, 2]
+        z = self.matrix @ self.vector
+        i = int(z.argmin())
+        return float(z[i]), int(self.owner[i])
 
 
 class SafetyFloor:
@@ -120,13 +149,9 @@ class SafetyFloor:
         data = self._data
         data.qpos[:] = qpos_full
         if q is not None:
-            data.qpos[pts.qpos_idx] = q
+            data.qpos[pts.qpos_sel] = q
         mujoco.mj_kinematics(self.model, data)
-        owner = pts.owner
-        rows = data.xmat[owner, 6:9]  # third row of each body's rotation: world z of its axes
-        z = data.xpos[owner, 2] + np.einsum("ij,ij->i", pts.points, rows) - pts.radius
-        i = int(np.argmin(z))
-        return float(z[i]), int(owner[i])
+        return pts.lowest(data)
 
     def link_name(self, body: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"

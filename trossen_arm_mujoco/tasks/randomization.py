@@ -78,17 +78,6 @@ def generator_from_seed(seed: Mapping[str, Any]) -> np.random.Generator:
         raise UserError(f"bad randomization seed record {dict(seed)!r:.80}: {exc}") from None
 
 
-def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
-    """``v`` rotated by ``angle`` (rad) about the unit ``axis`` (Rodrigues)."""
-    c, s = math.cos(angle), math.sin(angle)
-    return v * c + np.cross(axis, v) * s + axis * (axis @ v) * (1.0 - c)
-
-
-def _random_axis(g: np.random.Generator) -> np.ndarray:
-    axis = g.normal(size=3)
-    return axis / max(float(np.linalg.norm(axis)), 1e-12)
-
-
 def _named(model: mujoco.MjModel, obj: mujoco.mjtObj, ids) -> list[tuple[int, str]]:
     """(id, name) of the elements of ``ids`` that have a name."""
     out = [(int(i), mujoco.mj_id2name(model, obj, int(i))) for i in ids]
@@ -138,6 +127,7 @@ class SceneRandomizer:
         self.robot_joints = _named(model, obj.mjOBJ_JOINT, robot_joints)
         self.nominal = {f: getattr(model, f).copy() for f in FIELDS}
         self._dirty = False
+        self._ids = _Ids(model)
 
     @property
     def enabled_kinds(self) -> list[str]:
@@ -156,7 +146,7 @@ class SceneRandomizer:
         into ``data``). Call ``mj_forward`` afterwards."""
         self.restore()
         self._dirty = True
-        apply_randomization(self.model, record, data)
+        apply_randomization(self.model, record, data, self._ids)
 
     def randomize(self, rng: np.random.Generator, data: mujoco.MjData) -> dict[str, Any]:
         """Sample a randomization from a child of ``rng`` and apply it; returns its record."""
@@ -176,23 +166,27 @@ class SceneRandomizer:
             )
         return record
 
-    def _f32(self, values) -> list[float]:
+    @staticmethod
+    def _f32(values) -> list:
+        """Values as the float32 fields hold them (so the record equals the model)."""
         return np.asarray(values, dtype=np.float32).tolist()
 
     def _sample_lights(self, g, s, data):
-        nom, out = self.nominal, {}
-        c, max_tilt = s["colour_jitter"], math.radians(s["direction_deg"])
-        for i, name in self.lights:
-            axis, tilt = _random_axis(g), g.uniform(0.0, max_tilt)
-            direction = _rotate(nom["light_dir"][i], axis, tilt)
-            tint = g.uniform(1.0 - c, 1.0 + c, 3)
-            diffuse = nom["light_diffuse"][i] * g.uniform(*s["diffuse_scale"]) * tint
-            specular = nom["light_specular"][i] * g.uniform(*s["specular_scale"]) * tint
-            ambient = (nom["light_ambient"][i] + g.uniform(*s["ambient"])) * tint
-            out[name] = {"dir": (direction / np.linalg.norm(direction)).tolist(),
-                         "diffuse": self._f32(diffuse), "specular": self._f32(specular),
-                         "ambient": self._f32(ambient)}  # fmt: skip
-        return out
+        ids, names = _split(self.lights)
+        n, nom = len(ids), self.nominal
+        c = s["colour_jitter"]
+        axes = _unit_rows(g.normal(size=(n, 3)))
+        tilts = g.uniform(0.0, math.radians(s["direction_deg"]), n)
+        tints = g.uniform(1.0 - c, 1.0 + c, (n, 3))
+        k_diffuse = g.uniform(*s["diffuse_scale"], n)[:, None]
+        k_specular = g.uniform(*s["specular_scale"], n)[:, None]
+        ambient_add = g.uniform(*s["ambient"], n)[:, None]
+        directions = _unit_rows(_rotate_rows(nom["light_dir"][ids], axes, tilts)).tolist()
+        diffuse = self._f32(nom["light_diffuse"][ids] * k_diffuse * tints)
+        specular = self._f32(nom["light_specular"][ids] * k_specular * tints)
+        ambient = self._f32((nom["light_ambient"][ids] + ambient_add) * tints)
+        return {name: {"dir": directions[k], "diffuse": diffuse[k], "specular": specular[k],
+                       "ambient": ambient[k]} for k, name in enumerate(names)}  # fmt: skip
 
     def _rgba(self, geom: int, material: int | None = None) -> np.ndarray:
         """Colour a geom shows (its material's when its own rgba is the default)."""
@@ -214,9 +208,8 @@ class SceneRandomizer:
             material = int(self.nominal["geom_matid"][geom])
             mat_name = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_MATERIAL, material)
             if self.table_materials:
-                material, mat_name = self.table_materials[
-                    int(g.integers(len(self.table_materials)))
-                ]
+                choice = int(g.integers(len(self.table_materials)))
+                material, mat_name = self.table_materials[choice]
             jitter = g.uniform(-j, j, 3)
             out[name] = {"material": mat_name or "",
                          "rgba": self._jittered(self._rgba(geom, material), jitter)}  # fmt: skip
@@ -224,70 +217,121 @@ class SceneRandomizer:
 
     def _sample_objects(self, g, s, data):
         out, j = {}, s["rgb_jitter"]
-        for geoms in self.object_geoms:
-            jitter = g.uniform(-j, j, 3)  # one colour change per object
+        jitters = g.uniform(-j, j, (len(self.object_geoms), 3))  # one colour change per object
+        for geoms, jitter in zip(self.object_geoms, jitters, strict=True):
             for geom, name in geoms:
                 out[name] = self._jittered(self._rgba(geom), jitter)
         return out
 
     def _sample_friction(self, g, s, data):
-        nom = self.nominal["geom_friction"]
-        return {name: float(nom[i, 0] * g.uniform(*s["scale"])) for i, name in self.friction_geoms}
+        ids, names = _split(self.friction_geoms)
+        values = self.nominal["geom_friction"][ids, 0] * g.uniform(*s["scale"], len(ids))
+        return dict(zip(names, values.tolist(), strict=True))
 
     def _sample_object_mass(self, g, s, data):
-        nom, out = self.nominal, {}
-        for body, name in self.object_bodies:
-            k = g.uniform(*s["scale"])
-            out[name] = {"mass": float(nom["body_mass"][body] * k),
-                         "inertia": (nom["body_inertia"][body] * k).tolist()}  # fmt: skip
-        return out
+        ids, names = _split(self.object_bodies)
+        k = g.uniform(*s["scale"], len(ids))
+        mass = (self.nominal["body_mass"][ids] * k).tolist()
+        inertia = (self.nominal["body_inertia"][ids] * k[:, None]).tolist()
+        return {name: {"mass": mass[i], "inertia": inertia[i]} for i, name in enumerate(names)}
 
     def _sample_joint_damping(self, g, s, data):
-        nom, adr = self.nominal["dof_damping"], self.model.jnt_dofadr
-        return {name: float(nom[adr[j]] + g.uniform(*s["range"])) for j, name in self.robot_joints}
+        ids, names = _split(self.robot_joints)
+        nominal = self.nominal["dof_damping"][self.model.jnt_dofadr[ids]]
+        return dict(zip(names, (nominal + g.uniform(*s["range"], len(ids))).tolist(), strict=True))
 
     def _sample_camera(self, g, s, data):
-        nom, out = self.nominal, {}
-        p, max_angle = s["position"], math.radians(s["orientation_deg"])
-        for cam, name in self.cameras:
-            pos = nom["cam_pos"][cam] + g.uniform(-p, p, 3)
-            axis, angle = _random_axis(g), g.uniform(0.0, max_angle)
-            turn = np.concatenate([[math.cos(angle / 2)], axis * math.sin(angle / 2)])
-            quat = np.empty(4)
-            mujoco.mju_mulQuat(quat, nom["cam_quat"][cam], turn)
-            out[name] = {"pos": pos.tolist(), "quat": (quat / np.linalg.norm(quat)).tolist()}
-        return out
+        ids, names = _split(self.cameras)
+        n, nom, p = len(ids), self.nominal, s["position"]
+        pos = (nom["cam_pos"][ids] + g.uniform(-p, p, (n, 3))).tolist()
+        axes = _unit_rows(g.normal(size=(n, 3)))
+        half = 0.5 * g.uniform(0.0, math.radians(s["orientation_deg"]), n)
+        turns = np.column_stack([np.cos(half), axes * np.sin(half)[:, None]])
+        quats = _unit_rows(_quat_mul_rows(nom["cam_quat"][ids], turns)).tolist()
+        return {name: {"pos": pos[k], "quat": quats[k]} for k, name in enumerate(names)}
 
     def _sample_joint_noise(self, g, s, data):
-        out, r, model = {}, s["range"], self.model
-        for j, name in self.arm_joints:
-            q = float(data.qpos[model.jnt_qposadr[j]])
-            noise = float(g.uniform(-r, r))
-            low, high = model.jnt_range[j] if model.jnt_limited[j] else (-np.inf, np.inf)
-            out[name] = {"noise": noise, "qpos": float(np.clip(q + noise, low, high))}
-        return out
+        ids, names = _split(self.arm_joints)
+        model, r = self.model, s["range"]
+        noise = g.uniform(-r, r, len(ids))
+        limited = model.jnt_limited[ids].astype(bool)
+        low = np.where(limited, model.jnt_range[ids, 0], -np.inf)
+        high = np.where(limited, model.jnt_range[ids, 1], np.inf)
+        qpos = np.clip(data.qpos[model.jnt_qposadr[ids]] + noise, low, high).tolist()
+        return {name: {"noise": float(noise[k]), "qpos": qpos[k]} for k, name in enumerate(names)}
+
+
+def _split(named: list[tuple[int, str]]) -> tuple[np.ndarray, list[str]]:
+    return np.array([i for i, _ in named], dtype=int), [n for _, n in named]
+
+
+def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross products (np.cross, without its overhead on small arrays)."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.column_stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-12)
+
+
+def _rotate_rows(v: np.ndarray, axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Each row of ``v`` rotated by ``angles`` (rad) about the unit ``axes`` (Rodrigues)."""
+    c, s = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    along = np.sum(axes * v, axis=1, keepdims=True)
+    return v * c + _cross_rows(axes, v) * s + axes * along * (1.0 - c)
+
+
+def _quat_mul_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise quaternion products a * b (wxyz)."""
+    w1, v1, w2, v2 = a[:, :1], a[:, 1:], b[:, :1], b[:, 1:]
+    w = w1 * w2 - np.sum(v1 * v2, axis=1, keepdims=True)
+    return np.column_stack([w, w1 * v2 + w2 * v1 + _cross_rows(v1, v2)])
 
 
 # -- applying a record --------------------------------------------------------------------
-def _values(where: str, value: Any, size: int | None) -> np.ndarray:
+def _values(where: str, value: Any, size: int | None) -> Any:
     """Finite floats of the expected size (None: one number); one-line UserError if not."""
     try:
-        arr = np.asarray(value, dtype=np.float64)
+        if size is None:
+            out = float(value)
+            ok = math.isfinite(out) and not isinstance(value, (str, bytes))
+        else:
+            out = [float(v) for v in value]
+            ok = len(out) == size and all(math.isfinite(v) for v in out)
     except (TypeError, ValueError):
-        arr = np.full(1, np.nan)
-    ok = arr.shape == (() if size is None else (size,)) and np.all(np.isfinite(arr))
+        ok = False
     if not ok:
         want = "a number" if size is None else f"{size} numbers"
         raise UserError(f"randomization record, {where}: expected {want}, got {value!r:.60}")
-    return arr
+    return out
+
+
+class _Ids:
+    """Model name -> id, looked up once per name (``lookup_id``: errors list valid names)."""
+
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
+        self._cache: dict[tuple[str, str], int] = {}
+
+    def __call__(self, kind: str, name: str) -> int:
+        key = (kind, name)
+        if key not in self._cache:
+            self._cache[key] = lookup_id(self.model, kind, str(name))
+        return self._cache[key]
 
 
 def apply_randomization(
-    model: mujoco.MjModel, record: Mapping[str, Any], data: mujoco.MjData | None = None
+    model: mujoco.MjModel,
+    record: Mapping[str, Any],
+    data: mujoco.MjData | None = None,
+    ids: _Ids | None = None,
 ) -> None:
     """Write a randomization record into ``model`` (and the initial arm joints into
     ``data`` when given). Fields not in the record keep their current values, so apply it
-    to a nominal model. Call ``mj_forward`` afterwards.
+    to a nominal model. Call ``mj_forward`` afterwards. (``ids``: a name-lookup cache of
+    this model, kept by ``SceneRandomizer``.)
 
     Raises:
         UserError: not a record of this version, an unknown kind or name (lists the valid
@@ -305,8 +349,9 @@ def apply_randomization(
             raise unknown_name_error("randomization kind", str(kind), KINDS)
         if not isinstance(entries, Mapping):
             raise UserError(f"randomization record, {kind}: expected a mapping of names")
+        ids = ids or _Ids(model)
         for name, v in entries.items():
-            _APPLY[kind](model, data, name, v, f"{kind}.{name}")
+            _APPLY[kind](model, data, ids, name, v, f"{kind}.{name}")
 
 
 def _get(where: str, v: Any, key: str) -> Any:
@@ -315,47 +360,47 @@ def _get(where: str, v: Any, key: str) -> Any:
     return v[key]
 
 
-def _apply_light(model, data, name, v, where):
-    i = lookup_id(model, "light", name)
+def _apply_light(model, data, ids, name, v, where):
+    i = ids("light", name)
     for key, field in (("dir", "light_dir"), ("diffuse", "light_diffuse"),
                        ("specular", "light_specular"), ("ambient", "light_ambient")):  # fmt: skip
         getattr(model, field)[i] = _values(f"{where}.{key}", _get(where, v, key), 3)
 
 
-def _apply_table(model, data, name, v, where):
-    g = lookup_id(model, "geom", name)
+def _apply_table(model, data, ids, name, v, where):
+    g = ids("geom", name)
     material = _get(where, v, "material")
     if material:
-        model.geom_matid[g] = lookup_id(model, "material", str(material))
+        model.geom_matid[g] = ids("material", material)
     model.geom_rgba[g] = _values(f"{where}.rgba", _get(where, v, "rgba"), 4)
 
 
-def _apply_object_colour(model, data, name, v, where):
-    model.geom_rgba[lookup_id(model, "geom", name)] = _values(where, v, 4)
+def _apply_object_colour(model, data, ids, name, v, where):
+    model.geom_rgba[ids("geom", name)] = _values(where, v, 4)
 
 
-def _apply_friction(model, data, name, v, where):
-    model.geom_friction[lookup_id(model, "geom", name), 0] = _values(where, v, None)
+def _apply_friction(model, data, ids, name, v, where):
+    model.geom_friction[ids("geom", name), 0] = _values(where, v, None)
 
 
-def _apply_mass(model, data, name, v, where):
-    b = lookup_id(model, "body", name)
+def _apply_mass(model, data, ids, name, v, where):
+    b = ids("body", name)
     model.body_mass[b] = _values(f"{where}.mass", _get(where, v, "mass"), None)
     model.body_inertia[b] = _values(f"{where}.inertia", _get(where, v, "inertia"), 3)
 
 
-def _apply_damping(model, data, name, v, where):
-    model.dof_damping[model.jnt_dofadr[lookup_id(model, "joint", name)]] = _values(where, v, None)
+def _apply_damping(model, data, ids, name, v, where):
+    model.dof_damping[model.jnt_dofadr[ids("joint", name)]] = _values(where, v, None)
 
 
-def _apply_camera(model, data, name, v, where):
-    c = lookup_id(model, "camera", name)
+def _apply_camera(model, data, ids, name, v, where):
+    c = ids("camera", name)
     model.cam_pos[c] = _values(f"{where}.pos", _get(where, v, "pos"), 3)
     model.cam_quat[c] = _values(f"{where}.quat", _get(where, v, "quat"), 4)
 
 
-def _apply_joint_noise(model, data, name, v, where):
-    j = lookup_id(model, "joint", name)
+def _apply_joint_noise(model, data, ids, name, v, where):
+    j = ids("joint", name)
     q = _values(f"{where}.qpos", _get(where, v, "qpos"), None)
     if data is not None:
         data.qpos[model.jnt_qposadr[j]] = q
