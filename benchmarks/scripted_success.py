@@ -3,6 +3,7 @@
     python benchmarks/scripted_success.py --episodes 200            # without noise
     python benchmarks/scripted_success.py --episodes 200 --noise    # with noise
     python benchmarks/scripted_success.py --task sim_insertion --episodes 100 [--noise]
+    python benchmarks/scripted_success.py --episodes 100 --randomize  # domain randomization
 
 Runs both phases per seed (scripted mocap rollout, joint replay) exactly as recording does,
 without cameras, and prints successes, the rate and the wall time, plus how close the
@@ -36,6 +37,7 @@ def main() -> None:
     parser.add_argument("--task", default="sim_transfer_cube", help="a task with a scripted policy")
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--noise", action="store_true")
+    parser.add_argument("--randomize", action="store_true", help="domain randomization")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
         "--episode_len", type=int, default=None, help="default: the task's recording default"
@@ -55,6 +57,7 @@ def main() -> None:
         episode_len=episode_len,
         inject_noise=args.noise,
         base_seed=args.seed,
+        randomize=args.randomize,
     )
     recorder = EpisodeRecorder(settings, step_hook=track)
     start = time.perf_counter()
@@ -77,7 +80,8 @@ def main() -> None:
     wall = time.perf_counter() - start
     recorder.close()
     n = args.episodes
-    print(f"task={args.task} noise={args.noise} episodes={n} wall={wall:.1f}s")
+    print(f"task={args.task} noise={args.noise} randomize={args.randomize} episodes={n} "
+          f"wall={wall:.1f}s")  # fmt: skip
     print(f"per episode: {wall / n:.2f} s")
     print(f"phase 1 (EE env) success:    {ee_ok}/{n} = {100 * ee_ok / n:.1f}%")
     print(f"phase 2 (joint env) success: {joint_ok}/{n} = {100 * joint_ok / n:.1f}%")

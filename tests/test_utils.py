@@ -100,3 +100,65 @@ def test_time_limit():
 def test_onscreen_render_is_accepted():
     env = make_sim_env(TransferCubeTask, onscreen_render=True, cam_list=[])
     assert env.task.onscreen_render is True
+
+
+# --- domain randomization through make_sim_env -----------------------------------------------
+def _scene_fields(env) -> dict[str, np.ndarray]:
+    from trossen_arm_mujoco.tasks.randomization import FIELDS
+
+    model = env.physics.model.ptr
+    return {f: getattr(model, f).copy() for f in FIELDS}
+
+
+def test_make_sim_env_randomize_off_by_default():
+    env = make_sim_env(TransferCubeEETask, cam_list=[], random=0)
+    env.reset()
+    assert env.task.applied_randomization is None
+    env.task.close()
+
+
+def test_make_sim_env_randomize_same_seed_same_scene():
+    kw = dict(cam_list=["cam_high"], image_size=(32, 40), randomize=True)
+    a, b = (make_sim_env(TransferCubeEETask, random=7, **kw) for _ in range(2))
+    c = make_sim_env(TransferCubeEETask, random=8, **kw)
+    try:
+        obs = [env.reset().observation for env in (a, b, c)]
+        obs = [env.reset().observation for env in (a, b, c)]  # second episode of each
+        rec = [env.task.applied_randomization for env in (a, b, c)]
+        assert rec[0] == rec[1] != rec[2]
+        np.testing.assert_array_equal(obs[0]["images"]["cam_high"], obs[1]["images"]["cam_high"])
+        assert not np.array_equal(obs[0]["images"]["cam_high"], obs[2]["images"]["cam_high"])
+        np.testing.assert_array_equal(obs[0]["qpos"], obs[1]["qpos"])
+    finally:
+        for env in (a, b, c):
+            env.task.close()
+
+
+def test_joint_env_replays_in_the_ee_env_scene():
+    """The two phases of a recording: the joint env given the EE env's record and cube pose
+    sees the same scene (model fields, initial joints, images)."""
+    ee = make_sim_env(TransferCubeEETask, random=3, cam_list=["cam_high"], image_size=(32, 40),
+                      randomize=True)  # fmt: skip
+    first = ee.reset().observation
+    record = ee.task.applied_randomization
+    joint = make_sim_env(TransferCubeTask, cam_list=["cam_high"], image_size=(32, 40),
+                         randomization=record, box_pose=first["env_state"])  # fmt: skip
+    try:
+        replay = joint.reset().observation
+        fields_ee, fields_joint = _scene_fields(ee), _scene_fields(joint)
+        for name in ("light_dir", "light_diffuse", "cam_pos", "cam_quat"):
+            np.testing.assert_array_equal(fields_ee[name], fields_joint[name])
+        np.testing.assert_array_equal(first["qpos"], replay["qpos"])
+        np.testing.assert_array_equal(first["env_state"], replay["env_state"])
+        assert joint.task.applied_randomization == record
+        np.testing.assert_array_equal(first["images"]["cam_high"], replay["images"]["cam_high"])
+    finally:
+        ee.task.close()
+        joint.task.close()
+
+
+def test_make_sim_env_randomize_needs_a_registered_task():
+    from trossen_arm_mujoco.ee_sim_env import TrossenAIStationaryEETask
+
+    with pytest.raises(UserError, match="randomize=True needs a registered task class"):
+        make_sim_env(TrossenAIStationaryEETask, randomize=True)

@@ -15,6 +15,8 @@ _OBJ = {
     "actuator": (mujoco.mjtObj.mjOBJ_ACTUATOR, "nu"),
     "equality": (mujoco.mjtObj.mjOBJ_EQUALITY, "neq"),
     "key": (mujoco.mjtObj.mjOBJ_KEY, "nkey"),
+    "light": (mujoco.mjtObj.mjOBJ_LIGHT, "nlight"),
+    "material": (mujoco.mjtObj.mjOBJ_MATERIAL, "nmat"),
 }
 
 

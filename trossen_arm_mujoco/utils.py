@@ -13,6 +13,7 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.sim.env import load_physics
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.dm_tasks import RegisteredTaskMixin
 from trossen_arm_mujoco.tasks.transfer_cube import sample_cube_pose
 
 __all__ = ["Quaternion", "make_sim_env", "sample_box_pose"]
@@ -45,6 +46,7 @@ def make_sim_env(
     image_size: tuple[int, int] = (480, 640),
     random: int | np.random.Generator | None = None,
     time_limit: float = 20.0,
+    randomize: bool = False,
     **task_kwargs,
 ) -> control.Environment:
     """A dm_control environment for a Stationary AI task class.
@@ -60,6 +62,10 @@ def make_sim_env(
         image_size: (height, width) of the images.
         random: seed or Generator for the task's randomization.
         time_limit: episode time limit (s).
+        randomize: domain randomization of every episode (registered tasks only; see the
+            task config's ``randomization`` section); ``env.task.applied_randomization`` is
+            the record of the current episode, ``randomization=record`` (a task keyword)
+            applies a given one at every reset instead.
     Returns:
         ``control.Environment`` whose ``reset()``/``step(action)`` return time steps with
         ``.observation`` and ``.reward``; control period ``DT`` = 0.02 s.
@@ -68,6 +74,13 @@ def make_sim_env(
         raise unknown_name_error("task", task_name, SIM_TASK_CONFIGS)
     if not isinstance(task_class, type):
         raise UserError(f"task_class must be a class, got {type(task_class).__name__}")
+    if randomize:
+        if not issubclass(task_class, RegisteredTaskMixin):
+            raise UserError(
+                f"randomize=True needs a registered task class (e.g. TransferCubeEETask); "
+                f"{task_class.__name__} does not randomize"
+            )
+        task_kwargs["randomize"] = True
     xml = resolve_asset(xml_file or task_class.DEFAULT_XML)
     physics = load_physics(xml)
     task = task_class(

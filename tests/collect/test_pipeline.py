@@ -115,3 +115,110 @@ def test_full_episode_succeeds_without_images():
     # gripper columns carry the commanded values, equal within each gripper
     np.testing.assert_array_equal(actions[:, 6], actions[:, 7])
     np.testing.assert_array_equal(actions[:, 14], actions[:, 15])
+
+
+# --- domain randomization --------------------------------------------------------------------
+SMALL = dict(episode_len=10, cam_names=("cam_high",), height=24, width=32)
+
+
+def _record(tmp_path, name: str, attempt: int = 0, **settings):
+    recorder = EpisodeRecorder(RecordSettings(**{**SMALL, **settings}))
+    try:
+        path = tmp_path / name / f"episode_{attempt}.hdf5"
+        recorder.record(attempt, path)
+    finally:
+        recorder.close()
+    return path
+
+
+def test_default_recording_is_bit_identical_to_one_without_randomization(tmp_path, monkeypatch):
+    """Off by default: the file equals, byte for byte, one recorded with every
+    randomization code path of the samplers removed."""
+    from trossen_arm_mujoco.tasks.sampler import TaskSampler
+
+    default = _record(tmp_path, "default")
+    monkeypatch.setattr(TaskSampler, "_make_randomizer", lambda self: None)
+    monkeypatch.setattr(TaskSampler, "randomize_scene", lambda self, env, view: None)
+    bare = _record(tmp_path, "bare")
+    assert default.read_bytes() == bare.read_bytes()
+    assert "randomization" not in load_episode(default).attrs
+
+
+def test_randomized_recording_stores_its_record_and_is_reproducible(tmp_path):
+    from trossen_arm_mujoco.tasks.randomization import KINDS, record_from_json
+
+    a = _record(tmp_path, "a", randomize=True)
+    b = _record(tmp_path, "b", randomize=True)
+    c = _record(tmp_path, "c", attempt=1, randomize=True)
+    plain = _record(tmp_path, "plain")
+    assert a.read_bytes() == b.read_bytes()
+    rec_a = record_from_json(load_episode(a).attrs["randomization"])
+    rec_c = record_from_json(load_episode(c).attrs["randomization"])
+    assert set(rec_a) == {"version", "seed", *KINDS} and rec_a != rec_c
+    ep, ep_plain = load_episode(a), load_episode(plain)
+    # same seed, same task episode: the cube starts where it starts without randomization
+    np.testing.assert_array_equal(
+        ep.attrs["initial_env_state"], ep_plain.attrs["initial_env_state"]
+    )
+    with ep.open_frames() as fa, ep_plain.open_frames() as fp:
+        assert not np.array_equal(fa.read("cam_high", 0), fp.read("cam_high", 0))
+
+
+#: kind of a record -> (model accessor, attributes compared between the two flavours)
+_COMPARED = {"lights": ("light", ("dir", "diffuse", "specular", "ambient")),
+             "table": ("geom", ("rgba", "matid")), "objects": ("geom", ("rgba",)),
+             "friction": ("geom", ("friction",)), "object_mass": ("body", ("mass", "inertia")),
+             "camera": ("cam", ("pos", "quat"))}  # fmt: skip
+
+
+def test_both_phases_see_the_same_randomized_scene():
+    recorder = EpisodeRecorder(RecordSettings(**{**SMALL, "randomize": True}))
+    try:
+        actions, poses = recorder.scripted_rollout(np.random.default_rng(5))
+        record = recorder.last_randomization
+        recorder.replay(actions[:1], poses)
+        assert recorder.joint_sampler.randomization == record
+        ee, joint = recorder.ee_env.model, recorder.joint_env.model
+        for kind, (obj, attrs) in _COMPARED.items():
+            assert record[kind]
+            for name in record[kind]:
+                a, b = getattr(ee, obj)(name), getattr(joint, obj)(name)
+                for attr in attrs:
+                    np.testing.assert_array_equal(getattr(a, attr), getattr(b, attr))
+        for name in record["joint_damping"]:
+            da, db = ee.joint(name).dofadr[0], joint.joint(name).dofadr[0]
+            assert ee.dof_damping[da] == joint.dof_damping[db] != 0.0
+        # initial joints: phase 1's start (sampled again) equals phase 2's start
+        recorder.ee_sampler.sample_task(np.random.default_rng(5))
+        recorder.joint_sampler.sample_task(0, object_poses=poses, randomization=record)
+        ee_data, joint_data = recorder.ee_env.data, recorder.joint_env.data
+        for name, v in record["joint_noise"].items():
+            q_ee = ee_data.qpos[ee.joint(name).qposadr[0]]
+            q_joint = joint_data.qpos[joint.joint(name).qposadr[0]]
+            assert q_ee == q_joint == v["qpos"]
+    finally:
+        recorder.close()
+
+
+def test_stored_record_re_renders_the_episode_exactly(tmp_path):
+    from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+    from trossen_arm_mujoco.tasks import registry
+    from trossen_arm_mujoco.tasks.randomization import record_from_json
+
+    path = _record(tmp_path, "ep", randomize=True)
+    ep = load_episode(path)
+    record = record_from_json(ep.attrs["randomization"])
+    names = list(ep.attrs["object_names"])
+    poses = dict(zip(names, np.asarray(ep.attrs["initial_env_state"]).reshape(-1, 7)))
+    sampler = registry.make_sampler("sim_transfer_cube", camera_names=["cam_high"],
+                                    height=24, width=32)  # fmt: skip
+    try:
+        task = sampler.sample_task(0, object_poses=poses, randomization=record)
+        with ep.open_frames() as frames:
+            for t in range(len(ep.action)):
+                np.testing.assert_array_equal(task.get_observation()["qpos"], ep.qpos[t])
+                image = sampler.env.render_images()["cam_high"]
+                np.testing.assert_array_equal(image, frames.read("cam_high", t))
+                task.step(KIT_LAYOUT.joint_commands(ep.action[t]))
+    finally:
+        sampler.close()

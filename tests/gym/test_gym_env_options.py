@@ -41,7 +41,7 @@ def test_state_observation(make_env):
     assert obs.shape == (22,) and obs.dtype == np.float32
     assert env.observation_space.contains(obs)
     assert info == {"is_success": False, "goal_distance": info["goal_distance"],
-                    "safety_clipped": False}  # fmt: skip
+                    "safety_clipped": False, "safety_links": ""}  # fmt: skip
 
 
 def test_pixels_and_render(make_env):
@@ -119,3 +119,37 @@ def test_close_twice(make_env):
     env.reset(seed=0)
     env.close()
     env.close()
+
+
+def test_randomize_is_off_by_default(make_env):
+    env = make_env(REACH)
+    _, info = env.reset(seed=0)
+    assert "randomization" not in info and env.unwrapped.sampler.randomize is False
+
+
+def test_randomize_same_seed_same_scene(make_env):
+    kwargs = dict(obs_type="pixels_state", width=40, height=32, randomize=True)
+    env = make_env("TrossenMujoco/WXAIPush-v0", **kwargs)
+    other = make_env("TrossenMujoco/WXAIPush-v0", **kwargs)
+    plain = make_env("TrossenMujoco/WXAIPush-v0", obs_type="pixels_state", width=40, height=32)
+    for e in (env, other, plain):
+        e.reset(seed=3)  # the first image of a renderer is not compared
+    a, info_a = env.reset(seed=4)
+    b, info_b = other.reset(seed=4)
+    c, info_c = env.reset(seed=5)
+    p, _ = plain.reset(seed=4)
+    assert info_a["randomization"] == info_b["randomization"] != info_c["randomization"]
+    np.testing.assert_array_equal(a["pixels"], b["pixels"])
+    assert not np.array_equal(a["pixels"], c["pixels"])
+    assert not np.array_equal(a["pixels"], p["pixels"])
+    # the task's episode (cube and goal) is the one of the plain env
+    other.reset(seed=4)
+    t, q = other.unwrapped.task, plain.unwrapped.task
+    np.testing.assert_array_equal(t.cube_pos(), q.cube_pos())
+    np.testing.assert_array_equal(t.desired_goal(), q.desired_goal())
+
+
+def test_randomization_section_overrides_through_make(make_env):
+    env = make_env(REACH, randomize=True, randomization={"camera": {"enabled": False}})
+    _, info = env.reset(seed=0)
+    assert "camera" not in info["randomization"] and "lights" in info["randomization"]

@@ -245,3 +245,18 @@ def test_onscreen_render_shows_live_viewer_under_xvfb(tmp_path):
     finally:
         xvfb.terminate()
         xvfb.wait(timeout=10)
+
+
+def test_randomize_flag_stores_the_randomization(tmp_path, capsys):
+    from trossen_arm_mujoco.tasks.randomization import record_from_json
+
+    args = ["--root_dir", str(tmp_path), "--episode_len", "5", "--cam_names", "none"]
+    rc, out, _ = _run_cli(["--data_dir", "r", "--randomize", "--num_workers", "2",
+                           "--num_episodes", "2", *args], capsys)  # fmt: skip
+    assert rc == 0 and "randomized" in out
+    records = [record_from_json(load_episode(tmp_path / "r" / f"episode_{k}.hdf5")
+                                .attrs["randomization"]) for k in (0, 1)]  # fmt: skip
+    assert records[0]["version"] == 1 and records[0] != records[1]
+    rc, out, _ = _run_cli(["--data_dir", "p", *args], capsys)
+    assert rc == 0 and "randomized" not in out
+    assert "randomization" not in load_episode(tmp_path / "p" / "episode_0.hdf5").attrs

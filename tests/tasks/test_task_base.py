@@ -59,11 +59,22 @@ def test_done_after_max_episode_steps():
     sampler = registry.make_sampler("reach", max_episode_steps=3)
     try:
         task = sampler.sample_task(0)
-        dones = [task.step({})[2] for _ in range(3)]
-        assert dones == [False, False, True]
-        assert task.is_done()
+        dones, timed_out = [], []
+        for _ in range(3):
+            dones.append(task.step({})[2])
+            timed_out.append(task.is_timed_out())
+        assert dones == timed_out == [False, False, True]
+        assert task.is_done() and not task.is_terminal()
     finally:
         sampler.close()
+
+
+def test_never_timed_out_without_max_episode_steps(reach):
+    task = reach.sample_task(0)
+    task.max_episode_steps = None
+    for _ in range(3):
+        task.step({})
+    assert not task.is_timed_out() and not task.is_done()
 
 
 def test_terminate_on_success(reach):

@@ -77,3 +77,51 @@ def test_marker_shows_goal(samplers):
     sampler = samplers["push"]
     task = sampler.sample_task(4)
     np.testing.assert_allclose(sampler.env.data.mocap_pos[0], task.desired_goal())
+
+
+# --- the sampler interface ------------------------------------------------------------------
+def test_sampler_seed_is_its_generator():
+    with registry.make_sampler("reach", seed=5) as a, registry.make_sampler("reach") as b:
+        first = _state(a, a.sample_task())  # continues the sampler's own generator
+        np.testing.assert_array_equal(first, _state(b, b.sample_task(5)))
+        assert not np.array_equal(_state(a, a.sample_task()), first)
+
+
+def test_sample_task_is_none_when_no_valid_episode():
+    """Push needs a goal min_goal_distance from the cube: an impossible one gives None."""
+    with registry.make_sampler("push", min_goal_distance=10.0) as sampler:
+        assert sampler.sample_task(0) is None
+        with pytest.raises(UserError, match="no valid episode in 3 draws"):
+            sampler.next_task(0, max_tries=3)
+
+
+def test_next_task_retries_until_a_task_comes(samplers):
+    sampler = samplers["reach"]
+    real = type(sampler)._sample_task
+    calls = []
+
+    def flaky(self, env):
+        calls.append(1)
+        return None if len(calls) < 3 else real(self, env)
+
+    type(sampler)._sample_task = flaky
+    try:
+        task = sampler.next_task(0)
+    finally:
+        type(sampler)._sample_task = real
+    assert task is not None and task.n_steps == 0 and len(calls) == 3
+
+
+def test_randomize_scene_takes_env_and_robot_view(samplers):
+    sampler = samplers["reach"]
+    sampler.env.reset()
+    assert sampler.randomize_scene(sampler.env, sampler.robot_view) is None  # off by default
+    assert {"arm", "gripper"} <= set(sampler.robot_view.move_groups)
+
+
+def test_sampler_owns_and_closes_its_env():
+    with registry.make_sampler("reach", camera_names=["overview"], height=8, width=8) as s:
+        s.sample_task(0)
+        s.env.render_images()
+        assert s.env.cameras._renderer is not None
+    assert s.env.cameras._renderer is None

@@ -7,6 +7,12 @@ behaves like the real arms, from the same initial object poses; only the request
 are rendered, and every step is streamed to the episode file, so memory stays flat in the
 episode length. Success is judged in phase 2.
 
+Domain randomization (``RecordSettings.randomize``, off by default): phase 1 samples it from
+the episode's generator; phase 2 applies the same record (``tasks.randomization``), so both
+phases see one randomized scene; the record is stored as the ``randomization`` attribute
+(JSON). Without it, episodes and files are exactly those of a recorder without
+randomization.
+
 Tasks are reached only through ``tasks.registry`` (task, sampler, policy, config); the task's
 ``policy_dt`` is the recording period.
 """
@@ -29,6 +35,7 @@ from trossen_arm_mujoco.real.validate import (
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.randomization import record_to_json
 
 #: Speed limit of each of the 16 action values (URDF: rad/s for the joints, m/s for both
 #: finger values), in the qpos layout.
@@ -76,6 +83,7 @@ class RecordSettings:
     width: int = 640
     compression: str = "none"
     base_seed: int = 0
+    randomize: bool = False
 
 
 @dataclass
@@ -111,14 +119,19 @@ class EpisodeRecorder:
         self.step_hook = step_hook
         self.arm_limits = ArmLimits.from_mjcf()
         self.last_speed_limited = 0
-        self.ee_sampler = registry.make_sampler(self.entry.name, flavour="ee")
+        self.ee_sampler = registry.make_sampler(
+            self.entry.name, flavour="ee", randomize=settings.randomize
+        )
         self.joint_sampler = registry.make_sampler(
             self.entry.name,
             flavour="joint",
             camera_names=settings.cam_names,
             height=settings.height,
             width=settings.width,
+            randomize=settings.randomize,
         )
+        #: randomization record of the last scripted rollout (None: not randomizing).
+        self.last_randomization: dict | None = None
         self.ee_task = None
         self.joint_task = None
         probe = self.joint_sampler.make_task()
@@ -145,10 +158,12 @@ class EpisodeRecorder:
         The actions are within the joint limits and, at the recording rate (50 Hz), within
         the real arm's joint and gripper speed limits (``ACTION_SPEED_LIMITS``): the scripted
         policies plan below them, and any value that would still be faster is rate-limited
-        (``self.last_speed_limited`` counts them; normally 0).
+        (``self.last_speed_limited`` counts them; normally 0). With randomization, its
+        record is kept in ``self.last_randomization`` for the replay.
         """
         T = self.settings.episode_len
-        task = self.ee_task = self.ee_sampler.sample_task(rng)
+        task = self.ee_task = self.ee_sampler.next_task(rng)
+        self.last_randomization = self.ee_sampler.randomization
         poses = task.object_poses()
         policy = self.policy_cls(inject_noise=self.settings.inject_noise, rng=rng)
         actions = np.empty((T, KIT_LAYOUT.size))
@@ -180,14 +195,20 @@ class EpisodeRecorder:
         object_poses: dict,
         writer: EpisodeWriter | None = None,
         progress: Callable[[], None] | None = None,
+        randomization: dict | None = None,
     ) -> np.ndarray:
         """Phase 2: replay joint actions from ``object_poses``; returns rewards (T,).
 
         Each step appends (observation before the action, action, reward after it) to
-        ``writer``; the observation after the last action is not rendered.
+        ``writer``; the observation after the last action is not rendered. The scene is
+        randomized as ``randomization`` says (default: as in the last scripted rollout).
         """
         T = len(actions)
-        task = self.joint_task = self.joint_sampler.sample_task(0, object_poses=object_poses)
+        if randomization is None:
+            randomization = self.last_randomization
+        task = self.joint_task = self.joint_sampler.next_task(
+            0, object_poses=object_poses, randomization=randomization
+        )
         env = self.joint_sampler.env
         rewards = np.empty(T)
         obs = task.get_observation()
@@ -243,6 +264,8 @@ class EpisodeRecorder:
             "speed_limited_values": int(self.last_speed_limited),
             **(extra_attrs or {}),
         }
+        if self.last_randomization is not None:
+            attrs["randomization"] = record_to_json(self.last_randomization)
         with EpisodeWriter(
             path,
             episode_len=s.episode_len,

@@ -11,10 +11,13 @@ sampler's ``arms`` order:
 
 then 1 gripper value: -1 closed .. +1 open (finger travel over the actuator range, m).
 
-Safety floor: the tool frame (``ee_site``, at the fingertips) is kept above
-``table_height + safety_margin`` (m). ``ee_delta`` clamps the target height; joint modes
-check the target with forward kinematics and shorten the move (halving it, down to no move)
-until the target is above the floor. Either way the step reports ``safety_clipped``.
+Safety floor (``gym.safety``): every collision geom of each arm (links, wrist, fingers) and
+its tool frame (``ee_site``) are kept above ``table_height + safety_margin`` (m). ``ee_delta``
+clamps the tool frame's target height; then, in every mode, the joint target (for
+``ee_delta``: the IK step the controller will take) is checked with forward kinematics, and
+the move is shortened (halving it, down to no move) until every link stays above the floor
+(or, for an arm already below it, goes no lower). The step reports ``safety_clipped`` and
+the links that would have gone below (``clipped_links``).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.gym.safety import SafetyFloor
 from trossen_arm_mujoco.robot.kinematics import Kinematics, orientation_error
 from trossen_arm_mujoco.robot.robot import Robot
 
@@ -67,6 +71,9 @@ class ActionMapper:
             )
             for arm, _ in self.arms
         }
+        self.floor = SafetyFloor(robot.model, [arm for arm, _ in self.arms], self.floor_z)
+        #: links the safety floor held up in the last call (empty when none).
+        self.clipped_links: list[str] = []
         self.ref_quat: dict[str, np.ndarray] = {}
         arm_dim = 3 if mode == "ee_delta" else 6
         self.sizes = [arm_dim + 1 for _ in self.arms]
@@ -103,16 +110,18 @@ class ActionMapper:
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
         a = np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip(a, -1, 1), without its overhead
         commands: dict[str, np.ndarray] = {}
-        clipped = False
+        links = self.clipped_links = []
         for arm, gripper, start, grip, a_mid, a_half, g_mid, g_half in self._parts:
-            cmd, hit = self._arm_command(data, arm, a[start:grip], a_mid, a_half)
+            cmd, link = self._arm_command(data, arm, a[start:grip], a_mid, a_half)
             commands[arm.name] = cmd
-            clipped |= hit
+            if link:
+                links.append(link)
             commands[gripper.name] = g_mid + g_half * a[grip : grip + 1]
-        return commands, clipped
+        return commands, bool(links)
 
     # -- per mode -------------------------------------------------------------------------
-    def _arm_command(self, data, arm, a, mid, half) -> tuple[np.ndarray, bool]:
+    def _arm_command(self, data, arm, a, mid, half) -> tuple[np.ndarray, str]:
+        """(command, name of the link the floor held up or "")."""
         if self.mode == "ee_delta":
             return self._ee_delta(data, arm, a)
         q_now = arm.get_qpos(data)
@@ -122,33 +131,46 @@ class ActionMapper:
         else:
             move = a * self.rel_limit
             target = q_now + move
-        fraction, hit = self._safe_fraction(data, arm, q_now, target)
-        if not hit:
-            return (target if move is None else move), False
+        fraction, link = self._safe_fraction(data, arm, q_now, target)
+        if not link:
+            return (target if move is None else move), ""
         target = q_now + fraction * (target - q_now)
-        return (target if move is None else target - q_now), True
+        return (target if move is None else target - q_now), link
 
-    def _ee_delta(self, data, arm, a: np.ndarray) -> tuple[np.ndarray, bool]:
+    def _ee_delta(self, data, arm, a: np.ndarray) -> tuple[np.ndarray, str]:
         z = data.site_xpos[arm.frame_site_id, 2]
         delta = a * self.ee_limit
-        hit = False
+        link = ""
         if z + delta[2] < self.floor_z:
             delta[2] = min(self.floor_z - z, self.ee_limit)
-            hit = True
-        if not self.hold:
-            return delta, hit
-        quat = arm.get_frame_pose(data)[3:]
-        ref = self.ref_quat.get(arm.name, quat)
-        rot = np.clip(orientation_error(ref, quat), -MAX_ROTATION_STEP, MAX_ROTATION_STEP)
-        return np.concatenate([delta, rot]), hit
+            link = self.floor.link_name(int(self.robot.model.site_bodyid[arm.frame_site_id]))
+        twist = delta
+        if self.hold:
+            quat = arm.get_frame_pose(data)[3:]
+            ref = self.ref_quat.get(arm.name, quat)
+            rot = np.clip(orientation_error(ref, quat), -MAX_ROTATION_STEP, MAX_ROTATION_STEP)
+            twist = np.concatenate([delta, rot])
+        # the joint target the controller's IK step will aim for, checked link by link
+        q_now = arm.get_qpos(data)
+        target = self.kin[arm.name].delta_step(data.qpos, twist)
+        fraction, held = self._safe_fraction(data, arm, q_now, target)
+        if held:
+            return twist * fraction, held
+        return twist, link
 
-    def _safe_fraction(self, data, arm, q_now, target) -> tuple[float, bool]:
-        """Largest tried fraction of the move whose tool frame stays above the floor."""
-        kin = self.kin[arm.name]
-        if kin.site_position(data.qpos, target)[2] >= self.floor_z:
-            return 1.0, False
+    def _safe_fraction(self, data, arm, q_now, target) -> tuple[float, str]:
+        """(Largest tried fraction of the move that keeps every link of the arm above the
+        floor, name of the lowest link at the full move when that is not 1, else "")."""
+        floor = self.floor
+        z, body = floor.lowest(data.qpos, arm.name, target)
+        if z >= floor.floor_z:
+            return 1.0, ""
+        z_now, _ = floor.lowest(data.qpos, arm.name, q_now)
+        if z >= z_now:  # below the floor already, and the move goes no lower
+            return 1.0, ""
         for fraction in BACKOFF:
             q = q_now + fraction * (target - q_now)
-            if kin.site_position(data.qpos, q)[2] >= self.floor_z:
-                return fraction, True
-        return 0.0, True
+            z_q, _ = floor.lowest(data.qpos, arm.name, q)
+            if z_q >= floor.floor_z or z_q >= z_now:
+                return fraction, floor.link_name(body)
+        return 0.0, floor.link_name(body)

@@ -15,11 +15,14 @@ Keyword arguments (besides the task's config keys, which override its YAML file)
     stepping: ``fast`` | ``paused`` | ``realtime`` (see ``gym.stepping``).
     width, height: image size (pixels) of pixel observations and ``rgb_array`` renders.
     cameras: cameras of pixel observations and renders; default: the scene's first one.
+    randomize: domain randomization of every episode (default off), as the task config's
+        ``randomization`` section says (override it with ``randomization={...}``); the record
+        of the episode is ``info["randomization"]`` at reset.
 
 Reward: the task's reward (dense shaping for the wxai tasks, 0-4 for transfer_cube).
 ``terminated``: the task ended (``terminate_on_success``); time limits come from the
-registered ``max_episode_steps`` (TimeLimit). ``info``: ``is_success``, ``safety_clipped``
-and the task's diagnostics.
+registered ``max_episode_steps`` (TimeLimit). ``info``: ``is_success``, ``safety_clipped``,
+``safety_links`` (links the safety floor held up, "" when none) and the task's diagnostics.
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ from trossen_arm_mujoco.tasks.task import Task
 
 RENDER_MODES = ("rgb_array", "human")
 ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "width",
-               "height", "cameras")  # fmt: skip
+               "height", "cameras", "randomize")  # fmt: skip
 
 
 def _check_choice(kind: str, value: Any, valid: Sequence[str]) -> None:
@@ -76,6 +79,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         width: int = 128,
         height: int = 128,
         cameras: Sequence[str] | None = None,
+        randomize: bool = False,
         **config: Any,
     ):
         entry = registry.load(task)
@@ -114,6 +118,7 @@ class TrossenMujocoEnv(gymnasium.Env):
             camera_names=cameras,
             height=height,
             width=width,
+            randomize=randomize,
         )
         self.scene = self.sampler.env
         robot = self.scene.robots[sampler_cls.robot_name]
@@ -136,10 +141,12 @@ class TrossenMujocoEnv(gymnasium.Env):
             self.action_space.seed(seed)
             self.observation_space.seed(seed)
         self.stepper.stop()
-        self.task = self.sampler.sample_task(self.np_random)
+        self.task = self.sampler.next_task(self.np_random)
         self.actions.reset(self.scene.data)
         obs = self._observe()
         info = self._info(False)
+        if self.sampler.randomization is not None:
+            info["randomization"] = self.sampler.randomization
         self.stepper.start(self.task)
         if self.render_mode == "human":
             self.render()
@@ -182,6 +189,7 @@ class TrossenMujocoEnv(gymnasium.Env):
     def _info(self, clipped: bool) -> dict[str, Any]:
         info = self.task.get_info()
         info["safety_clipped"] = bool(clipped)
+        info["safety_links"] = ",".join(self.actions.clipped_links) if clipped else ""
         return info
 
     def _reward_terminated(self, obs: Any, info: dict[str, Any]) -> tuple[float, bool]:

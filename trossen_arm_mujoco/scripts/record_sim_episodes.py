@@ -71,6 +71,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="perturb the scripted waypoints (seeded)",
     )
     p.add_argument(
+        "--randomize",
+        action="store_true",
+        help="domain randomization (lights, table and object colours and textures, friction, "
+        "masses, damping, cameras, joint noise) as the task YAML's 'randomization' section "
+        "says; each episode stores it in its 'randomization' attribute (default: off)",
+    )
+    p.add_argument(
         "--cam_names",
         default=None,
         help="comma-separated cameras to record, or 'none' (default: all 4)",
@@ -192,6 +199,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         width=width,
         compression=args.compression,
         base_seed=args.seed,
+        randomize=args.randomize,
     )
     plan = plan_run(folder, num_episodes, args.overwrite)
     if plan.first_index >= num_episodes:
@@ -204,7 +212,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"continuing after existing episode {plan.first_index - 1} in {folder}")
     print(
         f"recording episodes {plan.first_index}..{num_episodes - 1} of '{args.task_name}' "
-        f"({episode_len} steps, cameras: {', '.join(cams) or 'none'}) into {folder}"
+        f"({episode_len} steps, cameras: {', '.join(cams) or 'none'}"
+        f"{', randomized' if args.randomize else ''}) into {folder}"
     )
 
     viewer = None

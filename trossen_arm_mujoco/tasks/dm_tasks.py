@@ -5,6 +5,11 @@ is built by the task's registered sampler over the dm_control ``Physics``, and w
 delegate to the registered task: ``initialize_episode`` places the objects with the
 sampler (from this task's generator, or from the poses given at construction),
 ``get_env_state`` and ``get_reward`` ask the task. Subclasses may still override any hook.
+
+Domain randomization: ``randomize=True`` randomizes every episode from this task's generator
+(as the task config's ``randomization`` section says); ``randomization=record`` applies one
+record at every reset instead, e.g. the EE env's ``applied_randomization`` handed to the joint
+env that replays its trajectory (the two then see the same scene).
 """
 
 from __future__ import annotations
@@ -14,8 +19,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.sampler import MAX_SAMPLE_TRIES
 from trossen_arm_mujoco.tasks.stationary import (
     StationaryTaskBase,
     TrossenAIStationaryEETask,
@@ -33,12 +40,24 @@ class RegisteredTaskMixin(StationaryTaskBase):
     Args (besides the base's):
         object_poses: object name -> initial pose [xyz, quat wxyz] used at every reset
             instead of sampled ones (e.g. to replay a recorded episode).
+        randomize: domain randomization of every episode (default off).
+        randomization: a randomization record (``tasks.randomization``) applied at every
+            reset instead of sampling one.
     """
 
     task_name: ClassVar[str] = ""
 
-    def __init__(self, *args: Any, object_poses: Mapping[str, Any] | None = None, **kwargs: Any):
+    def __init__(
+        self,
+        *args: Any,
+        object_poses: Mapping[str, Any] | None = None,
+        randomize: bool = False,
+        randomization: Mapping[str, Any] | None = None,
+        **kwargs: Any,
+    ):
         super().__init__(*args, **kwargs)
+        self.randomize = bool(randomize)
+        self.randomization = None if randomization is None else dict(randomization)
         self.object_poses = (
             None
             if object_poses is None
@@ -57,6 +76,7 @@ class RegisteredTaskMixin(StationaryTaskBase):
             camera_names=self.cam_list,
             height=self.image_size[0],
             width=self.image_size[1],
+            randomize=self.randomize,
         )
         return self.sampler.env
 
@@ -67,8 +87,21 @@ class RegisteredTaskMixin(StationaryTaskBase):
     def initialize_episode(self, physics) -> None:
         self.initialize_robots(physics)
         self.scene(physics)
-        self.task = self.sampler.start_episode(self.rng, self.episode_object_poses())
+        poses = self.episode_object_poses()
+        for _ in range(MAX_SAMPLE_TRIES):
+            self.task = self.sampler.start_episode(self.rng, poses, self.randomization)
+            if self.task is not None:
+                break
+        else:
+            raise UserError(
+                f"task '{self.task_name}': no valid episode in {MAX_SAMPLE_TRIES} draws"
+            )
         super().initialize_episode(physics)
+
+    @property
+    def applied_randomization(self) -> dict[str, Any] | None:
+        """Randomization record of the current episode (None: nominal scene)."""
+        return None if self.sampler is None else self.sampler.randomization
 
     def get_env_state(self, physics) -> np.ndarray:
         """Poses of the task's objects, [xyz, quat wxyz] each (7 per object)."""

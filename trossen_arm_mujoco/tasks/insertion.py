@@ -18,12 +18,13 @@ toward -y, and its 26 x 26 mm hole leaves 3 mm around the peg.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 
 TABLE_TOP_Z = 0.02
@@ -161,8 +162,8 @@ class InsertionSampler(BimanualSampler):
     def objects(self) -> dict[str, tuple[str, str | None]]:
         return {"peg": ("peg_joint", PEG_GEOM), "socket": ("socket_joint", "socket-1")}
 
-    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
-        peg, socket = sample_insertion_poses(rng)
-        self.env.objects["peg"].set_pose(self.env.data, peg)
-        self.env.objects["socket"].set_pose(self.env.data, socket)
-        return {}
+    def _sample_task(self, env: MujocoEnv) -> InsertionTask:
+        peg, socket = sample_insertion_poses(self.rng)
+        env.objects["peg"].set_pose(env.data, peg)
+        env.objects["socket"].set_pose(env.data, socket)
+        return self.task_cls(env, self.config)

@@ -44,8 +44,10 @@ class PickPlaceSampler(PushSampler):
 
     task_cls = PickPlaceTask
 
-    def sample_goal(self, rng: np.random.Generator, cube: np.ndarray) -> np.ndarray:
+    def sample_goal(self, rng: np.random.Generator, cube: np.ndarray) -> np.ndarray | None:
         goal = super().sample_goal(rng, cube)
+        if goal is None:
+            return None
         low, high = self.config["goal_low"], self.config["goal_high"]
         in_air = rng.uniform() < float(self.config["air_goal_probability"])
         z_air = rng.uniform(max(cube[2], low[2]), max(cube[2], high[2]))

@@ -101,18 +101,20 @@ class PushSampler(SingleArmSampler):
         self.env.objects["cube"].set_pose(self.env.data, pose)
         return np.array([xy[0], xy[1], z])
 
-    def sample_goal(self, rng: np.random.Generator, cube: np.ndarray) -> np.ndarray:
-        """Goal (3,) m on the table, away from the cube (rejection sampling, bounded tries)."""
+    def sample_goal(self, rng: np.random.Generator, cube: np.ndarray) -> np.ndarray | None:
+        """Goal (3,) m on the table, away from the cube (rejection sampling, bounded tries);
+        None when no try was far enough."""
         low, high = self.config["goal_low"], self.config["goal_high"]
         min_dist = float(self.config["min_goal_distance"])
         goal = cube.copy()
         for _ in range(MAX_GOAL_TRIES):
             goal[:2] = rng.uniform(low[:2], high[:2])
             if np.linalg.norm(goal[:2] - cube[:2]) >= min_dist:
-                break
-        return goal
+                return goal
+        return None
 
-    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
-        self.perturb_arm(rng)
-        cube = self.place_cube(rng)
-        return {"goal": self.sample_goal(rng, cube)}
+    def _sample_task(self, env: MujocoEnv) -> PushTask | None:
+        self.perturb_arm(self.rng)
+        cube = self.place_cube(self.rng)
+        goal = self.sample_goal(self.rng, cube)
+        return None if goal is None else self.task_cls(env, self.config, goal=goal)

@@ -6,10 +6,11 @@ success_bonus, ...). Achieved goal = tool-frame position, desired goal = target 
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
+from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
 from trossen_arm_mujoco.tasks.task import Bounds
 
@@ -46,7 +47,7 @@ class ReachSampler(SingleArmSampler):
 
     task_cls = ReachTask
 
-    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
-        self.perturb_arm(rng)
-        target = rng.uniform(self.config["target_low"], self.config["target_high"])
-        return {"goal": target}
+    def _sample_task(self, env: MujocoEnv) -> ReachTask:
+        self.perturb_arm(self.rng)
+        target = self.rng.uniform(self.config["target_low"], self.config["target_high"])
+        return self.task_cls(env, self.config, goal=target)

@@ -160,10 +160,13 @@ def make_sampler(
     width: int = 640,
     flavour: str = "joint",
     physics: Any = None,
+    seed: Any = None,
+    randomize: bool = False,
     **overrides: Any,
 ):
     """The sampler of a task (it builds the env), config overridden by keyword; see
-    ``TaskSampler`` for the arguments."""
+    ``TaskSampler`` for the arguments (``randomize=True``: domain randomization as the
+    config's ``randomization`` section says)."""
     entry = load(name)
     config = entry.load_config(**overrides)
     return entry.sampler_class()(
@@ -174,4 +177,6 @@ def make_sampler(
         width=width,
         flavour=flavour,
         physics=physics,
+        seed=seed,
+        randomize=randomize,
     )

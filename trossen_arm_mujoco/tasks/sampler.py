@@ -1,7 +1,14 @@
 """TaskSampler: owns the env of a task family and turns a seed into a ready episode.
 
 It is the only place where episodes are randomized; every random number comes from the
-``np.random.Generator`` given to (or made from the seed of) ``sample_task``.
+sampler's ``np.random.Generator`` (``self.rng``, made from ``seed`` at construction or
+replaced by the seed given to ``sample_task``).
+
+One episode (``sample_task``): the env is reset; ``randomize_scene(env, robot_view)``
+randomizes lighting, textures, dynamics and initial joint noise (domain randomization, when
+the sampler was made with ``randomize=True``; see ``tasks.randomization``); ``_sample_task(env)``
+places the task's objects and builds the task (None when this draw gives no valid episode);
+the task is reset. The sampler owns the env and closes it (``close()``, or ``with``).
 """
 
 from __future__ import annotations
@@ -16,8 +23,14 @@ from trossen_arm_mujoco.assets import ASSETS_DIR
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import EEDeltaController
+from trossen_arm_mujoco.robot.robot_view import RobotView
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.config import RANDOMIZATION_KEY, default_randomization
+from trossen_arm_mujoco.tasks.randomization import SceneRandomizer
 from trossen_arm_mujoco.tasks.task import Task
+
+#: ``sample_task`` attempts ``next_task`` makes before giving up.
+MAX_SAMPLE_TRIES = 100
 
 Seed = int | np.random.Generator | None
 
@@ -48,9 +61,12 @@ class TaskSampler:
             tasks only).
         physics: an existing dm_control ``Physics`` of that scene to build the env over (the
             dm_control front doors); default: load the scene.
+        seed: int or ``np.random.Generator``: the sampler's generator ``self.rng``.
+        randomize: domain randomization of every episode, as the config's ``randomization``
+            section says (default off: episodes are exactly those of a sampler without it).
 
     Subclasses set ``task_cls``, ``robot_name``, ``arms`` and implement ``robot_config``,
-    ``objects`` and ``randomize_scene``.
+    ``objects`` and ``_sample_task``.
     """
 
     task_cls: ClassVar[type[Task]] = Task
@@ -70,8 +86,14 @@ class TaskSampler:
         width: int = 640,
         flavour: str = "joint",
         physics: Any = None,
+        seed: Seed = None,
+        randomize: bool = False,
     ):
         self.config = dict(config)
+        self.rng = as_generator(seed)
+        self.randomize = bool(randomize)
+        #: record of the randomization of the current episode (None: nominal scene).
+        self.randomization: dict[str, Any] | None = None
         self.command_mode = command_mode
         self.flavour = flavour
         if flavour == "joint":
@@ -106,6 +128,7 @@ class TaskSampler:
         ):
             self._use_six_dof_ee_delta()
         self.task_cls(self.env, self.config)  # fail now on bad timing, not at the first reset
+        self.randomizer = self._make_randomizer()
 
     def _use_six_dof_ee_delta(self) -> None:
         """Arms take 6-value ee_delta twists ([dx, dy, dz] m, rotation vector rad) so that the
@@ -115,6 +138,23 @@ class TaskSampler:
             robot.controllers[arm] = EEDeltaController(
                 robot.view.group(arm), self.env.model, rotation=True, ctrl_dt=self.env.ctrl_dt
             )
+
+    def _make_randomizer(self) -> SceneRandomizer:
+        view = self.robot_view
+        arm_joints = [j for arm, _ in self.arms for j in view.group(arm).joint_ids]
+        robot_joints = [j for g in view.move_groups.values() for j in g.joint_ids]
+        return SceneRandomizer(
+            self.env.model,
+            self.config.get(RANDOMIZATION_KEY) or default_randomization(),
+            object_bodies=[o.body_id for o in self.env.objects.values()],
+            arm_joints=arm_joints,
+            robot_joints=robot_joints,
+        )
+
+    @property
+    def robot_view(self) -> RobotView:
+        """Move groups of the task's robot (``robot.robot_view.RobotView``)."""
+        return self.env.robots[self.robot_name].view
 
     # -- to override ----------------------------------------------------------------------
     def robot_config(self) -> RobotConfig:
@@ -128,42 +168,106 @@ class TaskSampler:
         """Free-joint objects of the scene: name -> (joint, geom)."""
         return {}
 
-    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
-        """Randomize the freshly reset scene in place; return the task's episode parameters
-        (keyword arguments of ``task_cls`` besides env and config)."""
+    def randomize_scene(self, env: MujocoEnv, robot_view: RobotView) -> dict[str, Any] | None:
+        """Domain randomization of the freshly reset scene from ``self.rng``: lighting,
+        table texture and colours, object colours, friction, object masses, joint damping,
+        camera poses and initial arm joint noise, each as the config's ``randomization``
+        section says. Returns the record of what was applied (``tasks.randomization``), or
+        None when the sampler does not randomize (the scene is then nominal).
+
+        Subclasses may extend it (call ``super()`` first); the task's own episode
+        distribution (object poses, goals) belongs in ``_sample_task``.
+        """
+        if not self.randomize:
+            self.randomizer.restore()
+            return None
+        return self.randomizer.randomize(self.rng, env.data)
+
+    def _sample_task(self, env: MujocoEnv) -> Task | None:
+        """Place the task's objects from ``self.rng`` and build its task (not reset), or
+        None when this draw gives no valid episode (``sample_task`` then returns None)."""
         raise NotImplementedError
 
     # -- API ------------------------------------------------------------------------------
-    def sample_task(self, seed: Seed = None, object_poses: Mapping[str, Any] | None = None) -> Task:
-        """A ready task: env reset, scene randomized from ``seed``, task built and reset.
+    def sample_task(
+        self,
+        seed: Seed = None,
+        object_poses: Mapping[str, Any] | None = None,
+        randomization: Mapping[str, Any] | None = None,
+    ) -> Task | None:
+        """A ready task (env reset, scene randomized, task built and reset), or None when
+        this draw gives no valid episode (call again: the generator has moved on).
 
         Args:
-            seed: int or ``np.random.Generator``; the only source of randomness.
-            object_poses: object name -> pose [xyz, quat wxyz] placed after randomizing
+            seed: int or ``np.random.Generator`` that becomes ``self.rng`` (the only source
+                of randomness); None: continue with ``self.rng``.
+            object_poses: object name -> pose [xyz, quat wxyz] placed after sampling
                 (e.g. to replay an episode from its recorded start).
+            randomization: a record (``tasks.randomization``) applied instead of sampling
+                one, e.g. the randomization of the episode being replayed.
         """
-        rng = as_generator(seed)
+        if seed is not None:
+            self.rng = as_generator(seed)
         self.env.reset()
-        task = self.start_episode(rng, object_poses)
-        task.reset()
+        task = self.start_episode(self.rng, object_poses, randomization)
+        if task is not None:
+            task.reset()
         return task
 
-    def start_episode(
-        self, rng: np.random.Generator, object_poses: Mapping[str, Any] | None = None
+    def next_task(
+        self,
+        seed: Seed = None,
+        object_poses: Mapping[str, Any] | None = None,
+        randomization: Mapping[str, Any] | None = None,
+        max_tries: int = MAX_SAMPLE_TRIES,
     ) -> Task:
-        """Randomize the current scene from ``rng``, place ``object_poses``, build the task
-        (not reset; the dm_control front doors reset through their own hooks)."""
-        params = self.randomize_scene(rng)
+        """``sample_task`` until it gives a task (at most ``max_tries`` draws)."""
+        for attempt in range(max_tries):
+            task = self.sample_task(seed if attempt == 0 else None, object_poses, randomization)
+            if task is not None:
+                return task
+        raise UserError(
+            f"task sampler {type(self).__name__} found no valid episode in {max_tries} draws; "
+            "check the spawn and goal regions of the task config"
+        )
+
+    def start_episode(
+        self,
+        rng: np.random.Generator,
+        object_poses: Mapping[str, Any] | None = None,
+        randomization: Mapping[str, Any] | None = None,
+    ) -> Task | None:
+        """Randomize the current scene from ``rng`` (or apply ``randomization``), sample the
+        task, place ``object_poses``; the task is built but not reset (the dm_control front
+        doors reset through their own hooks). None when the draw gives no valid episode."""
+        self.rng = rng
+        if randomization is not None:
+            self.randomizer.apply(randomization, self.env.data)
+            self.randomization = dict(randomization)
+        else:
+            self.randomization = self.randomize_scene(self.env, self.robot_view)
+        if self.randomization is not None:
+            self.env.forward()  # positions of the randomized scene, for _sample_task
+        task = self._sample_task(self.env)
+        if task is None:
+            return None
         for name, pose in (object_poses or {}).items():
             if name not in self.env.objects:
                 raise unknown_name_error("object", name, self.env.objects)
             self.env.objects[name].set_pose(self.env.data, np.asarray(pose, dtype=float))
         self.env.forward()
-        return self.task_cls(self.env, self.config, **params)
+        return task
 
     def make_task(self, **params: Any) -> Task:
         """A task over the current scene with explicit episode parameters (no reset)."""
         return self.task_cls(self.env, self.config, **params)
 
     def close(self) -> None:
+        """Close the env this sampler owns (renderers included)."""
         self.env.close()
+
+    def __enter__(self) -> TaskSampler:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

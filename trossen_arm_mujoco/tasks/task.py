@@ -8,7 +8,8 @@ ratios must be whole numbers (``UserError`` otherwise).
 
 Lifecycle: a ``TaskSampler`` resets the env, randomizes the scene and builds the task, then
 calls ``task.reset()``; the caller then alternates ``step(action)`` and the queries
-(``is_done``, ``judge_success``, ``get_reward``, ``get_observation``).
+(``is_done`` = ``is_terminal() or is_timed_out()``, ``judge_success``, ``get_reward``,
+``get_observation``).
 """
 
 from __future__ import annotations
@@ -122,10 +123,13 @@ class Task:
         ``terminate_on_success``)."""
         return bool(self.config.get("terminate_on_success", False)) and self.judge_success()
 
+    def is_timed_out(self) -> bool:
+        """``max_episode_steps`` task steps taken (never, when the config sets none)."""
+        return self.max_episode_steps is not None and self.n_steps >= self.max_episode_steps
+
     def is_done(self) -> bool:
-        """Terminal, or ``max_episode_steps`` task steps taken."""
-        timeout = self.max_episode_steps is not None and self.n_steps >= self.max_episode_steps
-        return timeout or self.is_terminal()
+        """``is_terminal() or is_timed_out()``."""
+        return self.is_terminal() or self.is_timed_out()
 
     def judge_success(self) -> bool:
         raise NotImplementedError

@@ -8,12 +8,13 @@ its sampler (``TransferCubeSampler``). Config: ``config/transfer_cube.yaml``; sc
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 
 #: Cube spawn region on the table (world frame, m): x, y uniform; z = resting height.
@@ -99,6 +100,6 @@ class TransferCubeSampler(BimanualSampler):
     def objects(self) -> dict[str, tuple[str, str | None]]:
         return {"box": ("red_box_joint", "red_box")}
 
-    def randomize_scene(self, rng: np.random.Generator) -> dict[str, Any]:
-        self.env.objects["box"].set_pose(self.env.data, sample_cube_pose(rng))
-        return {}
+    def _sample_task(self, env: MujocoEnv) -> TransferCube:
+        env.objects["box"].set_pose(env.data, sample_cube_pose(self.rng))
+        return self.task_cls(env, self.config)

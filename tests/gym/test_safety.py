@@ -1,0 +1,166 @@
+"""Per-link safety floor: lowest points of geoms, links held above the table, reporting."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.gym.safety import CYLINDER_SIDES, SafetyFloor, geom_points
+from trossen_arm_mujoco.robot.move_group import MoveGroup
+
+REACH = "TrossenMujoco/WXAIReach-v0"
+#: shoulder far forward, elbow nearly straight, wrist bent up: the tool frame stays 0.17 m
+#: above the table while link_4 (the forearm, past the elbow) goes 7 cm into it.
+ELBOW_DOWN = np.array([0.0, 3.0, 0.4, -1.5, 0.0, 0.0])
+
+ARM_XML = """
+<mujoco>
+  <asset><mesh name="tetra" vertex="0 0 0  0.1 0 0  0 0.1 0  0 0 0.1"/></asset>
+  <worldbody>
+    <body name="base" pos="0 0 0.5">
+      <geom type="box" size="0.05 0.05 0.05"/>
+      <body name="link" pos="0 0 0">
+        <joint name="hinge" type="hinge" axis="0 1 0"/>
+        <geom name="capsule" type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+        <body name="tip" pos="0.3 0 0" euler="0 30 0">
+          <geom name="box" type="box" size="0.01 0.02 0.04"/>
+          <geom name="ball" type="sphere" size="0.03" pos="0.05 0 0"/>
+          <geom name="cyl" type="cylinder" size="0.03 0.05" pos="0.1 0 0" euler="40 0 0"/>
+          <geom name="mesh" type="mesh" mesh="tetra" pos="0.2 0 0"/>
+          <geom name="ghost" type="sphere" size="0.5" contype="0" conaffinity="0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _exact_lowest(model, data, geom: int) -> float:
+    """Lowest world z of one geom, from its type's closed form (mesh: its vertices)."""
+    r = data.geom_xmat[geom].reshape(3, 3)[2]  # world z of the geom's axes
+    z, size = data.geom_xpos[geom, 2], model.geom_size[geom]
+    kind = mujoco.mjtGeom(int(model.geom_type[geom]))
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        return z - np.abs(r) @ size
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return z - size[0]
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return z - abs(r[2]) * size[1] - size[0]
+    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return z - abs(r[2]) * size[1] - size[0] * math.sqrt(max(0.0, 1 - r[2] ** 2))
+    mesh = int(model.geom_dataid[geom])
+    verts = model.mesh_vert[
+        model.mesh_vertadr[mesh] : model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]
+    ]
+    return z + float((verts @ r).min())
+
+
+@pytest.mark.parametrize("angle", [-2.0, -0.7, 0.0, 0.4, 1.3, 2.9])
+def test_lowest_point_of_every_geom_type(angle):
+    model = mujoco.MjModel.from_xml_string(ARM_XML)
+    data = mujoco.MjData(model)
+    floor = SafetyFloor(model, [MoveGroup(model, "arm", ["hinge"])], floor_z=0.0)
+    z, body = floor.lowest(data.qpos, "arm", np.array([angle]))
+    data.qpos[0] = angle
+    mujoco.mj_kinematics(model, data)
+    moving = [model.geom(n).id for n in ("capsule", "box", "ball", "cyl", "mesh")]
+    exact = {g: _exact_lowest(model, data, g) for g in moving}
+    lowest = min(exact, key=exact.get)
+    # cylinders are 16-gons around their discs: at most r (1 / cos(pi / 16) - 1) lower
+    slack = 0.03 * (1 / math.cos(math.pi / CYLINDER_SIDES) - 1)
+    assert exact[lowest] - slack - 1e-12 <= z <= exact[lowest] + 1e-12
+    assert body == model.geom_bodyid[lowest]  # the base's box and the ghost sphere ignored
+
+
+def test_geom_points_cover_a_cylinder_from_outside():
+    model = mujoco.MjModel.from_xml_string(ARM_XML)
+    points, radius = geom_points(model, model.geom("cyl").id)
+    assert radius == 0.0 and points.shape == (2 * CYLINDER_SIDES, 3)
+    assert np.all(np.hypot(points[:, 0], points[:, 1]) >= 0.03)
+
+
+def _joint_action(env, target: np.ndarray, gripper: float = 1.0) -> np.ndarray:
+    low, high = env.unwrapped.task.arm.ctrl_limits()
+    return np.append(2 * (target - low) / (high - low) - 1, gripper)
+
+
+def test_elbow_into_the_table_is_clipped_and_reported(make_env):
+    env = make_env(REACH, action_mode="joint_position")
+    env.reset(seed=0)
+    u = env.unwrapped
+    floor, data = u.actions.floor, u.scene.data
+    kin = u.actions.kin["arm"]
+    # the tool frame alone would pass: only a link below it goes under the table
+    assert kin.site_position(data.qpos, ELBOW_DOWN)[2] > floor.floor_z + 0.1
+    z, body = floor.lowest(data.qpos, "arm", ELBOW_DOWN)
+    assert z < floor.floor_z - 0.05 and floor.link_name(body) == "link_4"
+    commands, clipped = u.actions(data, _joint_action(env, ELBOW_DOWN))
+    assert clipped and u.actions.clipped_links == ["link_4"]
+    assert floor.lowest(data.qpos, "arm", commands["arm"])[0] >= floor.floor_z
+    _, _, _, _, info = env.step(_joint_action(env, ELBOW_DOWN))
+    assert info["safety_clipped"] and info["safety_links"] == "link_4"
+    for _ in range(60):  # hold the command for 1.2 s: the arm never reaches the table
+        _, _, _, _, info = env.step(_joint_action(env, ELBOW_DOWN))
+        assert floor.lowest(data.qpos, "arm")[0] > floor.floor_z - 0.005
+    assert info["safety_clipped"]
+
+
+def test_normal_action_is_not_clipped(make_env):
+    env = make_env(REACH, action_mode="joint_position")
+    env.reset(seed=0)
+    u = env.unwrapped
+    here = u.task.arm.get_qpos(u.scene.data)
+    for target in (here, here + [0.3, -0.2, 0.2, 0.3, 0.3, 0.5]):
+        _, _, _, _, info = env.step(_joint_action(env, target))
+        assert not info["safety_clipped"] and info["safety_links"] == ""
+
+
+def test_both_arms_are_checked(make_env):
+    env = make_env("TrossenMujoco/StationaryAITransferCube-v0", action_mode="joint_rel_position")
+    env.reset(seed=0)
+    u = env.unwrapped
+    down = np.zeros(14)
+    down[7:13] = [0.0, 1.0, -1.0, 0.0, 0.0, 0.0]  # right arm: shoulder forward, elbow open
+    down[13] = 1.0
+    rounds = []
+    for _ in range(30):
+        _, _, _, _, info = env.step(down)
+        rounds.append(info["safety_links"])
+        for arm in ("left_arm", "right_arm"):
+            assert u.actions.floor.lowest(u.scene.data.qpos, arm)[0] > u.actions.floor_z - 0.005
+    held = [r for r in rounds if r]
+    assert held and all(r.startswith("right/") for r in held)
+
+
+def test_an_arm_below_the_floor_may_move_up_but_not_down(make_env):
+    env = make_env(REACH, action_mode="joint_position")
+    env.reset(seed=0)
+    u = env.unwrapped
+    data, arm, floor = u.scene.data, u.task.arm, u.actions.floor
+    below = ELBOW_DOWN.copy()
+    arm.set_qpos(data, below)  # put it there (as a collision could)
+    mujoco.mj_forward(u.scene.model, data)
+    z_now = floor.lowest(data.qpos, "arm")[0]
+    assert z_now < floor.floor_z
+    up = below + [0.0, -0.3, 0.0, 0.0, 0.0, 0.0]  # shoulder back: every link rises
+    _, clipped = u.actions(data, _joint_action(env, up))
+    assert not clipped
+    further = below + [0.0, 0.1, 0.0, 0.0, 0.0, 0.0]
+    commands, clipped = u.actions(data, _joint_action(env, further))
+    assert clipped and floor.lowest(data.qpos, "arm", commands["arm"])[0] >= z_now - 1e-9
+
+
+def test_ee_delta_down_reports_the_link(make_env):
+    env = make_env("TrossenMujoco/WXAIPush-v0", action_mode="ee_delta")
+    env.reset(seed=0)
+    u = env.unwrapped
+    links = set()
+    for _ in range(40):
+        _, _, _, _, info = env.step(np.array([0.0, 0.0, -1.0, 0.0]))
+        links.add(info["safety_links"])
+        assert u.actions.floor.lowest(u.scene.data.qpos, "arm")[0] > u.actions.floor_z - 0.005
+    assert links - {""}
