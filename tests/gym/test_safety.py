@@ -146,9 +146,17 @@ def test_an_arm_below_the_floor_may_move_up_but_not_down(make_env):
     mujoco.mj_forward(u.scene.model, data)
     z_now = floor.lowest(data.qpos, "arm")[0]
     assert z_now < floor.floor_z
-    up = below + [0.0, -0.3, 0.0, 0.0, 0.0, 0.0]  # shoulder back: every link rises
+    up = below + [0.0, -0.3, -0.3, 0.0, 0.0, 0.0]  # shoulder and elbow back: no point sinks
     _, clipped = u.actions(data, _joint_action(env, up))
     assert not clipped
+    # shoulder back alone lifts the lowest link, but takes the wrist (above the floor now)
+    # below it: every point counts, not only the lowest
+    z_before = floor.heights(data.qpos, "arm")
+    wrist_down = below + [0.0, -0.3, 0.0, 0.0, 0.0, 0.0]
+    z_after = floor.heights(data.qpos, "arm", wrist_down)
+    assert z_after.min() > z_now and ((z_after < floor.floor_z) & (z_before >= floor.floor_z)).any()
+    _, clipped = u.actions(data, _joint_action(env, wrist_down))
+    assert clipped and u.actions.clipped_links
     further = below + [0.0, 0.1, 0.0, 0.0, 0.0, 0.0]
     commands, clipped = u.actions(data, _joint_action(env, further))
     assert clipped and floor.lowest(data.qpos, "arm", commands["arm"])[0] >= z_now - 1e-9
@@ -164,3 +172,30 @@ def test_ee_delta_down_reports_the_link(make_env):
         links.add(info["safety_links"])
         assert u.actions.floor.lowest(u.scene.data.qpos, "arm")[0] > u.actions.floor_z - 0.005
     assert links - {""}
+
+
+@pytest.mark.parametrize("env_id", [REACH, "TrossenMujoco/StationaryAITransferCube-v0"])
+def test_surely_above_never_accepts_a_move_the_exact_check_rejects(make_env, env_id):
+    """The FK-free bound is conservative: over random states and moves, whenever it says
+    "safe", forward kinematics puts every point of the arm above the floor; and it does
+    skip the exact check for small moves high above the table."""
+    env = make_env(env_id)
+    env.reset(seed=0)
+    base = env.unwrapped
+    floor, model, data = base.actions.floor, base.scene.model, base.scene.data
+    rng = np.random.default_rng(3)
+    accepted = 0
+    for trial in range(300):
+        arm_name = rng.choice(sorted(floor.arms))
+        arm = base.task.robot.view.group(arm_name)
+        low, high = arm.joint_range[:, 0], arm.joint_range[:, 1]
+        arm.set_qpos(data, rng.uniform(low, high))
+        data.qvel[:] = rng.normal(0.0, 0.5, model.nv)
+        mujoco.mj_forward(model, data)
+        scale = 0.02 if trial % 2 else 0.3
+        dq = rng.uniform(-scale, scale, len(low))
+        if floor.surely_above(data, arm_name, dq):
+            accepted += 1
+            z, _ = floor.lowest(data.qpos, arm_name, arm.get_qpos(data) + dq)
+            assert z >= floor.floor_z
+    assert accepted > 30  # the shortcut does its job

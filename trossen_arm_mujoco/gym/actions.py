@@ -159,18 +159,18 @@ class ActionMapper:
         return twist, link
 
     def _safe_fraction(self, data, arm, q_now, target) -> tuple[float, str]:
-        """(Largest tried fraction of the move that keeps every link of the arm above the
-        floor, name of the lowest link at the full move when that is not 1, else "")."""
-        floor = self.floor
-        z, body = floor.lowest(data.qpos, arm.name, target)
-        if z >= floor.floor_z:
+        """(Largest tried fraction of the move that keeps the arm's links above the floor (see
+        ``SafetyFloor.offender``), name of the offending link at the full move when that is
+        not 1, else "")."""
+        floor, name = self.floor, arm.name
+        if floor.surely_above(data, name, target - q_now):
             return 1.0, ""
-        z_now, _ = floor.lowest(data.qpos, arm.name, q_now)
-        if z >= z_now:  # below the floor already, and the move goes no lower
+        z_now = floor.heights(data.qpos, name, q_now)
+        body = floor.offender(name, floor.heights(data.qpos, name, target), z_now)
+        if body < 0:
             return 1.0, ""
-        for fraction in BACKOFF:
+        for fraction in BACKOFF[:-1]:
             q = q_now + fraction * (target - q_now)
-            z_q, _ = floor.lowest(data.qpos, arm.name, q)
-            if z_q >= floor.floor_z or z_q >= z_now:
+            if floor.offender(name, floor.heights(data.qpos, name, q), z_now) < 0:
                 return fraction, floor.link_name(body)
         return 0.0, floor.link_name(body)

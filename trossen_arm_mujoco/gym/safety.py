@@ -14,6 +14,17 @@ The arm's tool-frame site is one more point (radius 0), so the floor also keeps 
 frame up, as the tool-frame-only floor did. ``lowest(qpos, arm, q)`` runs forward kinematics
 on a private ``MjData`` (the caller's data is never written) and returns the lowest point
 (world z, m) and the link it belongs to.
+
+A move breaks the floor when a point ends below the floor and lower than it is now (a point
+already below it, e.g. next to the shoulder, may stay or rise).
+
+``surely_above(data, arm, dq)`` answers most checks without forward kinematics: a point p
+cannot move further than ``sum_i |dq_i| * reach[p, i]`` for a joint move ``dq``, where
+``reach[p, i]`` bounds p's distance from joint i's anchor in any configuration (the lengths
+along the kinematic chain, added up; 0 for joints that do not move p, and for a vertical
+first joint, which moves nothing up or down). When every point now (from the caller's body
+poses), less its bound, is still above the floor, the move is safe and the exact check is
+skipped.
 """
 
 from __future__ import annotations
@@ -114,15 +125,93 @@ class _ArmPoints:
         self._per_body = self.vector[:-1].reshape(k_bodies, 4)  # a view: filled in place
         self.body_sel = _as_slice(self.bodies)
         self.qpos_sel = _as_slice(np.asarray(group.qpos_idx, dtype=int))
+        self.dof_sel = _as_slice(np.asarray(group.dof_idx, dtype=int))
+        self.reach = _joint_reach(model, group.joint_ids, self.bodies, self.matrix, self.owner)
+        #: points no arm joint moves up or down (their height never changes)
+        self.fixed_height = ~self.reach.any(axis=1)
 
-    def lowest(self, data: mujoco.MjData) -> tuple[float, int]:
-        """(lowest world z (m), body id of that point) at ``data``'s body poses."""
+    def heights(self, data: mujoco.MjData) -> np.ndarray:
+        """World z (m) of every point's lowest reach at ``data``'s body poses, (N,)."""
         per_body, sel = self._per_body, self.body_sel
         per_body[:, :3] = data.xmat[sel, 6:9]
         per_body[:, 3] = data.xpos[sel, 2]
-        z = self.matrix @ self.vector
+        return self.matrix @ self.vector
+
+    def lowest(self, data: mujoco.MjData) -> tuple[float, int]:
+        """(lowest world z (m), body id of that point) at ``data``'s body poses."""
+        z = self.heights(data)
         i = int(z.argmin())
         return float(z[i]), int(self.owner[i])
+
+
+def _joint_reach(
+    model: mujoco.MjModel,
+    joint_ids: Sequence[int],
+    bodies: np.ndarray,
+    matrix: np.ndarray,
+    owner: np.ndarray,
+) -> np.ndarray:
+    """(N points, n joints): an upper bound (m) on how far each point of ``matrix`` moves per
+    radian of each arm joint, valid in every configuration; 0 where the joint does not move
+    the point.
+
+    A hinge moves a point along an arc whose radius is at most the point's distance from the
+    joint anchor, which is at most the sum of the body offsets along the chain between them
+    (plus the travel of any slide joint on the way), the point's offset in its body and its
+    radius. A first joint whose axis is the world's vertical, on a fixed base, moves nothing
+    up or down: its column is 0.
+    """
+    column = {int(b): k for k, b in enumerate(bodies)}
+    extent = np.empty(len(owner))
+    for r, body in enumerate(owner):
+        k = column[int(body)]
+        extent[r] = np.linalg.norm(matrix[r, 4 * k : 4 * k + 3]) - matrix[r, -1]
+    reach = np.zeros((len(owner), len(joint_ids)))
+    for i, joint in enumerate(joint_ids):
+        joint_body = int(model.jnt_bodyid[joint])
+        if _vertical_on_fixed_base(model, joint):
+            continue
+        to_body = {joint_body: float(np.linalg.norm(model.jnt_pos[joint]))}
+        for body in bodies:  # in id order: parents before children
+            body = int(body)
+            parent = int(model.body_parentid[body])
+            if body == joint_body or parent not in to_body:
+                continue
+            first = int(model.body_jntadr[body])
+            joints = range(first, first + int(model.body_jntnum[body]))
+            travel = sum(
+                float(np.abs(model.jnt_range[j]).max())
+                for j in joints
+                if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE
+            )
+            to_body[body] = to_body[parent] + float(np.linalg.norm(model.body_pos[body])) + travel
+        for r, body in enumerate(owner):
+            if int(body) in to_body:
+                reach[r, i] = to_body[int(body)] + extent[r]
+    return reach
+
+
+def _vertical_on_fixed_base(model: mujoco.MjModel, joint: int) -> bool:
+    """A hinge about the world z axis whose body has no moving ancestor (and upright frames
+    up to the world), so that turning it changes no height."""
+    if model.jnt_type[joint] != mujoco.mjtJoint.mjJNT_HINGE:
+        return False
+    body = int(model.jnt_bodyid[joint])
+    if int(model.body_jntadr[body]) != joint:  # another joint of the body comes first
+        return False
+    rot = np.eye(3)
+    b = body
+    while b > 0:
+        if b != body and model.body_jntnum[b]:
+            return False
+        if model.body_mocapid[b] >= 0:
+            return False
+        frame = np.empty(9)
+        mujoco.mju_quat2Mat(frame, model.body_quat[b])
+        rot = frame.reshape(3, 3) @ rot
+        b = int(model.body_parentid[b])
+    axis = rot @ model.jnt_axis[joint]
+    return bool(abs(abs(axis[2]) - 1.0) < 1e-9)
 
 
 class SafetyFloor:
@@ -140,18 +229,48 @@ class SafetyFloor:
         self.arms = {arm.name: _ArmPoints(model, arm) for arm in arms}
         self._data = mujoco.MjData(model)
 
-    def lowest(
-        self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None
-    ) -> tuple[float, int]:
-        """(lowest world z (m) of ``arm``'s collision geoms and tool frame, body id of that
-        point) at ``qpos_full`` (nq,) with the arm's joints replaced by ``q`` (rad)."""
+    def heights(self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None) -> np.ndarray:
+        """World z (m) of the lowest reach of every point of ``arm`` (its collision geoms and
+        tool frame), (N,), at ``qpos_full`` (nq,) with the arm's joints replaced by ``q``
+        (rad): forward kinematics on the private ``MjData``."""
         pts = self.arms[arm]
         data = self._data
         data.qpos[:] = qpos_full
         if q is not None:
             data.qpos[pts.qpos_sel] = q
         mujoco.mj_kinematics(self.model, data)
-        return pts.lowest(data)
+        return pts.heights(data)
+
+    def lowest(
+        self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None
+    ) -> tuple[float, int]:
+        """(lowest world z (m) of ``arm``'s collision geoms and tool frame, body id of that
+        point) at ``qpos_full`` (nq,) with the arm's joints replaced by ``q`` (rad)."""
+        z = self.heights(qpos_full, arm, q)
+        i = int(z.argmin())
+        return float(z[i]), int(self.arms[arm].owner[i])
+
+    def offender(self, arm: str, z_new: np.ndarray, z_now: np.ndarray) -> int:
+        """Body id of the point that breaks the floor going from heights ``z_now`` to
+        ``z_new`` (both (N,), m), or -1: a point may not end below the floor unless it ends
+        no lower than it is now (one already below may stay or rise)."""
+        bad = (z_new < self.floor_z) & (z_new < z_now)
+        if not bad.any():
+            return -1
+        return int(self.arms[arm].owner[int(np.where(bad, z_new, np.inf).argmin())])
+
+    def surely_above(self, data: mujoco.MjData, arm: str, dq: np.ndarray) -> bool:
+        """True when moving ``arm``'s joints by ``dq`` (rad) from the state of ``data`` cannot
+        take any of its points below the floor (no forward kinematics; False means "check").
+
+        ``data``'s body poses may lag its qpos by one physics step (``mj_step`` integrates
+        after computing them): the joint speeds times the timestep, plus 1 mm for the
+        fingers, are added to the bound.
+        """
+        pts = self.arms[arm]
+        motion = np.abs(dq) + np.abs(data.qvel[pts.dof_sel]) * self.model.opt.timestep
+        drop = pts.reach @ motion + 1e-3
+        return bool((((pts.heights(data) - drop) >= self.floor_z) | pts.fixed_height).all())
 
     def link_name(self, body: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
