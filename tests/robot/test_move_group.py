@@ -334,8 +334,11 @@ def test_mjcf_frame_mixin_site_and_body(toy_model):
     np.testing.assert_array_equal(
         body_frame.get_frame_pose(data)[3:], data.xquat[body_frame.leaf_frame_id]
     )
-    with pytest.raises(UserError, match="needs a site"):
-        body_frame.frame_site_id  # noqa: B018
+    assert body_frame.frame_site_id == -1 and body_frame.frame_site_name == ""
+    from trossen_arm_mujoco.robot.controllers import EEDeltaController
+
+    with pytest.raises(UserError, match="IK needs a site as the tool frame"):
+        EEDeltaController(body_frame, toy_model)
     assert toy_arm(data).frame_site_id == toy_model.site("tool").id
     with pytest.raises(UserError, match="must be 'site' or 'body'"):
         toy_arm(data, "tool", "geom")

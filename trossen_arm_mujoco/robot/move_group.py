@@ -331,20 +331,10 @@ class MJCFFrameMixin:
         self.leaf_frame_id = lookup_id(model, frame_type, frame_name)
         self.frame_name = frame_name
         self._site = frame_type == "site"
-
-    @property
-    def frame_site_name(self) -> str:
-        return self.frame_name
-
-    @property
-    def frame_site_id(self) -> int:
-        """Id of the tool-frame site (IK controllers need a site frame)."""
-        if not self._site:
-            raise UserError(
-                f"move group '{self.name}' has a body leaf frame ('{self.frame_name}'); "
-                "ee_pose / ee_delta control needs a site"
-            )
-        return self.leaf_frame_id
+        # the tool-frame site of the IK controllers (plain attributes: read every step);
+        # -1 / "" for a body frame, which ee_pose / ee_delta control refuses
+        self.frame_site_id = self.leaf_frame_id if self._site else -1
+        self.frame_site_name = frame_name if self._site else ""
 
     def get_jacobian(self) -> np.ndarray:
         """(6, nv) Jacobian of the leaf frame (site or body origin), rows [linear; angular],

@@ -124,11 +124,18 @@ class ParallelKinematics:
         return chain
 
     # -- forward kinematics --------------------------------------------------------------
-    def leaf_poses(self, q: np.ndarray | None = None, base_poses=None, rel_to_base=False, n=None):
+    def leaf_poses(
+        self,
+        q: np.ndarray | None = None,
+        base_poses=None,
+        rel_to_base: bool = False,
+        n: int | None = None,
+    ) -> np.ndarray:
         """Leaf-frame poses of the IK group for a batch of its unlocked joints.
 
         Args:
-            q: (N, n_unlocked) joints (rad / m); None: the reference state (``n`` copies).
+            q: (N, n_unlocked) joints (rad / m); None: the reference state (``n`` copies,
+                default 1).
             base_poses: (N, 4, 4) or (4, 4) world poses of the primary base.
             rel_to_base: poses in the group's robot frame.
 
@@ -243,7 +250,11 @@ class ParallelKinematics:
             qpos[:, self._posadr] = _batch("q0", q0, self.n_unlocked, n)
         return self._solve(arr, qpos, base_poses, rel_to_base, eps, max_iter, damping, max_step)
 
-    def _solve(self, poses, qpos, base_poses, rel_to_base, eps, max_iter, damping, max_step):
+    def _solve(
+        self, poses, qpos: np.ndarray, base_poses, rel_to_base, eps, max_iter, damping, max_step
+    ) -> BatchIKResult:
+        """IK from full initial qpos (N, nq); the targets are world poses unless
+        ``rel_to_base``, where they are in the group's robot frame."""
         check_ik_options(eps, max_iter, damping, max_step)
         n = len(qpos)
         targets = _transforms("poses", poses, n)
