@@ -174,3 +174,190 @@ def test_immobile_base(kit_joint):
     )
     with pytest.raises(UserError, match="unknown body"):
         ImmobileBaseGroup(kit_joint, "b", "base")
+
+
+# -- the data-bound interface --------------------------------------------------------------
+
+
+def toy_arm(model_or_data, frame: str = "tool", frame_type: str = "site") -> ArmMoveGroup:
+    return ArmMoveGroup(
+        model_or_data, "arm", ["j1", "j2", "j3"], ["a1", "a2", "a3"], frame, frame_type
+    )
+
+
+def test_bound_state_properties(toy_model):
+    data = mujoco.MjData(toy_model)
+    arm = toy_arm(data)
+    assert arm.is_bound and arm.data is data and arm.model is toy_model
+    np.testing.assert_array_equal(arm.joint_ids, [0, 1, 2])
+    np.testing.assert_array_equal(arm.actuator_ids, [0, 1, 2])
+    np.testing.assert_array_equal(arm.joint_posadr, [0, 1, 2])
+    np.testing.assert_array_equal(arm.joint_veladr, [0, 1, 2])
+    assert (arm.pos_dim, arm.vel_dim, arm.n_actuators, arm.ctrl_dim) == (3, 3, 3, 3)
+    arm.joint_pos = [0.1, -0.2, 0.05]
+    np.testing.assert_array_equal(data.qpos[:3], [0.1, -0.2, 0.05])
+    got = arm.joint_pos
+    got[:] = 9.0  # a copy
+    np.testing.assert_array_equal(arm.joint_pos, [0.1, -0.2, 0.05])
+    arm.joint_vel = [1.0, 2.0, 3.0]
+    np.testing.assert_array_equal(data.qvel[:3], [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(arm.joint_vel, [1.0, 2.0, 3.0])
+    arm.ctrl = [0.5, 5.0, 0.05]  # clipped to the actuator range
+    np.testing.assert_array_equal(data.ctrl[:3], [0.5, 3.0, 0.05])
+    np.testing.assert_array_equal(arm.ctrl, [0.5, 3.0, 0.05])
+    np.testing.assert_array_equal(arm.noop_ctrl, [0.1, -0.2, 0.05])
+    with pytest.raises(UserError, match="expected 3 joint values"):
+        arm.joint_pos = [0.0, 0.0]
+    with pytest.raises(UserError, match="expected 3 joint velocities"):
+        arm.joint_vel = [0.0]
+    with pytest.raises(UserError, match="NaN"):
+        arm.ctrl = [0.0, np.nan, 0.0]
+    np.testing.assert_array_equal(data.qpos[:3], [0.1, -0.2, 0.05])  # nothing written on error
+
+
+def test_limits(toy_model):
+    arm = toy_arm(toy_model)
+    limits = arm.joint_pos_limits
+    assert limits.shape == (3, 2)
+    np.testing.assert_array_equal(limits, [[-2, 2], [-np.inf, np.inf], [0, 0.1]])  # j2 unlimited
+    ctrl = arm.ctrl_limits
+    assert ctrl.shape == (3, 2)
+    np.testing.assert_array_equal(ctrl[:, 0], [-2, -3, 0])
+    np.testing.assert_array_equal(ctrl[:, 1], [2, 3, 0.1])
+    low, high = arm.ctrl_limits()  # the earlier call form
+    np.testing.assert_array_equal(low, [-2, -3, 0])
+    np.testing.assert_array_equal(high, [2, 3, 0.1])
+    assert type(ctrl[:, 0]) is np.ndarray and type(ctrl + 1) is np.ndarray
+    arm.ctrl_limits[0, 0] = 99.0  # a fresh copy every time: the group is unchanged
+    assert arm.ctrl_limits[0, 0] == -2
+
+
+def test_unbound_group_says_how_to_bind(toy_model):
+    arm = toy_arm(toy_model)
+    assert not arm.is_bound
+    with pytest.raises(UserError, match=r"not bound to an MjData.*bind"):
+        arm.joint_pos  # noqa: B018
+    arm.bind(mujoco.MjData(toy_model))
+    assert arm.joint_pos.shape == (3,)
+    other = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
+    with pytest.raises(UserError, match="belongs to another model"):
+        arm.bind(mujoco.MjData(other))
+    with pytest.raises(UserError, match="expected a mujoco.MjModel or mujoco.MjData"):
+        MoveGroup("model.xml", "arm", [])
+
+
+def body_tf(data, body_id):
+    out = np.eye(4)
+    out[:3, :3] = data.xmat[body_id].reshape(3, 3)
+    out[:3, 3] = data.xpos[body_id]
+    return out
+
+
+def test_frames_are_the_mujoco_frames(toy_model):
+    data = mujoco.MjData(toy_model)
+    arm = toy_arm(data)
+    arm.joint_pos = [0.4, -0.7, 0.03]
+    mujoco.mj_kinematics(toy_model, data)
+    site = toy_model.site("tool").id
+    assert (arm.leaf_frame_type, arm.leaf_frame_id) == ("site", site)
+    leaf = arm.leaf_frame_to_world
+    np.testing.assert_array_equal(leaf[:3, 3], data.site_xpos[site])
+    np.testing.assert_array_equal(leaf[:3, :3], data.site_xmat[site].reshape(3, 3))
+    np.testing.assert_array_equal(leaf[3], [0, 0, 0, 1])
+    base = toy_model.body("base").id
+    assert arm.root_body_id == base  # the parent of j1's body
+    np.testing.assert_array_equal(arm.root_frame_to_world, body_tf(data, base))
+    np.testing.assert_allclose(
+        arm.leaf_frame_to_root, np.linalg.inv(body_tf(data, base)) @ leaf, atol=1e-12
+    )
+    # no base group: the robot frame is the root frame
+    np.testing.assert_array_equal(arm.root_frame_to_robot, np.eye(4))
+    np.testing.assert_allclose(arm.leaf_frame_to_robot, arm.leaf_frame_to_root, atol=1e-15)
+    # a plain group's leaf frame is the body of its last joint
+    plain = MoveGroup(data, "two", ["j1", "j2"])
+    assert (plain.leaf_frame_type, plain.leaf_frame_id) == ("body", toy_model.body("link2").id)
+    np.testing.assert_array_equal(plain.leaf_frame_to_world, body_tf(data, plain.leaf_frame_id))
+
+
+def test_frames_relative_to_the_robot_base(toy_model):
+    from trossen_arm_mujoco.robot.base_group import ImmobileRobotBaseGroup
+
+    data = mujoco.MjData(toy_model)
+    arm = toy_arm(data)
+    arm.robot_base_group = ImmobileRobotBaseGroup(data, "base", "base")
+    arm.joint_pos = [0.4, -0.7, 0.03]
+    mujoco.mj_kinematics(toy_model, data)
+    base = arm.robot_base_group.pose
+    np.testing.assert_allclose(base[:3, 3], [0.1, -0.2, 0.3], atol=1e-12)
+    np.testing.assert_allclose(
+        arm.leaf_frame_to_robot, np.linalg.inv(base) @ arm.leaf_frame_to_world, atol=1e-12
+    )
+    np.testing.assert_allclose(arm.root_frame_to_robot, np.eye(4), atol=1e-12)  # root = base
+
+
+@pytest.mark.parametrize(("frame", "frame_type"), [("tool", "site"), ("link3", "body")])
+def test_get_jacobian_matches_finite_differences(toy_model, frame, frame_type):
+    """Both the linear and the angular rows, for a site and a body leaf frame."""
+    data = mujoco.MjData(toy_model)
+    arm = toy_arm(data, frame, frame_type)
+    assert arm.leaf_frame_type == frame_type
+    q0 = np.array([0.4, -0.7, 0.03])
+    arm.joint_pos = q0
+    mujoco.mj_forward(toy_model, data)
+    jac = arm.get_jacobian()
+    assert jac.shape == (6, toy_model.nv)
+    eps = 1e-6
+    for j in range(3):
+        poses = []
+        for sign in (1, -1):
+            q = q0.copy()
+            q[j] += sign * eps
+            arm.joint_pos = q
+            mujoco.mj_kinematics(toy_model, data)
+            poses.append(arm.leaf_frame_to_world)
+        lin = (poses[0][:3, 3] - poses[1][:3, 3]) / (2 * eps)
+        rot = poses[0][:3, :3] @ poses[1][:3, :3].T
+        ang = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]]) / 2
+        np.testing.assert_allclose(jac[:3, j], lin, atol=1e-7)
+        np.testing.assert_allclose(jac[3:, j], ang / (2 * eps), atol=1e-7)
+    np.testing.assert_array_equal(jac[:, 3:], 0.0)  # the fingers do not move the frame
+
+
+def test_mjcf_frame_mixin_site_and_body(toy_model):
+    data = mujoco.MjData(toy_model)
+    body_frame = toy_arm(data, "link3", "body")
+    assert body_frame.leaf_frame_id == toy_model.body("link3").id
+    mujoco.mj_kinematics(toy_model, data)
+    np.testing.assert_array_equal(
+        body_frame.get_frame_position(data), data.xpos[body_frame.leaf_frame_id]
+    )
+    np.testing.assert_array_equal(
+        body_frame.get_frame_pose(data)[3:], data.xquat[body_frame.leaf_frame_id]
+    )
+    assert body_frame.frame_site_id == -1 and body_frame.frame_site_name == ""
+    from trossen_arm_mujoco.robot.controllers import EEDeltaController
+
+    with pytest.raises(UserError, match="IK needs a site as the tool frame"):
+        EEDeltaController(body_frame, toy_model)
+    assert toy_arm(data).frame_site_id == toy_model.site("tool").id
+    with pytest.raises(UserError, match="must be 'site' or 'body'"):
+        toy_arm(data, "tool", "geom")
+    with pytest.raises(UserError, match="unknown body 'tool'"):
+        toy_arm(data, "tool", "body")
+
+
+def test_wxai_tool_frame_agrees_with_the_fk_reference(wxai):
+    import json
+
+    fk = json.loads((Path(__file__).parents[1] / "fixtures" / "fk_reference.json").read_text())
+    data = mujoco.MjData(wxai)
+    arm = ArmMoveGroup(data, "arm", ARM_JOINTS, ARM_JOINTS, "ee_site")
+    for k in range(len(fk["config"])):
+        data.qpos[:] = fk["config"][k]
+        mujoco.mj_kinematics(wxai, data)
+        leaf = arm.leaf_frame_to_world
+        np.testing.assert_allclose(leaf[:3, 3], fk["ee_pos"][k], atol=1e-6)
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, leaf[:3, :3].reshape(9))
+        ref = np.asarray(fk["ee_quat"][k])
+        assert min(np.abs(quat - ref).max(), np.abs(quat + ref).max()) < 1e-6

@@ -230,3 +230,134 @@ def test_hold_and_reset_drop_a_pending_relative_target():
         mujoco.mj_kinematics(model, data)
         stop(data)
         assert robot.compute_control(data) == {}
+
+
+# -- the documented surface: robot_view, bound calls, kinematics, set_world_pose ------------
+
+WXAI = ASSETS / "wxai/wxai_follower.xml"
+
+
+def wxai_mocap_base_model() -> mujoco.MjModel:
+    """The wxai with its base_link made a mocap body (teleportable)."""
+    spec = mujoco.MjSpec.from_file(str(WXAI))
+    spec.body("base_link").mocap = True
+    return spec.compile()
+
+
+def test_bound_robot_works_without_passing_data():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    data = mujoco.MjData(model)
+    robot = Robot(data, stationary_ai_joint_config().with_rate_limit(False))
+    assert robot.robot_view is robot.view and robot.robot_view.is_bound
+    assert robot.model is model
+    robot.reset()
+    np.testing.assert_allclose(data.qpos[:16], START_ARM_POSE)
+    target = [0.1, 0.5, 0.4, 0.0, 0.1, 0.0]
+    robot.update_control({"right_arm": target})
+    out = robot.compute_control()
+    np.testing.assert_allclose(out["right_arm"], target)
+    np.testing.assert_allclose(robot.robot_view.get_move_group("right_arm").ctrl, target)
+    robot.hold()
+    assert robot.compute_control() == {}
+    same = Robot(model, stationary_ai_joint_config(), data=data)  # the keyword form
+    assert same.robot_view.data is data
+
+
+def test_unbound_robot_says_how_to_bind():
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    robot = Robot(model, stationary_ai_joint_config())
+    with pytest.raises(UserError, match="not bound to an MjData"):
+        robot.compute_control()
+    data = mujoco.MjData(model)
+    robot.bind(data)
+    robot.reset()
+    np.testing.assert_allclose(data.qpos[:16], START_ARM_POSE)
+
+
+def test_env_robots_are_bound_to_the_env_data():
+    env = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    env.reset()
+    view = env.robots["kit"].robot_view
+    assert view.data is env.data
+    np.testing.assert_allclose(view.get_move_group("left_arm").joint_pos, START_ARM_POSE[:6])
+
+
+def test_kinematics_and_parallel_kinematics():
+    from trossen_arm_mujoco.robot import ParallelKinematics, RobotKinematics
+
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    data = mujoco.MjData(model)
+    robot = Robot(data, stationary_ai_joint_config())
+    robot.reset()
+    assert isinstance(robot.kinematics, RobotKinematics)
+    assert robot.kinematics is robot.kinematics  # built once
+    assert robot.kinematics.reference is robot.robot_view
+    parallel = robot.parallel_kinematics
+    assert isinstance(parallel, ParallelKinematics)
+    assert parallel.move_group_id == "left_arm" and parallel.kinematics is robot.kinematics
+    right = robot.get_parallel_kinematics("right_arm")
+    assert right.move_group_id == "right_arm" and right is robot.get_parallel_kinematics(
+        "right_arm"
+    )
+    mujoco.mj_forward(model, data)
+    fk = robot.kinematics.fk()  # the live state
+    for name, group in robot.robot_view.move_groups.items():
+        np.testing.assert_allclose(fk[name], group.leaf_frame_to_world, atol=1e-12)
+
+
+def test_set_world_pose_on_an_immobile_base_fails_clearly():
+    model = mujoco.MjModel.from_xml_path(str(WXAI))
+    data = mujoco.MjData(model)
+    robot = Robot(data, wxai_config())
+    robot.reset()
+    qpos = data.qpos.copy()
+    with pytest.raises(UserError, match="'base' is an immobile base .*cannot be set") as err:
+        robot.set_world_pose(np.eye(4))
+    assert "\n" not in str(err.value)
+    np.testing.assert_array_equal(data.qpos, qpos)
+    np.testing.assert_allclose(robot.get_world_pose(), np.eye(4), atol=1e-12)
+
+
+def test_set_world_pose_teleports_a_mocap_base():
+    model = wxai_mocap_base_model()
+    data = mujoco.MjData(model)
+    robot = Robot(data, wxai_config().with_base_kind("mocap_base"))
+    robot.reset()
+    arm = robot.robot_view.get_move_group("arm")
+    in_robot = arm.leaf_frame_to_robot
+    pose = np.array([0.3, -0.1, 0.2, np.cos(0.4), 0.0, 0.0, np.sin(0.4)])  # yaw 0.8 rad
+    robot.set_world_pose(pose)
+    world = robot.get_world_pose()
+    np.testing.assert_allclose(world[:3, 3], pose[:3], atol=1e-12)
+    np.testing.assert_allclose(arm.leaf_frame_to_robot, in_robot, atol=1e-12)  # came along
+    np.testing.assert_allclose(arm.leaf_frame_to_world, world @ in_robot, atol=1e-12)
+    # FK with the base where it is now agrees with the teleported arm
+    np.testing.assert_allclose(robot.kinematics.fk()["arm"], arm.leaf_frame_to_world, atol=1e-12)
+    with pytest.raises(UserError, match="world pose: expected a 4x4 transform or 7 values"):
+        robot.set_world_pose([0.0, 0.0, 0.0])
+
+
+def test_set_world_pose_writes_a_free_joint_base(toy):
+    model = toy.model("free")
+    data = mujoco.MjData(model)
+    robot = Robot(data, toy.config("free"))
+    robot.reset()
+    target = np.eye(4)
+    target[:3, 3] = [1.0, 2.0, 0.5]
+    robot.set_world_pose(target)
+    np.testing.assert_allclose(data.qpos[:7], [1.0, 2.0, 0.5, 1, 0, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(robot.get_world_pose(), target, atol=1e-12)
+    mujoco.mj_kinematics(model, data)
+    base = model.body("base").id
+    np.testing.assert_allclose(data.xpos[base], [1.0, 2.0, 0.5], atol=1e-12)
+
+
+def test_with_base_kind():
+    config = wxai_config().with_base_kind("mocap_base")
+    assert config.groups["base"].kind == "mocap_base"
+    assert wxai_config().groups["base"].kind == "base"  # the original is unchanged
+    with pytest.raises(UserError, match="unknown base kind 'wheels'"):
+        wxai_config().with_base_kind("wheels")
+    model = mujoco.MjModel.from_xml_path(str(WXAI))  # base_link is not mocap here
+    with pytest.raises(UserError, match="'base_link' is not a mocap body"):
+        Robot(model, config)

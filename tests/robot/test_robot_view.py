@@ -169,3 +169,132 @@ def test_ctrl_dicts_kit_mocap():
     assert ctrl["left_arm"].shape == (7,) and ctrl["right_arm"].shape == (7,)
     np.testing.assert_array_equal(ctrl["left_arm"][:3], data.mocap_pos[0])
     np.testing.assert_array_equal(ctrl["right_arm"][3:], data.mocap_quat[1])
+
+
+# -- the data-bound form: RobotView(data, groups) ------------------------------------------
+
+
+def bound_view(case: str):
+    xml, config, _ = CASES[case]
+    model = mujoco.MjModel.from_xml_path(str(xml))
+    data = mujoco.MjData(model)
+    view = config().build_view(data)
+    return model, data, view
+
+
+def test_bound_view_ids_and_groups():
+    model, data, view = bound_view("kit_joint")
+    assert view.is_bound and view.data is data
+    assert view.move_group_ids() == list(stationary_ai_joint_config().groups)
+    arm = view.get_move_group("left_arm")
+    assert arm is view.group("left_arm") and arm.data is data
+    assert all(g.is_bound for g in view.move_groups.values())
+    assert view.base_group_ids() == ["left_base", "right_base"]
+    assert view.base is view.get_move_group("left_base")
+    assert arm.robot_base_group is view.get_move_group("left_base")
+    assert view.get_move_group("right_gripper").robot_base_group is view.get_move_group(
+        "right_base"
+    )
+    with pytest.raises(UserError, match="unknown move group 'left'.*left_arm"):
+        view.get_move_group("left")
+
+
+def test_view_built_from_a_dict_of_groups(toy):
+    from trossen_arm_mujoco.robot import GripperGroup, RobotView
+    from trossen_arm_mujoco.robot.move_group import ArmMoveGroup
+
+    model = toy.model()
+    data = mujoco.MjData(model)
+    groups = {
+        "arm": ArmMoveGroup(model, "arm", ["j1", "j2", "j3"], ["a1", "a2", "a3"], "tool"),
+        "gripper": GripperGroup(model, "gripper", ["fa", "fb"], "grip"),
+    }
+    view = RobotView(data, groups)
+    assert groups["arm"].data is data  # binding the view binds its groups
+    view.set_qpos_dict({"arm": [0.1, 0.2, 0.03], "gripper": [0.01, 0.01]})
+    np.testing.assert_array_equal(data.qpos[:5], [0.1, 0.2, 0.03, 0.01, 0.01])
+    with pytest.raises(UserError, match="robot view has no base group"):
+        view.base  # noqa: B018
+
+
+def test_bound_qpos_and_ctrl_dicts():
+    model, data, view = bound_view("kit_joint")
+    new = {"left_arm": np.asarray(START_ARM_POSE[0:6]), "right_gripper": np.array([0.01, 0.01])}
+    view.set_qpos_dict(new)
+    got = view.get_qpos_dict(["left_arm", "right_gripper"])
+    assert list(got) == ["left_arm", "right_gripper"]
+    for name, value in new.items():
+        np.testing.assert_array_equal(got[name], value)
+    assert set(view.get_qpos_dict()) == {"left_arm", "left_gripper", "right_arm", "right_gripper"}
+    assert view.get_qpos_dict(["left_base"])["left_base"].shape == (0,)
+    noop = view.get_noop_ctrl_dict()
+    assert set(noop) == {"left_arm", "left_gripper", "right_arm", "right_gripper"}
+    np.testing.assert_array_equal(noop["left_arm"], START_ARM_POSE[0:6])
+    np.testing.assert_array_equal(
+        view.get_noop_ctrl_dict(["right_gripper"])["right_gripper"], [0.01]
+    )
+    for name, ctrl in noop.items():
+        view.get_move_group(name).ctrl = ctrl
+    ctrl = view.get_ctrl_dict(["left_arm"])
+    assert list(ctrl) == ["left_arm"]
+    np.testing.assert_array_equal(ctrl["left_arm"], START_ARM_POSE[0:6])
+    assert set(view.get_qvel_dict()) == set(view.get_qpos_dict())
+    # the same answers in the earlier data-explicit form
+    for name, value in view.get_qpos_dict(data).items():
+        np.testing.assert_array_equal(value, view.get_qpos_dict()[name])
+    with pytest.raises(UserError, match="unknown move group 'arm'"):
+        view.get_ctrl_dict(["arm"])
+    with pytest.raises(UserError, match="expected a list of move group ids"):
+        view.get_qpos_dict("left_arm")
+
+
+def test_unbound_view_says_how_to_bind():
+    model, data, view = make_view("wxai")
+    assert not view.is_bound
+    with pytest.raises(UserError, match=r"not bound to an MjData.*RobotView\(data, groups\)"):
+        view.get_qpos_dict()
+    assert set(view.get_qpos_dict(data)) == {"arm", "gripper"}  # the earlier form works
+    view.bind(data)
+    assert view.get_move_group("arm").data is data
+
+
+@pytest.mark.parametrize(("case", "frame"), FRAME_CASES)
+def test_bound_jacobian_matches_the_earlier_form_and_finite_differences(case, frame):
+    model, data, view = bound_view(case)
+    set_test_pose(model, data, view)
+    inputs = [frame]
+    jac = view.get_jacobian(frame, inputs)
+    group = view.get_move_group(frame)
+    assert jac.shape == (6, group.vel_dim)
+    np.testing.assert_array_equal(jac, view.get_jacobian(data, frame, inputs))
+    q0 = group.joint_pos
+    eps = 1e-6
+    for col in range(group.vel_dim):
+        plus, minus = q0.copy(), q0.copy()
+        plus[col] += eps
+        minus[col] -= eps
+        group.joint_pos = plus
+        mujoco.mj_kinematics(model, data)
+        p_plus = group.leaf_frame_to_world
+        group.joint_pos = minus
+        mujoco.mj_kinematics(model, data)
+        p_minus = group.leaf_frame_to_world
+        lin = (p_plus[:3, 3] - p_minus[:3, 3]) / (2 * eps)
+        rot = p_plus[:3, :3] @ p_minus[:3, :3].T
+        ang = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
+        np.testing.assert_allclose(jac[:3, col], lin, atol=1e-6)
+        np.testing.assert_allclose(jac[3:, col], ang / (4 * eps), atol=1e-6)
+
+
+def test_bound_jacobian_over_several_groups():
+    model, data, view = bound_view("kit_joint")
+    set_test_pose(model, data, view)
+    jac = view.get_jacobian("right_arm", ["left_arm", "right_arm", "right_gripper"])
+    assert jac.shape == (6, 6 + 6 + 2)
+    np.testing.assert_array_equal(jac[:, :6], 0.0)  # the left arm does not move the right tool
+    np.testing.assert_array_equal(jac[:, 12:], 0.0)
+    np.testing.assert_array_equal(jac[:, 6:12], view.get_jacobian("right_arm", ["right_arm"]))
+    full = view.get_jacobian("right_arm")  # default: every group's dofs
+    assert full.shape == (6, model.nv - 6)  # all but the box's free joint
+    grip = view.get_jacobian("right_gripper", ["right_gripper"])  # any group has a leaf frame
+    assert grip.shape == (6, 2) and np.abs(grip).max() > 0.5

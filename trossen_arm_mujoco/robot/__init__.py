@@ -1,5 +1,12 @@
 """What a robot is: move groups, the robot view, controllers, kinematics and the robot."""
 
+from trossen_arm_mujoco.robot.base_group import (
+    FreeJointRobotBaseGroup,
+    ImmobileBaseGroup,
+    ImmobileRobotBaseGroup,
+    MocapRobotBaseGroup,
+    RobotBaseGroup,
+)
 from trossen_arm_mujoco.robot.configs import (
     JOINT_VELOCITY_LIMITS,
     RobotConfig,
@@ -7,14 +14,39 @@ from trossen_arm_mujoco.robot.configs import (
     stationary_ai_mocap_config,
     wxai_config,
 )
+from trossen_arm_mujoco.robot.gripper_group import GripperGroup
+from trossen_arm_mujoco.robot.move_group import (
+    ArmMoveGroup,
+    MJCFFrameMixin,
+    MocapArmGroup,
+    MoveGroup,
+    SimplyActuatedMoveGroup,
+)
+from trossen_arm_mujoco.robot.parallel_kinematics import BatchIKResult, ParallelKinematics
 from trossen_arm_mujoco.robot.robot import Robot
+from trossen_arm_mujoco.robot.robot_kinematics import IKResult, RobotKinematics
 from trossen_arm_mujoco.robot.robot_view import RobotView
 
 __all__ = [
     "JOINT_VELOCITY_LIMITS",
+    "ArmMoveGroup",
+    "BatchIKResult",
+    "FreeJointRobotBaseGroup",
+    "GripperGroup",
+    "IKResult",
+    "ImmobileBaseGroup",
+    "ImmobileRobotBaseGroup",
+    "MJCFFrameMixin",
+    "MocapArmGroup",
+    "MocapRobotBaseGroup",
+    "MoveGroup",
+    "ParallelKinematics",
     "Robot",
+    "RobotBaseGroup",
     "RobotConfig",
+    "RobotKinematics",
     "RobotView",
+    "SimplyActuatedMoveGroup",
     "stationary_ai_joint_config",
     "stationary_ai_mocap_config",
     "wxai_config",

@@ -13,6 +13,14 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.base_group import (
+    FreeJointRobotBaseGroup,
+    ImmobileRobotBaseGroup,
+    MocapRobotBaseGroup,
+    RobotBaseGroup,
+)
+from trossen_arm_mujoco.robot.checks import check_velocity_limits, model_and_data
+from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.layout import (
     ARM_JOINTS,
     FINGER_JOINTS,
@@ -20,15 +28,13 @@ from trossen_arm_mujoco.robot.layout import (
     KIT_LAYOUT,
     START_ARM_POSE,
 )
-from trossen_arm_mujoco.robot.move_group import (
-    ArmMoveGroup,
-    GripperGroup,
-    ImmobileBaseGroup,
-    MocapArmGroup,
-    MoveGroup,
-    check_velocity_limits,
-)
+from trossen_arm_mujoco.robot.move_group import ArmMoveGroup, MocapArmGroup, MoveGroup
 from trossen_arm_mujoco.robot.robot_view import RobotView
+
+#: MoveGroupSpec kinds of base groups (the robot frame): fixed to the world, on a mocap
+#: body (teleportable), on a free joint.
+BASE_KINDS: tuple[str, ...] = ("base", "mocap_base", "free_joint_base")
+GROUP_KINDS: tuple[str, ...] = ("arm", "mocap_arm", "gripper", *BASE_KINDS)
 
 START_ARM = list(START_ARM_POSE[:6])
 START_FINGERS = [GRIPPER_OPEN, GRIPPER_OPEN]
@@ -52,7 +58,10 @@ rad/s for the revolute joints, m/s for the gripper carriages."""
 class MoveGroupSpec:
     """How to build one move group.
 
-    kind: "arm" (joint actuators + tool frame), "mocap_arm", "gripper" or "base".
+    kind: "arm" (joint actuators + tool frame), "mocap_arm", "gripper", or a base: "base"
+        (immobile, ``base_body``), "mocap_base" (``base_body`` is a mocap body) or
+        "free_joint_base" (``joints`` is the one free joint).
+    base: id of the base group whose pose is this group's robot frame ("" for none).
     velocity_limits: max speed per control value, rad/s (hinge) or m/s (slide): one per
         actuator for an arm, one for a gripper (its actuated finger); None for no limit
         (mocap arms and bases take none). Joint-position controllers, and the IK modes of
@@ -66,6 +75,7 @@ class MoveGroupSpec:
     frame_site: str = ""
     mocap_body: str = ""
     base_body: str = ""
+    base: str = ""
     velocity_limits: tuple[float, ...] | None = None
     rate_limit: bool = True
 
@@ -86,7 +96,9 @@ class MoveGroupSpec:
         """The limits controllers enforce: ``velocity_limits`` unless ``rate_limit`` is off."""
         return self.velocity_limits if self.rate_limit else None
 
-    def build(self, model: mujoco.MjModel, name: str) -> MoveGroup:
+    def build(self, model: mujoco.MjModel | mujoco.MjData, name: str) -> MoveGroup:
+        """The move group on ``model`` (or bound to an ``MjData``); its ``robot_base_group``
+        is linked by ``RobotConfig.build_view``."""
         group: MoveGroup
         if self.kind == "arm":
             group = ArmMoveGroup(model, name, self.joints, self.actuators, self.frame_site)
@@ -95,11 +107,15 @@ class MoveGroupSpec:
         elif self.kind == "gripper":
             group = GripperGroup(model, name, self.joints, self.actuators[0])
         elif self.kind == "base":
-            group = ImmobileBaseGroup(model, name, self.base_body)
+            group = ImmobileRobotBaseGroup(model, name, self.base_body)
+        elif self.kind == "mocap_base":
+            group = MocapRobotBaseGroup(model, name, self.base_body)
+        elif self.kind == "free_joint_base":
+            if len(self.joints) != 1:
+                raise UserError(f"{name}: a free_joint_base takes its one free joint in joints")
+            group = FreeJointRobotBaseGroup(model, name, self.joints[0])
         else:
-            raise unknown_name_error(
-                "move group kind", self.kind, ["arm", "mocap_arm", "gripper", "base"]
-            )
+            raise unknown_name_error("move group kind", self.kind, GROUP_KINDS)
         group.set_velocity_limits(self.enforced_velocity_limits)
         return group
 
@@ -117,8 +133,33 @@ class RobotConfig:
     init_qpos: dict[str, list[float]] = field(default_factory=dict)
     command_mode: dict[str, str] = field(default_factory=dict)
 
-    def build_view(self, model: mujoco.MjModel) -> RobotView:
-        return RobotView(model, {n: s.build(model, n) for n, s in self.groups.items()})
+    def build_view(self, model: mujoco.MjModel | mujoco.MjData) -> RobotView:
+        """The robot view on ``model``, or bound to an ``MjData`` (then every group reads and
+        writes it). Each group's ``robot_base_group`` is the group its spec's ``base`` names."""
+        m, data = model_and_data(model)
+        groups = {n: s.build(m, n) for n, s in self.groups.items()}
+        for name, spec in self.groups.items():
+            if not spec.base:
+                continue
+            base = groups.get(spec.base)
+            if base is None:
+                raise unknown_name_error(
+                    "move group", spec.base, groups, hint=f"the base of move group '{name}'"
+                )
+            if not isinstance(base, RobotBaseGroup):
+                raise UserError(f"move group '{name}': its base '{spec.base}' is not a base group")
+            groups[name].robot_base_group = base
+        return RobotView(model if data is None else data, groups)
+
+    def with_base_kind(self, kind: str) -> RobotConfig:
+        """A copy whose base groups are of another kind: "base" (immobile) or "mocap_base"
+        (the base body must be a mocap body of the model, e.g. made so with ``MjSpec``)."""
+        if kind not in ("base", "mocap_base"):
+            raise unknown_name_error("base kind", kind, ["base", "mocap_base"])
+        groups = {
+            n: replace(s, kind=kind) if s.kind in BASE_KINDS else s for n, s in self.groups.items()
+        }
+        return replace(self, groups=groups)
 
     def with_command_modes(self, **modes: str) -> RobotConfig:
         """A copy with some groups' command modes replaced."""
@@ -182,11 +223,12 @@ def _arm_groups(prefix: str, mocap: bool, side: str = "") -> dict[str, MoveGroup
         )
     return {
         f"{g}base": MoveGroupSpec("base", base_body=f"{prefix}base_link"),
-        f"{g}arm": arm,
+        f"{g}arm": replace(arm, base=f"{g}base"),
         f"{g}gripper": MoveGroupSpec(
             "gripper",
             tuple(prefix + j for j in FINGER_JOINTS),
             (f"{prefix}gripper",),
+            base=f"{g}base",
             velocity_limits=(JOINT_VELOCITY_LIMITS[ACTUATED_FINGER],),
         ),
     }

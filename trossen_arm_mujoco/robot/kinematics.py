@@ -11,6 +11,8 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.errors import UserError
+
 
 def orientation_error(target_quat: np.ndarray, quat: np.ndarray) -> np.ndarray:
     """Rotation vector (rad, world frame) that turns ``quat`` into ``target_quat``."""
@@ -60,6 +62,11 @@ class Kinematics:
         dof_idx: Sequence[int],
         joint_range: np.ndarray,
     ):
+        if site_id < 0:
+            raise UserError(
+                "IK needs a site as the tool frame (the move group's leaf frame is a body); "
+                "name a site as its frame"
+            )
         self.model = model
         self.site_id = site_id
         self.qpos_idx = np.asarray(qpos_idx, dtype=int)

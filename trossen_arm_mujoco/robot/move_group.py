@@ -1,91 +1,145 @@
 """Move groups: named sets of a robot's joints that are commanded together.
 
 A move group owns the indices of its joints in ``qpos``/``qvel`` and of its actuators in
-``ctrl`` (or its mocap body), looked up once from the model at construction. Units: hinge
-joints in rad, slide joints (gripper fingers) in m; poses are [x, y, z, qw, qx, qy, qz] in
-the world frame (m).
+``ctrl`` (or its mocap body), looked up once from the model at construction. Built from an
+``MjData`` (or bound later with ``bind``), it reads and writes that state through
+properties: ``joint_pos``, ``joint_vel``, ``ctrl``, ``noop_ctrl``; its frames are 4x4
+homogeneous transforms (``leaf_frame_to_world`` and friends, see ``frames.py``). Built from
+an ``MjModel`` only, the data-explicit methods (``get_qpos(data)``, ...) still work.
+
+Units: hinge joints in rad, slide joints (gripper fingers) in m; 7-value poses are
+[x, y, z, qw, qx, qy, qz] in the world frame (m).
+
+Frames: the *root frame* is the body the group's chain hangs from (the parent of its first
+joint's body); the *leaf frame* is the body of its last joint, or the named site/body of an
+``MJCFFrameMixin`` group (the tool frame ``ee_site`` of an arm). The *robot frame* is the
+pose of the group's ``robot_base_group``; a group without one uses its root frame. Frames
+and Jacobians read ``xpos``/``site_xpos``: valid after ``mj_kinematics``/``mj_forward``.
+
+The gripper lives in ``gripper_group.py``, base groups (the robot frame itself) in
+``base_group.py``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.robot.checks import (
+    check_data_fits,
+    check_velocity_limits,
+    finite,
+    model_and_data,
+    vector,
+)
+from trossen_arm_mujoco.robot.frames import frame_jacobian, frame_transform, relative
+from trossen_arm_mujoco.robot.limits import Limits, frozen
 
+if TYPE_CHECKING:
+    from trossen_arm_mujoco.robot.base_group import RobotBaseGroup
 
-def _vector(name: str, value, size: int) -> np.ndarray:
-    """``value`` as a finite float vector of ``size`` values, else a one-line UserError."""
-    v = np.asarray(value, dtype=float).reshape(-1)
-    if v.shape != (size,):
-        raise UserError(f"{name}: expected {size} control values, got {v.size}")
-    return _finite(name, v)
-
-
-def _finite(name: str, value: np.ndarray) -> np.ndarray:
-    if not np.all(np.isfinite(value)):
-        raise UserError(f"{name}: command contains NaN or inf: {np.round(value, 4).tolist()}")
-    return value
-
-
-def check_velocity_limits(name: str, limits: Sequence[float], size: int) -> np.ndarray:
-    """``limits`` as a (size,) array of positive, finite speeds, else a one-line UserError.
-
-    Args:
-        name: move group name, for the message.
-        limits: max speed per control value (rad/s for hinge joints, m/s for slide joints).
-        size: the group's number of control values.
-    """
-    v = np.asarray(limits, dtype=float).reshape(-1)
-    if v.shape != (size,):
-        raise UserError(
-            f"{name}: expected {size} velocity limits (one per control value), got {v.size}"
-        )
-    if not np.all(np.isfinite(v) & (v > 0)):
-        raise UserError(f"{name}: velocity limits must be positive and finite, got {v.tolist()}")
-    return v
-
-
-def _frozen(values) -> np.ndarray:
-    """A read-only float copy (limits shared by the hot paths, never handed out)."""
-    out = np.array(values, dtype=float)
-    out.flags.writeable = False
-    return out
+_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+_BALL, _FREE = int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)
+_POS_DIM = {_FREE: 7, _BALL: 4, _SLIDE: 1, _HINGE: 1}
+_VEL_DIM = {_FREE: 6, _BALL: 3, _SLIDE: 1, _HINGE: 1}
 
 
 class MoveGroup:
     """Joints of one robot that move together.
 
     Args:
-        model: compiled MuJoCo model.
+        model: compiled MuJoCo model, or an ``MjData`` to bind the group to at once.
         name: group name (e.g. "left_arm").
-        joint_names: 1-dof joints (hinge or slide) of the group, in command order.
+        joint_names: joints of the group, in command order (hinge or slide; base groups
+            take a free joint).
+        root_body: body (name or id) the group hangs from; default the parent of its first
+            joint's body.
 
     ``velocity_limits`` (None or (ctrl_dim,), rad/s or m/s) is the speed that joint-position
     controllers hold the group's control to; see ``set_velocity_limits``.
+    ``robot_base_group``: the base whose pose is this group's robot frame (set by
+    ``RobotConfig.build_view``), or None.
     """
 
     rate_limitable = False  # whether the control is joint positions that velocity limits fit
+    joint_types: tuple[int, ...] = (_HINGE, _SLIDE)  # the joint types a group accepts
 
-    def __init__(self, model: mujoco.MjModel, name: str, joint_names: Sequence[str]):
+    def __init__(
+        self,
+        model: mujoco.MjModel | mujoco.MjData,
+        name: str,
+        joint_names: Sequence[str],
+        root_body: str | int | None = None,
+    ):
+        model, data = model_and_data(model)
+        self.model = model
         self.name = name
         self.joint_names = list(joint_names)
         self.joint_ids = np.array([lookup_id(model, "joint", j) for j in joint_names], dtype=int)
+        posadr: list[int] = []
+        veladr: list[int] = []
+        limits: list[tuple[float, float]] = []
         for jid, jname in zip(self.joint_ids, self.joint_names):
-            if int(model.jnt_type[jid]) not in (
-                int(mujoco.mjtJoint.mjJNT_HINGE),
-                int(mujoco.mjtJoint.mjJNT_SLIDE),
-            ):
-                raise UserError(f"joint '{jname}' of move group '{name}' is not a hinge or slide")
-        self.qpos_idx = model.jnt_qposadr[self.joint_ids].astype(int)
-        self.dof_idx = model.jnt_dofadr[self.joint_ids].astype(int)
-        self.joint_range = model.jnt_range[self.joint_ids].copy()  # (n, 2)
+            jtype = int(model.jnt_type[jid])
+            if jtype not in self.joint_types:
+                kinds = " or ".join(mujoco.mjtJoint(t).name[6:].lower() for t in self.joint_types)
+                raise UserError(f"joint '{jname}' of move group '{name}' is not a {kinds}")
+            npos, nvel = _POS_DIM[jtype], _VEL_DIM[jtype]
+            posadr += range(int(model.jnt_qposadr[jid]), int(model.jnt_qposadr[jid]) + npos)
+            veladr += range(int(model.jnt_dofadr[jid]), int(model.jnt_dofadr[jid]) + nvel)
+            if npos == 1 and model.jnt_limited[jid]:
+                limits.append(tuple(model.jnt_range[jid]))
+            else:
+                limits += [(-np.inf, np.inf)] * npos
+        self.qpos_idx = np.array(posadr, dtype=int)
+        self.dof_idx = np.array(veladr, dtype=int)
+        self.joint_range = np.array(limits, dtype=float).reshape(-1, 2)  # (pos_dim, 2)
+        self.actuator_ids = np.zeros(0, dtype=int)
         self.velocity_limits: np.ndarray | None = None
-        self._ctrl_low = self._ctrl_high = _frozen(np.zeros(0))  # ctrl_limits(), shared
+        self._ctrl_low = self._ctrl_high = frozen(np.zeros(0))  # ctrl_limits, shared
+        if isinstance(root_body, (int, np.integer)):
+            self.root_body_id = int(root_body)
+        elif root_body is not None:
+            self.root_body_id = lookup_id(model, "body", root_body)
+        elif len(self.joint_ids):
+            self.root_body_id = int(model.body_parentid[model.jnt_bodyid[self.joint_ids[0]]])
+        else:
+            self.root_body_id = 0  # the world
+        self.leaf_frame_type = "body"
+        self.leaf_frame_id = (
+            int(model.jnt_bodyid[self.joint_ids[-1]]) if len(self.joint_ids) else self.root_body_id
+        )
+        self.robot_base_group: RobotBaseGroup | None = None
+        self._data: mujoco.MjData | None = None
+        if data is not None:
+            self.bind(data)
 
+    # -- binding -------------------------------------------------------------------------
+    def bind(self, data: mujoco.MjData) -> None:
+        """Read and write ``data`` from now on (``joint_pos``, ``ctrl``, frames, ...)."""
+        check_data_fits(self.model, data, f"move group '{self.name}'")
+        self._data = data
+
+    @property
+    def is_bound(self) -> bool:
+        return self._data is not None
+
+    @property
+    def data(self) -> mujoco.MjData:
+        """The ``MjData`` the group is bound to (a UserError when it is not)."""
+        if self._data is None:
+            raise UserError(
+                f"move group '{self.name}' is not bound to an MjData: build it from the data, "
+                "bind it (group.bind(data)), or use RobotView(data, groups)"
+            )
+        return self._data
+
+    # -- sizes and indices ---------------------------------------------------------------
     def set_velocity_limits(self, limits: Sequence[float] | None) -> None:
         """Max speed per control value that controllers enforce, or None for no limit.
 
@@ -108,23 +162,133 @@ class MoveGroup:
         return len(self.joint_ids)
 
     @property
+    def pos_dim(self) -> int:
+        """Length of ``joint_pos`` (7 for a free joint, else one per joint)."""
+        return len(self.qpos_idx)
+
+    @property
+    def vel_dim(self) -> int:
+        """Length of ``joint_vel`` (6 for a free joint, else one per joint)."""
+        return len(self.dof_idx)
+
+    @property
+    def n_actuators(self) -> int:
+        return len(self.actuator_ids)
+
+    @property
     def ctrl_dim(self) -> int:
         """Length of this group's control vector (0 for groups that cannot move)."""
         return 0
 
+    @property
+    def joint_posadr(self) -> np.ndarray:
+        """Indices of the group's joints in ``qpos``, (pos_dim,)."""
+        return self.qpos_idx
+
+    @property
+    def joint_veladr(self) -> np.ndarray:
+        """Indices of the group's joints in ``qvel`` (dofs), (vel_dim,)."""
+        return self.dof_idx
+
+    # -- state bound to the data ---------------------------------------------------------
+    @property
+    def joint_pos(self) -> np.ndarray:
+        """Joint positions (rad / m), (pos_dim,), a copy; set it with an array of that shape."""
+        return self.get_qpos(self.data)
+
+    @joint_pos.setter
+    def joint_pos(self, value: Sequence[float]) -> None:
+        self.set_qpos(self.data, value)
+
+    @property
+    def joint_vel(self) -> np.ndarray:
+        """Joint velocities (rad/s / m/s), (vel_dim,), a copy; settable."""
+        return self.get_qvel(self.data)
+
+    @joint_vel.setter
+    def joint_vel(self, value: Sequence[float]) -> None:
+        self.set_qvel(self.data, value)
+
+    @property
+    def ctrl(self) -> np.ndarray:
+        """The control applied now, (ctrl_dim,), a copy; setting it validates and clips."""
+        return self.get_ctrl(self.data)
+
+    @ctrl.setter
+    def ctrl(self, value: Sequence[float]) -> None:
+        self.set_ctrl(self.data, value)
+
+    @property
+    def noop_ctrl(self) -> np.ndarray:
+        """A control that holds the current state, (ctrl_dim,)."""
+        return self.get_noop_ctrl(self.data)
+
+    @property
+    def joint_pos_limits(self) -> np.ndarray:
+        """(pos_dim, 2) [low, high] per joint position (rad / m); +-inf where unlimited."""
+        return self.joint_range.copy()
+
+    @property
+    def ctrl_limits(self) -> Limits:
+        """(ctrl_dim, 2) [low, high] per control value; ``ctrl_limits()`` gives (low, high)."""
+        return Limits.of(self._ctrl_low, self._ctrl_high)
+
+    # -- frames (4x4, after mj_kinematics) -----------------------------------------------
+    @property
+    def root_frame_to_world(self) -> np.ndarray:
+        """Pose of the root frame in the world, 4x4."""
+        return frame_transform(self.data, "body", self.root_body_id)
+
+    @property
+    def leaf_frame_to_world(self) -> np.ndarray:
+        """Pose of the leaf frame in the world, 4x4."""
+        return frame_transform(self.data, self.leaf_frame_type, self.leaf_frame_id)
+
+    @property
+    def leaf_frame_to_root(self) -> np.ndarray:
+        """Pose of the leaf frame in the root frame, 4x4."""
+        return relative(self.leaf_frame_to_world, self.root_frame_to_world)
+
+    @property
+    def root_frame_to_robot(self) -> np.ndarray:
+        """Pose of the root frame in the robot frame, 4x4 (identity without a base)."""
+        if self.robot_base_group is None:
+            return np.eye(4)
+        return relative(self.root_frame_to_world, self.robot_base_group.pose)
+
+    @property
+    def leaf_frame_to_robot(self) -> np.ndarray:
+        """Pose of the leaf frame in the robot frame (the root frame without a base), 4x4."""
+        if self.robot_base_group is None:
+            return self.leaf_frame_to_root
+        return relative(self.leaf_frame_to_world, self.robot_base_group.pose)
+
+    def get_jacobian(self) -> np.ndarray:
+        """(6, nv) Jacobian of the leaf frame's origin w.r.t. all dofs: rows [linear (m/unit);
+        angular (rad/unit)], world frame. Needs ``mj_kinematics`` + ``mj_comPos`` (or
+        ``mj_forward``) for the current qpos."""
+        return frame_jacobian(self.model, self.data, self.leaf_frame_type, self.leaf_frame_id)
+
+    # -- data-explicit helpers -----------------------------------------------------------
     def get_qpos(self, data: mujoco.MjData) -> np.ndarray:
-        """Joint positions, shape (n_joints,)."""
-        return data.qpos[self.qpos_idx].copy()
+        """Joint positions, shape (pos_dim,)."""
+        return data.qpos[self.qpos_idx]  # fancy indexing: a copy
 
     def set_qpos(self, data: mujoco.MjData, qpos: Sequence[float]) -> None:
         q = np.asarray(qpos, dtype=float)
-        if q.shape != (self.n_joints,):
-            raise UserError(f"{self.name}: expected {self.n_joints} joint values, got {q.shape}")
-        data.qpos[self.qpos_idx] = _finite(self.name, q)
+        if q.shape != (self.pos_dim,):
+            raise UserError(f"{self.name}: expected {self.pos_dim} joint values, got {q.shape}")
+        data.qpos[self.qpos_idx] = finite(self.name, q)
 
     def get_qvel(self, data: mujoco.MjData) -> np.ndarray:
-        """Joint velocities (rad/s or m/s), shape (n_joints,)."""
-        return data.qvel[self.dof_idx].copy()
+        """Joint velocities (rad/s or m/s), shape (vel_dim,)."""
+        return data.qvel[self.dof_idx]
+
+    def set_qvel(self, data: mujoco.MjData, qvel: Sequence[float]) -> None:
+        v = np.asarray(qvel, dtype=float)
+        if v.shape != (self.vel_dim,):
+            raise UserError(f"{self.name}: expected {self.vel_dim} joint velocities, got {v.shape}")
+        data.qvel[self.dof_idx] = finite(self.name, v)
 
     def get_ctrl(self, data: mujoco.MjData) -> np.ndarray:
         """The control currently applied, shape (ctrl_dim,)."""
@@ -145,42 +309,66 @@ class MoveGroup:
         """A control that holds the current state."""
         return np.zeros(0)
 
-    def ctrl_limits(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds of the control vector, each (ctrl_dim,)."""
-        return np.zeros(0), np.zeros(0)
-
 
 class MJCFFrameMixin:
-    """Pose and Jacobian of one MJCF site (the group's tool frame, e.g. ``ee_site``)."""
+    """A leaf frame named in the MJCF: a site (e.g. the tool frame ``ee_site``) or a body.
 
-    frame_site_id: int
+    ``leaf_frame_id`` is its id, ``leaf_frame_type`` "site" or "body"; ``get_jacobian()``
+    calls ``mj_jacSite`` or ``mj_jacBody`` accordingly.
+    """
 
-    def _init_frame(self, model: mujoco.MjModel, site_name: str) -> None:
-        self.frame_site_name = site_name
-        self.frame_site_id = lookup_id(model, "site", site_name)
+    model: mujoco.MjModel
+    name: str
+    leaf_frame_id: int
+    leaf_frame_type: str
+
+    def _init_frame(self, model: mujoco.MjModel, frame_name: str, frame_type: str = "site") -> None:
+        if frame_type not in ("site", "body"):
+            raise UserError(
+                f"{self.name}: leaf frame type must be 'site' or 'body', got '{frame_type}'"
+            )
+        self.leaf_frame_type = frame_type
+        self.leaf_frame_id = lookup_id(model, frame_type, frame_name)
+        self.frame_name = frame_name
+        self._site = frame_type == "site"
+        # the tool-frame site of the IK controllers (plain attributes: read every step);
+        # -1 / "" for a body frame, which ee_pose / ee_delta control refuses
+        self.frame_site_id = self.leaf_frame_id if self._site else -1
+        self.frame_site_name = frame_name if self._site else ""
+
+    def get_jacobian(self) -> np.ndarray:
+        """(6, nv) Jacobian of the leaf frame (site or body origin), rows [linear; angular],
+        world frame (``mj_jacSite`` / ``mj_jacBody``; valid after ``mj_forward``)."""
+        return self.get_frame_jacobian(self.model, self.data)
 
     def get_frame_pose(self, data: mujoco.MjData) -> np.ndarray:
-        """World pose of the frame site, [x, y, z, qw, qx, qy, qz] (m)."""
+        """World pose of the leaf frame, [x, y, z, qw, qx, qy, qz] (m)."""
         pose = np.empty(7)
-        pose[:3] = data.site_xpos[self.frame_site_id]
-        mujoco.mju_mat2Quat(pose[3:], data.site_xmat[self.frame_site_id])
+        if self._site:
+            pose[:3] = data.site_xpos[self.leaf_frame_id]
+            mujoco.mju_mat2Quat(pose[3:], data.site_xmat[self.leaf_frame_id])
+        else:
+            pose[:3] = data.xpos[self.leaf_frame_id]
+            pose[3:] = data.xquat[self.leaf_frame_id]
         return pose
 
     def get_frame_position(self, data: mujoco.MjData) -> np.ndarray:
-        """World position of the frame site, [x, y, z] (m): ``get_frame_pose(data)[:3]``
+        """World position of the leaf frame, [x, y, z] (m): ``get_frame_pose(data)[:3]``
         without working out the orientation."""
-        return data.site_xpos[self.frame_site_id].copy()
+        xpos = data.site_xpos if self._site else data.xpos
+        return xpos[self.leaf_frame_id].copy()
 
     def get_frame_jacobian(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-        """Jacobian of the frame site w.r.t. all dofs, shape (6, nv): rows [linear; angular],
-        world frame. Valid after ``mj_kinematics``/``mj_forward`` for the current qpos."""
-        jac = np.zeros((6, model.nv))
-        mujoco.mj_jacSite(model, data, jac[:3], jac[3:], self.frame_site_id)
-        return jac
+        """Jacobian of the leaf frame w.r.t. all dofs, shape (6, nv): rows [linear; angular],
+        world frame. Valid after ``mj_kinematics`` + ``mj_comPos`` for the current qpos."""
+        return frame_jacobian(model, data, self.leaf_frame_type, self.leaf_frame_id)
 
 
 class SimplyActuatedMoveGroup(MoveGroup):
-    """One position actuator per joint: the control is the joint target (rad or m)."""
+    """One position actuator per joint: the control is the joint target (rad or m).
+
+    ``joint_ids``, ``actuator_ids``, ``joint_posadr``, ``joint_veladr``: model indices.
+    """
 
     rate_limitable = True
 
@@ -188,11 +376,13 @@ class SimplyActuatedMoveGroup(MoveGroup):
         super().__init__(model, name, joint_names)
         if len(actuator_names) != len(joint_names):
             raise UserError(f"{name}: one actuator per joint is required")
-        self.actuator_ids = np.array([lookup_id(model, "actuator", a) for a in actuator_names])
-        self._ctrl_range = model.actuator_ctrlrange[self.actuator_ids].copy()
+        self.actuator_ids = np.array(
+            [lookup_id(self.model, "actuator", a) for a in actuator_names], dtype=int
+        )
+        self._ctrl_range = self.model.actuator_ctrlrange[self.actuator_ids].copy()
         self._ctrl_low, self._ctrl_high = (
-            _frozen(self._ctrl_range[:, 0]),
-            _frozen(self._ctrl_range[:, 1]),
+            frozen(self._ctrl_range[:, 0]),
+            frozen(self._ctrl_range[:, 1]),
         )
         ids = self.actuator_ids
         contiguous = len(ids) > 0 and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids)))
@@ -206,7 +396,7 @@ class SimplyActuatedMoveGroup(MoveGroup):
         return data.ctrl[self._ctrl_sel].copy()
 
     def set_ctrl(self, data, ctrl):
-        c = _vector(self.name, ctrl, self.ctrl_dim)
+        c = vector(self.name, ctrl, self.ctrl_dim)
         data.ctrl[self.actuator_ids] = np.clip(c, self._ctrl_range[:, 0], self._ctrl_range[:, 1])
 
     def _write_ctrl(self, data, ctrl):
@@ -215,59 +405,15 @@ class SimplyActuatedMoveGroup(MoveGroup):
     def get_noop_ctrl(self, data):
         return self.get_qpos(data)
 
-    def ctrl_limits(self):
-        return self._ctrl_range[:, 0].copy(), self._ctrl_range[:, 1].copy()
-
 
 class ArmMoveGroup(MJCFFrameMixin, SimplyActuatedMoveGroup):
-    """A joint-actuated arm with a tool frame site."""
+    """A joint-actuated arm with a tool frame (a site, or a body with ``frame_type="body"``)."""
 
-    def __init__(self, model, name, joint_names, actuator_names, frame_site: str):
+    def __init__(
+        self, model, name, joint_names, actuator_names, frame_site: str, frame_type: str = "site"
+    ):
         super().__init__(model, name, joint_names, actuator_names)
-        self._init_frame(model, frame_site)
-
-
-class GripperGroup(MoveGroup):
-    """Two coupled fingers driven by one position actuator.
-
-    qpos has both finger joints (m, 0 closed to 0.044 open); the control is one value: the
-    target travel of the actuated finger (m).
-    """
-
-    rate_limitable = True
-
-    def __init__(self, model, name, joint_names, actuator_name: str):
-        super().__init__(model, name, joint_names)
-        self.actuator_id = lookup_id(model, "actuator", actuator_name)
-        joint_of_actuator = int(model.actuator_trnid[self.actuator_id, 0])
-        if joint_of_actuator not in self.joint_ids:
-            raise UserError(f"{name}: actuator '{actuator_name}' drives none of {joint_names}")
-        self.actuated_qpos_idx = int(model.jnt_qposadr[joint_of_actuator])
-        self._ctrl_range = model.actuator_ctrlrange[self.actuator_id].copy()
-        self._ctrl_low, self._ctrl_high = (
-            _frozen(self._ctrl_range[:1]),
-            _frozen(self._ctrl_range[1:]),
-        )
-
-    @property
-    def ctrl_dim(self) -> int:
-        return 1
-
-    def get_ctrl(self, data):
-        return data.ctrl[[self.actuator_id]].copy()
-
-    def set_ctrl(self, data, ctrl):
-        c = _vector(self.name, ctrl, 1)
-        data.ctrl[self.actuator_id] = np.clip(c[0], *self._ctrl_range)
-
-    def _write_ctrl(self, data, ctrl):
-        data.ctrl[self.actuator_id] = ctrl[0]
-
-    def get_noop_ctrl(self, data):
-        return np.array([data.qpos[self.actuated_qpos_idx]])
-
-    def ctrl_limits(self):
-        return self._ctrl_range[:1].copy(), self._ctrl_range[1:].copy()
+        self._init_frame(self.model, frame_site, frame_type)
 
 
 class MocapArmGroup(MJCFFrameMixin, MoveGroup):
@@ -279,13 +425,13 @@ class MocapArmGroup(MJCFFrameMixin, MoveGroup):
 
     def __init__(self, model, name, joint_names, mocap_body: str, frame_site: str):
         super().__init__(model, name, joint_names)
-        body_id = lookup_id(model, "body", mocap_body)
-        self.mocap_id = int(model.body_mocapid[body_id])
+        body_id = lookup_id(self.model, "body", mocap_body)
+        self.mocap_id = int(self.model.body_mocapid[body_id])
         if self.mocap_id < 0:
             raise UserError(f"{name}: body '{mocap_body}' is not a mocap body")
-        self._init_frame(model, frame_site)
-        self._ctrl_low = _frozen(np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]))
-        self._ctrl_high = _frozen(np.array([2.0, 2.0, 2.0, 1, 1, 1, 1]))
+        self._init_frame(self.model, frame_site)
+        self._ctrl_low = frozen(np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]))
+        self._ctrl_high = frozen(np.array([2.0, 2.0, 2.0, 1, 1, 1, 1]))
 
     @property
     def ctrl_dim(self) -> int:
@@ -295,7 +441,7 @@ class MocapArmGroup(MJCFFrameMixin, MoveGroup):
         return np.concatenate([data.mocap_pos[self.mocap_id], data.mocap_quat[self.mocap_id]])
 
     def set_ctrl(self, data, ctrl):
-        c = _vector(self.name, ctrl, 7)
+        c = vector(self.name, ctrl, 7)
         norm = np.linalg.norm(c[3:])
         if norm < 1e-9:
             raise UserError(f"{self.name}: mocap quaternion has zero length")
@@ -305,17 +451,16 @@ class MocapArmGroup(MJCFFrameMixin, MoveGroup):
     def get_noop_ctrl(self, data):
         return self.get_ctrl(data)
 
-    def ctrl_limits(self):
-        return self._ctrl_low.copy(), self._ctrl_high.copy()
 
+def __getattr__(name: str):
+    """Earlier import paths of the gripper and base groups (``gripper_group.py``,
+    ``base_group.py``): ``from ...move_group import GripperGroup, ImmobileBaseGroup``."""
+    if name == "GripperGroup":
+        from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 
-class ImmobileBaseGroup(MoveGroup):
-    """A robot base fixed to the world: no joints, no control, only a pose."""
+        return GripperGroup
+    if name in ("ImmobileBaseGroup", "ImmobileRobotBaseGroup", "RobotBaseGroup"):
+        from trossen_arm_mujoco.robot import base_group
 
-    def __init__(self, model, name, base_body: str):
-        super().__init__(model, name, [])
-        self.body_id = lookup_id(model, "body", base_body)
-
-    def get_pose(self, data: mujoco.MjData) -> np.ndarray:
-        """World pose of the base body, [x, y, z, qw, qx, qy, qz]."""
-        return np.concatenate([data.xpos[self.body_id], data.xquat[self.body_id]])
+        return getattr(base_group, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

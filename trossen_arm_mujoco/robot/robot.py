@@ -1,16 +1,21 @@
-"""Robot: a robot view with one controller per move group."""
+"""Robot: a robot view with one controller per move group, and its kinematics."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.base_group import ImmobileRobotBaseGroup
+from trossen_arm_mujoco.robot.checks import model_and_data
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import Controller, make_controller
-from trossen_arm_mujoco.robot.move_group import MocapArmGroup
+from trossen_arm_mujoco.robot.frames import as_transform, invert
+from trossen_arm_mujoco.robot.move_group import MJCFFrameMixin, MocapArmGroup
+from trossen_arm_mujoco.robot.parallel_kinematics import ParallelKinematics
+from trossen_arm_mujoco.robot.robot_kinematics import RobotKinematics
 from trossen_arm_mujoco.robot.robot_view import RobotView
 
 
@@ -27,15 +32,34 @@ class Robot:
     once, when first applied; its joint target is then approached over as many ticks as
     the limits need, unless a newer command replaces it.
 
+    Bound to an ``MjData`` (built from one, ``data=``, or ``bind``), ``compute_control()``,
+    ``reset()``, ``hold()`` and ``set_world_pose`` work on it; every call also takes an
+    explicit ``data`` (the earlier form), which wins.
+
     Args:
-        model: compiled model.
+        model: compiled model, or the ``MjData`` to bind to.
         config: move groups, initial joints, command modes, velocity limits.
         ctrl_dt: control period (s), the time between two ``compute_control`` calls;
             default the model timestep. Controllers put into ``controllers`` later without
             a ``ctrl_dt`` of their own take this one.
+        data: the ``MjData`` to bind to (with a model as first argument).
+
+    Attributes:
+        robot_view: the move groups (``view`` is the same object).
+        controllers: move group id -> controller.
+        kinematics: ``RobotKinematics`` (FK of every group, IK), on a private ``MjData``
+            whose reference state is the bound data.
+        parallel_kinematics: ``ParallelKinematics`` of the first arm (batched FK / IK).
     """
 
-    def __init__(self, model: mujoco.MjModel, config: RobotConfig, ctrl_dt: float | None = None):
+    def __init__(
+        self,
+        model: mujoco.MjModel | mujoco.MjData,
+        config: RobotConfig,
+        ctrl_dt: float | None = None,
+        data: mujoco.MjData | None = None,
+    ):
+        model, bound = model_and_data(model)
         self.model = model
         self.config = config
         self.ctrl_dt = float(model.opt.timestep) if ctrl_dt is None else float(ctrl_dt)
@@ -49,16 +73,87 @@ class Robot:
         self._commands: dict[str, np.ndarray] = {}
         # resolved relative commands not yet reached: (target, target within ctrl limits)
         self._targets: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._kinematics: RobotKinematics | None = None
+        self._parallel: dict[tuple[str, tuple[str, ...]], ParallelKinematics] = {}
+        if bound is not None or data is not None:
+            self.bind(bound if data is None else data)
+
+    # -- the documented surface ----------------------------------------------------------
+    def bind(self, data: mujoco.MjData) -> None:
+        """Work on ``data`` from now on (its move groups read and write it)."""
+        self.view.bind(data)
+
+    @property
+    def robot_view(self) -> RobotView:
+        return self.view
+
+    @property
+    def kinematics(self) -> RobotKinematics:
+        """FK of every move group and IK (built on first use)."""
+        if self._kinematics is None:
+            self._kinematics = RobotKinematics(self.model, self.config, reference=self.view)
+        return self._kinematics
+
+    @property
+    def parallel_kinematics(self) -> ParallelKinematics:
+        """Batched FK and IK of the first arm (the first group with a tool frame)."""
+        arms = [n for n, g in self.view.move_groups.items() if isinstance(g, MJCFFrameMixin)]
+        if not arms:
+            raise UserError(f"robot '{self.config.name}' has no arm with a tool frame for IK")
+        return self.get_parallel_kinematics(arms[0])
+
+    def get_parallel_kinematics(
+        self, move_group_id: str, unlocked_move_group_ids: Sequence[str] | None = None
+    ) -> ParallelKinematics:
+        """Batched kinematics with IK of ``move_group_id`` over the unlocked groups' joints
+        (default the group itself); built once per combination."""
+        key = (move_group_id, tuple(unlocked_move_group_ids or (move_group_id,)))
+        if key not in self._parallel:
+            self._parallel[key] = ParallelKinematics(self.kinematics, key[0], key[1])
+        return self._parallel[key]
+
+    def _data(self, data: mujoco.MjData | None) -> mujoco.MjData:
+        return self.view.data if data is None else data
+
+    def get_world_pose(self, data: mujoco.MjData | None = None) -> np.ndarray:
+        """World pose of the robot (its primary base group), 4x4."""
+        return self.view.base.get_transform(self._data(data))
+
+    def set_world_pose(self, pose, data: mujoco.MjData | None = None) -> None:
+        """Teleport the robot: put its primary base at ``pose`` (4x4, or 7 values
+        [x, y, z, qw, qx, qy, qz], world frame, m); other bases move rigidly with it.
+
+        A mocap base moves its mocap body, a free-joint base writes its qpos; an immobile
+        base (fixed in the MJCF) raises a UserError. Kinematics is updated
+        (``mj_kinematics``); velocities are left as they are.
+        """
+        data = self._data(data)
+        target = as_transform("world pose", pose)
+        bases = [self.view.group(n) for n in self.view.base_group_ids()]
+        if not bases:
+            raise UserError(f"robot '{self.config.name}' has no base group to move")
+        for base in bases:
+            if isinstance(base, ImmobileRobotBaseGroup):
+                base.set_transform(data, target)  # raises the immobile-base error
+        move = target @ invert(bases[0].get_transform(data))
+        new = [move @ base.get_transform(data) for base in bases]
+        for base, pose_b in zip(bases, new):
+            base.set_transform(data, pose_b)
+        mujoco.mj_kinematics(self.model, data)
 
     def update_control(self, commands: Mapping[str, np.ndarray]) -> None:
-        """Store commands, group name -> vector of that group's ``command_dim`` values."""
+        """Store commands (the action command dict), group id -> vector of that group's
+        ``command_dim`` values; ``compute_control`` applies them."""
         for name, cmd in commands.items():
             if name not in self.controllers:
                 raise unknown_name_error("controlled move group", name, self.controllers)
             self._commands[name] = self.controllers[name]._check(cmd)
 
-    def compute_control(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
-        """Compute and apply the controls of the commanded groups; returns them by group."""
+    def compute_control(self, data: mujoco.MjData | None = None) -> dict[str, np.ndarray]:
+        """Compute and apply the controls of the commanded groups (in ``data``, default the
+        bound data); returns them by group."""
+        if data is None:
+            data = self.view.data
         out = {}
         controllers = self.controllers
         if self._commands:
@@ -83,12 +178,14 @@ class Robot:
             controllers[name].group._write_ctrl(data, ctrl)
         return out
 
-    def reset(self, data: mujoco.MjData) -> None:
-        """Put the joints at ``config.init_qpos`` at rest, and every control at a no-op.
+    def reset(self, data: mujoco.MjData | None = None) -> None:
+        """Put the joints at ``config.init_qpos`` at rest, and every control at a no-op
+        (in ``data``, default the bound data).
 
         Mocap arms get their mocap pose set to the tool-frame pose of the initial joints,
         so the weld holds the arm where it is.
         """
+        data = self._data(data)
         self.view.set_qpos_dict(data, self.config.init_qpos)
         for name in self.config.init_qpos:
             data.qvel[self.view.group(name).dof_idx] = 0.0
@@ -97,8 +194,9 @@ class Robot:
         mujoco.mj_kinematics(self.model, data)
         self.hold(data)
 
-    def hold(self, data: mujoco.MjData) -> None:
+    def hold(self, data: mujoco.MjData | None = None) -> None:
         """Set every control to hold the current state (kinematics must be up to date)."""
+        data = self._data(data)
         self._commands.clear()
         self._targets.clear()
         for group in self.view.move_groups.values():

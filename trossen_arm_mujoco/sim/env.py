@@ -129,7 +129,8 @@ class MujocoEnv:
         self.ctrl_dt = float(ctrl_dt) if ctrl_dt is not None else self.sim_dt
         self.n_substeps = whole_ratio(self.ctrl_dt, self.sim_dt, "ctrl_dt", "sim_dt")
         self.robots = {
-            n: Robot(self.model, c, ctrl_dt=self.ctrl_dt) for n, c in (robots or {}).items()
+            n: Robot(self.model, c, ctrl_dt=self.ctrl_dt, data=self.data)
+            for n, c in (robots or {}).items()
         }
         self.objects = {
             n: FreeJointObject(self.model, j, g) for n, (j, g) in (objects or {}).items()
