@@ -200,3 +200,25 @@ def test_damped_least_squares_solves_well_posed_systems():
     dq = damped_least_squares(singular, np.array([0.1, 1.0, 1.0]))
     assert np.all(np.isfinite(dq))
     np.testing.assert_allclose(dq[0], 0.1, atol=1e-6)
+
+
+def test_delta_step_reuses_its_last_result_only_for_the_same_inputs(arm_kinematics, monkeypatch):
+    model, kin = arm_kinematics
+    qpos = np.zeros(model.nq)
+    qpos[kin.qpos_idx] = [0.1, 0.8, 0.6, 0.0, 0.2, 0.0]
+    twist = np.array([0.01, -0.02, 0.005])
+    first = kin.delta_step(qpos, twist)
+    solves = []
+    monkeypatch.setattr(
+        kin, "_load", lambda *a, **k: solves.append(1) or type(kin)._load(kin, *a, **k)
+    )
+    again = kin.delta_step(qpos, twist)
+    assert not solves and np.array_equal(again, first)
+    again[:] = 0.0  # a copy: the kept result is not the caller's array
+    assert np.array_equal(kin.delta_step(qpos, twist), first)
+    moved = qpos.copy()
+    moved[kin.qpos_idx[0]] += 0.1
+    assert not np.array_equal(kin.delta_step(moved, twist), first) and len(solves) == 1
+    kin.delta_step(moved, twist * 2)
+    kin.delta_step(moved, twist * 2, damping=0.01)
+    assert len(solves) == 3

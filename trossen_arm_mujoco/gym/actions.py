@@ -65,8 +65,11 @@ class ActionMapper:
         self.hold = bool(config.get("hold_orientation", False)) and mode == "ee_delta"
         view = robot.view
         self.arms = [(view.group(a), view.group(g)) for a, g in arms]
+        # the ee_delta controller's own solver where there is one: the step predicted here
+        # is the step it takes next (``Kinematics.delta_step`` keeps its last result)
         self.kin = {
-            arm.name: Kinematics(
+            arm.name: getattr(robot.controllers.get(arm.name), "kinematics", None)
+            or Kinematics(
                 robot.model, arm.frame_site_id, arm.qpos_idx, arm.dof_idx, arm.joint_range
             )
             for arm, _ in self.arms

@@ -75,6 +75,8 @@ class Kinematics:
         self._low = self.joint_range[:, 0].copy()
         self._high = self.joint_range[:, 1].copy()
         self._data = mujoco.MjData(model)
+        #: (qpos, twist, damping, result) of the last ``delta_step``
+        self._delta_memo: tuple[np.ndarray, np.ndarray, float, np.ndarray] | None = None
 
     def _load(self, qpos_full: np.ndarray, q: np.ndarray | None = None, com: bool = True) -> None:
         """Scratch state at ``qpos_full`` (group joints replaced by ``q``): kinematics, and
@@ -115,19 +117,34 @@ class Kinematics:
             twist: (3,) position delta (m) or (6,) [position delta (m), rotation vector (rad)],
                 world frame.
         Returns:
-            (n,) joint positions, clipped to the joint limits.
+            (n,) joint positions, clipped to the joint limits (a new array).
+
+        The last result is kept: asked again for the same qpos, twist and damping (a safety
+        check predicting the step, then the controller taking it), it is returned without
+        solving again.
         """
-        q = qpos_full[self.qpos_idx]  # a copy (fancy indexing)
         twist = np.asarray(twist, dtype=float)
         if twist.shape not in ((3,), (6,)):
             raise ValueError(f"twist must have 3 or 6 values, got shape {twist.shape}")
+        memo = self._delta_memo
+        if (
+            memo is not None
+            and memo[2] == damping
+            and memo[1].shape == twist.shape
+            and (memo[1] == twist).all()
+            and (memo[0] == qpos_full).all()
+        ):
+            return memo[3].copy()
+        q = qpos_full[self.qpos_idx]  # a copy (fancy indexing)
         self._load(qpos_full)
         jac = np.zeros((len(twist), self.model.nv))
         rot = jac[3:] if len(twist) == 6 else None
         mujoco.mj_jacSite(self.model, self._data, jac[:3], rot, self.site_id)
         dq = damped_least_squares(jac[:, self.dof_idx], twist, damping)
         # np.clip(q + dq, low, high), without its overhead
-        return np.minimum(np.maximum(q + dq, self._low), self._high)
+        out = np.minimum(np.maximum(q + dq, self._low), self._high)
+        self._delta_memo = (np.array(qpos_full, dtype=float), twist.copy(), damping, out.copy())
+        return out
 
     def solve(
         self,
