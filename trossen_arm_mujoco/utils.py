@@ -12,6 +12,7 @@ from trossen_arm_mujoco.constants import DT, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.sim.env import load_physics
+from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.transfer_cube import sample_cube_pose
 
@@ -45,6 +46,8 @@ def make_sim_env(
     image_size: tuple[int, int] = (480, 640),
     random: int | np.random.Generator | None = None,
     time_limit: float = 20.0,
+    shadows: bool = True,
+    visual: str = "own",
     **task_kwargs,
 ) -> control.Environment:
     """A dm_control environment for a Stationary AI task class.
@@ -60,6 +63,9 @@ def make_sim_env(
         image_size: (height, width) of the images.
         random: seed or Generator for the task's randomization.
         time_limit: episode time limit (s).
+        shadows: whether the key light casts shadows in the images (False: faster).
+        visual: ``"own"`` arm meshes, or ``"menagerie"``: the official Trossen meshes of the
+            MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR`` (drawing only).
     Returns:
         ``control.Environment`` whose ``reset()``/``step(action)`` return time steps with
         ``.observation`` and ``.reward``; control period ``DT`` = 0.02 s.
@@ -69,7 +75,7 @@ def make_sim_env(
     if not isinstance(task_class, type):
         raise UserError(f"task_class must be a class, got {type(task_class).__name__}")
     xml = resolve_asset(xml_file or task_class.DEFAULT_XML)
-    physics = load_physics(xml)
+    physics = load_physics(xml, SceneLooks(shadows=shadows, visual=visual))
     task = task_class(
         random=random,
         onscreen_render=onscreen_render,

@@ -28,6 +28,7 @@ from trossen_arm_mujoco.real.validate import (
 )
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
 from trossen_arm_mujoco.tasks import registry
 
 #: Speed limit of each of the 16 action values (URDF: rad/s for the joints, m/s for both
@@ -76,6 +77,8 @@ class RecordSettings:
     width: int = 640
     compression: str = "none"
     base_seed: int = 0
+    shadows: bool = True  # the key light casts shadows in the images
+    visual: str = "own"  # arm meshes: "own" or "menagerie" (sim.looks)
 
 
 @dataclass
@@ -112,13 +115,14 @@ class EpisodeRecorder:
         self.arm_limits = ArmLimits.from_mjcf()
         self.last_speed_limited = 0
         self.ee_sampler = registry.make_sampler(self.entry.name, flavour="ee")
-        self.joint_sampler = registry.make_sampler(
-            self.entry.name,
-            flavour="joint",
-            camera_names=settings.cam_names,
-            height=settings.height,
-            width=settings.width,
-        )
+        with scene_looks(SceneLooks(shadows=settings.shadows, visual=settings.visual)):
+            self.joint_sampler = registry.make_sampler(
+                self.entry.name,
+                flavour="joint",
+                camera_names=settings.cam_names,
+                height=settings.height,
+                width=settings.width,
+            )
         self.ee_task = None
         self.joint_task = None
         probe = self.joint_sampler.make_task()
@@ -241,6 +245,8 @@ class EpisodeRecorder:
             "real_replay_checked": speed_ok,
             "peak_speed_fraction": peak_use,
             "speed_limited_values": int(self.last_speed_limited),
+            "shadows": bool(s.shadows),
+            "visual": s.visual,
             **(extra_attrs or {}),
         }
         with EpisodeWriter(

@@ -15,6 +15,11 @@ Keyword arguments (besides the task's config keys, which override its YAML file)
     stepping: ``fast`` | ``paused`` | ``realtime`` (see ``gym.stepping``).
     width, height: image size (pixels) of pixel observations and ``rgb_array`` renders.
     cameras: cameras of pixel observations and renders; default: the scene's first one.
+    shadows: whether the key light casts shadows (False renders pixels several times faster
+        with software rendering).
+    visual: ``own`` (the project's arm shapes) | ``menagerie`` (the official Trossen meshes
+        of a MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR``; see ``sim.looks``).
+        Only what is drawn changes; physics is the same.
 
 Reward: the task's reward (dense shaping for the wxai tasks, 0-4 for transfer_cube).
 ``terminated``: the task ended (``terminate_on_success``); time limits come from the
@@ -38,12 +43,13 @@ from trossen_arm_mujoco.gym.actions import ACTION_MODES, ActionMapper
 from trossen_arm_mujoco.gym.spaces import OBS_TYPES, ObservationBuilder
 from trossen_arm_mujoco.gym.stepping import STEPPING_MODES, make_stepper
 from trossen_arm_mujoco.sim.cameras import check_can_render
+from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.task import Task
 
 RENDER_MODES = ("rgb_array", "human")
 ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "width",
-               "height", "cameras")  # fmt: skip
+               "height", "cameras", "shadows", "visual")  # fmt: skip
 
 
 def _check_choice(kind: str, value: Any, valid: Sequence[str]) -> None:
@@ -76,6 +82,8 @@ class TrossenMujocoEnv(gymnasium.Env):
         width: int = 128,
         height: int = 128,
         cameras: Sequence[str] | None = None,
+        shadows: bool = True,
+        visual: str = "own",
         **config: Any,
     ):
         entry = registry.load(task)
@@ -87,6 +95,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         _check_choice("observation type", obs_type, OBS_TYPES)
         _check_choice("action mode", action_mode, ACTION_MODES)
         _check_choice("stepping mode", stepping, STEPPING_MODES)
+        looks = SceneLooks(shadows=shadows, visual=visual)
         if render_mode is not None:
             _check_choice("render mode", render_mode, RENDER_MODES)
         self._headless = render_mode == "human" and not has_display()
@@ -108,13 +117,14 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.task_name = task
         self.obs_type, self.action_mode, self.render_mode = obs_type, action_mode, render_mode
         self.config = entry.load_config(**config)
-        self.sampler = sampler_cls(
-            self.config,
-            command_mode=action_mode,
-            camera_names=cameras,
-            height=height,
-            width=width,
-        )
+        with scene_looks(looks):
+            self.sampler = sampler_cls(
+                self.config,
+                command_mode=action_mode,
+                camera_names=cameras,
+                height=height,
+                width=width,
+            )
         self.scene = self.sampler.env
         robot = self.scene.robots[sampler_cls.robot_name]
         self.actions = ActionMapper(robot, sampler_cls.arms, action_mode, self.config)

@@ -3,6 +3,14 @@
 GL is opened only when an image is asked for: a ``CameraSet`` creates its renderer (and so
 the GL context) on its first render, never at construction.
 
+Exit: renderers never closed are closed when the interpreter exits, before MuJoCo or
+dm_control terminate their EGL display (which would make the late close fail with
+"Exception ignored ... EGLError" tracebacks).
+
+Shadows: the model's shadow map (``visual/quality/shadowsize``) is meant for 640-pixel images;
+smaller images get a proportionally smaller one (at least 256), since software rendering
+pays for every texel of it in every frame.
+
 Forked processes: a process forked from one that had opened a GL context cannot open one
 itself (MuJoCo's EGL/Mesa state does not survive ``fork``; rendering hangs). Such a child
 gets a one-line ``UserError`` naming the fix (``check_can_render``) instead. Processes made
@@ -13,9 +21,9 @@ envs never render and work in forked children too.
 from __future__ import annotations
 
 import atexit
-import functools
 import os
 import sys
+import threading
 import weakref
 from collections.abc import Sequence
 
@@ -58,10 +66,44 @@ def check_can_render() -> None:
         )
 
 
-def _close_at_exit(ref: weakref.ref) -> None:
-    cameras = ref()
-    if cameras is not None:
+_open_sets: weakref.WeakSet[CameraSet] = weakref.WeakSet()  # sets holding a renderer
+_exit_hook_registered = False
+
+
+def _close_open_sets() -> None:
+    for cameras in list(_open_sets):
         cameras.close()
+
+
+def _register_exit_hook() -> None:
+    """Close open renderers at exit. threading's exit hooks run before every atexit
+    callback, and so before the eglTerminate that MuJoCo and dm_control register with atexit
+    whenever they open their EGL display (possibly after this process's first renderer)."""
+    global _exit_hook_registered
+    if _exit_hook_registered:
+        return
+    register = getattr(threading, "_register_atexit", None)
+    try:
+        if register is None:
+            raise RuntimeError("no threading exit hooks")
+        register(_close_open_sets)
+    except RuntimeError:  # an interpreter without them, or one already shutting down
+        atexit.register(_close_open_sets)
+    _exit_hook_registered = True
+
+
+#: Image size (longer side, pixels) the model's shadow map size is meant for.
+SHADOW_MAP_IMAGE = 640
+
+
+def shadow_map_size(model_size: int, height: int, width: int) -> int:
+    """Shadow map size for images of ``height`` x ``width``: the model's for 640 pixels,
+    proportionally smaller (a power of two, at least 256) for smaller images."""
+    wanted = model_size * max(height, width) / SHADOW_MAP_IMAGE
+    size = 256
+    while size < wanted:
+        size *= 2
+    return int(min(model_size, size))
 
 
 class CameraSet:
@@ -95,7 +137,6 @@ class CameraSet:
             )
         self.height, self.width = height, width
         self._renderer: mujoco.Renderer | None = None
-        self._at_exit = None  # closes the renderer at exit, before MuJoCo terminates EGL
 
     @staticmethod
     def available(model: mujoco.MjModel) -> list[str]:
@@ -116,11 +157,16 @@ class CameraSet:
     def _open_renderer(self) -> mujoco.Renderer:
         global _gl_pid
         check_can_render()
-        renderer = mujoco.Renderer(self.model, self.height, self.width)
+        quality = self.model.vis.quality
+        model_size = int(quality.shadowsize)
+        quality.shadowsize = shadow_map_size(model_size, self.height, self.width)
+        try:  # the context reads the shadow map size now; the model keeps its own
+            renderer = mujoco.Renderer(self.model, self.height, self.width)
+        finally:
+            quality.shadowsize = model_size
         _gl_pid = os.getpid()
-        # registered after the renderer (and so after MuJoCo's eglTerminate): runs before it
-        self._at_exit = functools.partial(_close_at_exit, weakref.ref(self))
-        atexit.register(self._at_exit)
+        _register_exit_hook()
+        _open_sets.add(self)
         return renderer
 
     def render_all(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
@@ -128,9 +174,7 @@ class CameraSet:
         return {n: self.render(data, n) for n in self.names}
 
     def close(self) -> None:
-        if self._at_exit is not None:
-            atexit.unregister(self._at_exit)
-            self._at_exit = None
+        _open_sets.discard(self)
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
