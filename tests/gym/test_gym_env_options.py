@@ -147,3 +147,40 @@ def test_close_twice(make_env):
     env.reset(seed=0)
     env.close()
     env.close()
+
+
+def test_human_viewer_closes_at_exit_under_xvfb(tmp_path):
+    """A human-render env (viewer window) never closed exits cleanly: its viewer is closed,
+    and its threads joined, before the interpreter tears down (it used to segfault)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    if not shutil.which("Xvfb"):
+        pytest.skip("Xvfb is needed (apt-get install xvfb)")
+    num = next((n for n in range(140, 160) if not Path(f"/tmp/.X{n}-lock").exists()), None)
+    if num is None:
+        pytest.skip("no free X display number")
+    xvfb = subprocess.Popen(["Xvfb", f":{num}", "-screen", "0", "640x480x24"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    code = (
+        "import gymnasium as gym, trossen_arm_mujoco\n"
+        f"env = gym.make('{REACH}', render_mode='human')\n"
+        "env.reset(seed=0)\n"
+        "for _ in range(3): env.step(env.action_space.sample())\n"
+        "print('stepped')\n"  # and no env.close()
+    )
+    try:
+        time.sleep(1.5)
+        env = {**os.environ, "DISPLAY": f":{num}", "MUJOCO_GL": "egl"}
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=60, env=env)  # fmt: skip
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=10)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr)
+    assert "stepped" in proc.stdout
+    assert "Traceback" not in proc.stderr and "Exception ignored" not in proc.stderr

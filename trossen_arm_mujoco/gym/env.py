@@ -43,6 +43,7 @@ from trossen_arm_mujoco.gym.actions import ACTION_MODES, ActionMapper
 from trossen_arm_mujoco.gym.spaces import OBS_TYPES, ObservationBuilder
 from trossen_arm_mujoco.gym.stepping import STEPPING_MODES, make_stepper
 from trossen_arm_mujoco.sim.cameras import check_can_render
+from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.task import Task
@@ -138,6 +139,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.stepper = make_stepper(stepping)
         self.task: Task | None = None
         self._viewer = None
+        close_at_exit(self)  # renderers, viewer window and stepping thread, if never closed
 
     # -- gymnasium API --------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -178,9 +180,12 @@ class TrossenMujocoEnv(gymnasium.Env):
         return None
 
     def close(self):
+        forget(self)
         self.stepper.close()
         if self._viewer is not None:
-            self._viewer.close()
+            from trossen_arm_mujoco.viewer import close_viewer
+
+            close_viewer(*self._viewer)  # and wait for its threads (exiting earlier crashes)
             self._viewer = None
         self.sampler.close()
 
@@ -201,11 +206,11 @@ class TrossenMujocoEnv(gymnasium.Env):
         if self._headless:
             return
         if self._viewer is None:
-            try:
-                import mujoco.viewer
+            from trossen_arm_mujoco.viewer import launch_viewer
 
-                self._viewer = mujoco.viewer.launch_passive(self.scene.model, self.scene.data)
+            try:
+                self._viewer = launch_viewer(self.scene.model, self.scene.data, timeout=None)
             except Exception as exc:  # no GL / no window system
                 raise UserError(f"cannot open the MuJoCo viewer: {exc}") from exc
         with self.stepper.lock:
-            self._viewer.sync()
+            self._viewer[0].sync()

@@ -4,8 +4,7 @@ GL is opened only when an image is asked for: a ``CameraSet`` creates its render
 the GL context) on its first render, never at construction.
 
 Exit: renderers never closed are closed when the interpreter exits, before MuJoCo or
-dm_control terminate their EGL display (which would make the late close fail with
-"Exception ignored ... EGLError" tracebacks).
+dm_control terminate their EGL display (``sim.closing``).
 
 Shadows: the model's shadow map (``visual/quality/shadowsize``) is meant for 640-pixel images;
 smaller images get a proportionally smaller one (at least 256), since software rendering
@@ -20,11 +19,8 @@ envs never render and work in forked children too.
 
 from __future__ import annotations
 
-import atexit
 import os
 import sys
-import threading
-import weakref
 from collections.abc import Sequence
 
 import mujoco
@@ -32,6 +28,7 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.names import lookup_id, names_of
+from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 
 _gl_pid: int | None = None  # process that opened a GL context through this module
 _forked_from_gl = False  # this process was forked from one with a GL context
@@ -64,32 +61,6 @@ def check_can_render() -> None:
             'gymnasium.vector.AsyncVectorEnv(env_fns, context="spawn") (or "forkserver"), '
             "or render nothing before forking"
         )
-
-
-_open_sets: weakref.WeakSet[CameraSet] = weakref.WeakSet()  # sets holding a renderer
-_exit_hook_registered = False
-
-
-def _close_open_sets() -> None:
-    for cameras in list(_open_sets):
-        cameras.close()
-
-
-def _register_exit_hook() -> None:
-    """Close open renderers at exit. threading's exit hooks run before every atexit
-    callback, and so before the eglTerminate that MuJoCo and dm_control register with atexit
-    whenever they open their EGL display (possibly after this process's first renderer)."""
-    global _exit_hook_registered
-    if _exit_hook_registered:
-        return
-    register = getattr(threading, "_register_atexit", None)
-    try:
-        if register is None:
-            raise RuntimeError("no threading exit hooks")
-        register(_close_open_sets)
-    except RuntimeError:  # an interpreter without them, or one already shutting down
-        atexit.register(_close_open_sets)
-    _exit_hook_registered = True
 
 
 #: Image size (longer side, pixels) the model's shadow map size is meant for.
@@ -165,8 +136,7 @@ class CameraSet:
         finally:
             quality.shadowsize = model_size
         _gl_pid = os.getpid()
-        _register_exit_hook()
-        _open_sets.add(self)
+        close_at_exit(self)
         return renderer
 
     def render_all(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
@@ -174,7 +144,7 @@ class CameraSet:
         return {n: self.render(data, n) for n in self.names}
 
     def close(self) -> None:
-        _open_sets.discard(self)
+        forget(self)
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
