@@ -136,3 +136,14 @@ def test_missing_menagerie_is_a_one_line_error(tmp_path, monkeypatch, make_fake_
     with pytest.raises(UserError, match=r"link_3\.obj not found") as err:
         load_model(PUSH, MENAGERIE)
     assert "\n" not in str(err.value)
+
+
+def test_menagerie_texture_is_used_when_present(fake_menagerie):
+    from PIL import Image
+
+    texture = fake_menagerie / "trossen_wxai/assets/materials/1k_textures/trossen_BaseColor.png"
+    texture.parent.mkdir(parents=True)
+    Image.fromarray(np.full((8, 8, 3), 60, np.uint8)).save(texture)
+    model = load_model(PUSH, MENAGERIE)
+    mat = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_MATERIAL, "menagerie_trossen")
+    assert model.mat_texid[mat, mujoco.mjtTextureRole.mjTEXROLE_RGB] >= 0
