@@ -156,3 +156,38 @@ def pytest_terminal_summary(terminalreporter) -> None:
             f"real-replay check: {len(RECORDED_EPISODES_CHECKED)} recorded episode(s) pass "
             "the validator at 50 fps"
         )
+
+
+# --- a MuJoCo Menagerie checkout made of tiny generated meshes -----------------------------
+def write_fake_menagerie(root, layout: str = "new"):
+    """Write ``root/trossen_wxai`` laid out like a Menagerie checkout, with a 2 cm box OBJ
+    for every arm mesh (``layout`` "new": meshes/wxai + meshes/d405; "old": all in
+    meshes/). Returns ``root``."""
+    from trossen_arm_mujoco.sim.looks import MENAGERIE_MESHES
+
+    corners = [(x, y, z) for x in (0, 0.02) for y in (-0.01, 0.01) for z in (0, 0.02)]
+    faces = ((1, 2, 4), (1, 4, 3), (5, 7, 8), (5, 8, 6), (1, 5, 6), (1, 6, 2),
+             (3, 4, 8), (3, 8, 7), (1, 3, 7), (1, 7, 5), (2, 6, 8), (2, 8, 4))  # fmt: skip
+    text = "".join(f"v {x} {y} {z}\n" for x, y, z in corners)
+    text += "".join(f"f {a} {b} {c}\n" for a, b, c in faces)
+    for parts in MENAGERIE_MESHES.values():
+        for stem, _pos in parts:
+            sub = "" if layout == "old" else ("d405" if "d405" in stem else "wxai")
+            path = root / "trossen_wxai" / "assets" / "meshes" / sub / f"{stem}.obj"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+    return root
+
+
+@pytest.fixture
+def make_fake_menagerie():
+    """``make_fake_menagerie(root, layout="new")``: see ``write_fake_menagerie``."""
+    return write_fake_menagerie
+
+
+@pytest.fixture
+def fake_menagerie(tmp_path, monkeypatch):
+    """A fake Menagerie checkout, named by TROSSEN_MENAGERIE_DIR for the test."""
+    root = write_fake_menagerie(tmp_path / "mujoco_menagerie")
+    monkeypatch.setenv("TROSSEN_MENAGERIE_DIR", str(root))
+    return root

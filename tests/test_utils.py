@@ -85,6 +85,22 @@ def test_make_sim_env_errors(tmp_path):
         make_sim_env(TransferCubeTask, str(tmp_path / "nope.xml"))
 
 
+def test_make_sim_env_looks(fake_menagerie):
+    env = make_sim_env(TransferCubeTask, cam_list=["cam_high"], image_size=(24, 32))
+    assert env.physics.model.light_castshadow.sum() == 1  # the key light
+    env = make_sim_env(
+        TransferCubeTask, cam_list=["cam_high"], image_size=(24, 32), shadows=False,
+        visual="menagerie",
+    )  # fmt: skip
+    model = env.physics.model
+    assert not model.light_castshadow.any()
+    assert "menagerie_link_2" in [model.mesh(i).name for i in range(model.nmesh)]
+    assert env.reset().observation["images"]["cam_high"].std() > 0
+    env.task.close()
+    with pytest.raises(UserError, match="unknown visual 'pretty'"):
+        make_sim_env(TransferCubeTask, cam_list=[], visual="pretty")
+
+
 def test_time_limit():
     env = make_sim_env(TransferCubeTask, cam_list=[], time_limit=5 * DT)
     ts = env.reset()

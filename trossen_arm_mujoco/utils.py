@@ -12,6 +12,7 @@ from trossen_arm_mujoco.constants import DT, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.sim.env import load_physics
+from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.dm_tasks import RegisteredTaskMixin
 from trossen_arm_mujoco.tasks.transfer_cube import sample_cube_pose
@@ -47,6 +48,8 @@ def make_sim_env(
     random: int | np.random.Generator | None = None,
     time_limit: float = 20.0,
     randomize: bool = False,
+    shadows: bool = True,
+    visual: str = "own",
     **task_kwargs,
 ) -> control.Environment:
     """A dm_control environment for a Stationary AI task class.
@@ -66,6 +69,9 @@ def make_sim_env(
             task config's ``randomization`` section); ``env.task.applied_randomization`` is
             the record of the current episode, ``randomization=record`` (a task keyword)
             applies a given one at every reset instead.
+        shadows: whether the key light casts shadows in the images (False: faster).
+        visual: ``"own"`` arm meshes, or ``"menagerie"``: the official Trossen meshes of the
+            MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR`` (drawing only).
     Returns:
         ``control.Environment`` whose ``reset()``/``step(action)`` return time steps with
         ``.observation`` and ``.reward``; control period ``DT`` = 0.02 s.
@@ -82,7 +88,7 @@ def make_sim_env(
             )
         task_kwargs["randomize"] = True
     xml = resolve_asset(xml_file or task_class.DEFAULT_XML)
-    physics = load_physics(xml)
+    physics = load_physics(xml, SceneLooks(shadows=shadows, visual=visual))
     task = task_class(
         random=random,
         onscreen_render=onscreen_render,

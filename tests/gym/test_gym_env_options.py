@@ -10,6 +10,8 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.gym.registration import ENV_IDS, register_envs
 
 REACH = "TrossenMujoco/WXAIReach-v0"
+PUSH = "TrossenMujoco/WXAIPush-v0"
+TRANSFER = "TrossenMujoco/StationaryAITransferCube-v0"
 
 
 def test_registration_is_idempotent():
@@ -56,6 +58,31 @@ def test_pixels_and_render(make_env):
     assert set(obs) == {"pixels", "state"} and obs["pixels"].shape == (24, 32, 3)
 
 
+@pytest.mark.parametrize("env_id", [PUSH, TRANSFER])
+def test_shadows_option(make_env, env_id):
+    on = make_env(env_id).unwrapped.scene.model
+    assert on.light_castshadow.sum() == 1  # the key light
+    env = make_env(env_id, obs_type="pixels", width=32, height=24, shadows=False)
+    assert not env.unwrapped.scene.model.light_castshadow.any()
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (24, 32, 3) and obs.std() > 0
+
+
+def test_menagerie_visual_option(make_env, fake_menagerie):
+    env = make_env(PUSH, obs_type="pixels", width=32, height=24, visual="menagerie")
+    model = env.unwrapped.scene.model
+    assert "menagerie_link_2" in [model.mesh(i).name for i in range(model.nmesh)]
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (24, 32, 3) and obs.std() > 0
+
+
+def test_menagerie_visual_needs_a_checkout(make_env, monkeypatch):
+    monkeypatch.delenv("TROSSEN_MENAGERIE_DIR", raising=False)
+    with pytest.raises(UserError, match="TROSSEN_MENAGERIE_DIR") as err:
+        make_env(PUSH, visual="menagerie")
+    assert "\n" not in str(err.value)
+
+
 def test_unknown_camera_lists_cameras(make_env):
     with pytest.raises(UserError, match="overview"):
         make_env(REACH, obs_type="pixels", cameras=["top"])
@@ -90,7 +117,8 @@ def test_unknown_kwarg_lists_options_and_config_keys(make_env):
 @pytest.mark.parametrize(
     "kwargs, match",
     [({"obs_type": "rgb"}, "pixels_state"), ({"render_mode": "window"}, "rgb_array"),
-     ({"task": "stack"}, "pick_place")],
+     ({"task": "stack"}, "pick_place"), ({"visual": "pretty"}, "menagerie, own"),
+     ({"shadows": "no"}, "True or False")],
 )  # fmt: skip
 @pytest.mark.filterwarnings("ignore:.*render_mode")
 def test_bad_choices_are_user_errors(make_env, kwargs, match):
@@ -153,3 +181,38 @@ def test_randomization_section_overrides_through_make(make_env):
     env = make_env(REACH, randomize=True, randomization={"camera": {"enabled": False}})
     _, info = env.reset(seed=0)
     assert "camera" not in info["randomization"] and "lights" in info["randomization"]
+def test_human_viewer_closes_at_exit_under_xvfb(tmp_path):
+    """A human-render env (viewer window) never closed exits cleanly: its viewer is closed,
+    and its threads joined, before the interpreter tears down (it used to segfault)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    if not shutil.which("Xvfb"):
+        pytest.skip("Xvfb is needed (apt-get install xvfb)")
+    num = next((n for n in range(140, 160) if not Path(f"/tmp/.X{n}-lock").exists()), None)
+    if num is None:
+        pytest.skip("no free X display number")
+    xvfb = subprocess.Popen(["Xvfb", f":{num}", "-screen", "0", "640x480x24"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    code = (
+        "import gymnasium as gym, trossen_arm_mujoco\n"
+        f"env = gym.make('{REACH}', render_mode='human')\n"
+        "env.reset(seed=0)\n"
+        "for _ in range(3): env.step(env.action_space.sample())\n"
+        "print('stepped')\n"  # and no env.close()
+    )
+    try:
+        time.sleep(1.5)
+        env = {**os.environ, "DISPLAY": f":{num}", "MUJOCO_GL": "egl"}
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=60, env=env)  # fmt: skip
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=10)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr)
+    assert "stepped" in proc.stdout
+    assert "Traceback" not in proc.stderr and "Exception ignored" not in proc.stderr

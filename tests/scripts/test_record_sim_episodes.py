@@ -80,6 +80,7 @@ def test_existing_episodes_are_never_overwritten(tmp_path, capsys):
         (["--episode_len", "0"], "--episode_len must be at least 1"),
         (["--num_episodes", "0"], "--num_episodes must be at least 1"),
         (["--image_size", "big"], "--image_size must look like"),
+        (["--visual", "pretty"], "unknown visual 'pretty'"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, needle):
@@ -87,6 +88,26 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, needle):
     assert rc == 2
     assert needle in err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_no_shadows_and_menagerie_visual(tmp_path, capsys, fake_menagerie):
+    args = ["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "3"]
+    args += ["--cam_names", "cam_high", "--image_size", "12x16"]
+    rc, _, err = _run_cli([*args, "--no_shadows", "--visual", "menagerie"], capsys)
+    assert rc == 0, err
+    ep = load_episode(tmp_path / "d" / "episode_0.hdf5", load_images=True)
+    assert ep.attrs["shadows"] == False and ep.attrs["visual"] == "menagerie"  # noqa: E712
+    assert ep.images["cam_high"].shape == (3, 12, 16, 3) and ep.images["cam_high"].std() > 0
+
+
+def test_menagerie_visual_without_checkout_is_one_line_exit_2(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("TROSSEN_MENAGERIE_DIR", raising=False)
+    rc, _, err = _run_cli(
+        ["--data_dir", "d", "--root_dir", str(tmp_path), "--visual", "menagerie", *FAST], capsys
+    )
+    assert rc == 2 and "TROSSEN_MENAGERIE_DIR" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "d").exists()
 
 
 def test_unwritable_root_is_one_line_exit_2(tmp_path):

@@ -134,23 +134,65 @@ def test_gl_opened_after_a_render(kit):
     cams.close()
 
 
-def test_unclosed_renderer_exits_cleanly():
-    """A renderer never closed is closed at exit, before MuJoCo terminates its EGL display
-    (no 'Exception ignored ... EGLError' noise at interpreter shutdown)."""
+def run_python(code: str):
     import os
     import subprocess
     import sys
 
-    code = (
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env
+    )
+
+
+def test_unclosed_renderer_exits_cleanly():
+    """A renderer never closed is closed at exit, before MuJoCo terminates its EGL display
+    (no 'Exception ignored ... EGLError' noise at interpreter shutdown)."""
+    proc = run_python(
         "import gymnasium as gym\n"
         "import trossen_arm_mujoco\n"
         "env = gym.make('TrossenMujoco/WXAIReach-v0', obs_type='pixels', width=32, height=24)\n"
         "print(env.reset(seed=0)[0].shape)\n"  # and no env.close()
-    )
-    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-    proc = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env
+        "env = gym.make('TrossenMujoco/WXAIPush-v0', render_mode='rgb_array', width=32,\n"
+        "               height=24, shadows=False)\n"
+        "env.reset(seed=0)\n"
+        "print(env.render().shape)\n"  # and no env.close()
     )
     assert proc.returncode == 0, proc.stderr
     assert "(24, 32, 3)" in proc.stdout
-    assert "Exception ignored" not in proc.stderr, proc.stderr
+    assert "Exception ignored" not in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+
+
+def test_unclosed_dm_control_env_exits_cleanly():
+    """Also when dm_control's own renderer opened (and registered its EGL termination)
+    after the package's cameras."""
+    proc = run_python(
+        "from trossen_arm_mujoco.sim_env import TransferCubeTask\n"
+        "from trossen_arm_mujoco.utils import make_sim_env\n"
+        "env = make_sim_env(TransferCubeTask, cam_list=['cam_high'], image_size=(24, 32))\n"
+        "print(env.reset().observation['images']['cam_high'].shape)\n"
+        "print(env.physics.render(24, 32, camera_id=0).shape)\n"  # and no close
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.count("(24, 32, 3)") == 2
+    assert "Exception ignored" not in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+
+
+@pytest.mark.parametrize(
+    "size, expected", [((480, 640), 2048), ((240, 320), 1024), ((128, 128), 512),
+                       ((24, 32), 256), ((960, 1280), 2048)],
+)  # fmt: skip
+def test_shadow_map_follows_the_image_size(size, expected):
+    from trossen_arm_mujoco.sim.cameras import shadow_map_size
+
+    assert shadow_map_size(2048, *size) == expected
+
+
+def test_renderer_gets_a_smaller_shadow_map_and_the_model_keeps_its_own(kit):
+    model, data = kit
+    full = model.vis.quality.shadowsize
+    cams = CameraSet(model, ["cam_high"], H, W)
+    cams.render(data, "cam_high")
+    assert cams._renderer._mjr_context.shadowSize < full
+    assert model.vis.quality.shadowsize == full
+    cams.close()

@@ -34,6 +34,7 @@ from trossen_arm_mujoco.real.validate import (
 )
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization import record_to_json
 
@@ -84,6 +85,8 @@ class RecordSettings:
     compression: str = "none"
     base_seed: int = 0
     randomize: bool = False
+    shadows: bool = True  # the key light casts shadows in the images
+    visual: str = "own"  # arm meshes: "own" or "menagerie" (sim.looks)
 
 
 @dataclass
@@ -122,14 +125,15 @@ class EpisodeRecorder:
         self.ee_sampler = registry.make_sampler(
             self.entry.name, flavour="ee", randomize=settings.randomize
         )
-        self.joint_sampler = registry.make_sampler(
-            self.entry.name,
-            flavour="joint",
-            camera_names=settings.cam_names,
-            height=settings.height,
-            width=settings.width,
-            randomize=settings.randomize,
-        )
+        with scene_looks(SceneLooks(shadows=settings.shadows, visual=settings.visual)):
+            self.joint_sampler = registry.make_sampler(
+                self.entry.name,
+                flavour="joint",
+                camera_names=settings.cam_names,
+                height=settings.height,
+                width=settings.width,
+                randomize=settings.randomize,
+            )
         #: randomization record of the last scripted rollout (None: not randomizing).
         self.last_randomization: dict | None = None
         self.ee_task = None
@@ -262,6 +266,8 @@ class EpisodeRecorder:
             "real_replay_checked": speed_ok,
             "peak_speed_fraction": peak_use,
             "speed_limited_values": int(self.last_speed_limited),
+            "shadows": bool(s.shadows),
+            "visual": s.visual,
             **(extra_attrs or {}),
         }
         if self.last_randomization is not None:

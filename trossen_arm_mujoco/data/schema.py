@@ -9,7 +9,8 @@ training code reads)::
                                           adds box_pose (tasks with the cube),
                                           initial_env_state, object_names,
                                           real_replay_checked, real_replay_fps,
-                                          peak_speed_fraction, speed_limited_values
+                                          peak_speed_fraction, speed_limited_values,
+                                          shadows, visual
     /action                        float64 (T, 16)   joint targets, see constants.START_ARM_POSE
     /reward                        float64 (T,)
     /observations/qpos             float64 (T, 16)   rad (revolute) / m (fingers)

@@ -18,6 +18,11 @@ Keyword arguments (besides the task's config keys, which override its YAML file)
     randomize: domain randomization of every episode (default off), as the task config's
         ``randomization`` section says (override it with ``randomization={...}``); the record
         of the episode is ``info["randomization"]`` at reset.
+    shadows: whether the key light casts shadows (False renders pixels several times faster
+        with software rendering).
+    visual: ``own`` (the project's arm shapes) | ``menagerie`` (the official Trossen meshes
+        of a MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR``; see ``sim.looks``).
+        Only what is drawn changes; physics is the same.
 
 Reward: the task's reward (dense shaping for the wxai tasks, 0-4 for transfer_cube).
 ``terminated``: the task ended (``terminate_on_success``); time limits come from the
@@ -41,12 +46,14 @@ from trossen_arm_mujoco.gym.actions import ACTION_MODES, ActionMapper
 from trossen_arm_mujoco.gym.spaces import OBS_TYPES, ObservationBuilder
 from trossen_arm_mujoco.gym.stepping import STEPPING_MODES, make_stepper
 from trossen_arm_mujoco.sim.cameras import check_can_render
+from trossen_arm_mujoco.sim.closing import close_at_exit, forget
+from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.task import Task
 
 RENDER_MODES = ("rgb_array", "human")
 ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "width",
-               "height", "cameras", "randomize")  # fmt: skip
+               "height", "cameras", "randomize", "shadows", "visual")  # fmt: skip
 
 
 def _check_choice(kind: str, value: Any, valid: Sequence[str]) -> None:
@@ -80,6 +87,8 @@ class TrossenMujocoEnv(gymnasium.Env):
         height: int = 128,
         cameras: Sequence[str] | None = None,
         randomize: bool = False,
+        shadows: bool = True,
+        visual: str = "own",
         **config: Any,
     ):
         entry = registry.load(task)
@@ -91,6 +100,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         _check_choice("observation type", obs_type, OBS_TYPES)
         _check_choice("action mode", action_mode, ACTION_MODES)
         _check_choice("stepping mode", stepping, STEPPING_MODES)
+        looks = SceneLooks(shadows=shadows, visual=visual)
         if render_mode is not None:
             _check_choice("render mode", render_mode, RENDER_MODES)
         self._headless = render_mode == "human" and not has_display()
@@ -112,14 +122,15 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.task_name = task
         self.obs_type, self.action_mode, self.render_mode = obs_type, action_mode, render_mode
         self.config = entry.load_config(**config)
-        self.sampler = sampler_cls(
-            self.config,
-            command_mode=action_mode,
-            camera_names=cameras,
-            height=height,
-            width=width,
-            randomize=randomize,
-        )
+        with scene_looks(looks):
+            self.sampler = sampler_cls(
+                self.config,
+                command_mode=action_mode,
+                camera_names=cameras,
+                height=height,
+                width=width,
+                randomize=randomize,
+            )
         self.scene = self.sampler.env
         robot = self.scene.robots[sampler_cls.robot_name]
         self.actions = ActionMapper(robot, sampler_cls.arms, action_mode, self.config)
@@ -133,6 +144,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.stepper = make_stepper(stepping)
         self.task: Task | None = None
         self._viewer = None
+        close_at_exit(self)  # renderers, viewer window and stepping thread, if never closed
 
     # -- gymnasium API --------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -175,9 +187,12 @@ class TrossenMujocoEnv(gymnasium.Env):
         return None
 
     def close(self):
+        forget(self)
         self.stepper.close()
         if self._viewer is not None:
-            self._viewer.close()
+            from trossen_arm_mujoco.viewer import close_viewer
+
+            close_viewer(*self._viewer)  # and wait for its threads (exiting earlier crashes)
             self._viewer = None
         self.sampler.close()
 
@@ -199,11 +214,11 @@ class TrossenMujocoEnv(gymnasium.Env):
         if self._headless:
             return
         if self._viewer is None:
-            try:
-                import mujoco.viewer
+            from trossen_arm_mujoco.viewer import launch_viewer
 
-                self._viewer = mujoco.viewer.launch_passive(self.scene.model, self.scene.data)
+            try:
+                self._viewer = launch_viewer(self.scene.model, self.scene.data, timeout=None)
             except Exception as exc:  # no GL / no window system
                 raise UserError(f"cannot open the MuJoCo viewer: {exc}") from exc
         with self.stepper.lock:
-            self._viewer.sync()
+            self._viewer[0].sync()

@@ -6,6 +6,10 @@ is harmless (ids already in ``gymnasium.registry`` are skipped). Episode lengths
 
     >>> import gymnasium as gym, trossen_arm_mujoco
     >>> env = gym.make("TrossenMujoco/WXAIReachGoal-v0", action_mode="ee_delta")
+    >>> env = gym.make("TrossenMujoco/WXAIPush-v0", obs_type="pixels", shadows=False)
+
+Every id takes the keyword arguments of ``gym.env.TrossenMujocoEnv`` (obs_type, action_mode,
+render_mode, stepping, width, height, cameras, shadows, visual) and the task's config keys.
 """
 
 from __future__ import annotations

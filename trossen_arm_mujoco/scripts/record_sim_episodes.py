@@ -113,6 +113,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--image_size", default="480x640", help="camera image size HEIGHTxWIDTH (default: 480x640)"
     )
+    p.add_argument(
+        "--no_shadows",
+        action="store_true",
+        help="render without shadows (faster with software rendering)",
+    )
+    p.add_argument(
+        "--visual",
+        default="own",
+        help="arm meshes: 'own' (default) or 'menagerie' (the official Trossen meshes of the "
+        "MuJoCo Menagerie checkout named by TROSSEN_MENAGERIE_DIR)",
+    )
     return p
 
 
@@ -141,6 +152,16 @@ def _cameras(text: str | None, task_name: str) -> tuple[str, ...]:
     if len(set(names)) != len(names):
         raise UserError(f"--cam_names lists a camera twice: {names}")
     return tuple(names)
+
+
+def _looks(args: argparse.Namespace):
+    """The scene looks of --no_shadows / --visual, checked now (before any episode)."""
+    from trossen_arm_mujoco.sim.looks import SceneLooks, menagerie_meshes
+
+    looks = SceneLooks(shadows=not args.no_shadows, visual=args.visual)
+    if looks.visual == "menagerie":
+        menagerie_meshes()  # fail now with the fix, not in a worker
+    return looks
 
 
 def _writable_folder(root: str, data_dir: str) -> Path:
@@ -185,6 +206,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise UserError("--onscreen_render needs --num_workers 1")
     cams = _cameras(args.cam_names, args.task_name)
     height, width = _image_size(args.image_size)
+    looks = _looks(args)
     folder = _writable_folder(args.root_dir, args.data_dir)
 
     from trossen_arm_mujoco.collect.parallel import DatasetRecorder, plan_run
@@ -200,6 +222,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         compression=args.compression,
         base_seed=args.seed,
         randomize=args.randomize,
+        shadows=looks.shadows,
+        visual=looks.visual,
     )
     plan = plan_run(folder, num_episodes, args.overwrite)
     if plan.first_index >= num_episodes:

@@ -3,6 +3,13 @@
 GL is opened only when an image is asked for: a ``CameraSet`` creates its renderer (and so
 the GL context) on its first render, never at construction.
 
+Exit: renderers never closed are closed when the interpreter exits, before MuJoCo or
+dm_control terminate their EGL display (``sim.closing``).
+
+Shadows: the model's shadow map (``visual/quality/shadowsize``) is meant for 640-pixel images;
+smaller images get a proportionally smaller one (at least 256), since software rendering
+pays for every texel of it in every frame.
+
 Forked processes: a process forked from one that had opened a GL context cannot open one
 itself (MuJoCo's EGL/Mesa state does not survive ``fork``; rendering hangs). Such a child
 gets a one-line ``UserError`` naming the fix (``check_can_render``) instead. Processes made
@@ -12,11 +19,8 @@ envs never render and work in forked children too.
 
 from __future__ import annotations
 
-import atexit
-import functools
 import os
 import sys
-import weakref
 from collections.abc import Sequence
 
 import mujoco
@@ -24,6 +28,7 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.names import lookup_id, names_of
+from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 
 _gl_pid: int | None = None  # process that opened a GL context through this module
 _forked_from_gl = False  # this process was forked from one with a GL context
@@ -58,10 +63,18 @@ def check_can_render() -> None:
         )
 
 
-def _close_at_exit(ref: weakref.ref) -> None:
-    cameras = ref()
-    if cameras is not None:
-        cameras.close()
+#: Image size (longer side, pixels) the model's shadow map size is meant for.
+SHADOW_MAP_IMAGE = 640
+
+
+def shadow_map_size(model_size: int, height: int, width: int) -> int:
+    """Shadow map size for images of ``height`` x ``width``: the model's for 640 pixels,
+    proportionally smaller (a power of two, at least 256) for smaller images."""
+    wanted = model_size * max(height, width) / SHADOW_MAP_IMAGE
+    size = 256
+    while size < wanted:
+        size *= 2
+    return int(min(model_size, size))
 
 
 class CameraSet:
@@ -95,7 +108,6 @@ class CameraSet:
             )
         self.height, self.width = height, width
         self._renderer: mujoco.Renderer | None = None
-        self._at_exit = None  # closes the renderer at exit, before MuJoCo terminates EGL
 
     @staticmethod
     def available(model: mujoco.MjModel) -> list[str]:
@@ -116,11 +128,15 @@ class CameraSet:
     def _open_renderer(self) -> mujoco.Renderer:
         global _gl_pid
         check_can_render()
-        renderer = mujoco.Renderer(self.model, self.height, self.width)
+        quality = self.model.vis.quality
+        model_size = int(quality.shadowsize)
+        quality.shadowsize = shadow_map_size(model_size, self.height, self.width)
+        try:  # the context reads the shadow map size now; the model keeps its own
+            renderer = mujoco.Renderer(self.model, self.height, self.width)
+        finally:
+            quality.shadowsize = model_size
         _gl_pid = os.getpid()
-        # registered after the renderer (and so after MuJoCo's eglTerminate): runs before it
-        self._at_exit = functools.partial(_close_at_exit, weakref.ref(self))
-        atexit.register(self._at_exit)
+        close_at_exit(self)
         return renderer
 
     def render_all(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
@@ -128,9 +144,7 @@ class CameraSet:
         return {n: self.render(data, n) for n in self.names}
 
     def close(self) -> None:
-        if self._at_exit is not None:
-            atexit.unregister(self._at_exit)
-            self._at_exit = None
+        forget(self)
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

@@ -23,6 +23,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.sim.cameras import CameraSet
+from trossen_arm_mujoco.sim.looks import SceneLooks, active_looks, compile_model
 from trossen_arm_mujoco.sim.objects import FreeJointObject
 
 if TYPE_CHECKING:
@@ -56,27 +57,36 @@ def _check_file(xml_path: str | Path) -> Path:
     return path
 
 
-def load_model(xml_path: str | Path) -> mujoco.MjModel:
+def load_model(xml_path: str | Path, looks: SceneLooks | None = None) -> mujoco.MjModel:
     """Compiled model from an MJCF file (no GL), with one-line errors for missing/broken
-    files."""
+    files. ``looks``: shadows and arm meshes (default: the active ``scene_looks``)."""
     path = _check_file(xml_path)
     try:
-        return mujoco.MjModel.from_xml_path(str(path))
+        return compile_model(path, looks or active_looks())
+    except UserError:
+        raise
     except Exception as exc:
         raise UserError(f"cannot load model {path}: {_one_line(exc)}") from exc
 
 
-def load_physics(xml_path: str | Path) -> Physics:
+def load_physics(xml_path: str | Path, looks: SceneLooks | None = None) -> Physics:
     """dm_control Physics from an MJCF file, with one-line errors for missing/broken files.
+    ``looks``: shadows and arm meshes (default: the active ``scene_looks``).
 
     Imports dm_control here (its import initializes the display of its GL backend), so only
     the dm_control front doors pay for it.
     """
     path = _check_file(xml_path)
+    looks = looks or active_looks()
     from dm_control import mujoco as dm_mujoco
 
     try:
-        return dm_mujoco.Physics.from_xml_path(str(path))
+        if looks == SceneLooks():
+            return dm_mujoco.Physics.from_xml_path(str(path))
+        model = dm_mujoco.wrapper.MjModel(compile_model(path, looks))
+        return dm_mujoco.Physics.from_model(model)
+    except UserError:
+        raise
     except Exception as exc:  # dm_control wraps mujoco's ValueError in several types
         raise UserError(f"cannot load model {path}: {_one_line(exc)}") from exc
 
