@@ -181,6 +181,8 @@ def test_randomization_section_overrides_through_make(make_env):
     env = make_env(REACH, randomize=True, randomization={"camera": {"enabled": False}})
     _, info = env.reset(seed=0)
     assert "camera" not in info["randomization"] and "lights" in info["randomization"]
+
+
 def test_human_viewer_closes_at_exit_under_xvfb(tmp_path):
     """A human-render env (viewer window) never closed exits cleanly: its viewer is closed,
     and its threads joined, before the interpreter tears down (it used to segfault)."""
