@@ -166,14 +166,14 @@ class ActionMapper:
         ``SafetyFloor.offender``), name of the offending link at the full move when that is
         not 1, else "")."""
         floor, name = self.floor, arm.name
-        if floor.surely_above(data, name, target - q_now):
+        z_now, lag = floor.now(data, name)  # body poses of data: no forward kinematics
+        if floor.surely_above_from(name, z_now, lag, target - q_now):
             return 1.0, ""
-        z_now = floor.heights(data.qpos, name, q_now)
-        body = floor.offender(name, floor.heights(data.qpos, name, target), z_now)
+        body = floor.offender(name, floor.heights(data.qpos, name, target), z_now, lag)
         if body < 0:
             return 1.0, ""
         for fraction in BACKOFF[:-1]:
             q = q_now + fraction * (target - q_now)
-            if floor.offender(name, floor.heights(data.qpos, name, q), z_now) < 0:
+            if floor.offender(name, floor.heights(data.qpos, name, q), z_now, lag) < 0:
                 return fraction, floor.link_name(body)
         return 0.0, floor.link_name(body)

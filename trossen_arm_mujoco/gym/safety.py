@@ -228,6 +228,7 @@ class SafetyFloor:
         self.floor_z = float(floor_z)
         self.arms = {arm.name: _ArmPoints(model, arm) for arm in arms}
         self._data = mujoco.MjData(model)
+        self._dt = float(model.opt.timestep)
 
     def heights(self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None) -> np.ndarray:
         """World z (m) of the lowest reach of every point of ``arm`` (its collision geoms and
@@ -250,27 +251,42 @@ class SafetyFloor:
         i = int(z.argmin())
         return float(z[i]), int(self.arms[arm].owner[i])
 
-    def offender(self, arm: str, z_new: np.ndarray, z_now: np.ndarray) -> int:
+    def offender(
+        self, arm: str, z_new: np.ndarray, z_now: np.ndarray, slack: np.ndarray | float = 0.0
+    ) -> int:
         """Body id of the point that breaks the floor going from heights ``z_now`` to
         ``z_new`` (both (N,), m), or -1: a point may not end below the floor unless it ends
-        no lower than it is now (one already below may stay or rise)."""
-        bad = (z_new < self.floor_z) & (z_new < z_now)
+        no lower than it is now, less ``slack`` (m; one already below may stay or rise)."""
+        bad = (z_new < self.floor_z) & (z_new < z_now - slack)
         if not bad.any():
             return -1
         return int(self.arms[arm].owner[int(np.where(bad, z_new, np.inf).argmin())])
 
-    def surely_above(self, data: mujoco.MjData, arm: str, dq: np.ndarray) -> bool:
-        """True when moving ``arm``'s joints by ``dq`` (rad) from the state of ``data`` cannot
-        take any of its points below the floor (no forward kinematics; False means "check").
+    def now(self, data: mujoco.MjData, arm: str) -> tuple[np.ndarray, np.ndarray]:
+        """(heights (N,) m of ``arm``'s points from ``data``'s body poses, how far each may
+        have moved since those poses were computed (N,) m), without forward kinematics.
 
-        ``data``'s body poses may lag its qpos by one physics step (``mj_step`` integrates
-        after computing them): the joint speeds times the timestep, plus 1 mm for the
-        fingers, are added to the bound.
+        ``mj_step`` computes the body poses before it integrates, so they lag ``data.qpos``
+        by one physics step: the joint speeds times the timestep bound that lag, plus 1 mm
+        for the fingers.
         """
         pts = self.arms[arm]
-        motion = np.abs(dq) + np.abs(data.qvel[pts.dof_sel]) * self.model.opt.timestep
-        drop = pts.reach @ motion + 1e-3
-        return bool((((pts.heights(data) - drop) >= self.floor_z) | pts.fixed_height).all())
+        lag = pts.reach @ (np.abs(data.qvel[pts.dof_sel]) * self._dt) + 1e-3
+        return pts.heights(data), lag
+
+    def surely_above(self, data: mujoco.MjData, arm: str, dq: np.ndarray) -> bool:
+        """True when moving ``arm``'s joints by ``dq`` (rad) from the state of ``data`` cannot
+        take any of its points below the floor (no forward kinematics; False means "check")."""
+        z_now, lag = self.now(data, arm)
+        return self.surely_above_from(arm, z_now, lag, dq)
+
+    def surely_above_from(
+        self, arm: str, z_now: np.ndarray, lag: np.ndarray, dq: np.ndarray
+    ) -> bool:
+        """``surely_above`` from the result of ``now``."""
+        pts = self.arms[arm]
+        drop = pts.reach @ np.abs(dq) + lag
+        return bool((((z_now - drop) >= self.floor_z) | pts.fixed_height).all())
 
     def link_name(self, body: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
