@@ -113,6 +113,13 @@ def test_unwritable_root_is_one_line_exit_2(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
 
 
+def _default_sigint() -> None:
+    """In the child before exec: SIGINT at its default disposition. A test runner started
+    as a background job (``pytest &``) has SIGINT ignored, which its children inherit;
+    Python then installs no KeyboardInterrupt handler and Ctrl-C would do nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
     data = tmp_path / "d"
     cmd = [
@@ -132,7 +139,12 @@ def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
         "24x32",
     ]
     proc = subprocess.Popen(
-        cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        cmd,
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_sigint,
     )
     deadline = time.time() + 240
     while not (data / "episode_1.hdf5").exists():
