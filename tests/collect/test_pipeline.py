@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings, episode_seed
+from trossen_arm_mujoco.collect.pipeline import (
+    EpisodeRecorder,
+    RecordSettings,
+    episode_seed,
+    policy_minimum_episode_len,
+)
 from trossen_arm_mujoco.data.reader import load_episode
 from trossen_arm_mujoco.sim_env import TransferCubeTask
 from trossen_arm_mujoco.utils import make_sim_env
@@ -121,3 +126,13 @@ def test_full_episode_succeeds_without_images():
     # gripper columns carry the commanded values, equal within each gripper
     np.testing.assert_array_equal(actions[:, 6], actions[:, 7])
     np.testing.assert_array_equal(actions[:, 14], actions[:, 15])
+
+
+def test_minimum_episode_len_comes_from_the_scripted_policy(recorder):
+    from trossen_arm_mujoco.policies.insertion import InsertionPolicy
+    from trossen_arm_mujoco.policies.transfer_cube import PickAndTransferPolicy
+
+    assert policy_minimum_episode_len("sim_transfer_cube") == 440
+    assert PickAndTransferPolicy.minimum_episode_len == 440
+    assert policy_minimum_episode_len("sim_insertion") == InsertionPolicy.minimum_episode_len
+    assert recorder.minimum_episode_len == 440

@@ -124,7 +124,7 @@ def _worker_init(settings: RecordSettings) -> None:
 def _worker_record(job: tuple[int, str, bool]) -> EpisodeOutcome:
     attempt, path, overwrite = job
     assert _WORKER is not None
-    return _WORKER.record(attempt, Path(path), overwrite=overwrite)
+    return _WORKER.record(attempt, Path(path), overwrite=overwrite, create_folder=False)
 
 
 class DatasetRecorder:
@@ -248,7 +248,7 @@ class DatasetRecorder:
                     self.settings.episode_len, f"episode {index}", "step", self.progress_stream
                 ) as bar:
                     outcome = recorder.record(
-                        attempt, path, overwrite=overwrite, progress=bar.update
+                        attempt, path, overwrite, bar.update, create_folder=False
                     )
                 if self._publish(outcome, index, report):
                     index += 1

@@ -247,8 +247,13 @@ class EpisodeRecorder:
         overwrite: bool = False,
         progress: Callable[[], None] | None = None,
         extra_attrs: dict | None = None,
+        create_folder: bool = True,
     ) -> EpisodeOutcome:
-        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``."""
+        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``.
+
+        ``create_folder=False``: the folder of ``path`` must exist (a dataset run: a folder
+        removed meanwhile is an ``EpisodeIOError``, not silently recreated).
+        """
         s = self.settings
         seed = episode_seed(s.base_seed, attempt)
         rng = np.random.default_rng(seed)
@@ -282,7 +287,7 @@ class EpisodeRecorder:
             attrs=attrs,
             env_state_dim=len(attrs["initial_env_state"]),
             overwrite=overwrite,
-            create_folder=False,
+            create_folder=create_folder,
         ) as writer:
             rewards = self.replay(actions, poses, writer, progress)
             success = bool(rewards[-1] == max_reward) and speed_ok

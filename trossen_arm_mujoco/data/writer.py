@@ -90,6 +90,7 @@ class EpisodeWriter:
             folder is an :class:`EpisodeIOError` (the recorder: a folder removed during a
             run is reported, not silently recreated).
         compress_workers: gzip threads (default: one per CPU, at most 4).
+        gzip_level: zlib level 1..9 of ``"gzip"`` (default ``GZIP_LEVEL``).
 
     Raises:
         EpisodeWriteError: invalid arguments or an existing file (no overwrite).
@@ -110,6 +111,7 @@ class EpisodeWriter:
         env_state_dim: int = ENV_STATE_DIM,
         create_folder: bool = True,
         compress_workers: int | None = None,
+        gzip_level: int = GZIP_LEVEL,
     ) -> None:
         self.path = Path(path).expanduser()
         if int(env_state_dim) < 1 or int(env_state_dim) % ENV_STATE_DIM:
@@ -137,6 +139,9 @@ class EpisodeWriter:
             raise EpisodeWriteError(
                 f"unknown compression '{compression}'; valid: {', '.join(COMPRESSIONS)}"
             )
+        if isinstance(gzip_level, bool) or gzip_level not in range(1, 10):
+            raise EpisodeWriteError(f"gzip_level must be an int in 1..9, got {gzip_level!r}")
+        self.gzip_level = int(gzip_level)
         bad = [
             cam for cam in self.camera_names if not isinstance(cam, str) or not cam or "/" in cam
         ]
@@ -179,9 +184,9 @@ class EpisodeWriter:
         assert self._file is not None
         kwargs: dict[str, Any] = {}
         if compression == "gzip":
-            kwargs = {"compression": "gzip", "compression_opts": GZIP_LEVEL}
+            kwargs = {"compression": "gzip", "compression_opts": self.gzip_level}
             if self.camera_names:
-                self._compressor = ChunkCompressor(GZIP_LEVEL, workers)
+                self._compressor = ChunkCompressor(self.gzip_level, workers)
         elif compression == "lzf":
             kwargs = {"compression": "lzf"}
         self._arrays = {}

@@ -303,7 +303,7 @@ def _io_hint(exc) -> str:
     import errno
 
     if exc.folder_missing:
-        return "the folder was removed during the run; rerun to record again"
+        return "rerun to record again"
     if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
         return "free disk space or choose another --root_dir, then rerun to continue"
     return "check the folder's permissions or choose another --root_dir, then rerun to continue"
