@@ -4,8 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from trossen_arm_mujoco.collect.parallel import DatasetRecorder, plan_run
-from trossen_arm_mujoco.collect.pipeline import RecordSettings
+from trossen_arm_mujoco.collect.parallel import (
+    DatasetRecorder,
+    failure_summary,
+    format_size,
+    plan_run,
+)
+from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, RecordSettings
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
 
 SETTINGS = RecordSettings(episode_len=30, cam_names=("cam_high",), height=16, width=16)
@@ -80,3 +85,38 @@ def test_skip_failed_keeps_only_successes(tmp_path):
     assert len(report.saved) == 2 and all(o.success for o in report.saved)
     assert [k for k, _ in list_episodes(tmp_path)] == [0, 1]
     assert load_episode(tmp_path / "episode_1.hdf5").attrs["success"]
+
+
+def _outcome(final: float, checked: bool = True) -> EpisodeOutcome:
+    success = final == 4.0 and checked
+    return EpisodeOutcome(0, 0, success, final, final, None, 4.0, checked)
+
+
+def test_failure_summary_says_how_many_and_why():
+    failed = [_outcome(2.0), _outcome(3.0)]
+    assert failure_summary(failed, 3, "episodes", 300, 440) == (
+        "2 of 3 episodes failed: reward below max 4 (episode_len 300 < 440 the scripted "
+        "policy needs)"
+    )
+    assert failure_summary(failed, 3, "episodes", 600, 440) == (
+        "2 of 3 episodes failed: reward below max 4"
+    )
+    mixed = [_outcome(2.0), _outcome(4.0, checked=False), _outcome(1.0)]
+    assert failure_summary(mixed, 5, "attempts", 600, 440) == (
+        "3 of 5 attempts failed: 2 reward below max 4, 1 actions fail the real-arm speed check"
+    )
+    assert failure_summary([], 3, "episodes", 300, 440) == ""
+    assert _outcome(4.0).failure() is None
+
+
+def test_report_lists_failures_and_sizes(tmp_path):
+    report = _run(tmp_path, 2)  # 30 steps: both fail
+    assert [o.failure() for o in report.failed] == ["reward below max 4"] * 2
+    sizes = [(tmp_path / f"episode_{k}.hdf5").stat().st_size for k in (0, 1)]
+    assert [o.nbytes for o in report.saved] == sizes and report.saved_bytes == sum(sizes)
+
+
+def test_format_size():
+    assert [format_size(n) for n in (999, 44_300, 97_100_000, 2_212_296_072)] == [
+        "999 B", "44.3 kB", "97.1 MB", "2.212 GB",
+    ]  # fmt: skip

@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings, episode_seed
+from trossen_arm_mujoco.collect.pipeline import (
+    EpisodeRecorder,
+    RecordSettings,
+    episode_seed,
+    policy_minimum_episode_len,
+)
 from trossen_arm_mujoco.data.reader import load_episode
 from trossen_arm_mujoco.sim_env import TransferCubeTask
 from trossen_arm_mujoco.utils import make_sim_env
@@ -33,15 +38,19 @@ def test_episode_matches_documented_layout(episode_file):
     with h5py.File(episode_file, "r") as f:
         assert bool(f.attrs["sim"]) is True
         assert f["observations/qpos"].shape == (40, 16)
-        assert f["observations/qpos"].dtype == np.float64
-        assert f["observations/qvel"].dtype == np.float64
-        assert f["action"].shape == (40, 16) and f["action"].dtype == np.float64
-        assert f["reward"].shape == (40,)
+        # float32 like the vendor files (schema version 2), images gzip by default
+        assert f.attrs["schema_version"] == 2
+        assert f["observations/qpos"].dtype == np.float32
+        assert f["observations/qvel"].dtype == np.float32
+        assert f["action"].shape == (40, 16) and f["action"].dtype == np.float32
+        assert f["reward"].shape == (40,) and f["reward"].dtype == np.float32
         assert f["observations/env_state"].shape == (40, 7)
+        assert f["observations/env_state"].dtype == np.float32
         for cam in CAMS:
             ds = f[f"observations/images/{cam}"]
             assert ds.shape == (40, 24, 32, 3) and ds.dtype == np.uint8
             assert ds.chunks == (1, 24, 32, 3)
+            assert ds.compression == "gzip"
         assert set(f["observations/images"]) == set(CAMS)
         for key in (
             "task_name",
@@ -85,6 +94,8 @@ def test_different_attempts_differ():
 
 
 def test_replaying_actions_reproduces_qpos(episode_file):
+    """The stored (float32) actions are exactly the replayed ones: replaying them gives the
+    stored qpos to the last float32 bit."""
     ep = load_episode(episode_file)
     env = make_sim_env(TransferCubeTask, cam_list=[], box_pose=ep.attrs["box_pose"])
     ts = env.reset()
@@ -92,7 +103,7 @@ def test_replaying_actions_reproduces_qpos(episode_file):
     for action in ep.action:
         qpos.append(ts.observation["qpos"])
         ts = env.step(action)
-    np.testing.assert_allclose(np.array(qpos), ep.qpos, atol=1e-9)
+    np.testing.assert_array_equal(np.array(qpos, dtype=np.float32), ep.qpos)
     env.task.close()
 
 
@@ -222,3 +233,11 @@ def test_stored_record_re_renders_the_episode_exactly(tmp_path):
                 task.step(KIT_LAYOUT.joint_commands(ep.action[t]))
     finally:
         sampler.close()
+def test_minimum_episode_len_comes_from_the_scripted_policy(recorder):
+    from trossen_arm_mujoco.policies.insertion import InsertionPolicy
+    from trossen_arm_mujoco.policies.transfer_cube import PickAndTransferPolicy
+
+    assert policy_minimum_episode_len("sim_transfer_cube") == 440
+    assert PickAndTransferPolicy.minimum_episode_len == 440
+    assert policy_minimum_episode_len("sim_insertion") == InsertionPolicy.minimum_episode_len
+    assert recorder.minimum_episode_len == 440

@@ -73,6 +73,26 @@ def test_vendor_episode_without_images(vendor_no_images):
     assert len(meta["box_xyz_at_spawn"]) == 3
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_schema_1_and_2_files_load_alike(tmp_path, make_episode, dtype):
+    """Version 2 files are float32; version 1 files (older recordings) float64."""
+    path = tmp_path / "episode_0.hdf5"
+    data = make_episode(path, num_steps=3, cams=["cam_high"], compression="gzip")
+    if dtype is np.float64:  # rewrite as this package wrote files before version 2
+        with h5py.File(path, "r+") as f:
+            for name in ("observations/qpos", "observations/qvel", "action", "reward",
+                         "observations/env_state"):  # fmt: skip
+                _replace(f, name, data[name.split("/")[-1]].astype(np.float64))
+            f.attrs["schema_version"] = 1
+    with h5py.File(path, "r") as f:
+        assert f["action"].dtype == dtype
+    ep = load_episode(path, load_images=True)
+    expected = data["qpos"].astype(dtype)
+    assert ep.qpos.dtype == np.float64 and not ep.is_vendor
+    np.testing.assert_array_equal(ep.qpos, expected)
+    np.testing.assert_array_equal(ep.images["cam_high"], data["images"]["cam_high"])
+
+
 def test_frame_reader_errors(vendor_4cams):
     ep = load_episode(vendor_4cams)
     with pytest.raises(EpisodeError, match="no camera 'nope'"):

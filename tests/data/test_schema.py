@@ -21,11 +21,11 @@ from trossen_arm_mujoco.data.schema import (
 
 # The documented layout, spelled out independently of the schema object.
 DOCUMENTED_ARRAYS = {
-    "action": ((16,), np.float64),
-    "reward": ((), np.float64),
-    "observations/qpos": ((16,), np.float64),
-    "observations/qvel": ((16,), np.float64),
-    "observations/env_state": ((7,), np.float64),
+    "action": ((16,), np.float32),
+    "reward": ((), np.float32),
+    "observations/qpos": ((16,), np.float32),
+    "observations/qvel": ((16,), np.float32),
+    "observations/env_state": ((7,), np.float32),
 }
 DOCUMENTED_ATTRS = {
     "sim", "task_name", "seed", "success", "episode_len", "dt", "camera_names",
@@ -36,8 +36,13 @@ OPTIONAL_CHECKED_ATTRS = {"box_pose"}
 
 
 def test_schema_object_matches_documented_layout():
-    assert SCHEMA.version == SCHEMA_VERSION == 1
-    assert SCHEMAS[1] is SCHEMA
+    assert SCHEMA.version == SCHEMA_VERSION == 2
+    assert SCHEMAS[2] is SCHEMA
+    # version 1 (older files of this package): the same layout in float64
+    assert {s.path: (s.width, s.dtype) for s in SCHEMAS[1].arrays} == {
+        path: (width, np.float64) for path, (width, _) in DOCUMENTED_ARRAYS.items()
+    }
+    assert SCHEMAS[1].attrs == SCHEMA.attrs
     assert {spec.path: (spec.width, spec.dtype) for spec in SCHEMA.arrays} == DOCUMENTED_ARRAYS
     assert set(SCHEMA.attrs) == DOCUMENTED_ATTRS
     assert set(ATTR_KINDS) == DOCUMENTED_ATTRS | OPTIONAL_CHECKED_ATTRS
@@ -70,7 +75,7 @@ def test_written_file_has_documented_layout(tmp_path, make_episode):
         attrs = dict(f.attrs)
     assert set(attrs) == DOCUMENTED_ATTRS | OPTIONAL_CHECKED_ATTRS  # the fixture writes box_pose
     assert isinstance(attrs["sim"], np.bool_) and attrs["sim"]
-    assert attrs["schema_version"] == 1
+    assert attrs["schema_version"] == 2
     assert attrs["episode_len"] == 3
     assert attrs["task_name"] == "sim_transfer_cube"
     assert isinstance(attrs["success"], np.bool_) and attrs["success"]

@@ -26,15 +26,48 @@ def _run_cli(args, capsys):
 
 
 def test_records_and_reports_success_line(tmp_path, capsys):
-    rc, out, _ = _run_cli(
+    rc, out, err = _run_cli(
         ["--data_dir", "d", "--root_dir", str(tmp_path), "--num_episodes", "2", *FAST], capsys
     )
     assert rc == 0
-    assert out.strip().splitlines()[-1] == "Success: 0 / 2"
+    # said before recording, and again in the last line: the scripted plan needs 440 steps
+    assert err.strip() == (
+        "warning: --episode_len 20 is shorter than the 440 steps the scripted policy of "
+        "'sim_transfer_cube' needs; its episodes will end before the task is done and count "
+        "as failed (use --episode_len 440 or more)"
+    )
+    assert out.strip().splitlines()[-1] == (
+        "Success: 0 / 2; 2 of 2 episodes failed: reward below max 4 "
+        "(episode_len 20 < 440 the scripted policy needs)"
+    )
+    sizes = [(tmp_path / "d" / f"episode_{k}.hdf5").stat().st_size for k in (0, 1)]
+    for k in (0, 1):  # each episode's line ends with its file size
+        line = next(x for x in out.splitlines() if x.startswith(f"episode {k}: "))
+        assert line.endswith(f"episode_{k}.hdf5 ({sizes[k] / 1e3:.1f} kB)")
+    assert f"dataset: 2 episode(s), {sum(sizes) / 1e3:.1f} kB in {tmp_path / 'd'}" in out
     assert [k for k, _ in list_episodes(tmp_path / "d")] == [0, 1]
     ep = load_episode(tmp_path / "d" / "episode_1.hdf5")
     assert ep.camera_names == [] and ep.num_steps == 20
     assert ep.attrs["task_name"] == "sim_transfer_cube"
+
+
+def test_long_enough_episodes_succeed_without_warning(tmp_path, capsys):
+    rc, out, err = _run_cli(
+        ["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "440",
+         "--cam_names", "none"],
+        capsys,
+    )  # fmt: skip
+    assert rc == 0 and err == ""
+    assert out.strip().splitlines()[-1] == "Success: 1 / 1"
+
+
+def test_images_are_gzip_by_default(tmp_path, capsys):
+    args = ["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "3"]
+    rc, _, _ = _run_cli([*args, "--cam_names", "cam_high", "--image_size", "12x16"], capsys)
+    assert rc == 0
+    with h5py.File(tmp_path / "d" / "episode_0.hdf5") as f:
+        assert f["observations/images/cam_high"].compression == "gzip"
+        assert f["action"].dtype == "float32"
 
 
 def test_cam_names_subset_and_compression(tmp_path, capsys):
@@ -51,14 +84,14 @@ def test_cam_names_subset_and_compression(tmp_path, capsys):
             "--image_size",
             "12x16",
             "--compression",
-            "gzip",
+            "none",
         ],
         capsys,
     )
     assert rc == 0
     with h5py.File(tmp_path / "d" / "episode_0.hdf5") as f:
         assert set(f["observations/images"]) == {"cam_low", "cam_right_wrist"}
-        assert f["observations/images/cam_low"].compression == "gzip"
+        assert f["observations/images/cam_low"].compression is None
 
 
 def test_existing_episodes_are_never_overwritten(tmp_path, capsys):
@@ -134,6 +167,13 @@ def test_unwritable_root_is_one_line_exit_2(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
 
 
+def _default_sigint() -> None:
+    """In the child before exec: SIGINT at its default disposition. A test runner started
+    as a background job (``pytest &``) has SIGINT ignored, which its children inherit;
+    Python then installs no KeyboardInterrupt handler and Ctrl-C would do nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
     data = tmp_path / "d"
     cmd = [
@@ -153,7 +193,12 @@ def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
         "24x32",
     ]
     proc = subprocess.Popen(
-        cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        cmd,
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_sigint,
     )
     deadline = time.time() + 240
     while not (data / "episode_1.hdf5").exists():
@@ -176,26 +221,24 @@ def test_sigint_keeps_finished_episodes_and_restart_completes(tmp_path):
     assert load_episode(data / "episode_2.hdf5").attrs["attempt"] == 2
 
 
-def test_trossen_mujoco_record_dispatch(tmp_path):
+def test_trossen_mujoco_record_dispatch_and_progress_off_a_terminal(tmp_path):
+    """Piped output (not a terminal): no redrawn bar (no carriage returns), at most one
+    progress line every few seconds instead of one per step."""
+    start = time.monotonic()
     proc = subprocess.run(
         [
-            sys.executable,
-            "-m",
-            "trossen_arm_mujoco.cli",
-            "record",
-            "--data_dir",
-            "d",
-            "--root_dir",
-            str(tmp_path),
-            *FAST,
+            sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--data_dir", "d",
+            "--root_dir", str(tmp_path), "--num_episodes", "2", "--episode_len", "300",
+            "--cam_names", "none",
         ],
-        capture_output=True,
-        text=True,
-        cwd=REPO,
-        timeout=120,
-    )
+        capture_output=True, text=True, cwd=REPO, timeout=120,
+    )  # fmt: skip
+    wall = time.monotonic() - start
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip().splitlines()[-1].startswith("Success:")
+    assert proc.stdout.strip().splitlines()[-1].startswith("Success: 0 / 2; ")
+    assert "\r" not in proc.stderr and "\r" not in proc.stdout
+    progress = [line for line in proc.stderr.splitlines() if " step (" in line]
+    assert len(progress) <= wall / 5 + 1, proc.stderr  # 600 steps recorded
 
 
 def _xvfb_display():

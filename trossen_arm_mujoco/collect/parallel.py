@@ -5,22 +5,26 @@ files are the same whatever the number of workers. With ``skip_failed``, attempt
 until enough successes exist; successes get consecutive indices in attempt order.
 
 Files are written atomically. On SIGINT/SIGTERM the partial episode is discarded, finished
-episodes stay, and rerunning the same command continues where the run stopped.
+episodes stay, and rerunning the same command continues where the run stopped. A write the
+file system refuses (disk full, read-only folder, folder removed) stops the run the same
+way, with :attr:`RunReport.io_error` saying why.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import os
 import shutil
 import signal
+from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from tqdm import tqdm
-
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
+from trossen_arm_mujoco.collect.progress import Progress
+from trossen_arm_mujoco.data.io_errors import EpisodeIOError, folder_io_error, io_error
 from trossen_arm_mujoco.data.reader import episode_path, list_episodes, load_episode
 from trossen_arm_mujoco.data.writer import remove_stale_temp_files
 from trossen_arm_mujoco.errors import UserError
@@ -40,13 +44,56 @@ class RunPlan:
 
 @dataclass
 class RunReport:
+    """What a run did.
+
+    Attributes:
+        saved: episodes written, in index order.
+        failed: failed attempts (saved as failures, or discarded with ``skip_failed``).
+        attempts: attempts finished.
+        interrupted: stopped by Ctrl-C / SIGTERM.
+        io_error: the file system refused a write; the run stopped (one-line message).
+    """
+
     saved: list[EpisodeOutcome] = field(default_factory=list)
+    failed: list[EpisodeOutcome] = field(default_factory=list)
     attempts: int = 0
     interrupted: bool = False
+    io_error: EpisodeIOError | None = None
 
     @property
     def successes(self) -> int:
         return sum(o.success for o in self.saved)
+
+    @property
+    def saved_bytes(self) -> int:
+        """Total size of the episodes saved by this run (bytes)."""
+        return sum(o.nbytes for o in self.saved)
+
+
+def failure_summary(
+    failed: list[EpisodeOutcome], total: int, noun: str, episode_len: int, minimum_len: int
+) -> str:
+    """``"2 of 3 episodes failed: reward below max 4 (episode_len 300 < 440 the scripted
+    policy needs)"``; empty when nothing failed. ``noun``: "episodes" or "attempts"."""
+    if not failed:
+        return ""
+    reasons = Counter(o.failure() or "not successful" for o in failed)
+    if len(reasons) == 1:
+        why = next(iter(reasons))
+    else:
+        why = ", ".join(f"{n} {reason}" for reason, n in reasons.most_common())
+    text = f"{len(failed)} of {total} {noun} failed: {why}"
+    if episode_len < minimum_len and any(r.startswith("reward") for r in reasons):
+        text += f" (episode_len {episode_len} < {minimum_len} the scripted policy needs)"
+    return text
+
+
+def format_size(nbytes: float) -> str:
+    """``"97.1 MB"``: bytes in kB / MB / GB (powers of 1000)."""
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if nbytes >= scale:
+            return f"{nbytes / scale:.{3 if scale == 1e9 else 1}f} {unit}"
+    return f"{int(nbytes)} B"
 
 
 def plan_run(folder: Path, num_episodes: int, overwrite: bool) -> RunPlan:
@@ -77,7 +124,7 @@ def _worker_init(settings: RecordSettings) -> None:
 def _worker_record(job: tuple[int, str, bool]) -> EpisodeOutcome:
     attempt, path, overwrite = job
     assert _WORKER is not None
-    return _WORKER.record(attempt, Path(path), overwrite=overwrite)
+    return _WORKER.record(attempt, Path(path), overwrite=overwrite, create_folder=False)
 
 
 class DatasetRecorder:
@@ -90,7 +137,9 @@ class DatasetRecorder:
         skip_failed: keep attempting until the episodes are successes (bounded).
         overwrite: replace existing episodes instead of continuing after them.
         step_hook: per-step callback in this process (live view); needs 1 worker.
-        log: where progress lines go (default print).
+        log: where the per-episode lines go (default print).
+        progress_stream: where progress goes (default stderr): a bar on a terminal, a
+            plain line every ``progress.LOG_INTERVAL_S`` seconds otherwise.
     """
 
     def __init__(
@@ -102,6 +151,7 @@ class DatasetRecorder:
         overwrite: bool = False,
         step_hook: Callable | None = None,
         log: Callable[[str], None] = print,
+        progress_stream=None,
     ):
         self.settings = settings
         self.folder = Path(folder)
@@ -110,6 +160,7 @@ class DatasetRecorder:
         self.overwrite = overwrite
         self.step_hook = step_hook
         self.log = log
+        self.progress_stream = progress_stream
 
     def max_attempts(self, needed: int) -> int:
         """Bound on attempts with ``skip_failed``: 3x the episodes needed, plus 10."""
@@ -131,6 +182,10 @@ class DatasetRecorder:
                 self._run_pool(attempts, plan.first_index, num_episodes, report)
         except KeyboardInterrupt:
             report.interrupted = True
+        except EpisodeIOError as exc:
+            report.io_error = exc
+        except OSError as exc:  # the folder itself: staging, a finished file vanishing
+            report.io_error = folder_io_error(self.folder, exc)
         finally:
             remove_stale_temp_files(self.folder)
             shutil.rmtree(self.folder / STAGING, ignore_errors=True)
@@ -154,6 +209,7 @@ class DatasetRecorder:
         if self.skip_failed:
             assert outcome.path is not None
             if not outcome.success:
+                report.failed.append(outcome)
                 outcome.path.unlink(missing_ok=True)
                 self.log(
                     f"attempt {outcome.attempt}: failed (reward {outcome.final_reward:g}),"
@@ -167,11 +223,17 @@ class DatasetRecorder:
                 raise UserError(
                     f"{final} appeared during the run; refusing to overwrite it"
                 ) from None
+            except OSError as exc:
+                with contextlib.suppress(OSError):
+                    outcome.path.unlink(missing_ok=True)
+                raise io_error(final, exc) from exc
         report.saved.append(outcome)
+        if not outcome.success:
+            report.failed.append(outcome)
         status = "success" if outcome.success else "failure"
         self.log(
             f"episode {index}: {status} (final reward {outcome.final_reward:g}, "
-            f"seed {outcome.seed}) -> {outcome.path}"
+            f"seed {outcome.seed}) -> {outcome.path} ({format_size(outcome.nbytes)})"
         )
         return True
 
@@ -182,14 +244,11 @@ class DatasetRecorder:
                 if index >= total:
                     break
                 path, overwrite = self._target(attempt, index)
-                with tqdm(
-                    total=self.settings.episode_len,
-                    desc=f"episode {index}",
-                    unit="step",
-                    leave=False,
+                with Progress(
+                    self.settings.episode_len, f"episode {index}", "step", self.progress_stream
                 ) as bar:
                     outcome = recorder.record(
-                        attempt, path, overwrite=overwrite, progress=bar.update
+                        attempt, path, overwrite, bar.update, create_folder=False
                     )
                 if self._publish(outcome, index, report):
                     index += 1
@@ -204,7 +263,7 @@ class DatasetRecorder:
     def _run_pool(self, attempts: range, index: int, total: int, report: RunReport) -> None:
         ctx = mp.get_context("spawn")
         pool = ctx.Pool(self.num_workers, initializer=_worker_init, initargs=(self.settings,))
-        bar = tqdm(total=total - index, desc="episodes", unit="episode")
+        bar = Progress(total - index, "episodes", "episode", self.progress_stream, leave=True)
         try:
             for outcome in pool.imap(_worker_record, self._jobs(attempts, index)):
                 if self._publish(outcome, index, report):

@@ -15,6 +15,10 @@ randomization.
 
 Tasks are reached only through ``tasks.registry`` (task, sampler, policy, config); the task's
 ``policy_dt`` is the recording period.
+
+The file stores float32 (schema version 2); the phase-1 actions are rounded to float32
+before phase 2 replays them, so the stored ``/action`` is exactly what was replayed and
+what the real-replay check saw.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from trossen_arm_mujoco.data.schema import DEFAULT_COMPRESSION, SCHEMA
 from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.real.validate import (
     DATASET_JOINTS,
@@ -82,7 +87,7 @@ class RecordSettings:
     cam_names: tuple[str, ...] = ()
     height: int = 480
     width: int = 640
-    compression: str = "none"
+    compression: str = DEFAULT_COMPRESSION
     base_seed: int = 0
     randomize: bool = False
     shadows: bool = True  # the key light casts shadows in the images
@@ -91,7 +96,14 @@ class RecordSettings:
 
 @dataclass
 class EpisodeOutcome:
-    """Result of one recorded attempt."""
+    """Result of one recorded attempt.
+
+    Attributes:
+        final_reward, max_reward: last and largest reward of the episode.
+        task_max_reward: the task's full reward (success needs it at the last step).
+        real_replay_checked: the actions pass the real-arm check at the recording rate.
+        nbytes: size of the episode file (bytes), 0 when unknown.
+    """
 
     attempt: int
     seed: int
@@ -99,6 +111,19 @@ class EpisodeOutcome:
     final_reward: float
     max_reward: float
     path: Path | None
+    task_max_reward: float = float("nan")
+    real_replay_checked: bool = True
+    nbytes: int = 0
+
+    def failure(self) -> str | None:
+        """Why the episode failed, in a few words; None for a success."""
+        if self.success:
+            return None
+        if not self.final_reward >= self.task_max_reward:
+            return f"reward below max {self.task_max_reward:g}"
+        if not self.real_replay_checked:
+            return "actions fail the real-arm speed check"
+        return "not successful"
 
 
 #: (step, observation after the step, joint env) -> None
@@ -142,6 +167,8 @@ class EpisodeRecorder:
         self.policy_dt = probe.policy_dt
         self.fps = 1.0 / self.policy_dt
         self.max_reward = float(probe.max_reward)
+        #: Steps the scripted policy needs to finish the task (0 when it does not say).
+        self.minimum_episode_len = int(getattr(self.policy_cls, "minimum_episode_len", 0))
         view = self.joint_sampler.env.robots[probe.robot_name].view
         ranges = np.concatenate([view.group(g).joint_range for g in KIT_LAYOUT.groups])
         self.action_low, self.action_high = ranges[:, 0].copy(), ranges[:, 1].copy()
@@ -187,6 +214,8 @@ class EpisodeRecorder:
         # and the real arm only accept targets within the limits, so record those.
         np.clip(actions, self.action_low, self.action_high, out=actions)
         self.last_speed_limited = limit_speed(actions, ACTION_SPEED_LIMITS, self.fps)
+        # The file stores the schema's dtype (float32): replay exactly the stored values.
+        actions[:] = actions.astype(SCHEMA.array("action").dtype)
         return actions, poses
 
     def scripted_success(self) -> bool:
@@ -243,8 +272,13 @@ class EpisodeRecorder:
         overwrite: bool = False,
         progress: Callable[[], None] | None = None,
         extra_attrs: dict | None = None,
+        create_folder: bool = True,
     ) -> EpisodeOutcome:
-        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``."""
+        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``.
+
+        ``create_folder=False``: the folder of ``path`` must exist (a dataset run: a folder
+        removed meanwhile is an ``EpisodeIOError``, not silently recreated).
+        """
         s = self.settings
         seed = episode_seed(s.base_seed, attempt)
         rng = np.random.default_rng(seed)
@@ -282,6 +316,7 @@ class EpisodeRecorder:
             attrs=attrs,
             env_state_dim=len(attrs["initial_env_state"]),
             overwrite=overwrite,
+            create_folder=create_folder,
         ) as writer:
             rewards = self.replay(actions, poses, writer, progress)
             success = bool(rewards[-1] == max_reward) and speed_ok
@@ -291,7 +326,15 @@ class EpisodeRecorder:
                 max_reward=float(rewards.max()),
             )
         return EpisodeOutcome(
-            attempt, seed, success, float(rewards[-1]), float(rewards.max()), Path(path)
+            attempt,
+            seed,
+            success,
+            float(rewards[-1]),
+            float(rewards.max()),
+            Path(path),
+            task_max_reward=max_reward,
+            real_replay_checked=speed_ok,
+            nbytes=Path(path).stat().st_size,
         )
 
     def check_real_replay(self, actions: np.ndarray) -> tuple[bool, float]:
@@ -312,3 +355,9 @@ class EpisodeRecorder:
 def default_cameras(task_name: str) -> list[str]:
     """The cameras a task records by default."""
     return list(registry.load(task_name).record["cam_names"])
+
+
+def policy_minimum_episode_len(task_name: str) -> int:
+    """Steps the task's scripted policy needs to finish (0 when it does not say); no
+    model is built."""
+    return int(getattr(registry.load(task_name).policy_class(), "minimum_episode_len", 0))

@@ -4,6 +4,7 @@ Videos and plots (:mod:`.video`) need the ``video`` extra (PyAV, matplotlib), im
 only when a video or plot is made.
 """
 
+from trossen_arm_mujoco.data.io_errors import EpisodeIOError
 from trossen_arm_mujoco.data.reader import (
     Episode,
     EpisodeError,
@@ -33,6 +34,7 @@ __all__ = [
     "SCHEMA_VERSION",
     "Episode",
     "EpisodeError",
+    "EpisodeIOError",
     "EpisodeSchema",
     "EpisodeWriteError",
     "EpisodeWriter",

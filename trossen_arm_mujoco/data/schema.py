@@ -11,12 +11,20 @@ training code reads)::
                                           real_replay_checked, real_replay_fps,
                                           peak_speed_fraction, speed_limited_values,
                                           shadows, visual
-    /action                        float64 (T, 16)   joint targets, see constants.START_ARM_POSE
-    /reward                        float64 (T,)
-    /observations/qpos             float64 (T, 16)   rad (revolute) / m (fingers)
-    /observations/qvel             float64 (T, 16)   rad/s / m/s
-    /observations/env_state        float64 (T, 7k)   object poses: xyz (m) + quat wxyz each
-    /observations/images/<cam>     uint8 (T, H, W, 3), chunked (1, H, W, 3)
+    /action                        float32 (T, 16)   joint targets, see constants.START_ARM_POSE
+    /reward                        float32 (T,)
+    /observations/qpos             float32 (T, 16)   rad (revolute) / m (fingers)
+    /observations/qvel             float32 (T, 16)   rad/s / m/s
+    /observations/env_state        float32 (T, 7k)   object poses: xyz (m) + quat wxyz each
+    /observations/images/<cam>     uint8 (T, H, W, 3), chunked (1, H, W, 3), gzip by default
+
+Versions:
+
+- 2 (current): every float dataset is float32, as in vendor files, so training code built
+  for them (ACT-style loaders feeding float32 networks) reads both alike; image datasets
+  are gzip-compressed unless recorded with ``--compression none`` (standard HDF5 deflate
+  filter: any HDF5 reader decodes them).
+- 1: the same layout with float64 datasets and uncompressed images by default.
 
 Files recorded by the vendor package ("vendor files") hold only ``sim`` and the
 float32 datasets ``action``, ``observations/qpos``, ``observations/qvel`` and
@@ -39,7 +47,7 @@ from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
 VENDOR_DT: float = 0.02
 
 #: Current schema version, stored in the ``schema_version`` root attribute.
-SCHEMA_VERSION: int = 1
+SCHEMA_VERSION: int = 2
 
 #: Width of qpos, qvel and action vectors (two arms x (6 joints + 2 fingers)).
 NUM_JOINTS: int = KIT_LAYOUT.size
@@ -56,6 +64,12 @@ JOINT_UNITS: tuple[str, ...] = KIT_LAYOUT.units
 
 #: Compression choices for the image datasets.
 COMPRESSIONS: tuple[str, ...] = ("none", "gzip", "lzf")
+
+#: Compression of the image datasets unless asked otherwise.
+DEFAULT_COMPRESSION: str = "gzip"
+
+#: zlib level of ``"gzip"``, chosen by measurement (``benchmarks/record_episode.py``).
+GZIP_LEVEL: int = 1
 
 #: Episode file names: ``episode_<k>.hdf5`` with a non-negative integer ``k``.
 EPISODE_FILE_RE = re.compile(r"^episode_(0|[1-9][0-9]*)\.hdf5$")
@@ -122,39 +136,46 @@ class EpisodeSchema:
         return (1, height, width, 3)
 
 
-_F64 = np.dtype(np.float64)
+def _schema(version: int, dtype: type) -> EpisodeSchema:
+    """The layout of ``version``, whose float datasets are all ``dtype``."""
+    f = np.dtype(dtype)
+    return EpisodeSchema(
+        version=version,
+        arrays=(
+            ArraySpec("observations/qpos", (NUM_JOINTS,), f, vendor=True),
+            ArraySpec("observations/qvel", (NUM_JOINTS,), f, vendor=True),
+            ArraySpec("action", (NUM_JOINTS,), f, vendor=True),
+            ArraySpec("reward", (), f, vendor=False),
+            ArraySpec("observations/env_state", (ENV_STATE_DIM,), f, vendor=False, variable=True),
+        ),
+        image_group="observations/images",
+        image_dtype=np.dtype(np.uint8),
+        attrs=(
+            "sim",
+            "task_name",
+            "seed",
+            "success",
+            "episode_len",
+            "dt",
+            "camera_names",
+            "package_version",
+            "mujoco_version",
+            "schema_version",
+        ),
+    )
 
-#: Schema version 1 (current).
-SCHEMA_V1 = EpisodeSchema(
-    version=1,
-    arrays=(
-        ArraySpec("observations/qpos", (NUM_JOINTS,), _F64, vendor=True),
-        ArraySpec("observations/qvel", (NUM_JOINTS,), _F64, vendor=True),
-        ArraySpec("action", (NUM_JOINTS,), _F64, vendor=True),
-        ArraySpec("reward", (), _F64, vendor=False),
-        ArraySpec("observations/env_state", (ENV_STATE_DIM,), _F64, vendor=False, variable=True),
-    ),
-    image_group="observations/images",
-    image_dtype=np.dtype(np.uint8),
-    attrs=(
-        "sim",
-        "task_name",
-        "seed",
-        "success",
-        "episode_len",
-        "dt",
-        "camera_names",
-        "package_version",
-        "mujoco_version",
-        "schema_version",
-    ),
-)
+
+#: Schema version 1: float64 datasets (files recorded before version 2).
+SCHEMA_V1 = _schema(1, np.float64)
+
+#: Schema version 2 (current): float32 datasets, like vendor files.
+SCHEMA_V2 = _schema(2, np.float32)
 
 #: The schema the writer uses.
-SCHEMA: EpisodeSchema = SCHEMA_V1
+SCHEMA: EpisodeSchema = SCHEMA_V2
 
 #: Every schema version the reader understands.
-SCHEMAS: dict[int, EpisodeSchema] = {1: SCHEMA_V1}
+SCHEMAS: dict[int, EpisodeSchema] = {1: SCHEMA_V1, 2: SCHEMA_V2}
 
 
 #: What each root attribute of the current schema must be (checked by :func:`encode_attr`).

@@ -4,6 +4,11 @@ Each :meth:`EpisodeWriter.append` writes one step straight into preallocated dat
 temporary file next to the final one, so memory stays flat whatever the episode length.
 The temporary file becomes ``episode_<k>.hdf5`` only after all steps are written, flushed
 and fsynced; on any error it is deleted, so a folder never holds a half-written episode.
+
+Images are gzip-compressed by default, in background threads
+(:mod:`.chunk_compressor`), so compression stays off the render path. A write the file
+system refuses (disk full, read-only or unwritable folder, folder removed meanwhile) raises
+:class:`EpisodeIOError`, a one-line message naming the file and the cause.
 """
 
 from __future__ import annotations
@@ -16,9 +21,13 @@ from typing import Any
 import h5py
 import numpy as np
 
+from trossen_arm_mujoco.data.chunk_compressor import ChunkCompressor
+from trossen_arm_mujoco.data.io_errors import IO_ERRORS, discard_file, io_error
 from trossen_arm_mujoco.data.schema import (
     COMPRESSIONS,
+    DEFAULT_COMPRESSION,
     ENV_STATE_DIM,
+    GZIP_LEVEL,
     SCHEMA,
     encode_attr,
     temp_file_name,
@@ -71,11 +80,22 @@ class EpisodeWriter:
         episode_len: number of steps ``T`` the episode will have; exactly ``T`` appends.
         camera_names: cameras whose images every step carries (may be empty).
         height, width: image size in pixels (480, 640 at documented settings).
-        compression: ``"none"`` | ``"gzip"`` | ``"lzf"``, for the image datasets.
+        compression: ``"none"`` | ``"gzip"`` (default; level ``GZIP_LEVEL``, compressed in
+            background threads) | ``"lzf"``, for the image datasets.
         env_state_dim: values per step of ``env_state`` (7 per object of the task).
         attrs: root attributes; ``task_name``, ``seed`` and ``success`` must be
             set before :meth:`close` (here or with :meth:`set_attrs`).
         overwrite: replace an existing final file instead of refusing.
+        create_folder: create the folder of ``path`` when missing; with False a missing
+            folder is an :class:`EpisodeIOError` (the recorder: a folder removed during a
+            run is reported, not silently recreated).
+        compress_workers: gzip threads (default: one per CPU, at most 4).
+        gzip_level: zlib level 1..9 of ``"gzip"`` (default ``GZIP_LEVEL``).
+
+    Raises:
+        EpisodeWriteError: invalid arguments or an existing file (no overwrite).
+        EpisodeIOError: the file system refused a write, here or in :meth:`append` /
+            :meth:`close`; the temporary file is removed.
     """
 
     def __init__(
@@ -85,10 +105,13 @@ class EpisodeWriter:
         camera_names: Iterable[str] = (),
         height: int = 480,
         width: int = 640,
-        compression: str = "none",
+        compression: str = DEFAULT_COMPRESSION,
         attrs: Mapping[str, Any] | None = None,
         overwrite: bool = False,
         env_state_dim: int = ENV_STATE_DIM,
+        create_folder: bool = True,
+        compress_workers: int | None = None,
+        gzip_level: int = GZIP_LEVEL,
     ) -> None:
         self.path = Path(path).expanduser()
         if int(env_state_dim) < 1 or int(env_state_dim) % ENV_STATE_DIM:
@@ -108,12 +131,17 @@ class EpisodeWriter:
         self.overwrite = overwrite
         self.num_steps = 0
         self._committed = False
+        self._file: h5py.File | None = None
+        self._compressor: ChunkCompressor | None = None
         if self.episode_len < 1:
             raise EpisodeWriteError(f"episode_len must be at least 1, got {episode_len}")
         if compression not in COMPRESSIONS:
             raise EpisodeWriteError(
                 f"unknown compression '{compression}'; valid: {', '.join(COMPRESSIONS)}"
             )
+        if isinstance(gzip_level, bool) or gzip_level not in range(1, 10):
+            raise EpisodeWriteError(f"gzip_level must be an int in 1..9, got {gzip_level!r}")
+        self.gzip_level = int(gzip_level)
         bad = [
             cam for cam in self.camera_names if not isinstance(cam, str) or not cam or "/" in cam
         ]
@@ -140,19 +168,25 @@ class EpisodeWriter:
         self._attrs: dict[str, Any] = {}
         self.set_attrs(**defaults)
         self.set_attrs(**dict(attrs or {}))
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file: h5py.File | None = h5py.File(self.temp_path, "w")
         try:
-            self._create_datasets(compression)
+            if create_folder:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = h5py.File(self.temp_path, "w")
+            self._create_datasets(compression, compress_workers)
+        except IO_ERRORS as exc:
+            self.abort()
+            raise io_error(self.path, exc) from exc
         except BaseException:
             self.abort()
             raise
 
-    def _create_datasets(self, compression: str) -> None:
+    def _create_datasets(self, compression: str, workers: int | None) -> None:
         assert self._file is not None
         kwargs: dict[str, Any] = {}
         if compression == "gzip":
-            kwargs = {"compression": "gzip", "compression_opts": 4}
+            kwargs = {"compression": "gzip", "compression_opts": self.gzip_level}
+            if self.camera_names:
+                self._compressor = ChunkCompressor(self.gzip_level, workers)
         elif compression == "lzf":
             kwargs = {"compression": "lzf"}
         self._arrays = {}
@@ -234,7 +268,13 @@ class EpisodeWriter:
             for name, value in checked.items():
                 self._arrays[name][t] = value
             for cam, frame in frames.items():
-                self._images[cam][t] = frame
+                if self._compressor is not None:
+                    self._compressor.submit(self._images[cam], t, frame)
+                else:
+                    self._images[cam][t] = frame
+        except IO_ERRORS as exc:
+            self.abort()
+            raise io_error(self.path, exc) from exc
         except BaseException:
             self.abort()
             raise
@@ -243,7 +283,7 @@ class EpisodeWriter:
     def _check_array(self, name: str, value: Any, t: int) -> np.ndarray:
         spec = SCHEMA.array(name)
         try:
-            arr = np.asarray(value, dtype=spec.dtype)
+            arr = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError):
             raise EpisodeWriteError(
                 f"step {t}: {name} must be numeric, got {type(value).__name__}"
@@ -254,7 +294,12 @@ class EpisodeWriter:
             )
         if not np.all(np.isfinite(arr)):
             raise EpisodeWriteError(f"step {t}: {name} contains NaN or inf: {arr.tolist()}")
-        return arr
+        stored = arr.astype(spec.dtype)
+        if not np.all(np.isfinite(stored)):
+            raise EpisodeWriteError(
+                f"step {t}: {name} has values beyond the {spec.dtype} range: {arr.tolist()}"
+            )
+        return stored
 
     def _check_images(self, images: Mapping[str, np.ndarray], t: int) -> dict[str, np.ndarray]:
         if set(images) != set(self.camera_names):
@@ -298,17 +343,22 @@ class EpisodeWriter:
                     f"{self.path.name}: missing attributes {missing}; pass them in attrs= "
                     "or set_attrs()"
                 )
-            for name, value in self._attrs.items():
-                self._file.attrs[name] = value
-            self._file.flush()
-            self._file.close()
-            self._file = None
             try:
+                if self._compressor is not None:
+                    self._compressor.close()
+                    self._compressor = None
+                for name, value in self._attrs.items():
+                    self._file.attrs[name] = value
+                self._file.flush()
+                self._file.close()
+                self._file = None
                 publish(self.temp_path, self.path, overwrite=self.overwrite)
             except FileExistsError:
                 raise EpisodeWriteError(
                     f"{self.path} appeared while writing; refusing to overwrite it"
                 ) from None
+            except IO_ERRORS as exc:
+                raise io_error(self.path, exc) from exc
         except BaseException:
             self.abort()
             raise
@@ -316,14 +366,18 @@ class EpisodeWriter:
         return self.path
 
     def abort(self) -> None:
-        """Discard the episode: close and delete the temporary file (idempotent)."""
+        """Discard the episode: close and delete the temporary file (idempotent, never
+        raises an I/O error: on a read-only file system there is nothing more to do)."""
+        if self._compressor is not None:
+            self._compressor.cancel()
+            self._compressor = None
         if self._file is not None:
-            try:
-                self._file.close()
-            except Exception:  # best effort: the file is deleted anyway
-                pass
+            discard_file(self._file)
             self._file = None
-        self.temp_path.unlink(missing_ok=True)
+        try:
+            self.temp_path.unlink(missing_ok=True)
+        except OSError:
+            pass
 
 
 def remove_stale_temp_files(folder: str | os.PathLike[str]) -> list[Path]:
@@ -338,7 +392,10 @@ def remove_stale_temp_files(folder: str | os.PathLike[str]) -> list[Path]:
     if not folder.is_dir():
         return []
     removed = []
-    for path in sorted(folder.glob(temp_file_name("episode_*.hdf5"))):
-        path.unlink(missing_ok=True)
-        removed.append(path)
+    try:
+        for path in sorted(folder.glob(temp_file_name("episode_*.hdf5"))):
+            path.unlink(missing_ok=True)
+            removed.append(path)
+    except OSError:  # folder removed meanwhile, or read-only: nothing to clean
+        pass
     return removed

@@ -4,8 +4,12 @@
 
 Phase 1 runs the scripted policy in the end-effector env (no rendering); phase 2 replays the
 joint trajectory in the joint env, rendering the requested cameras and streaming every step
-to ``<root_dir>/<data_dir>/episode_<k>.hdf5``. Unset flags come from
-``SIM_TASK_CONFIGS[task_name]``.
+to ``<root_dir>/<data_dir>/episode_<k>.hdf5`` (images gzip-compressed unless
+``--compression none``). Unset flags come from ``SIM_TASK_CONFIGS[task_name]``.
+
+The last line says how many episodes succeeded and, when some failed, why. A write the file
+system refuses (disk full, read-only folder, folder removed) ends the run with one
+``error:`` line listing the complete episodes; no partial file is left.
 """
 
 from __future__ import annotations
@@ -27,8 +31,14 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
-from trossen_arm_mujoco.data.schema import COMPRESSIONS
-from trossen_arm_mujoco.errors import EXIT_INTERRUPTED, UserError, run_cli, unknown_name_error
+from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION, GZIP_LEVEL
+from trossen_arm_mujoco.errors import (
+    EXIT_INTERRUPTED,
+    UserError,
+    report_error,
+    run_cli,
+    unknown_name_error,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -106,9 +116,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--compression",
-        default="none",
+        default=DEFAULT_COMPRESSION,
         choices=COMPRESSIONS,
-        help="image compression (default: none)",
+        help=f"image compression (default: {DEFAULT_COMPRESSION}, level {GZIP_LEVEL}, "
+        "compressed off the render path; 'none' for raw frames)",
     )
     p.add_argument(
         "--image_size", default="480x640", help="camera image size HEIGHTxWIDTH (default: 480x640)"
@@ -209,8 +220,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     looks = _looks(args)
     folder = _writable_folder(args.root_dir, args.data_dir)
 
-    from trossen_arm_mujoco.collect.parallel import DatasetRecorder, plan_run
-    from trossen_arm_mujoco.collect.pipeline import RecordSettings
+    from trossen_arm_mujoco.collect.parallel import (
+        DatasetRecorder,
+        failure_summary,
+        format_size,
+        plan_run,
+    )
+    from trossen_arm_mujoco.collect.pipeline import RecordSettings, policy_minimum_episode_len
 
     settings = RecordSettings(
         task_name=args.task_name,
@@ -234,6 +250,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if plan.first_index:
         print(f"continuing after existing episode {plan.first_index - 1} in {folder}")
+    minimum_len = policy_minimum_episode_len(args.task_name)
+    if episode_len < minimum_len:
+        print(
+            f"warning: --episode_len {episode_len} is shorter than the {minimum_len} steps "
+            f"the scripted policy of '{args.task_name}' needs; its episodes will end before "
+            f"the task is done and count as failed (use --episode_len {minimum_len} or more)",
+            file=sys.stderr,
+        )
     print(
         f"recording episodes {plan.first_index}..{num_episodes - 1} of '{args.task_name}' "
         f"({episode_len} steps, cameras: {', '.join(cams) or 'none'}"
@@ -262,6 +286,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             viewer[0].close()
     wall = time.perf_counter() - start
     saved = report.saved
+    if report.io_error is not None:
+        return report_error(f"{report.io_error}; {_kept(folder)}; {_io_hint(report.io_error)}")
     if report.interrupted:
         kept = sorted(k for k, _ in _episodes(folder))
         print(
@@ -271,18 +297,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERRUPTED
-    print(f"recorded {len(saved)} episode(s) in {wall:.1f} s")
+    episodes = _episodes(folder)
+    total_bytes = sum(path.stat().st_size for _, path in episodes)
+    print(
+        f"recorded {len(saved)} episode(s) in {wall:.1f} s, {format_size(report.saved_bytes)}; "
+        f"dataset: {len(episodes)} episode(s), {format_size(total_bytes)} in {folder}"
+    )
+    noun, total = ("attempts", report.attempts) if args.skip_failed else ("episodes", len(saved))
+    why = failure_summary(report.failed, total, noun, episode_len, minimum_len)
     if args.skip_failed:
         print(f"attempts: {report.attempts} (bound {recorder.max_attempts(num_episodes)})")
         if len(saved) < num_episodes - plan.first_index:
             print(f"Success: {report.successes} / {report.attempts}")
             raise UserError(
                 f"only {len(saved)} successful episodes after {report.attempts} "
-                "attempts; check the task or rerun to continue"
+                f"attempts ({why}); check the task or rerun to continue"
             )
-        print(f"Success: {report.successes} / {report.attempts}")
-    else:
-        print(f"Success: {report.successes} / {len(saved)}")
+        why = why and f"{why} (discarded)"
+    print(f"Success: {report.successes} / {total}" + (f"; {why}" if why else ""))
     return 0
 
 
@@ -290,6 +322,24 @@ def _episodes(folder: Path):
     from trossen_arm_mujoco.data.reader import list_episodes
 
     return list_episodes(folder, missing_ok=True)
+
+
+def _kept(folder: Path) -> str:
+    """``"complete episodes: 0..1 in <folder>"`` (what survives an I/O error)."""
+    if not folder.is_dir():
+        return "complete episodes: none (the folder is gone)"
+    kept = sorted(k for k, _ in _episodes(folder))
+    return f"complete episodes: {_ranges(kept)} in {folder}" if kept else "complete episodes: none"
+
+
+def _io_hint(exc) -> str:
+    import errno
+
+    if exc.folder_missing:
+        return "rerun to record again"
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        return "free disk space or choose another --root_dir, then rerun to continue"
+    return "check the folder's permissions or choose another --root_dir, then rerun to continue"
 
 
 def _ranges(indices: list[int]) -> str:

@@ -1,0 +1,106 @@
+"""gzip compression of image frames off the render path.
+
+h5py runs its filters (gzip included) inside the write call while holding the GIL, so a
+dataset created with ``compression="gzip"`` compresses every frame on the thread that
+renders. :class:`ChunkCompressor` instead hands each frame to a pool of threads that
+compress it with :func:`zlib.compress` (which releases the GIL) and writes the finished
+bytes, in submission order, with ``write_direct_chunk`` from the caller's thread. The
+datasets carry the standard HDF5 deflate filter, so any HDF5 reader decodes them; the
+bytes are exactly what that filter stores (a zlib stream per chunk).
+
+Each dataset must be chunked one frame per chunk, ``(1, H, W, 3)``, and created with
+``compression="gzip"`` (h5py adds the deflate filter as optional, so a frame that does not
+shrink is stored raw with the filter skipped, as the filter itself does).
+"""
+
+from __future__ import annotations
+
+import os
+import zlib
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import h5py
+import numpy as np
+
+#: Filter mask of a chunk stored without its (only, optional) deflate filter.
+_SKIP_DEFLATE = 0x1
+
+
+def default_workers() -> int:
+    """Compression threads: one per CPU, at most 4 (zlib level 1 keeps up with that)."""
+    return max(1, min(4, os.cpu_count() or 1))
+
+
+def _compress(frame: np.ndarray, level: int) -> tuple[bytes, int]:
+    """(chunk bytes, filter mask) of one frame."""
+    data = zlib.compress(frame, level)
+    if len(data) >= frame.nbytes:  # incompressible: store raw, as the deflate filter does
+        return frame.tobytes(), _SKIP_DEFLATE
+    return data, 0
+
+
+def write_chunk(dataset: h5py.Dataset, offset: tuple[int, ...], data: bytes, mask: int) -> None:
+    """Store finished chunk bytes at chunk ``offset`` (element coordinates) of ``dataset``."""
+    dataset.id.write_direct_chunk(offset, data, filter_mask=mask)
+
+
+class ChunkCompressor:
+    """Compress frames in threads, write them as chunks in submission order.
+
+    Args:
+        level: zlib level 1..9.
+        workers: compression threads (default :func:`default_workers`).
+        max_pending: frames compressed or waiting at most; :meth:`submit` blocks on the
+            oldest beyond that, so memory stays at ``max_pending`` frames.
+
+    Use :meth:`submit` per frame, :meth:`flush` before closing the file, and
+    :meth:`close` (or :meth:`cancel` on failure) at the end.
+    """
+
+    def __init__(self, level: int, workers: int | None = None, max_pending: int | None = None):
+        if not 1 <= int(level) <= 9:
+            raise ValueError(f"zlib level must be 1..9, got {level}")
+        self.level = int(level)
+        self.workers = default_workers() if workers is None else max(1, int(workers))
+        self.max_pending = max_pending or 4 * self.workers + 4
+        self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="chunk-gzip")
+        self._pending: deque[tuple[h5py.Dataset, int, Future[tuple[bytes, int]]]] = deque()
+
+    def submit(self, dataset: h5py.Dataset, index: int, frame: np.ndarray) -> None:
+        """Queue frame ``index`` of ``dataset`` (uint8 ``(H, W, 3)``; copied, so the caller
+        may reuse it) and write every chunk finished so far.
+
+        Raises:
+            OSError / RuntimeError from h5py when a chunk cannot be written.
+        """
+        frame = np.array(frame, dtype=np.uint8, order="C", copy=True)
+        self._pending.append((dataset, index, self._pool.submit(_compress, frame, self.level)))
+        self._write_ready(block=len(self._pending) > self.max_pending)
+
+    def _write_ready(self, block: bool) -> None:
+        while self._pending and (block or self._pending[0][2].done()):
+            dataset, index, future = self._pending[0]
+            data, mask = future.result()
+            write_chunk(dataset, (index,) + (0,) * (dataset.ndim - 1), data, mask)
+            self._pending.popleft()
+            block = block and len(self._pending) > self.max_pending
+
+    def flush(self) -> None:
+        """Wait for every queued frame and write it."""
+        while self._pending:
+            self._write_ready(block=True)
+
+    def cancel(self) -> None:
+        """Drop queued frames without writing them and stop the threads (idempotent)."""
+        for _, _, future in self._pending:
+            future.cancel()
+        self._pending.clear()
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def close(self) -> None:
+        """Write what is queued, then stop the threads."""
+        try:
+            self.flush()
+        finally:
+            self.cancel()
