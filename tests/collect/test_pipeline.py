@@ -233,6 +233,8 @@ def test_stored_record_re_renders_the_episode_exactly(tmp_path):
                 task.step(KIT_LAYOUT.joint_commands(ep.action[t]))
     finally:
         sampler.close()
+
+
 def test_minimum_episode_len_comes_from_the_scripted_policy(recorder):
     from trossen_arm_mujoco.policies.insertion import InsertionPolicy
     from trossen_arm_mujoco.policies.transfer_cube import PickAndTransferPolicy
