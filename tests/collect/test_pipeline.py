@@ -227,7 +227,8 @@ def test_stored_record_re_renders_the_episode_exactly(tmp_path):
         task = sampler.sample_task(0, object_poses=poses, randomization=record)
         with ep.open_frames() as frames:
             for t in range(len(ep.action)):
-                np.testing.assert_array_equal(task.get_observation()["qpos"], ep.qpos[t])
+                qpos = task.get_observation()["qpos"].astype(np.float32)  # as stored
+                np.testing.assert_array_equal(qpos, ep.qpos[t].astype(np.float32))
                 image = sampler.env.render_images()["cam_high"]
                 np.testing.assert_array_equal(image, frames.read("cam_high", t))
                 task.step(KIT_LAYOUT.joint_commands(ep.action[t]))
