@@ -159,6 +159,19 @@ def test_dead_worker_loses_only_its_episode_which_is_retried(ray_instance, tmp_p
         )
 
 
+def test_max_in_flight_bounds_the_attempts_running_at_once(ray_instance, tmp_path):
+    starts = tmp_path / "starts"
+    starts.mkdir()
+
+    def stamp(k: int) -> None:
+        (starts / str(k)).write_text(repr(time.time()))
+        time.sleep(0.3)
+
+    _on_ray(tmp_path / "r", 3, max_in_flight=1, before_attempt=stamp)
+    times = [float((starts / str(k)).read_text()) for k in range(3)]
+    assert all(b - a >= 0.3 for a, b in zip(times, times[1:])), times  # one after the other
+
+
 def test_worker_dying_every_time_is_one_line_error(ray_instance, tmp_path):
     def always_die(k: int) -> None:
         os._exit(1)

@@ -15,7 +15,7 @@ staging file. On a cluster every node must see the dataset folder at the same ab
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from tqdm import tqdm
@@ -26,6 +26,12 @@ from trossen_arm_mujoco.errors import UserError
 
 #: Times Ray runs an attempt again after its worker process died.
 MAX_RETRIES = 3
+
+#: Finished attempts kept waiting for an earlier one, per worker, before no more are submitted.
+MAX_BUFFERED = 4
+
+#: Seconds of one wait for a task to finish (Ctrl-C is seen between waits).
+WAIT_STEP_S = 0.5
 
 #: Seconds to wait for cancelled tasks to stop before their staging files are removed.
 CANCEL_WAIT_S = 30.0
@@ -48,8 +54,8 @@ class RayDatasetRecorder(DatasetRecorder):
 
     Args:
         settings, folder, skip_failed, overwrite, log: as for :class:`DatasetRecorder`.
-        max_in_flight: attempts running at once (default: the cluster's CPUs); twice as
-            many are submitted, so a CPU that finishes early picks up the next attempt.
+        max_in_flight: attempts running at once (default: the cluster's CPUs); a worker
+            that finishes before an earlier attempt picks up the next attempt.
         max_retries: times an attempt is run again after its worker process died.
         before_attempt: called in the worker before each attempt (tests use it to kill a
             worker); must be picklable by Ray.
@@ -96,32 +102,42 @@ class RayDatasetRecorder(DatasetRecorder):
         import ray
 
         jobs = iter(self._jobs(attempts, index))
-        pending: deque = deque()
+        pending: deque = deque()  # (attempt, ref), in attempt order; finished ones included
         settings_ref = ray.put(self.settings)
         bar = tqdm(total=total - index, desc="episodes", unit="episode")
-
-        def submit() -> None:
-            for job in jobs:
-                pending.append((job[0], self._task.remote(settings_ref, job, self.before_attempt)))
-                if len(pending) >= 2 * self.num_workers:
-                    break
-
         try:
-            submit()
-            while pending and index < total:
-                attempt, ref = pending.popleft()
-                try:
-                    outcome = self._result(ray, attempt, ref)
-                except KeyboardInterrupt:
-                    pending.appendleft((attempt, ref))  # still running: cancel it too
-                    raise
+            while index < total:
+                running = self._top_up(ray, pending, jobs, settings_ref)
+                if not pending:
+                    break
+                attempt, ref = pending[0]
+                if ref in running:  # wait for any task to finish, in short steps (Ctrl-C)
+                    ray.wait(running, num_returns=1, timeout=WAIT_STEP_S, fetch_local=False)
+                    continue
+                pending.popleft()
+                outcome = self._result(ray, attempt, ref)
                 if self._publish(outcome, index, report):
                     index += 1
                     bar.update()
-                submit()
         finally:
             self._cancel(ray, [ref for _, ref in pending])
             bar.close()
+
+    def _top_up(self, ray, pending: deque, jobs: Iterator, settings_ref) -> list:
+        """Submit attempts until ``num_workers`` run at once (at most ``MAX_BUFFERED`` times
+        that many finished but unpublished); returns the refs still running."""
+        refs = [ref for _, ref in pending]
+        running = []
+        if refs:
+            _, running = ray.wait(refs, num_returns=len(refs), timeout=0, fetch_local=False)
+        while len(running) < self.num_workers and len(pending) < MAX_BUFFERED * self.num_workers:
+            job = next(jobs, None)
+            if job is None:
+                break
+            ref = self._task.remote(settings_ref, job, self.before_attempt)
+            pending.append((job[0], ref))
+            running.append(ref)
+        return running
 
     def _result(self, ray, attempt: int, ref) -> EpisodeOutcome:
         """The outcome of one task; the task's own error is raised as it is."""

@@ -12,7 +12,10 @@ Without an address a private local Ray is started that stays on this machine:
   private ``HOME`` holding an empty ``ray_bootstrap_config.yaml`` (the file Ray reads
   instead of probing) and the cluster's authentication token;
 - the dashboard is not started; token authentication stays on (Ray's default for a new
-  local instance; the token is kept in the private ``HOME``).
+  local instance; the token is kept in the private ``HOME``). Ray's gRPC servers still
+  listen on every interface (ray 2.60 has no setting for that); every connection the
+  processes make is to loopback (checked with strace, and by tests/collect/test_ray_engine.py
+  on the sockets the processes hold).
 
 With an address (``auto``, ``host:port`` of a ``ray start --head`` node, or ``ray://host:port``
 for Ray Client) that cluster is joined as it is configured.
