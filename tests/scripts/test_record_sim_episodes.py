@@ -114,6 +114,9 @@ def test_existing_episodes_are_never_overwritten(tmp_path, capsys):
         (["--num_episodes", "0"], "--num_episodes must be at least 1"),
         (["--image_size", "big"], "--image_size must look like"),
         (["--visual", "pretty"], "unknown visual 'pretty'"),
+        (["--num_workers", "0"], "--num_workers must be at least 1"),
+        (["--ray_address", "auto"], "--ray_address needs --engine ray"),
+        (["--engine", "ray", "--onscreen_render"], "--onscreen_render needs --engine local"),
     ],
 )
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, needle):
@@ -141,6 +144,29 @@ def test_menagerie_visual_without_checkout_is_one_line_exit_2(tmp_path, capsys, 
     assert rc == 2 and "TROSSEN_MENAGERIE_DIR" in err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not (tmp_path / "d").exists()
+
+
+def test_engine_ray_without_ray_says_how_to_install(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
+    rc, out, err = _run_cli(
+        ["--data_dir", "d", "--root_dir", str(tmp_path), *FAST, "--engine", "ray"], capsys
+    )
+    assert rc == 2 and out == ""
+    assert err == 'error: the Ray engine needs Ray: pip install "trossen_arm_mujoco[ray]"\n'
+
+
+def test_unreachable_ray_address_is_one_line_exit_2(tmp_path, capsys):
+    pytest.importorskip("ray")
+    import socket
+
+    with socket.socket() as probe:  # a loopback port that nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    args = ["--data_dir", "d", "--root_dir", str(tmp_path), *FAST, "--engine", "ray"]
+    rc, _, err = _run_cli([*args, "--ray_address", f"127.0.0.1:{port}"], capsys)
+    assert rc == 2
+    assert err.startswith(f"error: cannot reach the Ray cluster at 127.0.0.1:{port}: ")
+    assert len(err.strip().splitlines()) == 1
 
 
 def test_unwritable_root_is_one_line_exit_2(tmp_path):

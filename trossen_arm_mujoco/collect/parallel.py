@@ -4,10 +4,13 @@ Episode ``k`` of a run is attempt ``k`` (seed derived from the run seed and ``k`
 files are the same whatever the number of workers. With ``skip_failed``, attempts continue
 until enough successes exist; successes get consecutive indices in attempt order.
 
-Files are written atomically. On SIGINT/SIGTERM the partial episode is discarded, finished
-episodes stay, and rerunning the same command continues where the run stopped. A write the
-file system refuses (disk full, read-only folder, folder removed) stops the run the same
-way, with :attr:`RunReport.io_error` saying why.
+Files are written atomically. With more than one worker (or ``skip_failed``) each attempt is
+written under ``.staging/`` and renamed to its episode name in attempt order, so the folder
+only ever holds episodes ``0..k`` without gaps. On SIGINT/SIGTERM the partial episodes are
+discarded, finished episodes stay, and rerunning the same command continues where the run
+stopped. A write the file system refuses (disk full, read-only folder, folder removed) stops
+the run the same way, with :attr:`RunReport.io_error` saying why. :mod:`.ray_engine` runs the
+same attempts as Ray tasks.
 """
 
 from __future__ import annotations
@@ -127,6 +130,17 @@ def _worker_record(job: tuple[int, str, bool]) -> EpisodeOutcome:
     return _WORKER.record(attempt, Path(path), overwrite=overwrite, create_folder=False)
 
 
+def record_in_worker(settings: RecordSettings, job: tuple[int, str, bool]) -> EpisodeOutcome:
+    """Record one ``(attempt, path, overwrite)`` job in a worker process that was not set up
+    by the pool (a Ray task): the process's recorder is built on first use and kept for the
+    next job with the same settings."""
+    if _WORKER is None or _WORKER.settings != settings:
+        if _WORKER is not None:
+            _WORKER.close()
+        _worker_init(settings)
+    return _worker_record(job)
+
+
 class DatasetRecorder:
     """Records episodes ``first_index .. num_episodes - 1`` into ``folder``.
 
@@ -176,10 +190,7 @@ class DatasetRecorder:
             return report
         attempts = self._attempts(plan.first_attempt, needed)
         try:
-            if self.num_workers == 1:
-                self._run_here(attempts, plan.first_index, num_episodes, report)
-            else:
-                self._run_pool(attempts, plan.first_index, num_episodes, report)
+            self._execute(attempts, plan.first_index, num_episodes, report)
         except KeyboardInterrupt:
             report.interrupted = True
         except EpisodeIOError as exc:
@@ -191,13 +202,26 @@ class DatasetRecorder:
             shutil.rmtree(self.folder / STAGING, ignore_errors=True)
         return report
 
+    def _execute(self, attempts: range, index: int, total: int, report: RunReport) -> None:
+        """Record ``attempts`` until episode ``total - 1`` is saved (the engine's part)."""
+        if self.num_workers == 1:
+            self._run_here(attempts, index, total, report)
+        else:
+            self._run_pool(attempts, index, total, report)
+
+    @property
+    def stages_files(self) -> bool:
+        """Whether attempts are written under ``.staging/`` and renamed in attempt order
+        (several at once could otherwise finish out of order and leave a gap on Ctrl-C)."""
+        return self.skip_failed or self.num_workers > 1
+
     def _attempts(self, first: int, needed: int) -> range:
         count = self.max_attempts(needed) if self.skip_failed else needed
         return range(first, first + count)
 
     def _target(self, attempt: int, index: int) -> tuple[Path, bool]:
-        """Where an attempt is written: its final name, or a staging name (skip_failed)."""
-        if self.skip_failed:
+        """Where an attempt is written: its final name, or a staging name."""
+        if self.stages_files:
             staging = self.folder / STAGING
             staging.mkdir(exist_ok=True)
             return staging / f"attempt_{attempt}.hdf5", True
@@ -206,9 +230,9 @@ class DatasetRecorder:
     def _publish(self, outcome: EpisodeOutcome, index: int, report: RunReport) -> bool:
         """Account for one finished attempt; returns True when it became episode ``index``."""
         report.attempts += 1
-        if self.skip_failed:
+        if self.stages_files:
             assert outcome.path is not None
-            if not outcome.success:
+            if self.skip_failed and not outcome.success:
                 report.failed.append(outcome)
                 outcome.path.unlink(missing_ok=True)
                 self.log(

@@ -27,8 +27,11 @@ import argparse
 import signal
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION, GZIP_LEVEL
@@ -39,6 +42,9 @@ from trossen_arm_mujoco.errors import (
     run_cli,
     unknown_name_error,
 )
+
+if TYPE_CHECKING:
+    from trossen_arm_mujoco.collect.parallel import DatasetRecorder
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -101,8 +107,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--num_workers",
         type=int,
-        default=1,
-        help="worker processes; results are identical for any number (default: 1)",
+        default=None,
+        help="episodes recorded at once: local worker processes (default: 1), or with "
+        "--engine ray the Ray tasks in flight (default: the cluster's CPUs; also the CPUs "
+        "of a local Ray); results are identical for any number",
+    )
+    p.add_argument(
+        "--engine",
+        default="local",
+        choices=("local", "ray"),
+        help="where episodes run: local processes, or one Ray task each (default: local)",
+    )
+    p.add_argument(
+        "--ray_address",
+        default=None,
+        help="with --engine ray: 'auto', HOST:PORT or ray://HOST:PORT of a running Ray "
+        "cluster (default: start a local Ray on this machine)",
     )
     p.add_argument(
         "--overwrite",
@@ -211,21 +231,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise UserError(f"--num_episodes must be at least 1, got {num_episodes}")
     if episode_len < 1:
         raise UserError(f"--episode_len must be at least 1, got {episode_len}")
-    if args.num_workers < 1:
+    if args.num_workers is not None and args.num_workers < 1:
         raise UserError(f"--num_workers must be at least 1, got {args.num_workers}")
-    if onscreen and args.num_workers != 1:
-        raise UserError("--onscreen_render needs --num_workers 1")
+    if args.ray_address is not None and args.engine != "ray":
+        raise UserError("--ray_address needs --engine ray")
+    if onscreen and (args.engine != "local" or (args.num_workers or 1) != 1):
+        raise UserError("--onscreen_render needs --engine local and --num_workers 1")
+    if args.engine == "ray":
+        from trossen_arm_mujoco.collect.ray_session import import_ray
+
+        import_ray()  # fail now, with the install hint, when Ray is missing
     cams = _cameras(args.cam_names, args.task_name)
     height, width = _image_size(args.image_size)
     looks = _looks(args)
     folder = _writable_folder(args.root_dir, args.data_dir)
 
-    from trossen_arm_mujoco.collect.parallel import (
-        DatasetRecorder,
-        failure_summary,
-        format_size,
-        plan_run,
-    )
+    from trossen_arm_mujoco.collect.parallel import failure_summary, format_size, plan_run
     from trossen_arm_mujoco.collect.pipeline import RecordSettings, policy_minimum_episode_len
 
     settings = RecordSettings(
@@ -271,15 +292,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     start = time.perf_counter()
     try:
-        recorder = DatasetRecorder(
-            settings,
-            folder,
-            num_workers=args.num_workers,
-            skip_failed=args.skip_failed,
-            overwrite=args.overwrite,
-            step_hook=hook,
-        )
-        report = recorder.run(num_episodes, plan)
+        with _engine(args, hook) as make_recorder:
+            recorder = make_recorder(
+                settings, folder, skip_failed=args.skip_failed, overwrite=args.overwrite
+            )
+            report = recorder.run(num_episodes, plan)
     finally:
         signal.signal(signal.SIGTERM, previous)
         if viewer is not None and viewer[0] is not None:
@@ -316,6 +333,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         why = why and f"{why} (discarded)"
     print(f"Success: {report.successes} / {total}" + (f"; {why}" if why else ""))
     return 0
+
+
+@contextmanager
+def _engine(
+    args: argparse.Namespace, step_hook: Callable | None
+) -> Iterator[Callable[..., DatasetRecorder]]:
+    """A recorder factory for ``--engine``; with Ray, connected for the block's duration."""
+    from trossen_arm_mujoco.collect.parallel import DatasetRecorder
+
+    if args.engine == "local":
+        yield partial(DatasetRecorder, num_workers=args.num_workers or 1, step_hook=step_hook)
+        return
+    from trossen_arm_mujoco.collect.ray_engine import RayDatasetRecorder
+    from trossen_arm_mujoco.collect.ray_session import ray_session
+
+    with ray_session(args.ray_address, num_cpus=args.num_workers):
+        yield partial(RayDatasetRecorder, max_in_flight=args.num_workers)
 
 
 def _episodes(folder: Path):
