@@ -88,7 +88,9 @@ def test_local_ray_is_loopback_only(ray_instance):
         assert _loopback_or_any(remote), remote
     # the Ray processes find ray_bootstrap_config.yaml in HOME, so the head does not probe
     # the cloud-metadata address to label usage statistics
-    homes = {_environ(pid).get("HOME") for pid in pids} - {None}
+    # (only Ray's processes: the test session may have other children, e.g. a resource tracker)
+    ray_pids = {pid for pid in pids if b"ray" in _cmdline(pid)}
+    homes = {_environ(pid).get("HOME") for pid in ray_pids} - {None}
     assert homes and all(Path(h, "ray_bootstrap_config.yaml").is_file() for h in homes)
 
 
@@ -226,7 +228,8 @@ def test_record_cli_engine_ray(ray_instance, tmp_path, capsys):
     rc = cli([*args, "--cam_names", "none", "--num_episodes", "2", "--engine", "ray"])
     out = capsys.readouterr().out
     assert rc == 0, out
-    assert out.strip().splitlines()[-1] == "Success: 0 / 2"
+    # 20 steps are too short for the scripted transfer: both fail, and the line says why
+    assert out.strip().splitlines()[-1].startswith("Success: 0 / 2; 2 of 2 episodes failed")
     assert [k for k, _ in list_episodes(tmp_path / "d")] == [0, 1]
     assert ray_instance.is_initialized()  # the CLI used the running instance and left it
 
@@ -248,6 +251,13 @@ def _descendants(root: int) -> set[int]:
         frontier = {pid for pid, ppid in parents.items() if ppid in frontier} - found
         found |= frontier
     return found
+
+
+def _cmdline(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
 
 
 def _environ(pid: int) -> dict[str, str]:
