@@ -17,7 +17,7 @@ what the real-replay check saw.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -215,12 +215,26 @@ class EpisodeRecorder:
         Each step appends (observation before the action, action, reward after it) to
         ``writer``; the observation after the last action is not rendered.
         """
-        T = len(actions)
+        rewards = np.empty(len(actions))
+        for _ in self.replay_steps(actions, object_poses, rewards, writer):
+            if progress is not None:
+                progress()
+        return rewards
+
+    def replay_steps(
+        self,
+        actions: np.ndarray,
+        object_poses: dict,
+        rewards: np.ndarray,
+        writer: EpisodeWriter | None = None,
+    ) -> Iterator[int]:
+        """:meth:`replay`, one step per iteration: yields ``t`` after step ``t`` (rendered,
+        stepped, written; ``rewards[t]`` set), so a caller can interleave it with other
+        work (``benchmarks/record_episode.py`` times it against raw MuJoCo that way)."""
         task = self.joint_task = self.joint_sampler.sample_task(0, object_poses=object_poses)
         env = self.joint_sampler.env
-        rewards = np.empty(T)
         obs = task.get_observation()
-        for t in range(T):
+        for t in range(len(actions)):
             images = env.render_images() if writer is not None else {}
             task.step(KIT_LAYOUT.joint_commands(actions[t]))
             rewards[t] = task.get_reward()
@@ -236,9 +250,7 @@ class EpisodeRecorder:
             obs = task.get_observation()
             if self.step_hook is not None:
                 self.step_hook(t, obs, env)
-            if progress is not None:
-                progress()
-        return rewards
+            yield t
 
     def record(
         self,
