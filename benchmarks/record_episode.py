@@ -9,8 +9,10 @@
    write the step) with ``--compression none`` and with the default (gzip, compressed in
    background threads), against the raw floor: a plain ``mujoco.Renderer`` + ``mj_step``
    loop on the same scene (same model, initial state, controls, cameras and size) that does
-   nothing else. The three are interleaved ``--repeats`` times; the fastest of each counts
-   (the machine may be shared), and the ratio to the floor is printed per variant.
+   nothing else. The three run side by side, interleaved in blocks of ``--block`` steps
+   (rotating which goes first), so a shared machine's changing load hits all three alike;
+   wall and CPU time (all threads of the process) per step and their ratios to the floor
+   are printed.
 3. Size and write cost of every compression option and gzip level, rewriting the recorded
    frames: time spent in ``EpisodeWriter.append`` + ``close`` (reading the frames back is
    not counted) and the zlib CPU time per frame.
@@ -23,10 +25,11 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import statistics
 import tempfile
 import time
 import zlib
+from collections.abc import Iterator
+from itertools import islice
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -68,16 +71,6 @@ def _writer(recorder: EpisodeRecorder, path: Path, compression: str, poses) -> E
     )
 
 
-def phase2(recorder: EpisodeRecorder, actions, poses, path: Path, compression: str) -> float:
-    """Seconds of phase 2 (render, step, write every step, commit) with ``compression``."""
-    start = time.perf_counter()
-    with _writer(recorder, path, compression, poses) as writer:
-        recorder.replay(actions, poses, writer)
-    seconds = time.perf_counter() - start
-    path.unlink()
-    return seconds
-
-
 class RawFloor:
     """A bare ``mujoco.Renderer`` + ``mj_step`` loop on the joint env's model: same initial
     state, the controls phase 2 applied, the same cameras and size; nothing else."""
@@ -102,22 +95,52 @@ class RawFloor:
         s = recorder.settings
         self.cams, self.size = list(s.cam_names), (s.height, s.width)
 
-    def run(self) -> float:
+    def steps(self) -> Iterator[int]:
+        """Render every camera, then step, once per recorded step; yields the step."""
         model, spec = self.model, mujoco.mjtState.mjSTATE_FULLPHYSICS
         data = mujoco.MjData(model)
         mujoco.mj_setState(model, data, self.state, spec)
         mujoco.mj_forward(model, data)
-        renderer = mujoco.Renderer(model, *self.size)
-        start = time.perf_counter()
-        for ctrl in self.ctrls:
-            for cam in self.cams:
-                renderer.update_scene(data, camera=cam)
-                renderer.render()
-            data.ctrl[:] = ctrl
-            mujoco.mj_step(model, data, nstep=self.substeps)
-        seconds = time.perf_counter() - start
-        renderer.close()
-        return seconds
+        with mujoco.Renderer(model, *self.size) as renderer:
+            for t, ctrl in enumerate(self.ctrls):
+                for cam in self.cams:
+                    renderer.update_scene(data, camera=cam)
+                    renderer.render()
+                data.ctrl[:] = ctrl
+                mujoco.mj_step(model, data, nstep=self.substeps)
+                yield t
+
+
+def side_by_side(settings, actions, poses, out: Path, block: int) -> dict[str, tuple[float, float]]:
+    """{variant: (wall s, CPU s)} of the floor and phase 2 with ``none`` and the default
+    compression over the whole episode, interleaved in blocks of ``block`` steps."""
+    steps = len(actions)
+    recorders = {name: EpisodeRecorder(settings) for name in ("none", DEFAULT_COMPRESSION)}
+    floor = RawFloor(recorders["none"], actions, poses)
+    writers = {
+        name: _writer(rec, out / f"bench_{name}.hdf5", name, poses)
+        for name, rec in recorders.items()
+    }
+    runs: dict[str, Iterator[int]] = {"floor": floor.steps()}
+    for name, rec in recorders.items():
+        runs[name] = rec.replay_steps(actions, poses, np.empty(steps), writers[name])
+    totals = {name: [0.0, 0.0] for name in runs}
+    order = list(runs)
+    for b, first in enumerate(range(0, steps, block)):
+        for name in order[b % 3 :] + order[: b % 3]:
+            wall, cpu = time.perf_counter(), time.process_time()
+            for _ in islice(runs[name], min(block, steps - first)):
+                pass
+            if first + block >= steps and name in writers:
+                writers[name].close()  # the commit (pending chunks, fsync) counts too
+            totals[name][0] += time.perf_counter() - wall
+            totals[name][1] += time.process_time() - cpu
+    for run in runs.values():
+        run.close()
+    for name, rec in recorders.items():
+        (out / f"bench_{name}.hdf5").unlink()
+        rec.close()
+    return {name: (wall, cpu) for name, (wall, cpu) in totals.items()}
 
 
 def compression_table(path: Path, out_dir: Path) -> list[tuple[str, float, float, int]]:
@@ -146,10 +169,10 @@ def compression_table(path: Path, out_dir: Path) -> list[tuple[str, float, float
             for t in range(ep.num_steps):
                 images = frames.step(t)
                 if level and t % 10 == 0:  # zlib alone, single thread, every 10th step
-                    c0 = time.process_time()
+                    c0 = time.thread_time()  # this thread only, not the writer's
                     for frame in images.values():
                         zlib.compress(frame, level)
-                    zlib_cpu += time.process_time() - c0
+                    zlib_cpu += time.thread_time() - c0
                 start = time.perf_counter()
                 writer.append(
                     ep.qpos[t], ep.qvel[t], ep.action[t], ep.reward[t], ep.env_state[t], images
@@ -169,7 +192,9 @@ def main() -> None:
     parser.add_argument("--episode_len", type=int, default=600)
     parser.add_argument("--height", type=int, default=480)
     parser.add_argument("--width", type=int, default=640)
-    parser.add_argument("--repeats", type=int, default=2, help="interleaved runs of section 2")
+    parser.add_argument(
+        "--block", type=int, default=20, help="steps per turn in the side-by-side timing"
+    )
     parser.add_argument("--no_compression", action="store_true", help="skip the compression table")
     args = parser.parse_args()
     cams = list(STATIONARY_CAMERAS)
@@ -198,25 +223,19 @@ def main() -> None:
         )
 
         actions, poses = recorder.scripted_rollout(np.random.default_rng(episode_seed(0, 0)))
-        floor = RawFloor(recorder, actions, poses)
-        runs: dict[str, list[float]] = {"floor": [], "none": [], DEFAULT_COMPRESSION: []}
-        variants = list(runs)
-        for rep in range(args.repeats):
-            for name in variants[rep % 3 :] + variants[: rep % 3]:  # rotate the order
-                if name == "floor":
-                    runs[name].append(floor.run())
-                else:
-                    runs[name].append(phase2(recorder, actions, poses, out / "p2.hdf5", name))
         recorder.close()
-        best = {name: min(times) / steps for name, times in runs.items()}
-        print(f"per rendered step ({len(cams)} frames), best of {args.repeats} interleaved runs:")
-        for name, seconds in best.items():
+        times = side_by_side(settings, actions, poses, out, args.block)
+        floor_wall, floor_cpu = (v / steps for v in times["floor"])
+        print(
+            f"per rendered step ({len(cams)} frames), side by side in blocks of {args.block} "
+            f"steps, load average now {os.getloadavg()[0]:.1f}:"
+        )
+        for name, (wall, cpu) in times.items():
+            wall, cpu = wall / steps, cpu / steps
             label = "raw floor (Renderer + mj_step)" if name == "floor" else f"phase 2, {name}"
-            median = statistics.median(runs[name]) / steps
             print(
-                f"  {label:32s} {seconds * 1e3:7.1f} ms (median {median * 1e3:7.1f})  "
-                f"ratio to floor {seconds / best['floor']:.3f} "
-                f"(median {median / (statistics.median(runs['floor']) / steps):.3f})"
+                f"  {label:32s} wall {wall * 1e3:7.1f} ms  ratio {wall / floor_wall:.3f}   "
+                f"CPU {cpu * 1e3:7.1f} ms  ratio {cpu / floor_cpu:.3f}"
             )
         print(
             "vendor package, same settings, measured on a 2-core CPU: 38 min 13 s "
@@ -224,14 +243,18 @@ def main() -> None:
         )
         if not args.no_compression:
             print(f"compression (rewrite of the recorded frames, {steps} steps):")
-            print("  option   write (s)  zlib CPU/frame (ms)  size (MB)  size/raw")
+            print(
+                "  option   write (s)  zlib CPU/frame (ms)  zlib CPU/episode (s)  size (MB)  "
+                "size/raw"
+            )
             rows = compression_table(out / "episode_0.hdf5", out)
             raw = next(r[3] for r in rows if r[0] == "none")
             for label, seconds, cpu_ms, nbytes in rows:
                 cpu = f"{cpu_ms:8.2f}" if cpu_ms else "       -"
+                per_episode = f"{cpu_ms * frames / 1e3:8.1f}" if cpu_ms else "       -"
                 print(
-                    f"  {label:7s} {seconds:9.1f}  {cpu:>19s}  {nbytes / 1e6:9.1f}  "
-                    f"{nbytes / raw:7.3f}"
+                    f"  {label:7s} {seconds:9.1f}  {cpu:>19s}  {per_episode:>20s}  "
+                    f"{nbytes / 1e6:9.1f}  {nbytes / raw:7.3f}"
                 )
 
 

@@ -149,6 +149,7 @@ def test_folder_removed_mid_episode_is_reported_not_recreated(tmp_path):
     assert not folder.exists()
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="RLIMIT_FSIZE, SIGXFSZ")
 @pytest.mark.parametrize("compression", ["none", "gzip"])
 def test_real_write_failure_from_the_os(tmp_path, compression):
     """A real refused write (file size limit: EFBIG from write(2)) through h5py: one-line

@@ -155,6 +155,7 @@ def test_folder_removed_mid_run(tmp_path, capsys, monkeypatch):
     assert "episode 0: " in out
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="RLIMIT_FSIZE, SIGXFSZ")
 def test_real_file_size_limit_with_two_workers(tmp_path):
     """A real refused write (EFBIG from write(2), RLIMIT_FSIZE) inside worker processes."""
 

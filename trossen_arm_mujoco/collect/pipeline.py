@@ -23,7 +23,7 @@ what the real-replay check saw.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -236,16 +236,31 @@ class EpisodeRecorder:
         ``writer``; the observation after the last action is not rendered. The scene is
         randomized as ``randomization`` says (default: as in the last scripted rollout).
         """
-        T = len(actions)
+        rewards = np.empty(len(actions))
+        for _ in self.replay_steps(actions, object_poses, rewards, writer, randomization):
+            if progress is not None:
+                progress()
+        return rewards
+
+    def replay_steps(
+        self,
+        actions: np.ndarray,
+        object_poses: dict,
+        rewards: np.ndarray,
+        writer: EpisodeWriter | None = None,
+        randomization: dict | None = None,
+    ) -> Iterator[int]:
+        """:meth:`replay`, one step per iteration: yields ``t`` after step ``t`` (rendered,
+        stepped, written; ``rewards[t]`` set), so a caller can interleave it with other
+        work (``benchmarks/record_episode.py`` times it against raw MuJoCo that way)."""
         if randomization is None:
             randomization = self.last_randomization
         task = self.joint_task = self.joint_sampler.next_task(
             0, object_poses=object_poses, randomization=randomization
         )
         env = self.joint_sampler.env
-        rewards = np.empty(T)
         obs = task.get_observation()
-        for t in range(T):
+        for t in range(len(actions)):
             images = env.render_images() if writer is not None else {}
             task.step(KIT_LAYOUT.joint_commands(actions[t]))
             rewards[t] = task.get_reward()
@@ -261,9 +276,7 @@ class EpisodeRecorder:
             obs = task.get_observation()
             if self.step_hook is not None:
                 self.step_hook(t, obs, env)
-            if progress is not None:
-                progress()
-        return rewards
+            yield t
 
     def record(
         self,
