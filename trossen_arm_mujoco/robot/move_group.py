@@ -30,8 +30,8 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.robot.binding import DataBound
 from trossen_arm_mujoco.robot.checks import (
-    check_data_fits,
     check_velocity_limits,
     finite,
     model_and_data,
@@ -49,7 +49,7 @@ _POS_DIM = {_FREE: 7, _BALL: 4, _SLIDE: 1, _HINGE: 1}
 _VEL_DIM = {_FREE: 6, _BALL: 3, _SLIDE: 1, _HINGE: 1}
 
 
-class MoveGroup:
+class MoveGroup(DataBound):
     """Joints of one robot that move together.
 
     Args:
@@ -119,25 +119,12 @@ class MoveGroup:
         if data is not None:
             self.bind(data)
 
-    # -- binding -------------------------------------------------------------------------
-    def bind(self, data: mujoco.MjData) -> None:
-        """Read and write ``data`` from now on (``joint_pos``, ``ctrl``, frames, ...)."""
-        check_data_fits(self.model, data, f"move group '{self.name}'")
-        self._data = data
+    # -- binding (DataBound) -------------------------------------------------------------
+    def _binding_name(self) -> str:
+        return f"move group '{self.name}'"
 
-    @property
-    def is_bound(self) -> bool:
-        return self._data is not None
-
-    @property
-    def data(self) -> mujoco.MjData:
-        """The ``MjData`` the group is bound to (a UserError when it is not)."""
-        if self._data is None:
-            raise UserError(
-                f"move group '{self.name}' is not bound to an MjData: build it from the data, "
-                "bind it (group.bind(data)), or use RobotView(data, groups)"
-            )
-        return self._data
+    def _binding_hint(self) -> str:
+        return "build it from the data, bind it (group.bind(data)), or use RobotView(data, groups)"
 
     # -- sizes and indices ---------------------------------------------------------------
     def set_velocity_limits(self, limits: Sequence[float] | None) -> None:

@@ -17,11 +17,12 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.base_group import RobotBaseGroup
-from trossen_arm_mujoco.robot.checks import check_data_fits, model_and_data
+from trossen_arm_mujoco.robot.binding import DataBound
+from trossen_arm_mujoco.robot.checks import model_and_data
 from trossen_arm_mujoco.robot.move_group import MJCFFrameMixin, MoveGroup
 
 
-class RobotView:
+class RobotView(DataBound):
     """Named move groups of one robot; reads and writes qpos/ctrl by group name.
 
     Args:
@@ -37,27 +38,19 @@ class RobotView:
         if data is not None:
             self.bind(data)
 
-    # -- binding -------------------------------------------------------------------------
-    def bind(self, data: mujoco.MjData) -> None:
-        """Bind the view and every move group to ``data``."""
-        check_data_fits(self.model, data, "robot view")
+    # -- binding (DataBound) -------------------------------------------------------------
+    def _binding_name(self) -> str:
+        return "robot view"
+
+    def _binding_hint(self) -> str:
+        return (
+            "build it as RobotView(data, groups), call view.bind(data), or pass the data "
+            "to the call"
+        )
+
+    def _bind_members(self, data: mujoco.MjData) -> None:
         for group in self.move_groups.values():
             group.bind(data)
-        self._data = data
-
-    @property
-    def is_bound(self) -> bool:
-        return self._data is not None
-
-    @property
-    def data(self) -> mujoco.MjData:
-        """The bound ``MjData`` (a UserError when the view is not bound)."""
-        if self._data is None:
-            raise UserError(
-                "robot view is not bound to an MjData: build it as RobotView(data, groups), "
-                "call view.bind(data), or pass the data to the call"
-            )
-        return self._data
 
     # -- groups --------------------------------------------------------------------------
     def move_group_ids(self) -> list[str]:
