@@ -125,3 +125,10 @@ def test_sampler_owns_and_closes_its_env():
         s.env.render_images()
         assert s.env.cameras._renderer is not None
     assert s.env.cameras._renderer is None
+
+
+@pytest.mark.parametrize("value", ["yes", 1, None])
+def test_randomize_must_be_a_bool(value):
+
+    with pytest.raises(UserError, match="randomize must be True or False"):
+        registry.make_sampler("reach", randomize=value)

@@ -91,6 +91,8 @@ class TaskSampler:
     ):
         self.config = dict(config)
         self.rng = as_generator(seed)
+        if not isinstance(randomize, (bool, np.bool_)):
+            raise UserError(f"randomize must be True or False, got {randomize!r}")
         self.randomize = bool(randomize)
         #: record of the randomization of the current episode (None: nominal scene).
         self.randomization: dict[str, Any] | None = None
