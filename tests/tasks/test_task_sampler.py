@@ -129,6 +129,5 @@ def test_sampler_owns_and_closes_its_env():
 
 @pytest.mark.parametrize("value", ["yes", 1, None])
 def test_randomize_must_be_a_bool(value):
-
     with pytest.raises(UserError, match="randomize must be True or False"):
         registry.make_sampler("reach", randomize=value)
