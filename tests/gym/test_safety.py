@@ -98,15 +98,40 @@ def test_elbow_into_the_table_is_clipped_and_reported(make_env):
     assert kin.site_position(data.qpos, ELBOW_DOWN)[2] > floor.floor_z + 0.1
     z, body = floor.lowest(data.qpos, "arm", ELBOW_DOWN)
     assert z < floor.floor_z - 0.05 and floor.link_name(body) == "link_4"
-    commands, clipped = u.actions(data, _joint_action(env, ELBOW_DOWN))
-    assert clipped and u.actions.clipped_links == ["link_4"]
-    assert floor.lowest(data.qpos, "arm", commands["arm"])[0] >= floor.floor_z
-    _, _, _, _, info = env.step(_joint_action(env, ELBOW_DOWN))
-    assert info["safety_clipped"] and info["safety_links"] == "link_4"
-    for _ in range(60):  # hold the command for 1.2 s: the arm never reaches the table
+    # the arm moves toward the target at its speed limits (the fast wrist first, so the path
+    # is not the straight one) until a step would take a link under the floor; from then on
+    # every step is held and reported
+    reports = []
+    for _ in range(80):
         _, _, _, _, info = env.step(_joint_action(env, ELBOW_DOWN))
+        reports.append(info["safety_links"] if info["safety_clipped"] else "")
         assert floor.lowest(data.qpos, "arm")[0] > floor.floor_z - 0.005
-    assert info["safety_clipped"]
+    assert reports[0] == "" and all(reports[-20:])
+    commands, clipped = u.actions(data, _joint_action(env, ELBOW_DOWN))
+    assert clipped and u.actions.clipped_links == [reports[-1]]
+    assert floor.lowest(data.qpos, "arm", commands["arm"])[0] >= floor.floor_z
+
+
+def test_the_floor_checks_where_the_joint_targets_end_the_step(make_env, monkeypatch):
+    """What the floor checks is exactly the joint target the controller reaches in the step
+    (the applied control moved toward the commanded target at the speed limits)."""
+    env = make_env(REACH, action_mode="joint_position")
+    env.reset(seed=0)
+    u = env.unwrapped
+    checked = []
+    below = u.actions.floor.below
+
+    def spy(qpos, targets):
+        checked.append(targets["arm"].copy())
+        return below(qpos, targets)
+
+    monkeypatch.setattr(u.actions.floor, "below", spy)
+    arm = u.task.arm
+    far = arm.get_qpos(u.scene.data) + np.array([1.0, -1.0, 1.0, -2.0, 2.0, -2.0])
+    for _ in range(3):
+        env.step(_joint_action(env, far))
+        assert np.array_equal(checked[-1], arm.get_ctrl(u.scene.data))
+    assert not np.allclose(checked[-1], np.clip(far, *arm.ctrl_limits()))  # not the target
 
 
 def test_normal_action_is_not_clipped(make_env):
@@ -142,21 +167,22 @@ def test_an_arm_below_the_floor_may_move_up_but_not_down(make_env):
     u = env.unwrapped
     data, arm, floor = u.scene.data, u.task.arm, u.actions.floor
     below = ELBOW_DOWN.copy()
-    arm.set_qpos(data, below)  # put it there (as a collision could)
+    arm.set_qpos(data, below)  # put it there (as a collision could), holding it
     mujoco.mj_forward(u.scene.model, data)
+    u.task.robot.hold(data)
     z_now = floor.lowest(data.qpos, "arm")[0]
     assert z_now < floor.floor_z
     up = below + [0.0, -0.3, -0.3, 0.0, 0.0, 0.0]  # shoulder and elbow back: no point sinks
     _, clipped = u.actions(data, _joint_action(env, up))
     assert not clipped
-    # shoulder back alone lifts the lowest link, but takes the wrist (above the floor now)
-    # below it: every point counts, not only the lowest
+    # the rule on whole moves (``_safe_fraction``): shoulder back alone lifts the lowest
+    # link, but takes the wrist (above the floor now) below it: every point counts
     z_before = floor.heights(data.qpos, "arm")
     wrist_down = below + [0.0, -0.3, 0.0, 0.0, 0.0, 0.0]
     z_after = floor.heights(data.qpos, "arm", wrist_down)
     assert z_after.min() > z_now and ((z_after < floor.floor_z) & (z_before >= floor.floor_z)).any()
-    _, clipped = u.actions(data, _joint_action(env, wrist_down))
-    assert clipped and u.actions.clipped_links
+    fraction, link = u.actions._safe_fraction(data, arm, below, wrist_down)
+    assert fraction < 1 and link
     further = below + [0.0, 0.1, 0.0, 0.0, 0.0, 0.0]
     commands, clipped = u.actions(data, _joint_action(env, further))
     assert clipped and floor.lowest(data.qpos, "arm", commands["arm"])[0] >= z_now - 1e-9
@@ -175,27 +201,27 @@ def test_ee_delta_down_reports_the_link(make_env):
 
 
 @pytest.mark.parametrize("env_id", [REACH, "TrossenMujoco/StationaryAITransferCube-v0"])
-def test_surely_above_never_accepts_a_move_the_exact_check_rejects(make_env, env_id):
-    """The FK-free bound is conservative: over random states and moves, whenever it says
-    "safe", forward kinematics puts every point of the arm above the floor; and it does
-    skip the exact check for small moves high above the table."""
+def test_below_flags_exactly_the_arms_with_a_point_under_the_floor(make_env, env_id):
+    """``below`` (one FK pass for every arm) agrees with forward kinematics arm by arm, over
+    random states and targets, and leaves the caller's data alone."""
     env = make_env(env_id)
     env.reset(seed=0)
     base = env.unwrapped
-    floor, model, data = base.actions.floor, base.scene.model, base.scene.data
+    floor, data = base.actions.floor, base.scene.data
+    view = base.task.robot.view
     rng = np.random.default_rng(3)
-    accepted = 0
-    for trial in range(300):
-        arm_name = rng.choice(sorted(floor.arms))
-        arm = base.task.robot.view.group(arm_name)
-        low, high = arm.joint_range[:, 0], arm.joint_range[:, 1]
-        arm.set_qpos(data, rng.uniform(low, high))
-        data.qvel[:] = rng.normal(0.0, 0.5, model.nv)
-        mujoco.mj_forward(model, data)
-        scale = 0.02 if trial % 2 else 0.3
-        dq = rng.uniform(-scale, scale, len(low))
-        if floor.surely_above(data, arm_name, dq):
-            accepted += 1
-            z, _ = floor.lowest(data.qpos, arm_name, arm.get_qpos(data) + dq)
-            assert z >= floor.floor_z
-    assert accepted > 30  # the shortcut does its job
+    flagged = 0
+    for _ in range(200):
+        targets = {}
+        for name in sorted(floor.arms):
+            low, high = view.group(name).joint_range.T
+            targets[name] = rng.uniform(low, high)
+        qpos = data.qpos.copy()
+        below = floor.below(data.qpos, targets)
+        assert np.array_equal(data.qpos, qpos)
+        for name, q in targets.items():
+            moving = ~floor.arms[name].fixed_height
+            z = floor.heights(data.qpos, name, q)[moving]
+            assert (name in below) == bool(z.min() < floor.floor_z)
+            flagged += name in below
+    assert 0 < flagged < 200 * len(floor.arms)

@@ -33,12 +33,34 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.safety import SafetyFloor
 from trossen_arm_mujoco.robot.kinematics import Kinematics, orientation_error
 from trossen_arm_mujoco.robot.robot import Robot
+from trossen_arm_mujoco.robot.selection import as_slice
 
 ACTION_MODES = ("joint_position", "joint_rel_position", "ee_delta")
 #: rotation correction per step when holding the tool orientation (rad).
 MAX_ROTATION_STEP = 0.2
 #: fractions of a joint move tried when the full move would cross the safety floor.
 BACKOFF = (0.5, 0.25, 0.125, 0.0)
+
+
+class _ArmPart:
+    """One arm and its gripper in the action vector, with what the joint modes need, looked
+    up once: action slices, model index selections, control ranges, and how far the joint
+    targets may travel in one policy step (the speed limits times ``policy_dt``)."""
+
+    def __init__(self, robot: Robot, arm, gripper, start: int, size: int, n_ticks: int):
+        self.arm, self.gripper = arm, gripper
+        self.arm_values = slice(start, start + size - 1)
+        self.grip_value = slice(start + size - 1, start + size)
+        self.qpos_sel = as_slice(arm.qpos_idx)
+        self.ctrl_sel = as_slice(arm.actuator_ids)
+        self.low, self.high = arm.ctrl_limits()
+        self.a_mid, self.a_half = 0.5 * (self.low + self.high), 0.5 * (self.high - self.low)
+        g_low, g_high = gripper.ctrl_limits()
+        self.g_mid, self.g_half = 0.5 * (g_low + g_high), 0.5 * (g_high - g_low)
+        limits = arm.velocity_limits
+        per_tick = np.full(len(self.low), np.inf) if limits is None else limits * robot.ctrl_dt
+        self.travel = per_tick * n_ticks
+        self.neg_travel = -self.travel
 
 
 class ActionMapper:
@@ -81,17 +103,19 @@ class ActionMapper:
         arm_dim = 3 if mode == "ee_delta" else 6
         self.sizes = [arm_dim + 1 for _ in self.arms]
         self.dim = sum(self.sizes)
-        # per arm, looked up once: action slices, and the centre and half-width of the arm's
-        # and the gripper's control ranges ([-1, 1] maps onto centre -/+ half-width)
-        self._parts = []
-        start = 0
+        # per arm, looked up once (see _ArmPart); and the centre and half-width of every
+        # action value's control range ([-1, 1] maps onto centre -/+ half-width) for the
+        # joint modes, whose arm values are controls too
+        n_ticks = int(round(float(config["policy_dt"]) / robot.ctrl_dt))
+        self._parts: list[_ArmPart] = []
+        mids, halves, start = [], [], 0
         for (arm, gripper), size in zip(self.arms, self.sizes, strict=True):
-            a_low, a_high = arm.ctrl_limits()
-            g_low, g_high = gripper.ctrl_limits()
-            self._parts.append((arm, gripper, start, start + size - 1,
-                                0.5 * (a_low + a_high), 0.5 * (a_high - a_low),
-                                0.5 * (g_low + g_high), 0.5 * (g_high - g_low)))  # fmt: skip
+            part = _ArmPart(robot, arm, gripper, start, size, n_ticks)
+            self._parts.append(part)
+            mids += [part.a_mid if mode != "ee_delta" else np.zeros(size - 1), part.g_mid]
+            halves += [part.a_half if mode != "ee_delta" else np.ones(size - 1), part.g_half]
             start += size
+        self._mid, self._half = np.concatenate(mids), np.concatenate(halves)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Action bounds: -1 and +1, float32 (dim,)."""
@@ -112,37 +136,54 @@ class ActionMapper:
         if not math.isfinite(a @ a) and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
         a = np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip(a, -1, 1), without its overhead
+        scaled = self._mid + self._half * a  # onto the control ranges (ee_delta arm: as is)
+        # per arm: the command, and the joints now and at the end of the step it asks for
+        steps = [
+            self._ee_delta(data, part, scaled) if self.mode == "ee_delta"
+            else self._joint_step(data, part, scaled, a)
+            for part in self._parts
+        ]  # fmt: skip
+        # one forward kinematics pass for every arm; the exact rule only for an arm whose
+        # step ends with a point below the floor
+        below = self.floor.below(data.qpos, {p.arm.name: s[2] for p, s in zip(self._parts, steps)})
         commands: dict[str, np.ndarray] = {}
         links = self.clipped_links = []
-        for arm, gripper, start, grip, a_mid, a_half, g_mid, g_half in self._parts:
-            cmd, link = self._arm_command(data, arm, a[start:grip], a_mid, a_half)
-            commands[arm.name] = cmd
+        for part, (cmd, q_now, end, link) in zip(self._parts, steps):
+            if part.arm.name in below:
+                fraction, held = self._safe_fraction(data, part.arm, q_now, end)
+                if held:
+                    cmd, link = self._shorten(cmd, q_now, end, fraction), held
+            commands[part.arm.name] = cmd
             if link:
                 links.append(link)
-            commands[gripper.name] = g_mid + g_half * a[grip : grip + 1]
+            commands[part.gripper.name] = scaled[part.grip_value]
         return commands, bool(links)
 
-    # -- per mode -------------------------------------------------------------------------
-    def _arm_command(self, data, arm, a, mid, half) -> tuple[np.ndarray, str]:
-        """(command, name of the link the floor held up or "")."""
-        if self.mode == "ee_delta":
-            return self._ee_delta(data, arm, a)
-        q_now = arm.get_qpos(data)
+    # -- per mode: (command, joints now, joints at the end of the step, link held or "") ---
+    def _joint_step(self, data, part: _ArmPart, scaled, a) -> tuple:
+        """Joint modes. ``scaled``, ``a``: the whole action on the control ranges (rad) and
+        in [-1, 1]. The end of the step is where the arm's joint targets will be: the
+        controller moves them from the applied control toward the commanded target by at
+        most the joint speed limits times ``policy_dt``."""
+        q_now = data.qpos[part.qpos_sel]
         if self.mode == "joint_position":
-            move = None
-            target = mid + half * a
-        else:
-            move = a * self.rel_limit
-            target = q_now + move
-        fraction, link = self._safe_fraction(data, arm, q_now, target)
-        if not link:
-            return (target if move is None else move), ""
-        target = q_now + fraction * (target - q_now)
-        return (target if move is None else target - q_now), link
+            cmd = target = scaled[part.arm_values]
+        else:  # joint_rel_position: [-1, 1] times joint_rel_limit, from the joints now
+            cmd = a[part.arm_values] * self.rel_limit
+            target = q_now + cmd
+        current = data.ctrl[part.ctrl_sel]
+        end = target - current
+        np.minimum(np.maximum(end, part.neg_travel, out=end), part.travel, out=end)
+        end += current
+        np.minimum(np.maximum(end, part.low, out=end), part.high, out=end)
+        return cmd, q_now, end, ""
 
-    def _ee_delta(self, data, arm, a: np.ndarray) -> tuple[np.ndarray, str]:
+    def _ee_delta(self, data, part: _ArmPart, scaled) -> tuple:
+        """``ee_delta``: the tool frame's target height clamped to the floor; the end of the
+        step is the joint target of the IK step the controller will take."""
+        arm = part.arm
         z = data.site_xpos[arm.frame_site_id, 2]
-        delta = a * self.ee_limit
+        delta = scaled[part.arm_values] * self.ee_limit
         link = ""
         if z + delta[2] < self.floor_z:
             delta[2] = min(self.floor_z - z, self.ee_limit)
@@ -153,13 +194,15 @@ class ActionMapper:
             ref = self.ref_quat.get(arm.name, quat)
             rot = np.clip(orientation_error(ref, quat), -MAX_ROTATION_STEP, MAX_ROTATION_STEP)
             twist = np.concatenate([delta, rot])
-        # the joint target the controller's IK step will aim for, checked link by link
-        q_now = arm.get_qpos(data)
-        target = self.kin[arm.name].delta_step(data.qpos, twist)
-        fraction, held = self._safe_fraction(data, arm, q_now, target)
-        if held:
-            return twist * fraction, held
-        return twist, link
+        q_now = data.qpos[part.qpos_sel]
+        return twist, q_now, self.kin[arm.name].delta_step(data.qpos, twist), link
+
+    def _shorten(self, cmd, q_now, end, fraction: float) -> np.ndarray:
+        """The command that takes ``fraction`` of the step from the joints now."""
+        if self.mode == "ee_delta":
+            return cmd * fraction  # the twist, scaled
+        safe = q_now + fraction * (end - q_now)
+        return safe if self.mode == "joint_position" else safe - q_now
 
     def _safe_fraction(self, data, arm, q_now, target) -> tuple[float, str]:
         """(Largest tried fraction of the move that keeps the arm's links above the floor (see
@@ -167,8 +210,6 @@ class ActionMapper:
         not 1, else "")."""
         floor, name = self.floor, arm.name
         z_now, lag = floor.now(data, name)  # body poses of data: no forward kinematics
-        if floor.surely_above_from(name, z_now, lag, target - q_now):
-            return 1.0, ""
         body = floor.offender(name, floor.heights(data.qpos, name, target), z_now, lag)
         if body < 0:
             return 1.0, ""

@@ -18,24 +18,28 @@ on a private ``MjData`` (the caller's data is never written) and returns the low
 A move breaks the floor when a point ends below the floor and lower than it is now (a point
 already below it, e.g. next to the shoulder, may stay or rise).
 
-``surely_above(data, arm, dq)`` answers most checks without forward kinematics: a point p
-cannot move further than ``sum_i |dq_i| * reach[p, i]`` for a joint move ``dq``, where
-``reach[p, i]`` bounds p's distance from joint i's anchor in any configuration (the lengths
-along the kinematic chain, added up; 0 for joints that do not move p, and for a vertical
-first joint, which moves nothing up or down). When every point now (from the caller's body
-poses), less its bound, is still above the floor, the move is safe and the exact check is
-skipped.
+``below(qpos, targets)`` is the common check: one forward kinematics pass with every arm
+at its target, and the arms with a point below the floor. Only those go through the exact
+rule (``now``, ``heights``, ``offender``). ``now`` takes the heights before the move from the
+caller's body poses, which lag ``qpos`` by one physics step; ``reach[p, i]`` bounds how far
+point p moves per radian of joint i in any configuration (the lengths along the kinematic
+chain, added up; 0 for joints that do not move p, and for a vertical first joint, which
+moves nothing up or down), which bounds that lag.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.robot.selection import as_slice
+
 #: Sides of the polygons standing in for cylinder end discs.
 CYLINDER_SIDES = 16
+#: Extra slack (m) on the one-step lag of the body poses (``SafetyFloor.now``): the fingers.
+LAG_SLACK = 1e-3
 
 
 def _box_corners(half: np.ndarray) -> np.ndarray:
@@ -79,13 +83,6 @@ def _subtree(model: mujoco.MjModel, root: int) -> list[int]:
     return out
 
 
-def _as_slice(idx: np.ndarray) -> slice | np.ndarray:
-    """A slice for consecutive indices (cheaper to read and write through), else them."""
-    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
-        return slice(int(idx[0]), int(idx[0]) + len(idx))
-    return idx
-
-
 class _ArmPoints:
     """Points of one arm in its bodies' frames, as one matrix: the lowest point is one
     product with the bodies' poses.
@@ -123,12 +120,14 @@ class _ArmPoints:
         self.vector = np.zeros(4 * k_bodies + 1)
         self.vector[-1] = 1.0
         self._per_body = self.vector[:-1].reshape(k_bodies, 4)  # a view: filled in place
-        self.body_sel = _as_slice(self.bodies)
-        self.qpos_sel = _as_slice(np.asarray(group.qpos_idx, dtype=int))
-        self.dof_sel = _as_slice(np.asarray(group.dof_idx, dtype=int))
+        self.body_sel = as_slice(self.bodies)
+        self.qpos_sel = as_slice(np.asarray(group.qpos_idx, dtype=int))
+        self.dof_sel = as_slice(np.asarray(group.dof_idx, dtype=int))
         self.reach = _joint_reach(model, group.joint_ids, self.bodies, self.matrix, self.owner)
         #: points no arm joint moves up or down (their height never changes)
         self.fixed_height = ~self.reach.any(axis=1)
+        # the rows of the points that can move up or down (fixed ones never break the floor)
+        self.moving_matrix = self.matrix[~self.fixed_height]
 
     def heights(self, data: mujoco.MjData) -> np.ndarray:
         """World z (m) of every point's lowest reach at ``data``'s body poses, (N,)."""
@@ -136,6 +135,13 @@ class _ArmPoints:
         per_body[:, :3] = data.xmat[sel, 6:9]
         per_body[:, 3] = data.xpos[sel, 2]
         return self.matrix @ self.vector
+
+    def moving_heights(self, data: mujoco.MjData) -> np.ndarray:
+        """``heights`` of the points an arm joint can move up or down, (M,)."""
+        per_body, sel = self._per_body, self.body_sel
+        per_body[:, :3] = data.xmat[sel, 6:9]
+        per_body[:, 3] = data.xpos[sel, 2]
+        return self.moving_matrix @ self.vector
 
     def lowest(self, data: mujoco.MjData) -> tuple[float, int]:
         """(lowest world z (m), body id of that point) at ``data``'s body poses."""
@@ -271,22 +277,21 @@ class SafetyFloor:
         for the fingers.
         """
         pts = self.arms[arm]
-        lag = pts.reach @ (np.abs(data.qvel[pts.dof_sel]) * self._dt) + 1e-3
+        lag = pts.reach @ (np.abs(data.qvel[pts.dof_sel]) * self._dt) + LAG_SLACK
         return pts.heights(data), lag
 
-    def surely_above(self, data: mujoco.MjData, arm: str, dq: np.ndarray) -> bool:
-        """True when moving ``arm``'s joints by ``dq`` (rad) from the state of ``data`` cannot
-        take any of its points below the floor (no forward kinematics; False means "check")."""
-        z_now, lag = self.now(data, arm)
-        return self.surely_above_from(arm, z_now, lag, dq)
-
-    def surely_above_from(
-        self, arm: str, z_now: np.ndarray, lag: np.ndarray, dq: np.ndarray
-    ) -> bool:
-        """``surely_above`` from the result of ``now``."""
-        pts = self.arms[arm]
-        drop = pts.reach @ np.abs(dq) + lag
-        return bool((((z_now - drop) >= self.floor_z) | pts.fixed_height).all())
+    def below(self, qpos_full: np.ndarray, targets: Mapping[str, np.ndarray]) -> list[str]:
+        """The arms of ``targets`` (arm -> joints (rad)) with a point that can move up or
+        down below the floor when every arm is at its target, at ``qpos_full`` (nq,) for
+        the rest: one forward kinematics pass on the private ``MjData`` for all of them."""
+        data = self._data
+        data.qpos[:] = qpos_full
+        arms = self.arms
+        for arm, q in targets.items():
+            data.qpos[arms[arm].qpos_sel] = q
+        mujoco.mj_kinematics(self.model, data)
+        floor = self.floor_z
+        return [arm for arm in targets if arms[arm].moving_heights(data).min() < floor]
 
     def link_name(self, body: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"

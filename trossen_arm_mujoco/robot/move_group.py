@@ -39,6 +39,7 @@ from trossen_arm_mujoco.robot.checks import (
 )
 from trossen_arm_mujoco.robot.frames import frame_jacobian, frame_transform, relative
 from trossen_arm_mujoco.robot.limits import Limits, frozen
+from trossen_arm_mujoco.robot.selection import as_slice
 
 if TYPE_CHECKING:
     from trossen_arm_mujoco.robot.base_group import RobotBaseGroup
@@ -371,9 +372,7 @@ class SimplyActuatedMoveGroup(MoveGroup):
             frozen(self._ctrl_range[:, 0]),
             frozen(self._ctrl_range[:, 1]),
         )
-        ids = self.actuator_ids
-        contiguous = len(ids) > 0 and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids)))
-        self._ctrl_sel = slice(int(ids[0]), int(ids[0]) + len(ids)) if contiguous else ids
+        self._ctrl_sel = as_slice(self.actuator_ids)
 
     @property
     def ctrl_dim(self) -> int:

@@ -13,6 +13,12 @@ from trossen_arm_mujoco.robot.checks import model_and_data
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import Controller, make_controller
 from trossen_arm_mujoco.robot.frames import as_transform, invert
+from trossen_arm_mujoco.robot.joint_target_batch import (
+    JointTargetBatch,
+    batch_key,
+    batchable,
+    split_batchable,
+)
 from trossen_arm_mujoco.robot.move_group import MJCFFrameMixin, MocapArmGroup
 from trossen_arm_mujoco.robot.parallel_kinematics import ParallelKinematics
 from trossen_arm_mujoco.robot.robot_kinematics import RobotKinematics
@@ -73,6 +79,10 @@ class Robot:
         self._commands: dict[str, np.ndarray] = {}
         # resolved relative commands not yet reached: (target, target within ctrl limits)
         self._targets: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        # plain joint_position commands batched, and the other commanded ids (see _make_batch)
+        self._batch: tuple[JointTargetBatch | None, list[str]] | None = None
+        self._splits: dict[tuple[str, ...], tuple[tuple[str, ...], list[str]]] = {}
+        self._batches: dict[tuple[str, ...], JointTargetBatch] = {}
         self._kinematics: RobotKinematics | None = None
         self._parallel: dict[tuple[str, tuple[str, ...]], ParallelKinematics] = {}
         if bound is not None or data is not None:
@@ -148,35 +158,69 @@ class Robot:
             if name not in self.controllers:
                 raise unknown_name_error("controlled move group", name, self.controllers)
             self._commands[name] = self.controllers[name]._check(cmd)
+        self._batch = None  # rebuilt from the new commands by the next compute_control
 
     def compute_control(self, data: mujoco.MjData | None = None) -> dict[str, np.ndarray]:
         """Compute and apply the controls of the commanded groups (in ``data``, default the
-        bound data); returns them by group."""
+        bound data); returns them by group.
+
+        Plain ``joint_position`` groups are rate-limited together, as one vector
+        (``JointTargetBatch``, built once per new set of commands); the others one by one.
+        """
         if data is None:
             data = self.view.data
-        out = {}
+        out: dict[str, np.ndarray] = {}
         controllers = self.controllers
         if self._commands:
-            for name, cmd in list(self._commands.items()):
+            batch = self._batch
+            if batch is None:
+                batch = self._batch = self._make_batch()
+            if batch[0] is not None:
+                out = batch[0].apply(data)
+            for name in batch[1]:
                 controller = controllers[name]
-                if controller.ctrl_dt is None:
-                    controller.ctrl_dt = self.ctrl_dt
-                target = controller._target(data, cmd)  # cmd was checked by update_control
+                target = controller._target(data, self._commands[name])  # checked already
                 if controller.relative:  # applied once: its target holds until reached
                     group = controller.group
                     reached = np.minimum(np.maximum(target, group._ctrl_low), group._ctrl_high)
                     self._targets[name] = (target, reached)
                     del self._commands[name]
+                    self._batch = None
                 else:
-                    out[name] = controller.limit(data, target)
+                    ctrl = out[name] = controller.limit(data, target)
+                    controller.group._write_ctrl(data, ctrl)
         if self._targets:
             for name, (target, reached) in list(self._targets.items()):
-                ctrl = out[name] = controllers[name].limit(data, target)
+                controller = controllers[name]
+                ctrl = out[name] = controller.limit(data, target)
+                controller.group._write_ctrl(data, ctrl)
                 if (ctrl == reached).all():
                     del self._targets[name]  # reached: the control now holds it
-        for name, ctrl in out.items():
-            controllers[name].group._write_ctrl(data, ctrl)
         return out
+
+    def _make_batch(self) -> tuple[JointTargetBatch | None, list[str]]:
+        """(batch of the plain joint_position commands or None, ids of the other commands).
+        The batch's structure is kept per set of ids and reused while its controllers and
+        limits stay the same; only the target is new."""
+        for name in self._commands:
+            controller = self.controllers[name]
+            if controller.ctrl_dt is None:
+                controller.ctrl_dt = self.ctrl_dt
+        names = tuple(self._commands)
+        split = self._splits.get(names)
+        if split is None:
+            split = self._splits[names] = split_batchable(self.controllers, names)
+        plain, other = split
+        if not plain:
+            return None, other
+        batch = self._batches.get(plain)
+        if batch is None or batch.key != batch_key(self.controllers, plain):
+            if not all(batchable(self.controllers[n]) for n in plain):
+                self._splits.clear()  # a controller was replaced: split again
+                return self._make_batch()
+            batch = self._batches[plain] = JointTargetBatch(self.controllers, plain)
+        batch.set_target(self._commands)
+        return batch, other
 
     def reset(self, data: mujoco.MjData | None = None) -> None:
         """Put the joints at ``config.init_qpos`` at rest, and every control at a no-op
@@ -191,6 +235,7 @@ class Robot:
             data.qvel[self.view.group(name).dof_idx] = 0.0
         self._commands.clear()
         self._targets.clear()
+        self._batch = None
         mujoco.mj_kinematics(self.model, data)
         self.hold(data)
 
@@ -199,6 +244,7 @@ class Robot:
         data = self._data(data)
         self._commands.clear()
         self._targets.clear()
+        self._batch = None
         for group in self.view.move_groups.values():
             if isinstance(group, MocapArmGroup):
                 group.set_ctrl(data, group.get_frame_pose(data))
