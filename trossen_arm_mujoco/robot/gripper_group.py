@@ -61,7 +61,8 @@ class GripperGroup(MoveGroup):
         data.ctrl[self.actuator_id] = ctrl[0]
 
     def get_noop_ctrl(self, data):
-        return np.array([data.qpos[self.actuated_qpos_idx]])
+        i = self.actuated_qpos_idx
+        return data.qpos[i : i + 1].copy()
 
     def set_gripper_ctrl_open(self, open: bool) -> None:
         """Command the gripper fully open (``open_ctrl``) or closed (``closed_ctrl``)."""

@@ -99,6 +99,9 @@ class MoveGroup(DataBound):
                 limits += [(-np.inf, np.inf)] * npos
         self.qpos_idx = np.array(posadr, dtype=int)
         self.dof_idx = np.array(veladr, dtype=int)
+        # the same as slices where consecutive (cheaper to read through, every step)
+        self._qpos_sel = as_slice(self.qpos_idx)
+        self._dof_sel = as_slice(self.dof_idx)
         self.joint_range = np.array(limits, dtype=float).reshape(-1, 2)  # (pos_dim, 2)
         self.actuator_ids = np.zeros(0, dtype=int)
         self.velocity_limits: np.ndarray | None = None
@@ -259,8 +262,8 @@ class MoveGroup(DataBound):
 
     # -- data-explicit helpers -----------------------------------------------------------
     def get_qpos(self, data: mujoco.MjData) -> np.ndarray:
-        """Joint positions, shape (pos_dim,)."""
-        return data.qpos[self.qpos_idx]  # fancy indexing: a copy
+        """Joint positions, shape (pos_dim,) (a copy)."""
+        return data.qpos[self._qpos_sel].copy()
 
     def set_qpos(self, data: mujoco.MjData, qpos: Sequence[float]) -> None:
         q = np.asarray(qpos, dtype=float)
@@ -269,8 +272,8 @@ class MoveGroup(DataBound):
         data.qpos[self.qpos_idx] = finite(self.name, q)
 
     def get_qvel(self, data: mujoco.MjData) -> np.ndarray:
-        """Joint velocities (rad/s or m/s), shape (vel_dim,)."""
-        return data.qvel[self.dof_idx]
+        """Joint velocities (rad/s or m/s), shape (vel_dim,) (a copy)."""
+        return data.qvel[self._dof_sel].copy()
 
     def set_qvel(self, data: mujoco.MjData, qvel: Sequence[float]) -> None:
         v = np.asarray(qvel, dtype=float)

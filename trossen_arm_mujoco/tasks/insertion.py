@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.sim.contacts import ContactPartners
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 
@@ -93,20 +94,14 @@ class InsertionReward:
         self.table = lookup_id(model, "geom", TABLE_GEOM)
         self.left = finger_geoms(model, "left")
         self.right = finger_geoms(model, "right")
+        self._peg_partners = ContactPartners(model, [self.peg])
+        self._socket_partners = ContactPartners(model, self.socket)
 
     def contacts(self, data: mujoco.MjData) -> dict[str, bool]:
         """Which of the reward's contacts exist now (names as in the stages above)."""
-        peg_partners: set[int] = set()
-        socket_partners: set[int] = set()
-        pin_peg = False
-        for i in range(data.ncon):
-            g1, g2 = int(data.contact.geom1[i]), int(data.contact.geom2[i])
-            for a, b in ((g1, g2), (g2, g1)):
-                if a == self.peg:
-                    peg_partners.add(b)
-                    pin_peg |= b == self.pin
-                elif a in self.socket:
-                    socket_partners.add(b)
+        peg_partners = self._peg_partners(data)
+        socket_partners = self._socket_partners(data)
+        pin_peg = self.pin in peg_partners
         return {
             "right_peg": bool(peg_partners & self.right),
             "left_socket": bool(socket_partners & self.left),

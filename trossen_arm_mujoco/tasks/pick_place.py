@@ -7,10 +7,12 @@ goal = goal (world frame, m). Observations are those of ``push``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 
+from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.push import PushSampler, PushTask, cube_rest_z
 
 
@@ -19,14 +21,20 @@ class PickPlaceTask(PushTask):
 
     name: ClassVar[str] = "pick_place"
 
+    def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
+        super().__init__(env, config, goal)
+        rest = cube_rest_z(env, float(self.config["table_height"]))
+        #: cube centre height (m) from which it counts as lifted
+        self.lifted_z = rest + float(self.config["lift_height"])
+        self.lift_bonus = float(self.config["lift_bonus"])
+
     def lifted(self) -> bool:
         """The cube is ``lift_height`` (m) or more above its resting height."""
-        rest = cube_rest_z(self.env, float(self.config["table_height"]))
-        return bool(self.cube_pos()[2] >= rest + float(self.config["lift_height"]))
+        return bool(self.data.qpos[self.cube.qpos_adr + 2] >= self.lifted_z)
 
     def get_reward(self) -> float:
         """Push's shaped reward + lift_bonus while the cube is lifted."""
-        return self.shaped_reward() + float(self.config["lift_bonus"]) * self.lifted()
+        return self.shaped_reward() + self.lift_bonus * self.lifted()
 
     def get_info(self) -> dict[str, Any]:
         info = super().get_info()

@@ -36,6 +36,7 @@ class PushTask(SingleArmTask):
         super().__init__(env, config, goal)
         self.cube = env.objects["cube"]
         self.max_obj_vel = float(self.config["max_object_velocity"])
+        self.reach_coef = float(self.config["reach_coef"])
 
     def cube_pos(self) -> np.ndarray:
         """Cube centre, world frame (3,) m."""
@@ -70,9 +71,9 @@ class PushTask(SingleArmTask):
         reach = float(goal_distance(self.ee_pos(), cube))
         dist = float(goal_distance(cube, self.goal))
         return (
-            -float(self.config["reach_coef"]) * reach
-            - float(self.config["distance_coef"]) * dist
-            + float(self.config["success_bonus"]) * (dist < self.tolerance)
+            -self.reach_coef * reach
+            - self.distance_coef * dist
+            + self.success_bonus * (dist < self.tolerance)
         )
 
     def get_reward(self) -> float:

@@ -34,8 +34,7 @@ class ReachTask(SingleArmTask):
     def get_reward(self) -> float:
         """-distance_coef * |ee - target| (m) + success_bonus * success."""
         dist = float(goal_distance(self.ee_pos(), self.goal))
-        bonus = float(self.config["success_bonus"]) * (dist < self.tolerance)
-        return -float(self.config["distance_coef"]) * dist + bonus
+        return -self.distance_coef * dist + self.success_bonus * (dist < self.tolerance)
 
     def get_task_description(self) -> str:
         x, y, z = self.goal

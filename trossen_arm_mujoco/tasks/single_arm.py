@@ -26,7 +26,7 @@ GOAL_REWARD_TYPES = ("sparse", "dense")
 
 def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
     """Euclidean distance over the last axis; shapes (..., 3) -> (...)."""
-    diff = np.asarray(achieved, float) - np.asarray(desired, float)
+    diff = np.subtract(achieved, desired, dtype=float)
     if diff.ndim == 1:  # one pair, every step: skip norm's generality
         return np.float64(math.sqrt(diff @ diff))
     return np.linalg.norm(diff, axis=-1)
@@ -58,6 +58,9 @@ class SingleArmTask(Task):
         self.ws_low = np.asarray(self.config["workspace_low"], dtype=float)
         self.ws_high = np.asarray(self.config["workspace_high"], dtype=float)
         self.max_qvel = float(self.config["max_joint_velocity"])
+        # reward coefficients of the dense rewards, read once (0 where a task has none)
+        self.distance_coef = float(self.config.get("distance_coef", 0.0))
+        self.success_bonus = float(self.config.get("success_bonus", 0.0))
         centre = 0.5 * (self.ws_low + self.ws_high)
         self.goal = centre if goal is None else np.asarray(goal, dtype=float).reshape(3).copy()
         self._mocap = int(env.model.body_mocapid[lookup_id(env.model, "body", self.marker_body)])

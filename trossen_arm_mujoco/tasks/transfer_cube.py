@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.sim.contacts import ContactPartners
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 
@@ -46,16 +47,11 @@ class TransferCubeReward:
         self.table = lookup_id(model, "geom", "table")
         self.left = finger_geoms(model, "left")
         self.right = finger_geoms(model, "right")
+        self._box_partners = ContactPartners(model, [self.box])
 
     def touching(self, data: mujoco.MjData) -> tuple[bool, bool, bool]:
         """(right gripper touches cube, left gripper touches cube, cube touches table)."""
-        partners = set()
-        for i in range(data.ncon):
-            g1, g2 = int(data.contact.geom1[i]), int(data.contact.geom2[i])
-            if g1 == self.box:
-                partners.add(g2)
-            elif g2 == self.box:
-                partners.add(g1)
+        partners = self._box_partners(data)
         return bool(partners & self.right), bool(partners & self.left), self.table in partners
 
     def __call__(self, data: mujoco.MjData) -> int:
