@@ -44,8 +44,7 @@ def test_batched_controls_equal_the_controllers_one_by_one(kit):
         commands = _random_commands(robot, rng)
         reference.ctrl[:] = data.ctrl
         expected = {
-            name: robot.controllers[name].compute(reference, cmd)
-            for name, cmd in commands.items()
+            name: robot.controllers[name].compute(reference, cmd) for name, cmd in commands.items()
         }
         robot.update_control(commands)
         out = robot.compute_control()

@@ -12,12 +12,17 @@ sampler's ``arms`` order:
 then 1 gripper value: -1 closed .. +1 open (finger travel over the actuator range, m).
 
 Safety floor (``gym.safety``): every collision geom of each arm (links, wrist, fingers) and
-its tool frame (``ee_site``) are kept above ``table_height + safety_margin`` (m). ``ee_delta``
-clamps the tool frame's target height; then, in every mode, the joint target (for
-``ee_delta``: the IK step the controller will take) is checked with forward kinematics, and
-the move is shortened (halving it, down to no move) until every link stays above the floor
-(or, for an arm already below it, goes no lower). The step reports ``safety_clipped`` and
-the links that would have gone below (``clipped_links``).
+its tool frame (``ee_site``) are kept above ``table_height + safety_margin`` (m). What is
+checked is where the arm's joint targets will be at the end of the step: in the joint modes
+the controller moves them from the applied control toward the commanded target by at most
+the joint speed limits times ``policy_dt``; with ``ee_delta`` (after the tool frame's target
+height is clamped) it is the joint target of the IK step the controller will take. One
+forward kinematics pass puts every arm there; an arm with a point below the floor gets the
+exact rule (``SafetyFloor.offender``), and its move from the joints now is shortened
+(halving it, down to no move) until every link stays above the floor (or, for an arm already
+below it, goes no lower). So an arm commanded into the table moves toward it at its speed
+limits and stops at the floor. The step reports ``safety_clipped`` and the links that would
+have gone below (``clipped_links``).
 """
 
 from __future__ import annotations
