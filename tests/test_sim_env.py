@@ -232,7 +232,7 @@ def test_documented_reward_scores_4_on_joint_replay(seed):
 
 
 # --- a transfer recorded with the vendor's own model grasps the cube here too -------------
-VENDOR_EPISODE = Path(__file__).parent / "data/fixtures/vendor_transfer_cube_600steps_noimages"
+VENDOR_EPISODE = Path(__file__).parent / "fixtures/vendor_transfer_cube_600steps_noimages"
 
 
 def test_vendor_recorded_transfer_transfers_the_cube():

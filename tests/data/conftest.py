@@ -11,7 +11,7 @@ import pytest
 
 from trossen_arm_mujoco.data.writer import EpisodeWriter
 
-FIXTURES = Path(__file__).parent / "fixtures"
+FIXTURES = Path(__file__).parents[1] / "fixtures"
 VENDOR_4CAMS = FIXTURES / "vendor_episode_5steps_4cams.hdf5"
 VENDOR_NO_IMAGES = FIXTURES / "vendor_transfer_cube_600steps_noimages.hdf5"
 

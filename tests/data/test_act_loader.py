@@ -23,7 +23,7 @@ from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings 
 from trossen_arm_mujoco.data.reader import load_episode  # noqa: E402
 
 CAMS = ("cam_high",)
-FIXTURES = Path(__file__).parent / "fixtures"
+FIXTURES = Path(__file__).parents[1] / "fixtures"
 
 
 @pytest.fixture(scope="module")

@@ -29,7 +29,7 @@ from trossen_arm_mujoco.tasks import registry  # noqa: E402
 
 CAMS = ["cam_high", "cam_left_wrist"]  # the recorded fixture's cameras, 48x64
 H, W = 48, 64
-VENDOR = Path(__file__).parents[1] / "data" / "fixtures" / "vendor_episode_5steps_4cams.hdf5"
+VENDOR = Path(__file__).parents[1] / "fixtures" / "vendor_episode_5steps_4cams.hdf5"
 
 
 def run(capsys, data_dir: Path, out: Path, *extra: str) -> tuple[int, str, str]:

@@ -14,7 +14,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.export.lerobot_plan import plan_export
 from trossen_arm_mujoco.tasks import registry
 
-VENDOR = Path(__file__).parents[1] / "data" / "fixtures" / "vendor_episode_5steps_4cams.hdf5"
+VENDOR = Path(__file__).parents[1] / "fixtures" / "vendor_episode_5steps_4cams.hdf5"
 
 
 def _episodes(tmp_path, make_episode, specs):

@@ -24,7 +24,7 @@ import pytest
 from trossen_arm_mujoco.constants import START_ARM_POSE
 from trossen_arm_mujoco.real import driver as driver_module
 
-FIXTURES = Path(__file__).parent / "fixtures"
+FIXTURES = Path(__file__).parents[1] / "fixtures"
 VENDOR_600 = FIXTURES / "vendor_transfer_cube_600steps_noimages.hdf5"
 
 

@@ -30,7 +30,7 @@ from trossen_arm_mujoco.real.sim_driver import SimArmDriver
 from trossen_arm_mujoco.scripts import replay_episode_real
 
 REPO = Path(__file__).resolve().parents[2]
-VENDOR_600 = REPO / "tests" / "real" / "fixtures" / "vendor_transfer_cube_600steps_noimages.hdf5"
+VENDOR_600 = REPO / "tests" / "fixtures" / "vendor_transfer_cube_600steps_noimages.hdf5"
 SCRIPT = REPO / "trossen_arm_mujoco" / "scripts" / "replay_episode_real.py"
 
 

@@ -16,7 +16,7 @@ from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.scripts import visualize_eps
 
 REPO = Path(__file__).resolve().parents[2]
-FIXTURES = REPO / "tests" / "data" / "fixtures"
+FIXTURES = REPO / "tests" / "fixtures"
 CAMS = ["cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist"]
 
 
