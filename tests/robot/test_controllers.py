@@ -277,6 +277,26 @@ def test_step_command_advances_by_max_velocity_times_ctrl_dt():
     np.testing.assert_allclose(np.diff(back), -0.02, rtol=1e-9)
 
 
+@pytest.mark.parametrize("mode", ["joint_position", "ee_pose"])
+def test_limit_over_several_ticks_ends_where_the_ticks_do(mode):
+    """``limit(data, target, ticks=n)``: where n ticks toward a fixed target end (per-value
+    clipping, and the one-factor scaling of the IK modes)."""
+    model = mujoco.MjModel.from_xml_path(str(WXAI))
+    data = mujoco.MjData(model)
+    robot = Robot(model, wxai_config(), ctrl_dt=CTRL_DT, data=data)
+    robot.reset()
+    controller = make_controller(mode, robot.view.group("arm"), model, CTRL_DT)
+    arm = robot.view.group("arm")
+    target = arm.get_ctrl(data) + np.array([0.5, -0.3, 0.2, 1.0, -0.4, 0.05])
+    for ticks in (1, 3):
+        expected = controller.limit(data, target, ticks)
+        start = arm.get_ctrl(data)
+        for _ in range(ticks):
+            arm._write_ctrl(data, controller.limit(data, target))
+        np.testing.assert_allclose(arm.get_ctrl(data), expected, atol=1e-12)
+        arm._write_ctrl(data, start)
+
+
 def test_relative_command_is_resolved_once_then_approached_at_the_limit():
     model, data, robot = toy(toy_config("joint_rel_position"))
     robot.update_control({"arm": [1.0]})  # 50 ticks at 0.02 rad

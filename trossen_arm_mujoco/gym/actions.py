@@ -48,24 +48,20 @@ BACKOFF = (0.5, 0.25, 0.125, 0.0)
 
 
 class _ArmPart:
-    """One arm and its gripper in the action vector, with what the joint modes need, looked
-    up once: action slices, model index selections, control ranges, and how far the joint
-    targets may travel in one policy step (the speed limits times ``policy_dt``)."""
+    """One arm and its gripper in the action vector, looked up once: action slices, the
+    arm's qpos selection and controller, and the centre and half-width of the arm's and the
+    gripper's control ranges."""
 
-    def __init__(self, robot: Robot, arm, gripper, start: int, size: int, n_ticks: int):
+    def __init__(self, robot: Robot, arm, gripper, start: int, size: int):
         self.arm, self.gripper = arm, gripper
+        self.controller = robot.controllers[arm.name]
         self.arm_values = slice(start, start + size - 1)
         self.grip_value = slice(start + size - 1, start + size)
         self.qpos_sel = as_slice(arm.qpos_idx)
-        self.ctrl_sel = as_slice(arm.actuator_ids)
-        self.low, self.high = arm.ctrl_limits()
-        self.a_mid, self.a_half = 0.5 * (self.low + self.high), 0.5 * (self.high - self.low)
+        low, high = arm.ctrl_limits()
+        self.a_mid, self.a_half = 0.5 * (low + high), 0.5 * (high - low)
         g_low, g_high = gripper.ctrl_limits()
         self.g_mid, self.g_half = 0.5 * (g_low + g_high), 0.5 * (g_high - g_low)
-        limits = arm.velocity_limits
-        per_tick = np.full(len(self.low), np.inf) if limits is None else limits * robot.ctrl_dt
-        self.travel = per_tick * n_ticks
-        self.neg_travel = -self.travel
 
 
 class ActionMapper:
@@ -111,11 +107,11 @@ class ActionMapper:
         # per arm, looked up once (see _ArmPart); and the centre and half-width of every
         # action value's control range ([-1, 1] maps onto centre -/+ half-width) for the
         # joint modes, whose arm values are controls too
-        n_ticks = int(round(float(config["policy_dt"]) / robot.ctrl_dt))
+        self.n_ticks = int(round(float(config["policy_dt"]) / robot.ctrl_dt))
         self._parts: list[_ArmPart] = []
         mids, halves, start = [], [], 0
         for (arm, gripper), size in zip(self.arms, self.sizes, strict=True):
-            part = _ArmPart(robot, arm, gripper, start, size, n_ticks)
+            part = _ArmPart(robot, arm, gripper, start, size)
             self._parts.append(part)
             mids += [part.a_mid if mode != "ee_delta" else np.zeros(size - 1), part.g_mid]
             halves += [part.a_half if mode != "ee_delta" else np.ones(size - 1), part.g_half]
@@ -176,12 +172,8 @@ class ActionMapper:
         else:  # joint_rel_position: [-1, 1] times joint_rel_limit, from the joints now
             cmd = a[part.arm_values] * self.rel_limit
             target = q_now + cmd
-        current = data.ctrl[part.ctrl_sel]
-        end = target - current
-        np.minimum(np.maximum(end, part.neg_travel, out=end), part.travel, out=end)
-        end += current
-        np.minimum(np.maximum(end, part.low, out=end), part.high, out=end)
-        return cmd, q_now, end, ""
+        # the controller's own rate limit, over the step's ticks
+        return cmd, q_now, part.controller.limit(data, target, self.n_ticks), ""
 
     def _ee_delta(self, data, part: _ArmPart, scaled) -> tuple:
         """``ee_delta``: the tool frame's target height clamped to the floor; the end of the

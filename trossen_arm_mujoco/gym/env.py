@@ -167,20 +167,13 @@ class TrossenMujocoEnv(gymnasium.Env):
     def step(self, action):
         if self.task is None:
             raise UserError("call reset() before step()")
-        if self.stepper.mode == "fast":  # Stepper.step without the no-op lock
+        with self.stepper.lock:
             commands, clipped = self.actions(self.scene.data, action)
-            self.task.advance(commands)
+        self.stepper.step(self.task, commands)
+        with self.stepper.lock:
             obs = self._observe()
             info = self._info(clipped)
             reward, terminated = self._reward_terminated(obs, info)
-        else:
-            with self.stepper.lock:
-                commands, clipped = self.actions(self.scene.data, action)
-            self.stepper.step(self.task, commands)
-            with self.stepper.lock:
-                obs = self._observe()
-                info = self._info(clipped)
-                reward, terminated = self._reward_terminated(obs, info)
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info

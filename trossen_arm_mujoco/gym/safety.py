@@ -129,25 +129,20 @@ class _ArmPoints:
         # the rows of the points that can move up or down (fixed ones never break the floor)
         self.moving_matrix = self.matrix[~self.fixed_height]
 
-    def heights(self, data: mujoco.MjData) -> np.ndarray:
-        """World z (m) of every point's lowest reach at ``data``'s body poses, (N,)."""
+    def _load(self, data: mujoco.MjData) -> np.ndarray:
+        """``vector`` filled from ``data``'s body poses."""
         per_body, sel = self._per_body, self.body_sel
         per_body[:, :3] = data.xmat[sel, 6:9]
         per_body[:, 3] = data.xpos[sel, 2]
-        return self.matrix @ self.vector
+        return self.vector
+
+    def heights(self, data: mujoco.MjData) -> np.ndarray:
+        """World z (m) of every point's lowest reach at ``data``'s body poses, (N,)."""
+        return self.matrix @ self._load(data)
 
     def moving_heights(self, data: mujoco.MjData) -> np.ndarray:
         """``heights`` of the points an arm joint can move up or down, (M,)."""
-        per_body, sel = self._per_body, self.body_sel
-        per_body[:, :3] = data.xmat[sel, 6:9]
-        per_body[:, 3] = data.xpos[sel, 2]
-        return self.moving_matrix @ self.vector
-
-    def lowest(self, data: mujoco.MjData) -> tuple[float, int]:
-        """(lowest world z (m), body id of that point) at ``data``'s body poses."""
-        z = self.heights(data)
-        i = int(z.argmin())
-        return float(z[i]), int(self.owner[i])
+        return self.moving_matrix @ self._load(data)
 
 
 def _joint_reach(

@@ -96,15 +96,19 @@ class Controller:
         """``target`` for a command already through ``_check``."""
         raise NotImplementedError
 
-    def limit(self, data: mujoco.MjData, target: np.ndarray) -> np.ndarray:
+    def limit(self, data: mujoco.MjData, target: np.ndarray, ticks: int = 1) -> np.ndarray:
         """The control of this tick: from the applied control toward ``target`` by at most
         ``max_step`` per value, then clipped to the control range; (ctrl_dim,).
 
         Joint modes clip each value on its own; IK modes (``scale_step``) shrink the whole
         step by one factor instead, so that the tool keeps its Cartesian direction.
+        ``ticks``: where ``ticks`` calls in a row would take the control toward a fixed
+        target (``max_step`` times ``ticks``), e.g. to check where a step of several ticks ends.
         """
         group = self.group
         step, neg_step = self._steps()
+        if ticks != 1 and step is not None:
+            step, neg_step = step * ticks, neg_step * ticks
         if step is None:
             u = np.array(target, dtype=float)
         else:
@@ -202,10 +206,10 @@ class EEPoseController(Controller):
         q, _ = self._kin.solve(data.qpos, cmd[:3], cmd[3:], iterations=30)
         return q
 
-    def limit(self, data, target):
+    def limit(self, data, target, ticks=1):
         if self._kin is None:
             return np.asarray(target, dtype=float)  # the mocap pose, as is
-        return super().limit(data, target)
+        return super().limit(data, target, ticks)
 
 
 class EEDeltaController(Controller):

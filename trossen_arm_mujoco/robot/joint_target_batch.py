@@ -45,17 +45,19 @@ class JointTargetBatch:
         controllers: group id -> controller (each ``batchable``, ``ctrl_dt`` set).
         names: the group ids batched, in command order.
 
-    The actuators, velocity limits and control ranges are gathered once, here; ``key``
-    says which controllers and limits they came from (``Robot`` builds a new batch when it
-    changes). ``set_target`` takes each new set of commands.
+    The actuators, velocity limits and control ranges are gathered once, here; ``fits``
+    says whether they still hold (``Robot`` builds a new batch when not). ``set_target``
+    takes each new set of commands.
     """
 
     def __init__(self, controllers: Mapping[str, Controller], names: Sequence[str]):
         self.names: tuple[str, ...] = tuple(names)
-        self.key = batch_key(controllers, self.names)
+        # the controllers and their cached step arrays (new objects whenever the velocity
+        # limits or ctrl_dt change), kept to be compared by identity
+        self._sources = [(controllers[n], controllers[n]._steps()[0]) for n in self.names]
         groups = [controllers[n].group for n in self.names]
         self._sel = as_slice(np.concatenate([g.actuator_ids for g in groups]))
-        self._step = np.concatenate([controllers[n]._steps()[0] for n in self.names])
+        self._step = np.concatenate([step for _, step in self._sources])
         self._neg_step = -self._step
         self._low = np.concatenate([g._ctrl_low for g in groups])
         self._high = np.concatenate([g._ctrl_high for g in groups])
@@ -64,6 +66,14 @@ class JointTargetBatch:
         self._slices = [
             (n, slice(int(a), int(b))) for n, a, b in zip(self.names, bounds, bounds[1:])
         ]
+
+    def fits(self, controllers: Mapping[str, Controller]) -> bool:
+        """Whether ``controllers`` still hold the same controllers, with the same limits and
+        ``ctrl_dt``, as when the batch was built."""
+        return all(
+            controllers.get(n) is c and c._steps()[0] is step
+            for n, (c, step) in zip(self.names, self._sources)
+        )
 
     def set_target(self, commands: Mapping[str, np.ndarray]) -> None:
         """Take the checked commands (group id -> (ctrl_dim,) rad or m) of ``names``."""
@@ -79,12 +89,6 @@ class JointTargetBatch:
         np.minimum(np.maximum(u, self._low, out=u), self._high, out=u)
         data.ctrl[self._sel] = u
         return {name: u[s] for name, s in self._slices}
-
-
-def batch_key(controllers: Mapping[str, Controller], names: Sequence[str]) -> tuple:
-    """What a batch depends on: the controllers and their (cached) step arrays, which are
-    new objects whenever the velocity limits or ``ctrl_dt`` change."""
-    return tuple((id(controllers[n]), id(controllers[n]._steps()[0])) for n in names)
 
 
 def split_batchable(

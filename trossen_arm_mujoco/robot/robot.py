@@ -15,7 +15,6 @@ from trossen_arm_mujoco.robot.controllers import Controller, make_controller
 from trossen_arm_mujoco.robot.frames import as_transform, invert
 from trossen_arm_mujoco.robot.joint_target_batch import (
     JointTargetBatch,
-    batch_key,
     batchable,
     split_batchable,
 )
@@ -214,7 +213,7 @@ class Robot:
         if not plain:
             return None, other
         batch = self._batches.get(plain)
-        if batch is None or batch.key != batch_key(self.controllers, plain):
+        if batch is None or not batch.fits(self.controllers):
             if not all(batchable(self.controllers[n]) for n in plain):
                 self._splits.clear()  # a controller was replaced: split again
                 return self._make_batch()

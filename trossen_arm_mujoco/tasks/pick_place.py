@@ -30,7 +30,7 @@ class PickPlaceTask(PushTask):
 
     def lifted(self) -> bool:
         """The cube is ``lift_height`` (m) or more above its resting height."""
-        return bool(self.data.qpos[self.cube.qpos_adr + 2] >= self.lifted_z)
+        return bool(self.cube_pos()[2] >= self.lifted_z)
 
     def get_reward(self) -> float:
         """Push's shaped reward + lift_bonus while the cube is lifted."""
