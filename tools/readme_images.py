@@ -11,10 +11,10 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
-from PIL import Image  # noqa: E402
 
 from trossen_arm_mujoco.assets import STATIONARY_CAMERAS  # noqa: E402
 from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings, episode_seed  # noqa: E402
+from trossen_arm_mujoco.images import write_png  # noqa: E402
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT  # noqa: E402
 
 
@@ -31,7 +31,7 @@ def main() -> None:
     os.makedirs(args.out, exist_ok=True)
     for cam, img in rec.joint_env.render_images().items():
         path = os.path.join(args.out, f"{cam}.png")
-        Image.fromarray(img).save(path, optimize=True)
+        write_png(path, img)  # atomic, as every image the package writes
         print(path)
     rec.close()
 

@@ -84,17 +84,15 @@ def test_empty_log_writes_header_and_valid_json(tmp_path: Path) -> None:
 def test_failed_write_leaves_no_partial_file(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    from trossen_arm_mujoco.fileio import atomic_path
     from trossen_arm_mujoco.real import report
 
-    def broken(path: Path, write) -> None:
-        def failing(tmp: Path) -> None:
+    def broken(path: Path, text: str, **_) -> None:  # the disk fills up mid-write
+        with atomic_path(path) as tmp:
             tmp.write_text("partial")
             raise OSError("disk full")
 
-        real_atomic(path, failing)
-
-    real_atomic = report._atomic_write
-    monkeypatch.setattr(report, "_atomic_write", broken)
+    monkeypatch.setattr(report, "write_text", broken)
     with pytest.raises(OSError, match="disk full"):
         write_outputs(tmp_path, "e", make_log(), {})
     assert list(tmp_path.iterdir()) == []

@@ -22,14 +22,13 @@ from __future__ import annotations
 import csv
 import io
 import json
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from trossen_arm_mujoco.fileio import atomic_path
+from trossen_arm_mujoco.fileio import atomic_path, write_text
 from trossen_arm_mujoco.real.validate import ARMS, DRIVER_LABELS, DRIVER_UNITS
 
 #: Column labels of the 14 logged values: ``left_joint_0`` ... ``right_gripper``.
@@ -97,12 +96,6 @@ def format_error_table(errors: dict[str, dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
-    """``write(tmp)`` into a temporary file that becomes ``path`` only once complete."""
-    with atomic_path(path) as tmp:
-        write(tmp)
-
-
 def _csv_text(log: TrackingLog) -> str:
     times, cmd, meas = log.arrays()
     buf = io.StringIO()
@@ -147,7 +140,8 @@ def plot_tracking(log: TrackingLog, path: Path, title: str) -> None:
         axes[-1, a].set_xlabel("time (s)")
     axes[0, 0].legend(fontsize=7, loc="best")
     fig.suptitle(title, fontsize=11)
-    _atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=80))
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=80)
 
 
 def write_outputs(
@@ -166,7 +160,7 @@ def write_outputs(
         "plot": out_dir / f"{stem}_tracking.png",
     }
     csv_text = _csv_text(log)
-    _atomic_write(paths["csv"], lambda tmp: tmp.write_text(csv_text, encoding="utf-8"))
+    write_text(paths["csv"], csv_text)
     data = dict(summary)
     data["tracking_error"] = log.errors()
     if len(log):
@@ -179,5 +173,5 @@ def write_outputs(
         paths["plot"] = None
         data["plot"] = "not written: no step was streamed"
     text = json.dumps(data, indent=2)
-    _atomic_write(paths["summary"], lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
+    write_text(paths["summary"], text + "\n")
     return paths
