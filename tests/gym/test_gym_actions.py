@@ -86,6 +86,44 @@ def test_safety_floor_joint_position(make_env):
     assert kin.site_pose(u.scene.data.qpos, commands["arm"])[2] >= u.actions.floor_z
 
 
+class _WithoutBatches:
+    """The robot, offering no ``JointTargetBatch``: the action mapper goes arm by arm."""
+
+    def __init__(self, robot):
+        self._robot = robot
+
+    def __getattr__(self, name):
+        return getattr(self._robot, name)
+
+    def joint_target_batch(self, names):
+        return None
+
+
+@pytest.mark.parametrize("env_id", [REACH, "TrossenMujoco/StationaryAITransferCube-v0"])
+def test_joint_position_actions_as_one_vector_equal_arm_by_arm(make_env, env_id):
+    """The joint_position actions go to the robot as one vector (``JointTargets`` of the
+    robot's batch, the step's end from its ``preview``); arm by arm, through each
+    controller's ``limit``, gives the same controls, floor and reports, bit for bit."""
+    # a high floor, so that it holds the arms up often
+    batched, by_arm = (make_env(env_id, safety_margin=0.15) for _ in range(2))
+    by_arm.unwrapped.actions.robot = _WithoutBatches(by_arm.unwrapped.actions.robot)
+    for env in (batched, by_arm):
+        env.reset(seed=3)
+    rng = np.random.default_rng(3)
+    clipped = 0
+    for _ in range(120):
+        action = rng.uniform(-1, 1, batched.action_space.shape)
+        commands, _ = batched.unwrapped.actions(batched.unwrapped.scene.data, action)
+        assert type(commands).__name__ == "JointTargets"
+        _, r1, _, _, info1 = batched.step(action)
+        _, r2, _, _, info2 = by_arm.step(action)
+        assert np.array_equal(batched.unwrapped.scene.data.ctrl, by_arm.unwrapped.scene.data.ctrl)
+        assert np.array_equal(batched.unwrapped.scene.data.qpos, by_arm.unwrapped.scene.data.qpos)
+        assert (r1, info1["safety_links"]) == (r2, info2["safety_links"])
+        clipped += info1["safety_clipped"]
+    assert clipped > 0
+
+
 def test_safety_floor_joint_rel_position(make_env):
     env = make_env(REACH, action_mode="joint_rel_position")
     env.reset(seed=0)

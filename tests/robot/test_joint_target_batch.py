@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from trossen_arm_mujoco.constants import ASSETS_DIR
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import stationary_ai_joint_config
 from trossen_arm_mujoco.robot.controllers import JointPosController
-from trossen_arm_mujoco.robot.joint_target_batch import JointTargetBatch, batchable
+from trossen_arm_mujoco.robot.joint_target_batch import JointTargetBatch, JointTargets, batchable
 from trossen_arm_mujoco.robot.robot import Robot
 
 KIT_JOINT = Path(ASSETS_DIR) / "stationary_ai/trossen_ai_scene_joint.xml"
@@ -94,3 +95,115 @@ def test_set_target_takes_the_commands_in_batch_order(kit):
     out = batch.apply(data)
     assert list(out) == ["right_gripper", "left_arm"]
     assert out["right_gripper"].shape == (1,) and out["left_arm"].shape == (6,)
+
+
+# -- JointTargets: the commands of a batch as one vector ------------------------------------
+NAMES = ("left_arm", "left_gripper", "right_arm", "right_gripper")
+
+
+def _twin(model, data):
+    """A second robot on a copy of ``data``: the reference, fed plain dicts."""
+    twin_data = mujoco.MjData(model)
+    mujoco.mj_copyData(twin_data, model, data)
+    return Robot(model, stationary_ai_joint_config(), ctrl_dt=0.02, data=twin_data), twin_data
+
+
+def test_joint_targets_give_the_controls_of_plain_dicts(kit):
+    model, data, robot = kit
+    twin, twin_data = _twin(model, data)
+    batch = robot.joint_target_batch(NAMES)
+    assert batch is not None and batch.size == 14
+    rng = np.random.default_rng(1)
+    for _ in range(10):
+        commands = _random_commands(robot, rng)
+        vector = np.concatenate([commands[n] for n in NAMES])
+        targets = batch.commands(vector)
+        assert isinstance(targets, JointTargets) and list(targets) == list(NAMES)
+        robot.update_control(targets)
+        twin.update_control({n: commands[n] for n in NAMES})
+        for _ in range(3):
+            out, expected = robot.compute_control(), twin.compute_control()
+            assert np.array_equal(data.ctrl, twin_data.ctrl)
+            assert all(np.array_equal(out[n], expected[n]) for n in NAMES)
+        assert robot._batch[0] is batch  # taken as is, no batch rebuilt
+
+
+def test_preview_is_the_controllers_limit_over_the_ticks(kit):
+    model, data, robot = kit
+    batch = robot.joint_target_batch(NAMES)
+    rng = np.random.default_rng(2)
+    data.ctrl[:] = rng.uniform(-0.5, 0.5, model.nu)
+    before = data.ctrl.copy()
+    for ticks in (1, 2, 5):
+        commands = _random_commands(robot, rng)
+        end = batch.preview(data, np.concatenate([commands[n] for n in NAMES]), ticks)
+        expected = [robot.controllers[n].limit(data, commands[n], ticks) for n in NAMES]
+        assert np.array_equal(end, np.concatenate(expected))
+    assert np.array_equal(data.ctrl, before)  # nothing written
+
+
+def test_joint_targets_are_checked(kit):
+    _, _, robot = kit
+    batch = robot.joint_target_batch(("left_arm", "left_gripper"))
+    with pytest.raises(UserError, match="expected 7 values, got 6"):
+        batch.commands(np.zeros(6))
+    with pytest.raises(UserError, match="NaN or inf"):
+        batch.commands(np.array([0, 0, 0, np.nan, 0, 0, 0.02]))
+
+
+def test_changed_joint_targets_are_read_entry_by_entry(kit):
+    model, data, robot = kit
+    twin, twin_data = _twin(model, data)
+    batch = robot.joint_target_batch(NAMES)
+    targets = batch.commands(np.zeros(14))
+    targets["right_arm"] = np.full(6, 0.3)  # no longer a view of the vector
+    assert targets.vector is None
+    robot.update_control(targets)
+    twin.update_control(
+        {**{n: np.zeros(len(targets[n])) for n in NAMES}, "right_arm": np.full(6, 0.3)}
+    )
+    robot.compute_control()
+    twin.compute_control()
+    assert np.array_equal(data.ctrl, twin_data.ctrl)
+
+
+def test_joint_targets_of_an_outdated_batch_follow_the_new_limits(kit):
+    _, data, robot = kit
+    batch = robot.joint_target_batch(("left_arm", "left_gripper"))
+    arm = robot.view.group("left_arm")
+    arm.set_velocity_limits(np.full(6, 0.5))  # the batch no longer fits
+    before = arm.get_ctrl(data)
+    robot.update_control(batch.commands(np.concatenate([before + 1.0, [0.02]])))
+    robot.compute_control()
+    assert np.allclose(arm.get_ctrl(data) - before, 0.5 * 0.02)
+    assert robot.joint_target_batch(("left_arm", "left_gripper")) is not batch  # rebuilt
+
+
+def test_joint_targets_with_another_command_pending(kit):
+    model, data, robot = kit
+    twin, twin_data = _twin(model, data)
+    pending = {"right_arm": np.full(6, 0.2)}
+    robot.update_control(pending)
+    twin.update_control(pending)
+    batch = robot.joint_target_batch(("left_arm", "left_gripper"))
+    robot.update_control(batch.commands(np.full(7, 0.01)))
+    twin.update_control({"left_arm": np.full(6, 0.01), "left_gripper": np.array([0.01])})
+    for _ in range(3):
+        robot.compute_control()
+        twin.compute_control()
+        assert np.array_equal(data.ctrl, twin_data.ctrl)
+    assert robot._commands.keys() == {"right_arm", "left_arm", "left_gripper"}
+
+
+def test_no_batch_for_a_subclassed_controller(kit):
+    _, _, robot = kit
+
+    class Doubled(JointPosController):
+        def _target(self, data, cmd):
+            return 2.0 * cmd
+
+    robot.controllers["left_arm"] = Doubled(robot.view.group("left_arm"), robot.model)
+    assert robot.joint_target_batch(("left_arm", "left_gripper")) is None
+    assert robot.joint_target_batch(("right_arm", "right_gripper")) is not None
+    with pytest.raises(UserError, match="controlled move group"):
+        robot.joint_target_batch(("left_arm", "middle_arm"))

@@ -7,15 +7,23 @@ arms and grippers of the kit), the per-group work is the same few vector operati
 values each. A batch does them once over all those groups' actuators: the same arithmetic
 as ``Controller.limit`` value by value, so the controls are identical, with one pass instead
 of one per group.
+
+A caller that has the commands of all those groups as one vector already (the gym
+adapter's joint_position actions) hands them over as ``JointTargets`` (``batch.commands``):
+a dict of views of that vector, checked once, which ``Robot.update_control`` takes as the
+batch's target without splitting and joining it again. ``preview`` says where the controls
+will be after some ticks, without writing them (the gym safety floor checks that).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.controllers import Controller, JointPosController
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.move_group import SimplyActuatedMoveGroup
@@ -27,9 +35,13 @@ _PLAIN_GROUPS = (SimplyActuatedMoveGroup, GripperGroup)
 def batchable(controller: Controller) -> bool:
     """Whether a controller's tick is exactly "clip the step toward the command to
     ``max_step``, clip to the control range, write ``data.ctrl`` at the actuators": a
-    ``JointPosController`` (not a subclass) with velocity limits, on an arm or gripper group
-    whose control reads and writes are the package's own."""
-    if type(controller) is not JointPosController or controller._steps()[0] is None:
+    ``JointPosController`` (not a subclass) with velocity limits and a ``ctrl_dt``, on an arm
+    or gripper group whose control reads and writes are the package's own."""
+    if (
+        type(controller) is not JointPosController
+        or controller.ctrl_dt is None
+        or controller._steps()[0] is None
+    ):
         return False
     kind = type(controller.group)
     return any(
@@ -52,16 +64,21 @@ class JointTargetBatch:
 
     def __init__(self, controllers: Mapping[str, Controller], names: Sequence[str]):
         self.names: tuple[str, ...] = tuple(names)
-        # the controllers and their cached step arrays (new objects whenever the velocity
-        # limits or ctrl_dt change), kept to be compared by identity
-        self._sources = [(controllers[n], controllers[n]._steps()[0]) for n in self.names]
+        # the controllers, their velocity limits (compared by identity: set_velocity_limits
+        # makes a new array) and ctrl_dt, as the batch was built from them
+        self._sources = [
+            (controllers[n], controllers[n].group.velocity_limits, controllers[n].ctrl_dt)
+            for n in self.names
+        ]
         groups = [controllers[n].group for n in self.names]
         self._sel = as_slice(np.concatenate([g.actuator_ids for g in groups]))
-        self._step = np.concatenate([step for _, step in self._sources])
+        self._step = np.concatenate([controllers[n]._steps()[0] for n in self.names])
         self._neg_step = -self._step
         self._low = np.concatenate([g._ctrl_low for g in groups])
         self._high = np.concatenate([g._ctrl_high for g in groups])
-        self._target = np.zeros(len(self._step))
+        #: number of values of the target vector (the groups' actuators, in ``names`` order)
+        self.size = len(self._step)
+        self._target = np.zeros(self.size)
         bounds = np.cumsum([0] + [len(g.actuator_ids) for g in groups])
         self._slices = [
             (n, slice(int(a), int(b))) for n, a, b in zip(self.names, bounds, bounds[1:])
@@ -70,25 +87,94 @@ class JointTargetBatch:
     def fits(self, controllers: Mapping[str, Controller]) -> bool:
         """Whether ``controllers`` still hold the same controllers, with the same limits and
         ``ctrl_dt``, as when the batch was built."""
-        return all(
-            controllers.get(n) is c and c._steps()[0] is step
-            for n, (c, step) in zip(self.names, self._sources)
-        )
+        for name, (controller, limits, dt) in zip(self.names, self._sources):
+            if (
+                controllers.get(name) is not controller
+                or controller.group.velocity_limits is not limits
+                or controller.ctrl_dt != dt
+            ):
+                return False
+        return True
 
     def set_target(self, commands: Mapping[str, np.ndarray]) -> None:
         """Take the checked commands (group id -> (ctrl_dim,) rad or m) of ``names``."""
         self._target = np.concatenate([commands[n] for n in self.names])
 
+    def set_vector(self, vector: np.ndarray) -> None:
+        """Take the targets as one checked vector, (size,) in ``names`` order."""
+        self._target = vector
+
+    def commands(self, vector: np.ndarray) -> JointTargets:
+        """The commands of ``names`` as one vector, ``(size,)`` rad or m in ``names`` order,
+        checked here once (a one-line UserError on a wrong size or a NaN/inf); see
+        ``JointTargets``."""
+        v = np.asarray(vector, dtype=float).reshape(-1)
+        if v.shape[0] != self.size:
+            raise UserError(
+                f"joint targets of {', '.join(self.names)}: expected {self.size} values, "
+                f"got {v.size}"
+            )
+        if not math.isfinite(v @ v) and not np.isfinite(v).all():  # v @ v may overflow
+            raise UserError(f"joint targets of {', '.join(self.names)} contain NaN or inf")
+        return JointTargets(self, v)
+
+    def _limited(self, data: mujoco.MjData, target: np.ndarray, ticks: int) -> np.ndarray:
+        """The controls after ``ticks`` ticks toward ``target`` (a new array)."""
+        current = data.ctrl[self._sel]
+        step, neg_step = self._step, self._neg_step
+        if ticks != 1:
+            step, neg_step = step * ticks, neg_step * ticks
+        u = target - current
+        np.minimum(np.maximum(u, neg_step, out=u), step, out=u)
+        u += current
+        return np.minimum(np.maximum(u, self._low, out=u), self._high, out=u)
+
+    def preview(self, data: mujoco.MjData, target: np.ndarray, ticks: int = 1) -> np.ndarray:
+        """Where the controls will be after ``ticks`` ticks toward ``target`` ((size,), rad or
+        m), from ``data.ctrl``; nothing is written. Value by value what ``ticks`` calls of
+        ``apply`` would leave (``Controller.limit`` with ``ticks``)."""
+        return self._limited(data, target, ticks)
+
     def apply(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
         """Move every control toward its target by at most ``max_step``, clip it to the
         control range, write it to ``data.ctrl``; returns the controls by group id."""
-        current = data.ctrl[self._sel]
-        u = self._target - current
-        np.minimum(np.maximum(u, self._neg_step, out=u), self._step, out=u)
-        u += current
-        np.minimum(np.maximum(u, self._low, out=u), self._high, out=u)
+        u = self._limited(data, self._target, 1)
         data.ctrl[self._sel] = u
         return {name: u[s] for name, s in self._slices}
+
+
+class JointTargets(dict):
+    """Commands of a batch's groups as views of one checked vector (``batch.commands``):
+    group id -> (ctrl_dim,) rad or m. A plain dict to everyone else; ``Robot.update_control``
+    takes ``vector`` as the batch's target directly when the batch is still its own.
+
+    Attributes:
+        batch: the ``JointTargetBatch`` the vector is laid out for.
+        vector: (batch.size,) the targets, in ``batch.names`` order.
+    """
+
+    def __init__(self, batch: JointTargetBatch, vector: np.ndarray):
+        super().__init__({name: vector[s] for name, s in batch._slices})
+        self.batch: JointTargetBatch = batch
+        self.vector: np.ndarray | None = vector
+
+
+def _forgets_vector(name: str):
+    """A dict method that, on a JointTargets, first drops ``vector`` (the entries may no
+    longer be its views; the robot then reads the entries one by one)."""
+    method = getattr(dict, name)
+
+    def wrapper(self, *args, **kwargs):
+        self.vector = None
+        return method(self, *args, **kwargs)
+
+    wrapper.__name__ = name
+    return wrapper
+
+
+for _name in ("__setitem__", "__delitem__", "__ior__", "update", "pop", "popitem",
+              "setdefault", "clear"):  # fmt: skip
+    setattr(JointTargets, _name, _forgets_vector(_name))
 
 
 def split_batchable(

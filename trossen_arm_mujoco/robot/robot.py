@@ -15,6 +15,7 @@ from trossen_arm_mujoco.robot.controllers import Controller, make_controller
 from trossen_arm_mujoco.robot.frames import as_transform, invert
 from trossen_arm_mujoco.robot.joint_target_batch import (
     JointTargetBatch,
+    JointTargets,
     batchable,
     split_batchable,
 )
@@ -152,7 +153,12 @@ class Robot:
 
     def update_control(self, commands: Mapping[str, np.ndarray]) -> None:
         """Store commands (the action command dict), group id -> vector of that group's
-        ``command_dim`` values; ``compute_control`` applies them."""
+        ``command_dim`` values; ``compute_control`` applies them.
+
+        ``JointTargets`` (``joint_target_batch(names).commands(vector)``) are checked
+        already: their vector becomes the batch's target as is."""
+        if type(commands) is JointTargets and self._take_targets(commands):
+            return
         for name, cmd in commands.items():
             if name not in self.controllers:
                 raise unknown_name_error("controlled move group", name, self.controllers)
@@ -197,6 +203,43 @@ class Robot:
                     del self._targets[name]  # reached: the control now holds it
         return out
 
+    def joint_target_batch(self, names: Sequence[str]) -> JointTargetBatch | None:
+        """The ``JointTargetBatch`` rate-limiting the groups ``names`` as one vector, or None
+        when one of their controllers is not a plain joint_position one (``batchable``).
+        Built once per set of ids and kept while its controllers and limits stay the same;
+        ``commands(vector)`` of it is the fastest way to command those groups."""
+        names = tuple(names)
+        batch = self._batches.get(names)
+        if batch is not None and batch.fits(self.controllers):
+            return batch
+        for name in names:
+            if name not in self.controllers:
+                raise unknown_name_error("controlled move group", name, self.controllers)
+            controller = self.controllers[name]
+            if controller.ctrl_dt is None:
+                controller.ctrl_dt = self.ctrl_dt
+        if not all(batchable(self.controllers[n]) for n in names):
+            return None
+        batch = self._batches[names] = JointTargetBatch(self.controllers, names)
+        return batch
+
+    def _take_targets(self, commands: JointTargets) -> bool:
+        """Store ``JointTargets`` as the batch's target, when the batch is still this robot's
+        for those groups and no other group has a command pending; else False (the caller
+        takes them one by one)."""
+        batch = commands.batch
+        if (
+            commands.vector is None
+            or self._batches.get(batch.names) is not batch
+            or not batch.fits(self.controllers)
+            or not self._commands.keys() <= commands.keys()
+        ):
+            return False
+        self._commands.update(commands)
+        batch.set_vector(commands.vector)
+        self._batch = (batch, [])
+        return True
+
     def _make_batch(self) -> tuple[JointTargetBatch | None, list[str]]:
         """(batch of the plain joint_position commands or None, ids of the other commands).
         The batch's structure is kept per set of ids and reused while its controllers and
@@ -212,12 +255,10 @@ class Robot:
         plain, other = split
         if not plain:
             return None, other
-        batch = self._batches.get(plain)
-        if batch is None or not batch.fits(self.controllers):
-            if not all(batchable(self.controllers[n]) for n in plain):
-                self._splits.clear()  # a controller was replaced: split again
-                return self._make_batch()
-            batch = self._batches[plain] = JointTargetBatch(self.controllers, plain)
+        batch = self.joint_target_batch(plain)
+        if batch is None:
+            self._splits.clear()  # a controller was replaced: split again
+            return self._make_batch()
         batch.set_target(self._commands)
         return batch, other
 
