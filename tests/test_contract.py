@@ -1,9 +1,9 @@
 """The contract every registered task and gym env keeps.
 
-Tasks: sample, step, finite observations within their bounds, same seed -> same episode,
-different seeds differ. Envs (every id, every action mode): create, reset, step, spaces,
-no NaN, observations inside their space, same seed + same actions -> identical trajectory,
-different seeds differ.
+Tasks: sample, step, finite observations within their bounds, ``score`` equal to
+``get_reward``/``get_info``, same seed -> same episode, different seeds differ. Envs (every
+id, every action mode): create, reset, step, spaces, no NaN, observations inside their space,
+same seed + same actions -> identical trajectory, different seeds differ.
 """
 
 from __future__ import annotations
@@ -88,6 +88,7 @@ def test_task_contract(name):
             for _ in range(5):
                 obs, reward, done = task.step({})
                 assert np.isfinite(reward) and not done
+                assert task.score() == (float(reward), task.get_info())  # the gym env's scoring
                 for key, value in obs.items():
                     low, high = bounds[key]
                     assert np.all(np.isfinite(value)), key

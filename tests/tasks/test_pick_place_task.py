@@ -26,6 +26,7 @@ def test_scripted_grasp_reaches_air_goal(ik_driver):
         assert task.judge_success(), task.get_info()
         assert task.get_info()["lifted"] is True
         assert task.get_reward() > resting
+        assert task.score() == (task.get_reward(), task.get_info())  # bonuses included
     finally:
         sampler.close()
 

@@ -121,3 +121,45 @@ def test_description_and_info(name):
             assert np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low < high)
     finally:
         sampler.close()
+
+
+def test_score_is_reward_and_info_from_one_evaluation(reach, monkeypatch):
+    task = reach.sample_task(0)
+    calls = []
+    real = type(task).achieved_goal
+    monkeypatch.setattr(type(task), "achieved_goal", lambda t: calls.append(1) or real(t))
+    reward, info = task.score()
+    assert len(calls) == 1  # one goal distance for both
+    assert (reward, info) == (task.get_reward(), task.get_info())
+
+
+def test_score_goes_through_overridden_reward_and_info():
+    """A subclass overriding get_reward or get_info is scored through its own methods."""
+    from trossen_arm_mujoco.tasks.reach import ReachTask
+    from trossen_arm_mujoco.tasks.transfer_cube import TransferCube
+
+    class Constant(ReachTask):
+        def get_reward(self) -> float:
+            return 7.0
+
+    class Tagged(TransferCube):
+        def get_info(self):
+            return {**super().get_info(), "tag": 1}
+
+    class Rewarded(TransferCube):  # get_reward below the shared score: still used
+        def get_reward(self) -> int:
+            return 4
+
+    for name, cls, expected in [
+        ("reach", Constant, lambda r, i: r == 7.0 and "goal_distance" in i),
+        ("transfer_cube", Tagged, lambda r, i: i["tag"] == 1),
+        ("transfer_cube", Rewarded, lambda r, i: r == 4.0 and i == {"is_success": True}),
+    ]:
+        sampler = registry.make_sampler(name)
+        try:
+            sampler.sample_task(0)
+            task = cls(sampler.env, sampler.config)
+            task.reset()
+            assert expected(*task.score())
+        finally:
+            sampler.close()

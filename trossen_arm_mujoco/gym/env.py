@@ -156,7 +156,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.task = self.sampler.next_task(self.np_random)
         self.actions.reset(self.scene.data)
         obs = self._observe()
-        info = self._info(False)
+        info = self._with_safety(self.task.get_info(), False)
         if self.sampler.randomization is not None:
             info["randomization"] = self.sampler.randomization
         self.stepper.start(self.task)
@@ -172,8 +172,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.stepper.step(self.task, commands)
         with self.stepper.lock:
             obs = self._observe()
-            info = self._info(clipped)
-            reward, terminated = self._reward_terminated(obs, info)
+            reward, terminated, info = self._evaluate(obs, clipped)
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
@@ -201,14 +200,16 @@ class TrossenMujocoEnv(gymnasium.Env):
         images = self.scene.render_images() if self.observations.needs_images else None
         return self.observations.build(self.task, images)
 
-    def _info(self, clipped: bool) -> dict[str, Any]:
-        info = self.task.get_info()
+    def _with_safety(self, info: dict[str, Any], clipped: bool) -> dict[str, Any]:
+        """The task's ``info`` with the safety floor's report of this step."""
         info["safety_clipped"] = bool(clipped)
         info["safety_links"] = ",".join(self.actions.clipped_links) if clipped else ""
         return info
 
-    def _reward_terminated(self, obs: Any, info: dict[str, Any]) -> tuple[float, bool]:
-        return float(self.task.get_reward()), bool(self.task.is_terminal())
+    def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
+        """(reward, terminated, info) of the state just observed: the task's ``score``."""
+        reward, info = self.task.score()
+        return reward, bool(self.task.is_terminal()), self._with_safety(info, clipped)
 
     def _sync_viewer(self) -> None:
         if self._headless:

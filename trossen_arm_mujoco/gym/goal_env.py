@@ -51,10 +51,11 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
         shape = np.shape(achieved_goal)[:-1]
         return False if shape == () else np.zeros(shape, dtype=bool)
 
-    def _reward_terminated(self, obs: Any, info: dict[str, Any]) -> tuple[float, bool]:
+    def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
+        info = self._with_safety(self.task.get_info(), clipped)
         achieved, desired = obs["achieved_goal"], obs["desired_goal"]
         success = bool(self.probe.goal_success(achieved, desired))
         info["is_success"] = success
         # compute_terminated(achieved, desired, info), from the success just computed
         terminated = success and bool(self.config.get("terminate_on_success", False))
-        return float(self.compute_reward(achieved, desired, info)), terminated
+        return float(self.compute_reward(achieved, desired, info)), terminated, info

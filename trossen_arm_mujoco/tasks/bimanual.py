@@ -123,6 +123,13 @@ class BimanualTask(Task):
     def judge_success(self) -> bool:
         return self.get_reward() >= self.max_reward
 
+    _score_covers = ("get_info", "judge_success")
+
+    def _score(self) -> tuple[float, dict[str, Any]]:
+        """One reward evaluation (contacts read once) for the reward and ``is_success``."""
+        reward = self.get_reward()
+        return float(reward), {"is_success": reward >= self.max_reward}
+
 
 class BimanualSampler(TaskSampler):
     """Base of the Stationary AI samplers: the kit robot in either flavour, arms starting at

@@ -32,12 +32,13 @@ class PickPlaceTask(PushTask):
         """The cube is ``lift_height`` (m) or more above its resting height."""
         return bool(self.cube_pos()[2] >= self.lifted_z)
 
-    def get_reward(self) -> float:
+    def reward_at(self, dist: float) -> float:
         """Push's shaped reward + lift_bonus while the cube is lifted."""
-        return self.shaped_reward() + self.lift_bonus * self.lifted()
+        return super().reward_at(dist) + self.lift_bonus * self.lifted()
 
-    def get_info(self) -> dict[str, Any]:
-        info = super().get_info()
+    def info_at(self, dist: float) -> dict[str, Any]:
+        """Push's diagnostics and ``lifted``."""
+        info = super().info_at(dist)
         info["lifted"] = self.lifted()
         return info
 

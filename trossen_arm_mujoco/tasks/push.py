@@ -65,19 +65,15 @@ class PushTask(SingleArmTask):
     def achieved_goal(self) -> np.ndarray:
         return self.cube_pos()
 
-    def shaped_reward(self) -> float:
-        """-reach_coef * |ee - cube| - distance_coef * |cube - goal| + success_bonus * success."""
-        cube = self.cube_pos()
-        reach = float(goal_distance(self.ee_pos(), cube))
-        dist = float(goal_distance(cube, self.goal))
+    def reward_at(self, dist: float) -> float:
+        """-reach_coef * |ee - cube| - distance_coef * |cube - goal| + success_bonus * success
+        (``dist`` = |cube - goal|, m)."""
+        reach = float(goal_distance(self.ee_pos(), self.cube_pos()))
         return (
             -self.reach_coef * reach
             - self.distance_coef * dist
             + self.success_bonus * (dist < self.tolerance)
         )
-
-    def get_reward(self) -> float:
-        return self.shaped_reward()
 
     def get_task_description(self) -> str:
         x, y, _ = self.goal

@@ -11,7 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
-from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
+from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
 from trossen_arm_mujoco.tasks.task import Bounds
 
 
@@ -31,9 +31,8 @@ class ReachTask(SingleArmTask):
     def achieved_goal(self) -> np.ndarray:
         return self.ee_pos()
 
-    def get_reward(self) -> float:
+    def reward_at(self, dist: float) -> float:
         """-distance_coef * |ee - target| (m) + success_bonus * success."""
-        dist = float(goal_distance(self.ee_pos(), self.goal))
         return -self.distance_coef * dist + self.success_bonus * (dist < self.tolerance)
 
     def get_task_description(self) -> str:

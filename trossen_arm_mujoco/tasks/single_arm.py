@@ -115,10 +115,32 @@ class SingleArmTask(Task):
     def judge_success(self) -> bool:
         return bool(self.goal_success(self.achieved_goal(), self.desired_goal()))
 
-    def get_info(self) -> dict[str, Any]:
-        """``is_success`` and ``goal_distance`` (m), from one distance computation."""
-        dist = float(goal_distance(self.achieved_goal(), self.goal))
+    # -- scoring: the reward and the diagnostics from one goal distance --------------------
+    def distance(self) -> float:
+        """Distance (m) of the achieved goal to the desired goal."""
+        return float(goal_distance(self.achieved_goal(), self.goal))
+
+    def reward_at(self, dist: float) -> float:
+        """The task's dense reward, the achieved goal being ``dist`` (m) from the desired
+        one (the non-goal env's reward)."""
+        raise NotImplementedError
+
+    def info_at(self, dist: float) -> dict[str, Any]:
+        """``get_info`` with the achieved goal ``dist`` (m) from the desired one:
+        ``is_success`` and ``goal_distance`` (m)."""
         return {"is_success": dist < self.tolerance, "goal_distance": dist}
+
+    def get_reward(self) -> float:
+        return self.reward_at(self.distance())
+
+    def get_info(self) -> dict[str, Any]:
+        return self.info_at(self.distance())
+
+    _score_covers = ("get_reward", "get_info")
+
+    def _score(self) -> tuple[float, dict[str, Any]]:
+        dist = self.distance()
+        return float(self.reward_at(dist)), self.info_at(dist)
 
 
 class SingleArmSampler(TaskSampler):

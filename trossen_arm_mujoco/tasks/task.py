@@ -27,6 +27,21 @@ DEFAULT_POLICY_DT = 0.02
 Bounds = dict[str, tuple[np.ndarray, np.ndarray]]
 
 
+_SHARED_SCORE: dict[type, bool] = {}
+
+
+def _shares_score(cls: type) -> bool:
+    """Whether ``cls`` scores through the ``_score`` of a class above it: one defines it, and
+    ``cls`` resolves every method of that class's ``_score_covers`` to that class's own."""
+    shared = _SHARED_SCORE.get(cls)
+    if shared is None:
+        owner = next((k for k in cls.__mro__ if "_score" in vars(k)), Task)
+        shared = _SHARED_SCORE[cls] = owner is not Task and all(
+            getattr(cls, name) is getattr(owner, name) for name in owner._score_covers
+        )
+    return shared
+
+
 class Task:
     """Base of every task.
 
@@ -37,7 +52,8 @@ class Task:
 
     Subclasses set ``name``, ``robot_name`` and override the physics hooks
     (``initialize_episode``, ``before_step``, ``after_step``), ``get_observation`` with
-    ``observation_bounds``, ``get_reward``, ``judge_success`` and ``get_task_description``.
+    ``observation_bounds``, ``get_reward``, ``judge_success`` and ``get_task_description``
+    (and ``_score`` with ``_score_covers`` where reward and diagnostics share work).
     Goal-conditioned tasks also override ``achieved_goal``, ``desired_goal``, ``goal_bounds``
     and ``goal_reward``.
     """
@@ -143,6 +159,25 @@ class Task:
     def get_info(self) -> dict[str, Any]:
         """Per-step diagnostics; always has ``is_success``."""
         return {"is_success": self.judge_success()}
+
+    #: methods whose results the ``_score`` of the class defining it reproduces
+    _score_covers: ClassVar[tuple[str, ...]] = ()
+
+    def score(self) -> tuple[float, dict[str, Any]]:
+        """(reward, info) of the current state: ``float(get_reward())`` and ``get_info()``.
+        The gym env scores each step with it.
+
+        A task class whose reward and diagnostics share work computes both at once in
+        ``_score`` and names in ``_score_covers`` the methods whose results that reproduces;
+        ``score`` uses it only while a subclass overrides none of them, so overriding
+        ``get_reward`` or ``get_info`` keeps working as documented.
+        """
+        if _shares_score(type(self)):
+            return self._score()
+        return float(self.get_reward()), self.get_info()
+
+    def _score(self) -> tuple[float, dict[str, Any]]:
+        raise NotImplementedError
 
     # -- observations ---------------------------------------------------------------------
     def get_observation(self) -> dict[str, np.ndarray]:
