@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -187,12 +188,7 @@ class ParallelKinematics:
         self,
         poses: np.ndarray,
         q0_dicts: Sequence[Mapping[str, Sequence[float]]] | Mapping | None = None,
-        base_poses=None,
-        rel_to_base: bool = False,
-        eps: float = 1e-4,
-        max_iter: int = 100,
-        damping: float = 1e-3,
-        max_step: float = 0.2,
+        **options: Any,
     ) -> list[dict[str, np.ndarray] | None] | dict[str, np.ndarray] | None:
         """Joint positions placing the group's leaf frame at each pose.
 
@@ -200,6 +196,8 @@ class ParallelKinematics:
             poses: (N, 4, 4) targets, or one (4, 4).
             q0_dicts: initial joints, one dict per target, or one dict for all (default the
                 reference state).
+            options: ``base_poses``, ``rel_to_base``, ``eps``, ``max_iter``, ``damping``,
+                ``max_step``, as ``RobotKinematics.solve_ik`` takes them (see ``_solve``).
 
         Returns:
             One qpos dict (every group with joints) per target, None where the solve did not
@@ -215,7 +213,7 @@ class ParallelKinematics:
             if len(dicts) != n:
                 raise UserError(f"ik: {len(dicts)} initial configurations for {n} poses")
         qpos = self._qpos_from_dicts(dicts)
-        result = self._solve(arr, qpos, base_poses, rel_to_base, eps, max_iter, damping, max_step)
+        result = self._solve(arr, qpos, **options)
         qpos[:, self._posadr] = result.q
         view = self.kinematics.robot_view
         out = [
@@ -227,19 +225,12 @@ class ParallelKinematics:
         return out[0] if single else out
 
     def solve(
-        self,
-        poses: np.ndarray,
-        q0: np.ndarray | None = None,
-        base_poses=None,
-        rel_to_base: bool = False,
-        eps: float = 1e-4,
-        max_iter: int = 100,
-        damping: float = 1e-3,
-        max_step: float = 0.2,
+        self, poses: np.ndarray, q0: np.ndarray | None = None, **options: Any
     ) -> BatchIKResult:
         """Batched IK on arrays: ``poses`` (N, 4, 4) (or one (4, 4) for all ``q0``), ``q0``
-        (N, n_unlocked) initial joints (default the reference state). Per configuration
-        the result equals ``RobotKinematics.solve_ik`` with the same arguments."""
+        (N, n_unlocked) initial joints (default the reference state); ``options`` as for
+        ``ik``. Per configuration the result equals ``RobotKinematics.solve_ik`` with the
+        same arguments."""
         arr = np.asarray(poses, dtype=float)
         if arr.ndim == 3:
             n = len(arr)
@@ -248,13 +239,22 @@ class ParallelKinematics:
         qpos = self._reference_qpos(n)
         if q0 is not None:
             qpos[:, self._posadr] = _batch("q0", q0, self.n_unlocked, n)
-        return self._solve(arr, qpos, base_poses, rel_to_base, eps, max_iter, damping, max_step)
+        return self._solve(arr, qpos, **options)
 
     def _solve(
-        self, poses, qpos: np.ndarray, base_poses, rel_to_base, eps, max_iter, damping, max_step
+        self,
+        poses,
+        qpos: np.ndarray,
+        base_poses=None,
+        rel_to_base: bool = False,
+        eps: float = 1e-4,
+        max_iter: int = 100,
+        damping: float = 1e-3,
+        max_step: float = 0.2,
     ) -> BatchIKResult:
         """IK from full initial qpos (N, nq); the targets are world poses unless
-        ``rel_to_base``, where they are in the group's robot frame."""
+        ``rel_to_base``, where they are in the group's robot frame (``base_poses``: (N, 4, 4)
+        or one robot base pose; the solver settings as in ``RobotKinematics.solve_ik``)."""
         check_ik_options(eps, max_iter, damping, max_step)
         n = len(qpos)
         targets = _transforms("poses", poses, n)

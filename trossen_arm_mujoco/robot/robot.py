@@ -215,13 +215,19 @@ class Robot:
         for name in names:
             if name not in self.controllers:
                 raise unknown_name_error("controlled move group", name, self.controllers)
-            controller = self.controllers[name]
-            if controller.ctrl_dt is None:
-                controller.ctrl_dt = self.ctrl_dt
+        self._give_ctrl_dt(names)
         if not all(batchable(self.controllers[n]) for n in names):
             return None
         batch = self._batches[names] = JointTargetBatch(self.controllers, names)
         return batch
+
+    def _give_ctrl_dt(self, names: Sequence[str]) -> None:
+        """The robot's ``ctrl_dt`` to the controllers of ``names`` that have none yet (put
+        into ``controllers`` without one)."""
+        for name in names:
+            controller = self.controllers[name]
+            if controller.ctrl_dt is None:
+                controller.ctrl_dt = self.ctrl_dt
 
     def _take_targets(self, commands: JointTargets) -> bool:
         """Store ``JointTargets`` as the batch's target, when the batch is still this robot's
@@ -244,11 +250,8 @@ class Robot:
         """(batch of the plain joint_position commands or None, ids of the other commands).
         The batch's structure is kept per set of ids and reused while its controllers and
         limits stay the same; only the target is new."""
-        for name in self._commands:
-            controller = self.controllers[name]
-            if controller.ctrl_dt is None:
-                controller.ctrl_dt = self.ctrl_dt
         names = tuple(self._commands)
+        self._give_ctrl_dt(names)
         split = self._splits.get(names)
         if split is None:
             split = self._splits[names] = split_batchable(self.controllers, names)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -165,24 +165,13 @@ class RobotKinematics:
         return posadr, np.concatenate(limits).reshape(-1, 2)
 
     def ik(
-        self,
-        move_group_id: str,
-        pose,
-        unlocked_move_group_ids: Sequence[str] | None = None,
-        q0: Mapping[str, Sequence[float]] | None = None,
-        base_pose=None,
-        rel_to_base: bool = False,
-        eps: float = 1e-4,
-        max_iter: int = 100,
-        damping: float = 1e-3,
-        max_step: float = 0.2,
+        self, move_group_id: str, pose, *args: Any, **kwargs: Any
     ) -> dict[str, np.ndarray] | None:
         """Joint positions that put ``move_group_id``'s leaf frame at ``pose``, or None when
-        the solve does not converge; see ``solve_ik`` for the arguments."""
-        result = self.solve_ik(
-            move_group_id, pose, unlocked_move_group_ids, q0, base_pose, rel_to_base,
-            eps, max_iter, damping, max_step,
-        )  # fmt: skip
+        the solve does not converge; the other arguments are those of ``solve_ik``
+        (``unlocked_move_group_ids``, ``q0``, ``base_pose``, ``rel_to_base``, ``eps``,
+        ``max_iter``, ``damping``, ``max_step``)."""
+        result = self.solve_ik(move_group_id, pose, *args, **kwargs)
         return result.qpos if result.converged else None
 
     def solve_ik(
