@@ -76,6 +76,19 @@ def _boxes(space: gym.Space) -> list[gym.spaces.Box]:
     return [space]
 
 
+def _check_state_parts(task, obs: dict) -> None:
+    """``state_parts`` (the gym state vector's pieces, live views) hold the values of
+    ``get_observation`` (then the goal and goal delta), where the task has the shortcut."""
+    for with_goal in (False, True) if task.goal_conditioned else (False,):
+        parts = task.state_parts(with_goal)
+        if parts is None:
+            continue
+        want = list(obs.values())
+        if with_goal:
+            want += [task.desired_goal(), task.desired_goal() - task.achieved_goal()]
+        np.testing.assert_array_equal(np.concatenate(parts), np.concatenate(want))
+
+
 @pytest.mark.parametrize("name", registry.names())
 def test_task_contract(name):
     sampler = registry.make_sampler(name)
@@ -89,6 +102,7 @@ def test_task_contract(name):
                 obs, reward, done = task.step({})
                 assert np.isfinite(reward) and not done
                 assert task.score() == (float(reward), task.get_info())  # the gym env's scoring
+                _check_state_parts(task, obs)
                 for key, value in obs.items():
                     low, high = bounds[key]
                     assert np.all(np.isfinite(value)), key

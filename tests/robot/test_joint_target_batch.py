@@ -92,7 +92,7 @@ def test_set_target_takes_the_commands_in_batch_order(kit):
     _, data, robot = kit
     batch = JointTargetBatch(robot.controllers, ["right_gripper", "left_arm"])
     batch.set_target({"left_arm": np.zeros(6), "right_gripper": np.array([0.02])})
-    out = batch.apply(data)
+    out = batch.by_group(batch.apply(data))
     assert list(out) == ["right_gripper", "left_arm"]
     assert out["right_gripper"].shape == (1,) and out["left_arm"].shape == (6,)
 
@@ -140,6 +140,51 @@ def test_preview_is_the_controllers_limit_over_the_ticks(kit):
         expected = [robot.controllers[n].limit(data, commands[n], ticks) for n in NAMES]
         assert np.array_equal(end, np.concatenate(expected))
     assert np.array_equal(data.ctrl, before)  # nothing written
+
+
+def test_a_kept_preview_is_the_next_tick(kit, monkeypatch):
+    """preview(keep=True) of the target handed over is what the next tick writes, without
+    computing it again; a physics step, another target array or a second tick recompute."""
+    model, data, robot = kit
+    twin, twin_data = _twin(model, data)
+    batch = robot.joint_target_batch(NAMES)
+    real, calls = JointTargetBatch._limited, []
+    monkeypatch.setattr(JointTargetBatch, "_limited", lambda *a: calls.append(a[3]) or real(*a))
+    rng = np.random.default_rng(4)
+    for case in ("kept", "stepped", "other array", "second tick"):
+        commands = _random_commands(robot, rng)
+        vector = np.concatenate([commands[n] for n in NAMES])
+        end = batch.preview(data, vector, 1, keep=True)
+        if case == "stepped":
+            mujoco.mj_step(model, data)
+            mujoco.mj_copyData(twin_data, model, data)
+        if case == "other array":
+            vector = vector.copy()
+        robot.update_control(JointTargets(batch, vector))
+        twin.update_control({n: commands[n] for n in NAMES})
+        calls.clear()
+        robot.compute_control()
+        ours = list(calls)
+        twin.compute_control()
+        assert np.array_equal(data.ctrl, twin_data.ctrl), case  # the same controls
+        calls[:] = ours
+        if case in ("kept", "second tick"):
+            assert np.array_equal(data.ctrl[batch._sel], end) and calls == [], case
+        else:
+            assert calls == [1], case  # computed for this tick
+        if case == "second tick":
+            calls.clear()
+            robot.compute_control()
+            assert calls == [1]  # a kept preview serves one tick only
+        mujoco.mj_copyData(twin_data, model, data)
+    # previews without keep, or over several ticks, are never reused
+    for ticks, keep in ((1, False), (3, True)):
+        vector = np.concatenate(list(_random_commands(robot, rng).values()))
+        batch.preview(data, vector, ticks, keep=keep)
+        batch.set_vector(vector)
+        calls.clear()
+        batch.apply(data)
+        assert calls == [1]
 
 
 def test_joint_targets_are_checked(kit):

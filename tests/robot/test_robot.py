@@ -82,6 +82,34 @@ def test_update_control_accepts_lists_and_compute_returns_by_group(kit):
     np.testing.assert_allclose(data.ctrl[13], 0.02)
 
 
+def test_apply_control_writes_what_compute_control_writes():
+    """The stepping loop's apply_control is compute_control without the returned dict: the
+    same controls, tick by tick, for batched, per-group and relative commands."""
+    model = mujoco.MjModel.from_xml_path(str(KIT_JOINT))
+    robots, datas = [], []
+    for _ in range(2):
+        data = mujoco.MjData(model)
+        config = stationary_ai_joint_config().with_command_modes(right_arm="joint_rel_position")
+        robot = Robot(model, config, ctrl_dt=0.02, data=data)
+        robot.reset()
+        robots.append(robot)
+        datas.append(data)
+    rng = np.random.default_rng(0)
+    for _ in range(6):
+        commands = {
+            "left_arm": rng.uniform(-0.5, 0.5, 6),
+            "left_gripper": rng.uniform(0.0, 0.04, 1),
+            "right_arm": rng.uniform(-0.05, 0.05, 6),  # relative: held until reached
+        }
+        for robot in robots:
+            robot.update_control(commands)
+        for _ in range(3):
+            out = robots[0].compute_control()
+            assert robots[1].apply_control() is None
+            assert {"left_arm", "left_gripper"} <= set(out) <= {*commands}
+            assert np.array_equal(datas[0].ctrl, datas[1].ctrl)
+
+
 def test_reset_puts_init_qpos_and_holds(kit):
     model, data, robot = kit
     np.testing.assert_allclose(data.qpos[:16], START_ARM_POSE)

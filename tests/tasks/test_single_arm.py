@@ -147,3 +147,60 @@ def test_push_marker_is_its_goal_body():
         np.testing.assert_allclose(task.gripper.get_noop_ctrl(task.data), [0.0], atol=1e-9)
     finally:
         s.close()
+
+
+@pytest.mark.parametrize("name", ["reach", "push", "pick_place"])
+def test_state_parts_are_live_views_of_the_observation(name):
+    """The gym env's shortcut: the pieces follow the simulation and equal get_observation
+    (then the goal and goal delta) at every step; distance() equals the copied goals'."""
+    s = registry.make_sampler(name)
+    try:
+        task = s.sample_task(3)
+        rng = np.random.default_rng(0)
+        parts = task.state_parts(with_goal=True)
+        assert parts is not None
+        assert all(p.base is not None for p in parts[:4])  # the robot state: views, no copies
+        for _ in range(4):
+            q = task.arm.get_qpos(task.data) + rng.uniform(-0.2, 0.2, 6)
+            task.step({"arm": np.clip(q, *task.arm.joint_range.T)})
+            obs = task.get_observation()
+            now = task.state_parts(with_goal=True)
+            for before, got, want in zip(parts, now, obs.values()):
+                np.testing.assert_array_equal(got, want)
+                if before.base is not None:  # a view taken before the steps: still current
+                    np.testing.assert_array_equal(before, want)
+            goal = task.desired_goal()
+            np.testing.assert_array_equal(now[-2], goal)
+            np.testing.assert_array_equal(now[-1], goal - task.achieved_goal())
+            assert task.distance() == float(goal_distance(task.achieved_goal(), goal))
+    finally:
+        s.close()
+
+
+def test_overriding_a_method_turns_its_shortcut_off(sampler):
+    """A subclass overriding what a shortcut stands for is served by its override: no state
+    parts (the gym env then reads get_observation), distance() through achieved_goal()."""
+    from trossen_arm_mujoco.tasks.reach import ReachTask
+    from trossen_arm_mujoco.tasks.task import trusts_shortcut
+
+    class Observed(ReachTask):
+        def get_observation(self):
+            return {**super().get_observation(), "extra": np.zeros(1)}
+
+    class Shifted(ReachTask):
+        def achieved_goal(self):
+            return super().achieved_goal() + 1.0
+
+    class OwnRobot(ReachTask):
+        def robot_observation(self):
+            return super().robot_observation()
+
+    sampler.sample_task(0)
+    for cls in (Observed, Shifted, OwnRobot):
+        task = cls(sampler.env, sampler.config)
+        assert task.state_parts() is None, cls.__name__
+    assert trusts_shortcut(ReachTask, "_achieved_view")
+    assert not trusts_shortcut(Shifted, "_achieved_view")
+    task = Shifted(sampler.env, sampler.config, goal=[0.3, 0.0, 0.2])
+    want = goal_distance(task.ee_pos() + 1.0, task.goal)
+    assert task.distance() == pytest.approx(float(want), abs=1e-12)

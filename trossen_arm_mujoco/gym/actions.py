@@ -180,9 +180,13 @@ class ActionMapper:
         ``target`` (dim,) is the batch's target vector (rad, m), the end of the step the
         batch's own ``preview`` over the step's ticks. Returns ``JointTargets`` of it (the
         robot takes the vector as is) and whether the floor changed it."""
-        end = batch.preview(data, target, self.n_ticks)
+        # kept: unless the floor changes it, this target goes to the robot as it is, and the
+        # first tick writes the controls previewed here
+        end = batch.preview(data, target, self.n_ticks, keep=True)
         held = self._hold_up(data, {p.arm.name: end[p.arm_values] for p in self._parts})
         links = self.clipped_links = []
+        if held:
+            target = target.copy()  # a new target: the kept preview no longer applies
         for name, (fraction, link) in held.items():
             part = self._part_of[name]
             q_now = data.qpos[part.qpos_sel]

@@ -61,8 +61,13 @@ class GripperGroup(MoveGroup):
         data.ctrl[self.actuator_id] = ctrl[0]
 
     def get_noop_ctrl(self, data):
+        return self.noop_ctrl_view(data).copy()
+
+    def noop_ctrl_view(self, data) -> np.ndarray:
+        """``get_noop_ctrl`` as a live view of ``data.qpos`` (1,) m: it follows the
+        simulation; read it, never write it."""
         i = self.actuated_qpos_idx
-        return data.qpos[i : i + 1].copy()
+        return data.qpos[i : i + 1]
 
     def set_gripper_ctrl_open(self, open: bool) -> None:
         """Command the gripper fully open (``open_ctrl``) or closed (``closed_ctrl``)."""

@@ -12,7 +12,9 @@ A caller that has the commands of all those groups as one vector already (the gy
 adapter's joint_position actions) hands them over as ``JointTargets`` (``batch.commands``):
 a dict of views of that vector, checked once, which ``Robot.update_control`` takes as the
 batch's target without splitting and joining it again. ``preview`` says where the controls
-will be after some ticks, without writing them (the gym safety floor checks that).
+will be after some ticks, without writing them (the gym safety floor checks that); with
+``keep=True`` the next tick reuses that result instead of computing it again (see
+``preview``).
 """
 
 from __future__ import annotations
@@ -79,6 +81,8 @@ class JointTargetBatch:
         #: number of values of the target vector (the groups' actuators, in ``names`` order)
         self.size = len(self._step)
         self._target = np.zeros(self.size)
+        # (data, data.time, target, controls) of the last preview kept for the next tick
+        self._kept: tuple | None = None
         bounds = np.cumsum([0] + [len(g.actuator_ids) for g in groups])
         self._slices = [
             (n, slice(int(a), int(b))) for n, a, b in zip(self.names, bounds, bounds[1:])
@@ -129,18 +133,43 @@ class JointTargetBatch:
         u += current
         return np.minimum(np.maximum(u, self._low, out=u), self._high, out=u)
 
-    def preview(self, data: mujoco.MjData, target: np.ndarray, ticks: int = 1) -> np.ndarray:
+    def preview(
+        self, data: mujoco.MjData, target: np.ndarray, ticks: int = 1, keep: bool = False
+    ) -> np.ndarray:
         """Where the controls will be after ``ticks`` ticks toward ``target`` ((size,), rad or
         m), from ``data.ctrl``; nothing is written. Value by value what ``ticks`` calls of
-        ``apply`` would leave (``Controller.limit`` with ``ticks``)."""
-        return self._limited(data, target, ticks)
+        ``apply`` would leave (``Controller.limit`` with ``ticks``).
 
-    def apply(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
+        ``keep=True`` (one tick): the caller hands this very ``target`` array over, unchanged,
+        as the batch's target (``set_vector``, e.g. through ``JointTargets``) before the next
+        tick; that tick then writes the result kept here instead of computing it again, as
+        long as ``data`` is where it was (same ``data.time``: no physics step in between).
+        """
+        u = self._limited(data, target, ticks)
+        if keep and ticks == 1:
+            self._kept = (data, data.time, target, u)
+        return u
+
+    def apply(self, data: mujoco.MjData) -> np.ndarray:
         """Move every control toward its target by at most ``max_step``, clip it to the
-        control range, write it to ``data.ctrl``; returns the controls by group id."""
-        u = self._limited(data, self._target, 1)
+        control range, write it to ``data.ctrl``; returns the controls (size,) (``by_group``
+        splits them)."""
+        kept, self._kept = self._kept, None
+        if (
+            kept is not None
+            and kept[2] is self._target
+            and kept[0] is data
+            and kept[1] == data.time
+        ):
+            u = kept[3]  # the kept preview of this very tick
+        else:
+            u = self._limited(data, self._target, 1)
         data.ctrl[self._sel] = u
-        return {name: u[s] for name, s in self._slices}
+        return u
+
+    def by_group(self, values: np.ndarray) -> dict[str, np.ndarray]:
+        """(size,) values in ``names`` order -> group id -> that group's values (views)."""
+        return {name: values[s] for name, s in self._slices}
 
 
 class JointTargets(dict):

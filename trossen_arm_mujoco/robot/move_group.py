@@ -346,8 +346,21 @@ class MJCFFrameMixin:
     def get_frame_position(self, data: mujoco.MjData) -> np.ndarray:
         """World position of the leaf frame, [x, y, z] (m): ``get_frame_pose(data)[:3]``
         without working out the orientation."""
+        return self.frame_position_view(data).copy()
+
+    def frame_position_view(self, data: mujoco.MjData) -> np.ndarray:
+        """``get_frame_position`` as a live view of ``data`` (3,) m: it follows the
+        simulation; read it, never write it."""
         xpos = data.site_xpos if self._site else data.xpos
-        return xpos[self.leaf_frame_id].copy()
+        return xpos[self.leaf_frame_id]
+
+    def state_views(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray] | None:
+        """Live views of the joint positions (pos_dim,) and velocities (vel_dim,) in ``data``
+        (they follow the simulation; read them, never write them), or None when the joints
+        are not consecutive in ``qpos``/``qvel`` (use ``get_qpos``/``get_qvel``)."""
+        if isinstance(self._qpos_sel, slice) and isinstance(self._dof_sel, slice):
+            return data.qpos[self._qpos_sel], data.qvel[self._dof_sel]
+        return None
 
     def get_frame_jacobian(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """Jacobian of the leaf frame w.r.t. all dofs, shape (6, nv): rows [linear; angular],

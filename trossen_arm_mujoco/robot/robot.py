@@ -172,16 +172,27 @@ class Robot:
         Plain ``joint_position`` groups are rate-limited together, as one vector
         (``JointTargetBatch``, built once per new set of commands); the others one by one.
         """
-        if data is None:
-            data = self.view.data
         out: dict[str, np.ndarray] = {}
+        self._control(self.view.data if data is None else data, out)
+        return out
+
+    def apply_control(self, data: mujoco.MjData | None = None) -> None:
+        """``compute_control`` without gathering the controls it wrote into a dict (the
+        stepping loop's call, once per control tick)."""
+        self._control(self.view.data if data is None else data, None)
+
+    def _control(self, data: mujoco.MjData, out: dict[str, np.ndarray] | None) -> None:
+        """One control tick: write the commanded groups' controls to ``data``; and, when
+        ``out`` is a dict, put them there by group."""
         controllers = self.controllers
         if self._commands:
             batch = self._batch
             if batch is None:
                 batch = self._batch = self._make_batch()
             if batch[0] is not None:
-                out = batch[0].apply(data)
+                u = batch[0].apply(data)
+                if out is not None:
+                    out.update(batch[0].by_group(u))
             for name in batch[1]:
                 controller = controllers[name]
                 target = controller._target(data, self._commands[name])  # checked already
@@ -192,16 +203,19 @@ class Robot:
                     del self._commands[name]
                     self._batch = None
                 else:
-                    ctrl = out[name] = controller.limit(data, target)
+                    ctrl = controller.limit(data, target)
                     controller.group._write_ctrl(data, ctrl)
+                    if out is not None:
+                        out[name] = ctrl
         if self._targets:
             for name, (target, reached) in list(self._targets.items()):
                 controller = controllers[name]
-                ctrl = out[name] = controller.limit(data, target)
+                ctrl = controller.limit(data, target)
                 controller.group._write_ctrl(data, ctrl)
+                if out is not None:
+                    out[name] = ctrl
                 if (ctrl == reached).all():
                     del self._targets[name]  # reached: the control now holds it
-        return out
 
     def joint_target_batch(self, names: Sequence[str]) -> JointTargetBatch | None:
         """The ``JointTargetBatch`` rate-limiting the groups ``names`` as one vector, or None

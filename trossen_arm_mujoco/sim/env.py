@@ -169,7 +169,7 @@ class MujocoEnv:
         """Let every robot compute and write its control (no physics step)."""
         data = self.data
         for robot in self.robots.values():
-            robot.compute_control(data)
+            robot.apply_control(data)
 
     def step(self, n_ctrl_steps: int = 1) -> None:
         """Advance ``n_ctrl_steps`` control ticks; each tick: every robot computes and writes
@@ -177,7 +177,7 @@ class MujocoEnv:
         data, n, physics_step, robots = self.data, self.n_substeps, self._physics_step, self.robots
         for _ in range(n_ctrl_steps):
             for robot in robots.values():
-                robot.compute_control(data)
+                robot.apply_control(data)
             physics_step(n)
 
     def render_images(self) -> dict[str, np.ndarray]:

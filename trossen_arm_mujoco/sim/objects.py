@@ -25,7 +25,12 @@ class FreeJointObject:
         self.geom_id = lookup_id(model, "geom", geom_name) if geom_name else None
 
     def get_pose(self, data: mujoco.MjData) -> np.ndarray:
-        return data.qpos[self.qpos_adr : self.qpos_adr + 7].copy()
+        return self.pose_view(data).copy()
+
+    def pose_view(self, data: mujoco.MjData) -> np.ndarray:
+        """``get_pose`` as a live view of ``data.qpos`` (7,): it follows the simulation;
+        read it, never write it (``set_pose`` normalizes and zeroes the velocity)."""
+        return data.qpos[self.qpos_adr : self.qpos_adr + 7]
 
     def set_pose(self, data: mujoco.MjData, pose: Sequence[float]) -> None:
         """Place the object and zero its velocity (call mj_forward afterwards)."""
@@ -41,4 +46,8 @@ class FreeJointObject:
 
     def get_velocity(self, data: mujoco.MjData) -> np.ndarray:
         """[linear (m/s), angular (rad/s)] velocity, shape (6,)."""
-        return data.qvel[self.dof_adr : self.dof_adr + 6].copy()
+        return self.velocity_view(data).copy()
+
+    def velocity_view(self, data: mujoco.MjData) -> np.ndarray:
+        """``get_velocity`` as a live view of ``data.qvel`` (6,); read it, never write it."""
+        return data.qvel[self.dof_adr : self.dof_adr + 6]

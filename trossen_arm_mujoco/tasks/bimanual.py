@@ -123,7 +123,7 @@ class BimanualTask(Task):
     def judge_success(self) -> bool:
         return self.get_reward() >= self.max_reward
 
-    _score_covers = ("get_info", "judge_success")
+    _shortcuts = {"_score": ("get_info", "judge_success")}
 
     def _score(self) -> tuple[float, dict[str, Any]]:
         """One reward evaluation (contacts read once) for the reward and ``is_success``."""

@@ -37,6 +37,9 @@ class PushTask(SingleArmTask):
         self.cube = env.objects["cube"]
         self.max_obj_vel = float(self.config["max_object_velocity"])
         self.reach_coef = float(self.config["reach_coef"])
+        pose = self.cube.pose_view(env.data)
+        self._cube_pos, self._cube_quat = pose[:3], pose[3:]  # live views
+        self._cube_vel = self.cube.velocity_view(env.data)
 
     def cube_pos(self) -> np.ndarray:
         """Cube centre, world frame (3,) m."""
@@ -64,6 +67,14 @@ class PushTask(SingleArmTask):
 
     def achieved_goal(self) -> np.ndarray:
         return self.cube_pos()
+
+    _shortcuts = {"_object_parts": ("get_observation",), "_achieved_view": ("achieved_goal",)}
+
+    def _object_parts(self) -> list[np.ndarray]:
+        return [self._cube_pos, self._cube_quat, self._cube_vel, self._cube_pos - self._ee_view]
+
+    def _achieved_view(self) -> np.ndarray:
+        return self._cube_pos
 
     def reward_at(self, dist: float) -> float:
         """-reach_coef * |ee - cube| - distance_coef * |cube - goal| + success_bonus * success

@@ -31,6 +31,14 @@ class ReachTask(SingleArmTask):
     def achieved_goal(self) -> np.ndarray:
         return self.ee_pos()
 
+    _shortcuts = {"_object_parts": ("get_observation",), "_achieved_view": ("achieved_goal",)}
+
+    def _object_parts(self) -> list[np.ndarray]:
+        return []
+
+    def _achieved_view(self) -> np.ndarray:
+        return self._ee_view
+
     def reward_at(self, dist: float) -> float:
         """-distance_coef * |ee - target| (m) + success_bonus * success."""
         return -self.distance_coef * dist + self.success_bonus * (dist < self.tolerance)

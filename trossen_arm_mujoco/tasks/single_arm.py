@@ -19,9 +19,11 @@ from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
 from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
-from trossen_arm_mujoco.tasks.task import Bounds, Task
+from trossen_arm_mujoco.tasks.task import Bounds, Task, trusts_shortcut
 
 GOAL_REWARD_TYPES = ("sparse", "dense")
+#: the shortcuts that make up ``SingleArmTask.state_parts`` (and ``distance``)
+STATE_SHORTCUTS = ("_robot_parts", "_object_parts", "_achieved_view", "_desired_view")
 
 
 def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
@@ -64,6 +66,17 @@ class SingleArmTask(Task):
         centre = 0.5 * (self.ws_low + self.ws_high)
         self.goal = centre if goal is None else np.asarray(goal, dtype=float).reshape(3).copy()
         self._mocap = int(env.model.body_mocapid[lookup_id(env.model, "body", self.marker_body)])
+        # live views of the robot state (robot_observation order) and of the tool frame, read
+        # by the shortcuts of the gym env's state vector (None: the joints are not consecutive)
+        data = env.data
+        joints = self.arm.state_views(data)
+        self._ee_view = self.arm.frame_position_view(data)
+        self._robot_views = None if joints is None else [
+            *joints, self.gripper.noop_ctrl_view(data), self._ee_view
+        ]  # fmt: skip
+        self._fast_state = self._robot_views is not None and all(
+            trusts_shortcut(type(self), name) for name in STATE_SHORTCUTS
+        )
 
     # -- physics hooks --------------------------------------------------------------------
     def initialize_episode(self) -> None:
@@ -93,6 +106,39 @@ class SingleArmTask(Task):
             "ee_pos": (self.ws_low.copy(), self.ws_high.copy()),
         }
 
+    # -- shortcuts of the gym env's state vector (see ``Task.state_parts``) ---------------
+    _shortcuts = {
+        "_score": ("get_reward", "get_info"),
+        "_robot_parts": ("robot_observation", "ee_pos"),
+        "_desired_view": ("desired_goal",),
+    }
+
+    def _robot_parts(self) -> list[np.ndarray]:
+        """``robot_observation``'s values as live views."""
+        return self._robot_views
+
+    def _object_parts(self) -> list[np.ndarray]:
+        """The values ``get_observation`` adds to ``robot_observation``, in its order (live
+        views where they can be); each task defines it next to its ``get_observation``."""
+        raise NotImplementedError
+
+    def _achieved_view(self) -> np.ndarray:
+        """``achieved_goal`` as a live view; each task defines it next to its
+        ``achieved_goal``."""
+        raise NotImplementedError
+
+    def _desired_view(self) -> np.ndarray:
+        return self.goal
+
+    def state_parts(self, with_goal: bool = False) -> list[np.ndarray] | None:
+        if not self._fast_state:
+            return None
+        parts = [*self._robot_views, *self._object_parts()]
+        if with_goal:
+            desired = self._desired_view()
+            parts += (desired, desired - self._achieved_view())
+        return parts
+
     # -- goals ----------------------------------------------------------------------------
     def desired_goal(self) -> np.ndarray:
         return self.goal.copy()
@@ -118,7 +164,10 @@ class SingleArmTask(Task):
     # -- scoring: the reward and the diagnostics from one goal distance --------------------
     def distance(self) -> float:
         """Distance (m) of the achieved goal to the desired goal."""
-        return float(goal_distance(self.achieved_goal(), self.goal))
+        if self._fast_state:
+            diff = self._achieved_view() - self._desired_view()
+            return math.sqrt(diff @ diff)
+        return float(goal_distance(self.achieved_goal(), self.desired_goal()))
 
     def reward_at(self, dist: float) -> float:
         """The task's dense reward, the achieved goal being ``dist`` (m) from the desired
@@ -135,8 +184,6 @@ class SingleArmTask(Task):
 
     def get_info(self) -> dict[str, Any]:
         return self.info_at(self.distance())
-
-    _score_covers = ("get_reward", "get_info")
 
     def _score(self) -> tuple[float, dict[str, Any]]:
         dist = self.distance()

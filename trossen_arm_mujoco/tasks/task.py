@@ -27,19 +27,33 @@ DEFAULT_POLICY_DT = 0.02
 Bounds = dict[str, tuple[np.ndarray, np.ndarray]]
 
 
-_SHARED_SCORE: dict[type, bool] = {}
+_TRUSTED: dict[tuple[type, str], bool] = {}
 
 
-def _shares_score(cls: type) -> bool:
-    """Whether ``cls`` scores through the ``_score`` of a class above it: one defines it, and
-    ``cls`` resolves every method of that class's ``_score_covers`` to that class's own."""
-    shared = _SHARED_SCORE.get(cls)
-    if shared is None:
-        owner = next((k for k in cls.__mro__ if "_score" in vars(k)), Task)
-        shared = _SHARED_SCORE[cls] = owner is not Task and all(
-            getattr(cls, name) is getattr(owner, name) for name in owner._score_covers
+def _owner(cls: type, name: str) -> type | None:
+    """The class of ``cls.__mro__`` that defines ``name`` (None when none does)."""
+    return next((k for k in cls.__mro__ if name in vars(k)), None)
+
+
+def trusts_shortcut(cls: type, shortcut: str) -> bool:
+    """Whether instances of ``cls`` may use the method ``shortcut`` in place of the methods
+    it reproduces.
+
+    The class defining ``shortcut`` names those methods in its own ``_shortcuts``
+    (``{shortcut: (method, ...)}``). The shortcut is trusted while each of them is defined by
+    that class or by a class above it: a subclass overriding one of them (e.g. its own
+    ``get_reward``) is served by its override, never by a shortcut written for the parent.
+    """
+    key = (cls, shortcut)
+    trusted = _TRUSTED.get(key)
+    if trusted is None:
+        owner = _owner(cls, shortcut)
+        covers = None if owner is None else vars(owner).get("_shortcuts", {}).get(shortcut)
+        trusted = covers is not None and all(
+            issubclass(owner, _owner(cls, name) or object) for name in covers
         )
-    return shared
+        _TRUSTED[key] = trusted
+    return trusted
 
 
 class Task:
@@ -53,7 +67,8 @@ class Task:
     Subclasses set ``name``, ``robot_name`` and override the physics hooks
     (``initialize_episode``, ``before_step``, ``after_step``), ``get_observation`` with
     ``observation_bounds``, ``get_reward``, ``judge_success`` and ``get_task_description``
-    (and ``_score`` with ``_score_covers`` where reward and diagnostics share work).
+    (and shortcuts named in ``_shortcuts``: ``_score`` where reward and diagnostics share
+    work; see ``trusts_shortcut``).
     Goal-conditioned tasks also override ``achieved_goal``, ``desired_goal``, ``goal_bounds``
     and ``goal_reward``.
     """
@@ -160,19 +175,19 @@ class Task:
         """Per-step diagnostics; always has ``is_success``."""
         return {"is_success": self.judge_success()}
 
-    #: methods whose results the ``_score`` of the class defining it reproduces
-    _score_covers: ClassVar[tuple[str, ...]] = ()
+    #: shortcut method -> the methods whose results it reproduces (see ``trusts_shortcut``)
+    _shortcuts: ClassVar[dict[str, tuple[str, ...]]] = {}
 
     def score(self) -> tuple[float, dict[str, Any]]:
         """(reward, info) of the current state: ``float(get_reward())`` and ``get_info()``.
         The gym env scores each step with it.
 
         A task class whose reward and diagnostics share work computes both at once in
-        ``_score`` and names in ``_score_covers`` the methods whose results that reproduces;
-        ``score`` uses it only while a subclass overrides none of them, so overriding
-        ``get_reward`` or ``get_info`` keeps working as documented.
+        ``_score``, listed in its ``_shortcuts`` with the methods whose results that
+        reproduces; ``score`` uses it only while a subclass overrides none of them, so
+        overriding ``get_reward`` or ``get_info`` keeps working as documented.
         """
-        if _shares_score(type(self)):
+        if trusts_shortcut(type(self), "_score"):
             return self._score()
         return float(self.get_reward()), self.get_info()
 
@@ -188,6 +203,14 @@ class Task:
         """name -> (low, high) of every ``get_observation`` entry; finite, from the config and
         the model only (valid before any episode)."""
         raise NotImplementedError
+
+    def state_parts(self, with_goal: bool = False) -> list[np.ndarray] | None:
+        """The values of ``get_observation()`` in ``observation_bounds`` order, then, with
+        ``with_goal``, the desired goal and desired - achieved goal (m): the pieces of a flat
+        state vector, read without copies. Entries may be live views of ``data`` (they follow
+        the simulation: use them before the next step). None when the task has no such
+        shortcut; the gym env then builds the vector from ``get_observation``."""
+        return None
 
     # -- goals (goal-conditioned tasks) ---------------------------------------------------
     def achieved_goal(self) -> np.ndarray:
