@@ -121,6 +121,13 @@ def test_goal_env_dict(reach, obs_type):
 
 def test_goals_are_clipped_to_the_workspace(reach):
     b = ObservationBuilder(reach, "state", True, 0, H, W)
-    far = b.goal(np.array([100.0, -100.0, 0.1]))
+    goal = reach.goal.copy()
+    try:
+        reach.goal[:] = [100.0, -100.0, 0.1]
+        obs = b.build(reach, None)
+    finally:
+        reach.goal[:] = goal
+    far = obs["desired_goal"]
     assert far.dtype == np.float32
     np.testing.assert_allclose(far, [reach.ws_high[0], reach.ws_low[1], 0.1], rtol=1e-6)
+    assert b.space.contains(obs)

@@ -54,8 +54,15 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
     def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
         info = self._with_safety(self.task.get_info(), clipped)
         achieved, desired = obs["achieved_goal"], obs["desired_goal"]
-        success = bool(self.probe.goal_success(achieved, desired))
+        if type(self).compute_reward is TrossenMujocoGoalEnv.compute_reward:
+            # compute_reward(achieved, desired, info) and the success, from one evaluation
+            reward, success = self.probe.goal_score(achieved, desired)
+        else:  # a subclass's own compute_reward
+            success = bool(self.probe.goal_success(achieved, desired))
+            reward = None
         info["is_success"] = success
+        if reward is None:
+            reward = float(self.compute_reward(achieved, desired, info))
         # compute_terminated(achieved, desired, info), from the success just computed
         terminated = success and bool(self.config.get("terminate_on_success", False))
-        return float(self.compute_reward(achieved, desired, info)), terminated, info
+        return reward, terminated, info

@@ -55,6 +55,11 @@ class ObservationBuilder:
         if task.goal_conditioned:
             g_low, g_high = task.goal_bounds()
             self.goal_low, self.goal_high = g_low.astype(np.float32), g_high.astype(np.float32)
+            # both goals at once: (2, 3) bounds
+            self._goal_low2, self._goal_high2 = (
+                np.tile(self.goal_low, (2, 1)),
+                np.tile(self.goal_high, (2, 1)),
+            )
             if self.with_goal:
                 bounds["goal"] = (g_low, g_high)
                 bounds["goal_delta"] = (g_low - g_high, g_high - g_low)
@@ -105,11 +110,6 @@ class ObservationBuilder:
         # np.clip(vec, low, high), in place and without its overhead
         return np.minimum(np.maximum(vec, self._low, out=vec), self._high, out=vec)
 
-    def goal(self, value: np.ndarray) -> np.ndarray:
-        """A goal as float32 (3,), clipped into the goal bounds (a new array)."""
-        g = np.array(value, dtype=np.float32)
-        return np.minimum(np.maximum(g, self.goal_low, out=g), self.goal_high, out=g)
-
     def build(self, task: Task, images: dict[str, np.ndarray] | None) -> Any:
         """The observation of the current state (``images``: camera -> (H, W, 3) uint8)."""
         pixels = None
@@ -125,6 +125,10 @@ class ObservationBuilder:
         out: dict[str, np.ndarray] = {"observation": pixels if state is None else state}
         if self.obs_type == "pixels_state":
             out["pixels"] = pixels
-        out["achieved_goal"] = self.goal(task.achieved_goal())
-        out["desired_goal"] = self.goal(task.desired_goal())
+        goals = task.goal_views()  # no copies, where the task has the shortcut
+        if goals is None:
+            goals = (task.achieved_goal(), task.desired_goal())
+        both = np.array(goals, dtype=np.float32)  # (2, 3): one new array
+        np.minimum(np.maximum(both, self._goal_low2, out=both), self._goal_high2, out=both)
+        out["achieved_goal"], out["desired_goal"] = both  # its rows
         return out

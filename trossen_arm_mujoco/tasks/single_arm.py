@@ -28,10 +28,9 @@ STATE_SHORTCUTS = ("_robot_parts", "_object_parts", "_achieved_view", "_desired_
 
 def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
     """Euclidean distance over the last axis; shapes (..., 3) -> (...)."""
-    diff = np.subtract(achieved, desired, dtype=float)
-    if diff.ndim == 1:  # one pair, every step: skip norm's generality
-        return np.float64(math.sqrt(diff @ diff))
-    return np.linalg.norm(diff, axis=-1)
+    if np.ndim(achieved) == 1 and np.ndim(desired) == 1:  # one pair, every step: no arrays
+        return np.float64(math.dist(np.asarray(achieved).tolist(), np.asarray(desired).tolist()))
+    return np.linalg.norm(np.subtract(achieved, desired, dtype=float), axis=-1)
 
 
 class SingleArmTask(Task):
@@ -111,6 +110,7 @@ class SingleArmTask(Task):
         "_score": ("get_reward", "get_info"),
         "_robot_parts": ("robot_observation", "ee_pos"),
         "_desired_view": ("desired_goal",),
+        "_goal_score": ("goal_reward", "goal_success"),
     }
 
     def _robot_parts(self) -> list[np.ndarray]:
@@ -139,6 +139,11 @@ class SingleArmTask(Task):
             parts += (desired, desired - self._achieved_view())
         return parts
 
+    def goal_views(self) -> tuple[np.ndarray, np.ndarray] | None:
+        if not self._fast_state:
+            return None
+        return self._achieved_view(), self._desired_view()
+
     # -- goals ----------------------------------------------------------------------------
     def desired_goal(self) -> np.ndarray:
         return self.goal.copy()
@@ -154,9 +159,17 @@ class SingleArmTask(Task):
     def goal_reward(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
         """``sparse``: -1 outside the tolerance, 0 inside; ``dense``: -distance (m).
         Shapes (..., 3) -> float (...)."""
+        return self.goal_reward_at(goal_distance(achieved, desired))
+
+    def goal_reward_at(self, dist: np.ndarray) -> np.ndarray:
+        """``goal_reward`` of goals ``dist`` (m; a float or an array) apart."""
         if self.reward_type == "sparse":
-            return -(~self.goal_success(achieved, desired)).astype(np.float64)
-        return -goal_distance(achieved, desired)
+            return (dist < self.tolerance) - 1.0  # 0 within the tolerance, else -1
+        return -dist
+
+    def _goal_score(self, achieved: np.ndarray, desired: np.ndarray) -> tuple[float, bool]:
+        dist = float(goal_distance(achieved, desired))
+        return float(self.goal_reward_at(dist)), dist < self.tolerance
 
     def judge_success(self) -> bool:
         return bool(self.goal_success(self.achieved_goal(), self.desired_goal()))
@@ -165,8 +178,7 @@ class SingleArmTask(Task):
     def distance(self) -> float:
         """Distance (m) of the achieved goal to the desired goal."""
         if self._fast_state:
-            diff = self._achieved_view() - self._desired_view()
-            return math.sqrt(diff @ diff)
+            return float(goal_distance(self._achieved_view(), self._desired_view()))
         return float(goal_distance(self.achieved_goal(), self.desired_goal()))
 
     def reward_at(self, dist: float) -> float:

@@ -224,3 +224,25 @@ class Task:
 
     def goal_reward(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
         raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+
+    def goal_success(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+
+    def goal_score(self, achieved: np.ndarray, desired: np.ndarray) -> tuple[float, bool]:
+        """(reward, success) of one goal pair (3,): ``goal_reward`` and ``goal_success``, from
+        one evaluation where the class has the ``_goal_score`` shortcut (see
+        ``trusts_shortcut``). The goal env scores each step with it."""
+        if trusts_shortcut(type(self), "_goal_score"):
+            return self._goal_score(achieved, desired)
+        return float(self.goal_reward(achieved, desired)), bool(
+            self.goal_success(achieved, desired)
+        )
+
+    def _goal_score(self, achieved: np.ndarray, desired: np.ndarray) -> tuple[float, bool]:
+        raise NotImplementedError
+
+    def goal_views(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(achieved goal, desired goal) (3,) each, read without copies: they may be live
+        views of ``data`` (use them before the next step). None when the task has no such
+        shortcut; the gym env then calls ``achieved_goal`` and ``desired_goal``."""
+        return None
