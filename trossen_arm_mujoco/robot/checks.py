@@ -5,6 +5,7 @@ Each raises a one-line ``UserError`` that says what is wrong.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import mujoco
@@ -44,7 +45,9 @@ def vector(name: str, value, size: int) -> np.ndarray:
 
 
 def finite(name: str, value: np.ndarray) -> np.ndarray:
-    if not np.all(np.isfinite(value)):
+    """``value`` (a float vector) when every value is finite, else a one-line UserError."""
+    # v.v is finite iff every value is (or a huge one overflowed: check exactly then)
+    if not math.isfinite(value.dot(value)) and not np.isfinite(value).all():
         raise UserError(f"{name}: command contains NaN or inf: {np.round(value, 4).tolist()}")
     return value
 

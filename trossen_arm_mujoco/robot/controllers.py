@@ -135,8 +135,8 @@ class Controller:
                 f"{self.group.name} ({self.command_mode}): expected {self.command_dim} values, "
                 f"got {cmd.size}"
             )
-        # cmd @ cmd is finite iff every value is (or a huge one overflowed: check exactly then)
-        if not math.isfinite(cmd @ cmd) and not np.isfinite(cmd).all():
+        # cmd.cmd is finite iff every value is (or a huge one overflowed: check exactly then)
+        if not math.isfinite(cmd.dot(cmd)) and not np.isfinite(cmd).all():
             raise UserError(f"{self.group.name}: command contains NaN or inf")
         return cmd
 

@@ -118,7 +118,7 @@ class JointTargetBatch:
                 f"joint targets of {', '.join(self.names)}: expected {self.size} values, "
                 f"got {v.size}"
             )
-        if not math.isfinite(v @ v) and not np.isfinite(v).all():  # v @ v may overflow
+        if not math.isfinite(v.dot(v)) and not np.isfinite(v).all():  # v.v may overflow
             raise UserError(f"joint targets of {', '.join(self.names)} contain NaN or inf")
         return JointTargets(self, v)
 

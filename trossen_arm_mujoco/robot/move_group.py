@@ -399,7 +399,8 @@ class SimplyActuatedMoveGroup(MoveGroup):
 
     def set_ctrl(self, data, ctrl):
         c = vector(self.name, ctrl, self.ctrl_dim)
-        data.ctrl[self.actuator_ids] = np.clip(c, self._ctrl_range[:, 0], self._ctrl_range[:, 1])
+        # np.clip to the control range, without its overhead
+        data.ctrl[self.actuator_ids] = np.minimum(np.maximum(c, self._ctrl_low), self._ctrl_high)
 
     def _write_ctrl(self, data, ctrl):
         data.ctrl[self._ctrl_sel] = ctrl

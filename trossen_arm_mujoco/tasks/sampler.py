@@ -211,7 +211,8 @@ class TaskSampler:
         if seed is not None:
             self.rng = as_generator(seed)
         self.env.reset()
-        task = self.start_episode(self.rng, object_poses, randomization)
+        # no forward at the end of start_episode: task.reset() begins with one
+        task = self.start_episode(self.rng, object_poses, randomization, forward=False)
         if task is not None:
             task.reset()
         return task
@@ -238,10 +239,12 @@ class TaskSampler:
         rng: np.random.Generator,
         object_poses: Mapping[str, Any] | None = None,
         randomization: Mapping[str, Any] | None = None,
+        forward: bool = True,
     ) -> Task | None:
         """Randomize the current scene from ``rng`` (or apply ``randomization``), sample the
-        task, place ``object_poses``; the task is built but not reset (the dm_control front
-        doors reset through their own hooks). None when the draw gives no valid episode."""
+        task, place ``object_poses``, then (``forward``) update the positions of everything
+        (``mj_forward``); the task is built but not reset (the dm_control front doors reset
+        through their own hooks). None when the draw gives no valid episode."""
         self.rng = rng
         if randomization is not None:
             self.randomizer.apply(randomization, self.env.data)
@@ -257,7 +260,8 @@ class TaskSampler:
             if name not in self.env.objects:
                 raise unknown_name_error("object", name, self.env.objects)
             self.env.objects[name].set_pose(self.env.data, np.asarray(pose, dtype=float))
-        self.env.forward()
+        if forward:
+            self.env.forward()
         return task
 
     def make_task(self, **params: Any) -> Task:
