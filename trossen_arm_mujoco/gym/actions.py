@@ -40,6 +40,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.safety import SafetyFloor
 from trossen_arm_mujoco.robot.joint_target_batch import JointTargets
@@ -151,7 +152,7 @@ class ActionMapper:
         # ndarray.dot on small vectors is a fraction of the cost of the @ operator
         if not math.isfinite(a.dot(a)) and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        a = np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip(a, -1, 1), without its overhead
+        a = clip(a, -1.0, 1.0)
         scaled = self._mid + self._half * a  # onto the control ranges (ee_delta arm: as is)
         if self.mode == "joint_position":
             batch = self.robot.joint_target_batch(self._batch_names)

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.tasks.task import Task
 
@@ -107,8 +108,7 @@ class ObservationBuilder:
         if vec is None or vec.shape != self._low.shape:  # scalars, 0-d or n-d entries
             vec = np.concatenate([np.asarray(p, float).reshape(-1) for p in parts])
             vec = vec.astype(np.float32)
-        # np.clip(vec, low, high), in place and without its overhead
-        return np.minimum(np.maximum(vec, self._low, out=vec), self._high, out=vec)
+        return clip(vec, self._low, self._high, out=vec)
 
     def build(self, task: Task, images: dict[str, np.ndarray] | None) -> Any:
         """The observation of the current state (``images``: camera -> (H, W, 3) uint8)."""
@@ -129,6 +129,6 @@ class ObservationBuilder:
         if goals is None:
             goals = (task.achieved_goal(), task.desired_goal())
         both = np.array(goals, dtype=np.float32)  # (2, 3): one new array
-        np.minimum(np.maximum(both, self._goal_low2, out=both), self._goal_high2, out=both)
+        clip(both, self._goal_low2, self._goal_high2, out=both)
         out["achieved_goal"], out["desired_goal"] = both  # its rows
         return out

@@ -24,6 +24,7 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.kinematics import Kinematics
 from trossen_arm_mujoco.robot.move_group import (
@@ -116,11 +117,11 @@ class Controller:
             u = np.subtract(target, current, dtype=float)  # the step wanted
             if self.scale_step:
                 u /= max(1.0, float((np.abs(u) / step).max()))
-            else:  # np.clip(u, -step, step), in place and without its overhead
-                np.minimum(np.maximum(u, neg_step, out=u), step, out=u)
+            else:  # the step limited to max_step, in place
+                clip(u, neg_step, step, out=u)
             u += current
-        # np.clip(u, low, high), in place
-        return np.minimum(np.maximum(u, group._ctrl_low, out=u), group._ctrl_high, out=u)
+        # into the control range, in place
+        return clip(u, group._ctrl_low, group._ctrl_high, out=u)
 
     def compute(self, data: mujoco.MjData, command: np.ndarray) -> np.ndarray:
         """The control of this tick for ``command`` (rate-limited), (ctrl_dim,)."""
@@ -174,7 +175,7 @@ class JointRelPosController(JointPosController):
     def _target(self, data, cmd):
         group = self.group
         q = _actuated_qpos(group, data) + cmd
-        return np.minimum(np.maximum(q, group._ctrl_low), group._ctrl_high)
+        return clip(q, group._ctrl_low, group._ctrl_high)
 
 
 class EEPoseController(Controller):

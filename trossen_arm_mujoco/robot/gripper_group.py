@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.checks import vector
@@ -55,7 +56,7 @@ class GripperGroup(MoveGroup):
 
     def set_ctrl(self, data, ctrl):
         c = vector(self.name, ctrl, 1)
-        data.ctrl[self.actuator_id] = np.clip(c[0], *self._ctrl_range)
+        data.ctrl[self.actuator_id] = clip(c[0], *self._ctrl_range)
 
     def _write_ctrl(self, data, ctrl):
         data.ctrl[self.actuator_id] = ctrl[0]

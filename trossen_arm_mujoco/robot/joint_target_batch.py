@@ -25,6 +25,7 @@ from collections.abc import Mapping, Sequence
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.controllers import Controller, JointPosController
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
@@ -129,9 +130,9 @@ class JointTargetBatch:
         if ticks != 1:
             step, neg_step = step * ticks, neg_step * ticks
         u = target - current
-        np.minimum(np.maximum(u, neg_step, out=u), step, out=u)
+        clip(u, neg_step, step, out=u)
         u += current
-        return np.minimum(np.maximum(u, self._low, out=u), self._high, out=u)
+        return clip(u, self._low, self._high, out=u)
 
     def preview(
         self, data: mujoco.MjData, target: np.ndarray, ticks: int = 1, keep: bool = False

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
 
 
@@ -141,8 +142,7 @@ class Kinematics:
         rot = jac[3:] if len(twist) == 6 else None
         mujoco.mj_jacSite(self.model, self._data, jac[:3], rot, self.site_id)
         dq = damped_least_squares(jac[:, self.dof_idx], twist, damping)
-        # np.clip(q + dq, low, high), without its overhead
-        out = np.minimum(np.maximum(q + dq, self._low), self._high)
+        out = clip(q + dq, self._low, self._high)
         self._delta_memo = (np.array(qpos_full, dtype=float), twist.copy(), damping, out.copy())
         return out
 

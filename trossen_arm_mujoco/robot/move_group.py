@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.binding import DataBound
@@ -399,8 +400,7 @@ class SimplyActuatedMoveGroup(MoveGroup):
 
     def set_ctrl(self, data, ctrl):
         c = vector(self.name, ctrl, self.ctrl_dim)
-        # np.clip to the control range, without its overhead
-        data.ctrl[self.actuator_ids] = np.minimum(np.maximum(c, self._ctrl_low), self._ctrl_high)
+        data.ctrl[self.actuator_ids] = clip(c, self._ctrl_low, self._ctrl_high)
 
     def _write_ctrl(self, data, ctrl):
         data.ctrl[self._ctrl_sel] = ctrl

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.chain import KinematicChain
 from trossen_arm_mujoco.robot.frames import as_transform, check_transforms, invert, pose_error_rp
@@ -290,7 +291,7 @@ class ParallelKinematics:
             jac_t = np.swapaxes(jac, 1, 2)
             dq = (jac_t @ np.linalg.solve(jac @ jac_t + reg, err[:, :, None]))[:, :, 0]
             dq /= np.maximum(1.0, np.abs(dq).max(axis=1) / max_step)[:, None]
-            q_sub = np.minimum(np.maximum(q_sub + dq, low), high)
+            q_sub = clip(q_sub + dq, low, high)
         q[active] = q_sub
         return BatchIKResult(q, residual, iterations, residual < eps)
 

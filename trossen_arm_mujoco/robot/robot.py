@@ -7,6 +7,7 @@ from collections.abc import Mapping, Sequence
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.base_group import ImmobileRobotBaseGroup
 from trossen_arm_mujoco.robot.checks import model_and_data
@@ -198,7 +199,7 @@ class Robot:
                 target = controller._target(data, self._commands[name])  # checked already
                 if controller.relative:  # applied once: its target holds until reached
                     group = controller.group
-                    reached = np.minimum(np.maximum(target, group._ctrl_low), group._ctrl_high)
+                    reached = clip(target, group._ctrl_low, group._ctrl_high)
                     self._targets[name] = (target, reached)
                     del self._commands[name]
                     self._batch = None

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.frames import as_transform, invert, pose_error
 from trossen_arm_mujoco.robot.kinematics import damped_least_squares
@@ -225,5 +226,5 @@ class RobotKinematics:
                 break
             dq = damped_least_squares(view.get_jacobian(move_group_id, unlocked), err, damping)
             dq /= max(1.0, float(np.abs(dq).max()) / max_step)
-            q = np.minimum(np.maximum(q + dq, limits[:, 0]), limits[:, 1])
+            q = clip(q + dq, limits[:, 0], limits[:, 1])
         return IKResult(view.get_qpos_dict(), residual, it, residual < eps)

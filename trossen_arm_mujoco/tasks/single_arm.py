@@ -28,9 +28,10 @@ STATE_SHORTCUTS = ("_robot_parts", "_object_parts", "_achieved_view", "_desired_
 
 def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
     """Euclidean distance over the last axis; shapes (..., 3) -> (...)."""
-    if np.ndim(achieved) == 1 and np.ndim(desired) == 1:  # one pair, every step: no arrays
-        return np.float64(math.dist(np.asarray(achieved).tolist(), np.asarray(desired).tolist()))
-    return np.linalg.norm(np.subtract(achieved, desired, dtype=float), axis=-1)
+    a, d = np.asarray(achieved), np.asarray(desired)
+    if a.ndim == 1 and d.ndim == 1:  # one pair, every step: Python floats, no arrays
+        return np.float64(math.dist(a.tolist(), d.tolist()))
+    return np.linalg.norm(np.subtract(a, d, dtype=float), axis=-1)
 
 
 class SingleArmTask(Task):
