@@ -183,8 +183,12 @@ class JointTargets(dict):
         vector: (batch.size,) the targets, in ``batch.names`` order.
     """
 
+    __slots__ = ("batch", "vector")
+
     def __init__(self, batch: JointTargetBatch, vector: np.ndarray):
-        super().__init__({name: vector[s] for name, s in batch._slices})
+        put = dict.__setitem__  # filling it is no change: the vector stays
+        for name, s in batch._slices:
+            put(self, name, vector[s])
         self.batch: JointTargetBatch = batch
         self.vector: np.ndarray | None = vector
 
