@@ -127,6 +127,7 @@ class ActionMapper:
             halves += [part.a_half if mode != "ee_delta" else np.ones(size - 1), part.g_half]
             start += size
         self._mid, self._half = np.concatenate(mids), np.concatenate(halves)
+        self._minus_one, self._one = -np.ones(self.dim), np.ones(self.dim)
         # joint_position: the action on the control ranges is the robot's joint target
         # vector of every arm and gripper, in this order
         self._batch_names = tuple(
@@ -135,7 +136,7 @@ class ActionMapper:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Action bounds: -1 and +1, float32 (dim,)."""
-        return -np.ones(self.dim, np.float32), np.ones(self.dim, np.float32)
+        return self._minus_one.astype(np.float32), self._one.astype(np.float32)
 
     def reset(self, data: mujoco.MjData) -> None:
         """Remember each tool orientation (held by ``hold_orientation``)."""
@@ -145,14 +146,16 @@ class ActionMapper:
         self, data: mujoco.MjData, action: np.ndarray
     ) -> tuple[dict[str, np.ndarray], bool]:
         """(commands by move group, whether the safety floor changed the action)."""
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        a = np.asarray(action, dtype=np.float64)
+        if a.ndim != 1:
+            a = a.reshape(-1)
         if a.shape[0] != self.dim:
             raise UserError(f"action must have {self.dim} values, got {a.size}")
         # a.a is finite iff every value is (or a huge one overflowed: check exactly then);
         # ndarray.dot on small vectors is a fraction of the cost of the @ operator
         if not math.isfinite(a.dot(a)) and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        a = clip(a, -1.0, 1.0)
+        a = clip(a, self._minus_one, self._one)  # arrays: faster than scalars
         scaled = self._mid + self._half * a  # onto the control ranges (ee_delta arm: as is)
         if self.mode == "joint_position":
             batch = self.robot.joint_target_batch(self._batch_names)
