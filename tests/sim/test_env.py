@@ -184,7 +184,7 @@ def test_one_stepping_loop_control_then_physics():
     env = MujocoEnv(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=0.01)
     env.reset()
     calls = []
-    env.robots["wxai"].compute_control = lambda data: calls.append(("control", data.time))
+    env.robots["wxai"].apply_control = lambda data: calls.append(("control", data.time))
     physics = env._physics_step
     env._physics_step = lambda n: (calls.append(("physics", n)), physics(n))
     env.step(3)
