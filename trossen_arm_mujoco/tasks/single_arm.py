@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
@@ -222,4 +223,4 @@ class SingleArmSampler(TaskSampler):
         noise = float(self.config.get("init_joint_noise", 0.0))
         arm = self.env.robots[self.robot_name].view.group("arm")
         q = arm.get_qpos(self.env.data) + rng.uniform(-noise, noise, size=arm.n_joints)
-        arm.set_qpos(self.env.data, np.clip(q, arm.joint_range[:, 0], arm.joint_range[:, 1]))
+        arm.set_qpos(self.env.data, clip(q, arm.joint_range[:, 0], arm.joint_range[:, 1]))

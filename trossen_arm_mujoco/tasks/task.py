@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
@@ -99,7 +100,8 @@ class Task:
 
     # -- physics hooks --------------------------------------------------------------------
     def initialize_episode(self) -> None:
-        """Called by ``reset`` once the sampler has set the scene (e.g. place markers)."""
+        """Called by ``reset`` once the sampler has set the scene (e.g. place markers), with
+        the positions up to date (``mj_kinematics``); a full ``mj_forward`` follows."""
 
     def before_step(self, action: Mapping[str, np.ndarray]) -> None:
         """Hand the commands (move group -> command vector) to the robot."""
@@ -113,7 +115,7 @@ class Task:
         """Start the episode from the current scene: counters to zero, controls holding the
         state, hooks run. Returns the first observation."""
         self.n_steps = 0
-        self.env.forward()
+        mujoco.mj_kinematics(self.env.model, self.data)  # positions: all that holding needs
         self.robot.hold(self.data)
         self.initialize_episode()
         self.env.forward()
