@@ -72,6 +72,10 @@ class ObservationBuilder:
         self.image_space = spaces.Box(0, 255, (height, width * n_cameras, 3), dtype=np.uint8)
         self.space = self._space()
         self._low, self._high = self.state_space.low, self.state_space.high
+        self._n_state = len(self._low)
+        if task.goal_conditioned:  # the state, then the achieved and the desired goal
+            self._low_goals = np.concatenate([self._low, self.goal_low, self.goal_low])
+            self._high_goals = np.concatenate([self._high, self.goal_high, self.goal_high])
 
     @property
     def needs_images(self) -> bool:
@@ -91,8 +95,10 @@ class ObservationBuilder:
         entries["desired_goal"] = spaces.Box(self.goal_low, self.goal_high, dtype=np.float32)
         return spaces.Dict(entries)
 
-    def state(self, task: Task) -> np.ndarray:
-        """The task's state as the clipped float32 vector of ``state_space``."""
+    def state(self, task: Task, goals: tuple[np.ndarray, ...] = ()) -> np.ndarray:
+        """The task's state as the clipped float32 vector of ``state_space``; with ``goals``
+        (achieved, desired (3,) each; goal envs) those follow it in the same vector, clipped
+        into the goal bounds."""
         parts = task.state_parts(self.with_goal)  # no copies, where the task has the shortcut
         if parts is None:
             obs = task.get_observation()
@@ -101,20 +107,31 @@ class ObservationBuilder:
                 obs["goal"] = desired
                 obs["goal_delta"] = desired - task.achieved_goal()
             parts = [obs[k] for k in self.keys]
+        low, high = self._low, self._high
+        if goals:
+            parts = [*parts, *goals]
+            low, high = self._low_goals, self._high_goals
         try:  # the usual case: every entry a 1-D array
             vec = np.concatenate(parts, dtype=np.float32)
         except (ValueError, TypeError):
             vec = None
-        if vec is None or vec.shape != self._low.shape:  # scalars, 0-d or n-d entries
+        if vec is None or vec.shape != low.shape:  # scalars, 0-d or n-d entries
             vec = np.concatenate([np.asarray(p, float).reshape(-1) for p in parts])
             vec = vec.astype(np.float32)
-        return clip(vec, self._low, self._high, out=vec)
+        return clip(vec, low, high, out=vec)
 
     def build(self, task: Task, images: dict[str, np.ndarray] | None) -> Any:
         """The observation of the current state (``images``: camera -> (H, W, 3) uint8)."""
         pixels = None
         if self.needs_images:
             pixels = np.concatenate(list((images or {}).values()), axis=1)
+        if self.goal_env and self.obs_type == "state":  # one vector, clipped once; its parts
+            goals = task.goal_views()  # no copies, where the task has the shortcut
+            if goals is None:
+                goals = (task.achieved_goal(), task.desired_goal())
+            vec, n = self.state(task, goals), self._n_state
+            return {"observation": vec[:n], "achieved_goal": vec[n : n + 3],
+                    "desired_goal": vec[n + 3 :]}  # fmt: skip
         state = self.state(task) if self.obs_type != "pixels" else None
         if not self.goal_env:
             if self.obs_type == "pixels":
