@@ -18,7 +18,9 @@ cam_list=[])``), it
    physics steps (the same simulated trajectory, with no Python in between).
 
 Both are reported as simulated seconds per wall second; ``ratio`` = floor / env (1.0 = no
-overhead). The best of ``--repeats`` interleaved runs of each is kept. On a busy machine wall
+overhead). The best of ``--repeats`` interleaved runs of each is kept. Each env is measured in
+a fresh Python process (``--in-process``: all in this one, one after the other; the envs
+measured first then shift later figures by a few hundredths). On a busy machine wall
 time is noisy: ``--clock cpu`` times with this process's CPU time instead (less sensitive to
 other processes; the same as wall time on an idle machine).
 """
@@ -26,7 +28,10 @@ other processes; the same as wall time on an idle machine).
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
+import sys
 import time
 from dataclasses import dataclass
 
@@ -182,6 +187,37 @@ def measure(name: str, run, repeats: int) -> dict:
     return {"name": name, "env": env_rate, "raw": floor_rate, "ratio": floor_rate / env_rate}
 
 
+def _cases(args) -> list[tuple[str, object]]:
+    """(label, run) of every env: ``run(record) -> (wall, recording)``."""
+    import trossen_arm_mujoco  # noqa: F401  (registers the ids)
+    from trossen_arm_mujoco.gym.registration import ENV_IDS
+
+    cases = []
+    for env_id, (entry, _task, _kw) in ENV_IDS.items():
+        for kw in ({}, {"action_mode": "ee_delta"}) if not entry.endswith("GoalEnv") else ({},):
+            name = env_id.split("/")[-1] + (f" {kw['action_mode']}" if kw else "")
+
+            def run(record, env_id=env_id, kw=kw):
+                return gym_run(env_id, args.steps, record, obs_type="state", **kw)
+
+            cases.append((name, run))
+    dm_actions_cache: dict = {}
+    for kind, label in (
+        ("joint", "dm_control TransferCubeTask (joint)"),
+        ("ee", "dm_control TransferCubeEETask (mocap)"),
+    ):
+
+        def run(record, kind=kind):
+            if not dm_actions_cache:
+                dm_actions_cache["v"] = dm_actions(args.dm_steps)
+            ee_actions, joint_actions, box_pose = dm_actions_cache["v"]
+            actions = ee_actions if kind == "ee" else joint_actions
+            return dm_run(kind, actions, box_pose, record)
+
+        cases.append((label, run))
+    return cases
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--steps", type=int, default=1000, help="env steps per gym env")
@@ -189,45 +225,39 @@ def main(argv=None) -> None:
     p.add_argument("--repeats", type=int, default=3, help="timed runs per env (best kept)")
     p.add_argument("--only", default="", help="run only envs whose name contains this")
     p.add_argument("--clock", choices=sorted(CLOCKS), default="wall", help="what to time")
+    p.add_argument(
+        "--in-process",
+        action="store_true",
+        help="measure every env in this process, one after the other (default: each env in "
+        "a fresh Python process, so figures do not depend on the envs measured before)",
+    )
+    p.add_argument("--case", type=int, default=None, help=argparse.SUPPRESS)  # one, as JSON
     args = p.parse_args(argv)
     global clock
     clock = CLOCKS[args.clock]
-
-    import trossen_arm_mujoco  # noqa: F401  (registers the ids)
-    from trossen_arm_mujoco.gym.registration import ENV_IDS
-
-    cases = []
-    for env_id, (entry, _task, _kw) in ENV_IDS.items():
-        cases.append((env_id, {}))
-        if not entry.endswith("GoalEnv"):
-            cases.append((env_id, {"action_mode": "ee_delta"}))
+    cases = _cases(args)
+    if args.case is not None:
+        name, run = cases[args.case]
+        print("ROW " + json.dumps(measure(name, run, args.repeats)))
+        return
+    passed = ["--steps", str(args.steps), "--dm-steps", str(args.dm_steps),
+              "--repeats", str(args.repeats), "--clock", args.clock]  # fmt: skip
     rows = []
-    for env_id, kw in cases:
-        name = env_id.split("/")[-1] + (f" {kw['action_mode']}" if kw else "")
+    for index, (name, run) in enumerate(cases):
         if args.only not in name:
             continue
-
-        def run(record, env_id=env_id, kw=kw):
-            return gym_run(env_id, args.steps, record, obs_type="state", **kw)
-
-        rows.append(measure(name, run, args.repeats))
+        if args.in_process:
+            rows.append(measure(name, run, args.repeats))
+        else:
+            done = subprocess.run(
+                [sys.executable, os.path.abspath(__file__), "--case", str(index), *passed],
+                capture_output=True, text=True, check=False,
+            )  # fmt: skip
+            lines = [x for x in done.stdout.splitlines() if x.startswith("ROW ")]
+            if done.returncode != 0 or not lines:
+                sys.exit(f"measuring {name} failed: {done.stderr.strip().splitlines()[-1:]}")
+            rows.append(json.loads(lines[-1][4:]))
         _print_row(rows[-1])
-    dm_cases = (
-        ("joint", "dm_control TransferCubeTask (joint)"),
-        ("ee", "dm_control TransferCubeEETask (mocap)"),
-    )
-    if any(args.only in label for _, label in dm_cases):
-        ee_actions, joint_actions, box_pose = dm_actions(args.dm_steps)
-        for kind, label in dm_cases:
-            if args.only not in label:
-                continue
-            actions = ee_actions if kind == "ee" else joint_actions
-
-            def run(record, kind=kind, actions=actions):
-                return dm_run(kind, actions, box_pose, record)
-
-            rows.append(measure(label, run, args.repeats))
-            _print_row(rows[-1])
     print()
     unit = "sim s/s" if args.clock == "wall" else "sim s/cpu s"
     print(f"| {'env':<46} | {'env ' + unit:>15} | {'raw ' + unit:>15} | {'ratio':>5} |")
