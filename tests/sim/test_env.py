@@ -201,3 +201,24 @@ def test_cameras_open_no_renderer_until_an_image_is_asked_for():
     env.render_images()
     assert env.cameras._renderer is not None
     env.close()
+
+
+def test_reset_without_settling_sets_positions_and_leaves_the_controls():
+    """reset(settle=False) (the samplers' reset): the same joints and body positions as a
+    full reset, the keyframe's controls, commands dropped; hold() then gives the full reset's
+    controls."""
+    full = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    part = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    for env in (full, part):
+        env.data.qpos[:] += 0.05  # somewhere else first
+        env.data.ctrl[:] = 0.3
+        env.robots["kit"].update_control({"left_arm": np.zeros(6)})
+    full.reset()
+    part.reset(settle=False)
+    np.testing.assert_array_equal(part.data.qpos, full.data.qpos)
+    np.testing.assert_array_equal(part.data.xpos, full.data.xpos)
+    keyframe = part.model.key_ctrl[part.keyframe_id]
+    np.testing.assert_array_equal(part.data.ctrl, keyframe)
+    assert not part.robots["kit"]._commands
+    part.robots["kit"].hold(part.data)
+    np.testing.assert_array_equal(part.data.ctrl, full.data.ctrl)

@@ -280,12 +280,14 @@ class Robot:
         batch.set_target(self._commands)
         return batch, other
 
-    def reset(self, data: mujoco.MjData | None = None) -> None:
+    def reset(self, data: mujoco.MjData | None = None, hold: bool = True) -> None:
         """Put the joints at ``config.init_qpos`` at rest, and every control at a no-op
         (in ``data``, default the bound data).
 
         Mocap arms get their mocap pose set to the tool-frame pose of the initial joints,
-        so the weld holds the arm where it is.
+        so the weld holds the arm where it is. ``hold=False`` sets the joints only (no
+        kinematics, controls untouched), for a caller that moves things further and then
+        calls ``hold`` itself.
         """
         data = self._data(data)
         self.view.set_qpos_dict(data, self.config.init_qpos)
@@ -294,8 +296,9 @@ class Robot:
         self._commands.clear()
         self._targets.clear()
         self._batch = None
-        mujoco.mj_kinematics(self.model, data)
-        self.hold(data)
+        if hold:
+            mujoco.mj_kinematics(self.model, data)
+            self.hold(data)
 
     def hold(self, data: mujoco.MjData | None = None) -> None:
         """Set every control to hold the current state (kinematics must be up to date)."""

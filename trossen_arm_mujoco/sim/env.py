@@ -152,15 +152,24 @@ class MujocoEnv:
             physics.step if physics is not None else partial(mujoco.mj_step, model, data)
         )
 
-    def reset(self) -> None:
-        """Keyframe (or model defaults), robots at their initial joints, controls at no-op."""
+    def reset(self, settle: bool = True) -> None:
+        """Keyframe (or model defaults), robots at their initial joints, controls at no-op,
+        everything computed (``mj_forward``).
+
+        ``settle=False``: the positions only (``mj_kinematics``), the controls as the
+        keyframe has them; for a caller that changes the scene and then holds and forwards
+        itself (``TaskSampler.sample_task``: the task's ``reset`` does both).
+        """
         if self.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(self.model, self.data, self.keyframe_id)
         else:
             mujoco.mj_resetData(self.model, self.data)
         for robot in self.robots.values():
-            robot.reset(self.data)
-        mujoco.mj_forward(self.model, self.data)
+            robot.reset(self.data, hold=settle)
+        if settle:
+            mujoco.mj_forward(self.model, self.data)
+        else:
+            mujoco.mj_kinematics(self.model, self.data)
 
     def forward(self) -> None:
         mujoco.mj_forward(self.model, self.data)

@@ -4,7 +4,9 @@ It is the only place where episodes are randomized; every random number comes fr
 sampler's ``np.random.Generator`` (``self.rng``, made from ``seed`` at construction or
 replaced by the seed given to ``sample_task``).
 
-One episode (``sample_task``): the env is reset; ``randomize_scene(env, robot_view)``
+One episode (``sample_task``): the env is reset (``env.reset(settle=False)``: positions
+computed, controls and the rest of ``mj_forward`` left to the task's reset, which holds and
+forwards once the scene is set); ``randomize_scene(env, robot_view)``
 randomizes lighting, textures, dynamics and initial joint noise (domain randomization, when
 the sampler was made with ``randomize=True``; see ``tasks.randomization``); ``_sample_task(env)``
 places the task's objects and builds the task (None when this draw gives no valid episode);
@@ -210,8 +212,9 @@ class TaskSampler:
         """
         if seed is not None:
             self.rng = as_generator(seed)
-        self.env.reset()
-        # no forward at the end of start_episode: task.reset() begins with one
+        # positions only, and no forward at the end of start_episode: task.reset() holds
+        # the controls and forwards
+        self.env.reset(settle=False)
         task = self.start_episode(self.rng, object_poses, randomization, forward=False)
         if task is not None:
             task.reset()
