@@ -131,3 +131,24 @@ def test_sampler_owns_and_closes_its_env():
 def test_randomize_must_be_a_bool(value):
     with pytest.raises(UserError, match="randomize must be True or False"):
         registry.make_sampler("reach", randomize=value)
+
+
+@pytest.mark.parametrize(
+    "low, high, size",
+    [
+        ([0.18, -0.22, 0.06], [0.42, 0.22, 0.32], None),
+        (-0.05, 0.05, 6),
+        (-np.pi, np.pi, None),
+        (0.0, [1.0, 2.0], None),
+        (0.0, 1.0, (2, 3)),
+    ],
+)
+def test_uniform_draws_what_generator_uniform_draws(low, high, size):
+    """The samplers' uniform(): the values and the stream of rng.uniform, bit for bit."""
+    from trossen_arm_mujoco.tasks.sampler import uniform
+
+    for seed in range(50):
+        a, b = np.random.default_rng(seed), np.random.default_rng(seed)
+        want, got = a.uniform(low, high, size), uniform(b, low, high, size)
+        assert np.shape(got) == np.shape(want) and np.array_equal(got, want)
+        assert a.random() == b.random()  # the generators moved on alike

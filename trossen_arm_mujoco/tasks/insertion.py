@@ -27,6 +27,7 @@ from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.sim.contacts import ContactPartners
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
+from trossen_arm_mujoco.tasks.sampler import uniform
 
 TABLE_TOP_Z = 0.02
 #: Half-sizes of the peg (x, y, z) and outer half-size of the socket's square section (m).
@@ -60,12 +61,12 @@ def sample_insertion_poses(rng: np.random.Generator) -> tuple[np.ndarray, np.nda
     the peg on the right half of the table, the socket on the left half, both lying along y.
     """
     peg = np.array(
-        [rng.uniform(*PEG_X_RANGE), rng.uniform(*PEG_Y_RANGE), PEG_REST_Z, 1.0, 0.0, 0.0, 0.0]
+        [uniform(rng, *PEG_X_RANGE), uniform(rng, *PEG_Y_RANGE), PEG_REST_Z, 1.0, 0.0, 0.0, 0.0]
     )
     socket = np.array(
         [
-            rng.uniform(*SOCKET_X_RANGE),
-            rng.uniform(*SOCKET_Y_RANGE),
+            uniform(rng, *SOCKET_X_RANGE),
+            uniform(rng, *SOCKET_Y_RANGE),
             SOCKET_REST_Z,
             1.0,
             0.0,

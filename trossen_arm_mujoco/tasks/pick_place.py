@@ -14,6 +14,7 @@ import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.push import PushSampler, PushTask, cube_rest_z
+from trossen_arm_mujoco.tasks.sampler import uniform
 
 
 class PickPlaceTask(PushTask):
@@ -58,7 +59,7 @@ class PickPlaceSampler(PushSampler):
         if goal is None:
             return None
         low, high = self.config["goal_low"], self.config["goal_high"]
-        in_air = rng.uniform() < float(self.config["air_goal_probability"])
-        z_air = rng.uniform(max(cube[2], low[2]), max(cube[2], high[2]))
+        in_air = rng.random() < float(self.config["air_goal_probability"])
+        z_air = uniform(rng, max(cube[2], low[2]), max(cube[2], high[2]))
         goal[2] = z_air if in_air else cube[2]
         return goal

@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
 from trossen_arm_mujoco.tasks.task import Bounds
 
@@ -102,8 +103,8 @@ class PushSampler(SingleArmSampler):
 
     def place_cube(self, rng: np.random.Generator) -> np.ndarray:
         """Put the cube at a random resting pose; returns its centre (3,) m."""
-        xy = rng.uniform(self.config["cube_low"], self.config["cube_high"])
-        yaw = rng.uniform(-np.pi, np.pi)
+        xy = uniform(rng, self.config["cube_low"], self.config["cube_high"])
+        yaw = uniform(rng, -np.pi, np.pi)
         z = cube_rest_z(self.env, float(self.config["table_height"]))
         pose = [xy[0], xy[1], z, np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         self.env.objects["cube"].set_pose(self.env.data, pose)
@@ -116,7 +117,7 @@ class PushSampler(SingleArmSampler):
         min_dist = float(self.config["min_goal_distance"])
         goal = cube.copy()
         for _ in range(MAX_GOAL_TRIES):
-            goal[:2] = rng.uniform(low[:2], high[:2])
+            goal[:2] = uniform(rng, low[:2], high[:2])
             if np.linalg.norm(goal[:2] - cube[:2]) >= min_dist:
                 return goal
         return None

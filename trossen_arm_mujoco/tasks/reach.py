@@ -11,6 +11,7 @@ from typing import ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
 from trossen_arm_mujoco.tasks.task import Bounds
 
@@ -55,5 +56,5 @@ class ReachSampler(SingleArmSampler):
 
     def _sample_task(self, env: MujocoEnv) -> ReachTask:
         self.perturb_arm(self.rng)
-        target = self.rng.uniform(self.config["target_low"], self.config["target_high"])
+        target = uniform(self.rng, self.config["target_low"], self.config["target_high"])
         return self.task_cls(env, self.config, goal=target)

@@ -40,6 +40,24 @@ Seed = int | np.random.Generator | None
 FLAVOURS: tuple[str, ...] = ("joint", "ee")
 
 
+def uniform(rng: np.random.Generator, low: Any, high: Any, size: Any = None) -> Any:
+    """``rng.uniform(low, high, size)``, value for value and draw for draw (numpy computes
+    ``low + (high - low) * rng.random()`` too), without ``Generator.uniform``'s broadcasting
+    machinery: several times faster for the few values an episode draws.
+
+    Args:
+        low, high: floats or array-likes (broadcast together).
+        size: output shape; default the broadcast shape of ``low`` and ``high`` (a float when
+            both are floats).
+    """
+    if size is None and isinstance(low, (float, int)) and isinstance(high, (float, int)):
+        return low + (high - low) * rng.random()  # one float: Python's double arithmetic
+    low = np.asarray(low, dtype=float)
+    span = np.asarray(high, dtype=float) - low
+    out = low + span * rng.random(span.shape if size is None else size)
+    return float(out) if out.ndim == 0 else out
+
+
 def as_generator(seed: Seed) -> np.random.Generator:
     """The generator itself, or a new one seeded with ``seed`` (None: fresh entropy)."""
     if isinstance(seed, np.random.Generator):

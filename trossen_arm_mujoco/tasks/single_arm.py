@@ -19,7 +19,7 @@ from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
 from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 from trossen_arm_mujoco.sim.env import MujocoEnv
-from trossen_arm_mujoco.tasks.sampler import TaskSampler
+from trossen_arm_mujoco.tasks.sampler import TaskSampler, uniform
 from trossen_arm_mujoco.tasks.task import Bounds, Task, trusts_shortcut
 
 GOAL_REWARD_TYPES = ("sparse", "dense")
@@ -222,5 +222,5 @@ class SingleArmSampler(TaskSampler):
         """Add the initial joint noise to the arm (in place, within the joint limits)."""
         noise = float(self.config.get("init_joint_noise", 0.0))
         arm = self.env.robots[self.robot_name].view.group("arm")
-        q = arm.get_qpos(self.env.data) + rng.uniform(-noise, noise, size=arm.n_joints)
+        q = arm.get_qpos(self.env.data) + uniform(rng, -noise, noise, arm.n_joints)
         arm.set_qpos(self.env.data, clip(q, arm.joint_range[:, 0], arm.joint_range[:, 1]))

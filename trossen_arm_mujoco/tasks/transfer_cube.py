@@ -17,6 +17,7 @@ from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.sim.contacts import ContactPartners
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
+from trossen_arm_mujoco.tasks.sampler import uniform
 
 #: Cube spawn region on the table (world frame, m): x, y uniform; z = resting height.
 BOX_X_RANGE = (-0.15, 0.15)
@@ -29,8 +30,8 @@ MAX_REWARD = 4
 
 def sample_cube_pose(rng: np.random.Generator) -> np.ndarray:
     """Random cube pose resting on the table: [x, y, z, 1, 0, 0, 0] (world, m)."""
-    x = rng.uniform(*BOX_X_RANGE)
-    y = rng.uniform(*BOX_Y_RANGE)
+    x = uniform(rng, *BOX_X_RANGE)
+    y = uniform(rng, *BOX_Y_RANGE)
     return np.array([x, y, BOX_REST_Z, 1.0, 0.0, 0.0, 0.0])
 
 
