@@ -255,7 +255,8 @@ def main(argv=None) -> None:
             )  # fmt: skip
             lines = [x for x in done.stdout.splitlines() if x.startswith("ROW ")]
             if done.returncode != 0 or not lines:
-                sys.exit(f"measuring {name} failed: {done.stderr.strip().splitlines()[-1:]}")
+                last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+                sys.exit(f"measuring {name} failed: {last}")
             rows.append(json.loads(lines[-1][4:]))
         _print_row(rows[-1])
     print()

@@ -94,3 +94,27 @@ def test_pixels_goal_observation(make_env):
     obs, _ = env.reset(seed=0)
     assert list(obs) == ["observation", "pixels", "achieved_goal", "desired_goal"]
     assert obs["observation"].dtype == np.float32
+
+
+def test_a_subclass_compute_reward_scores_the_steps():
+    """A goal env subclass with its own compute_reward gets it as the step reward (the
+    one-distance goal_score is only for the env's own compute_reward)."""
+
+    class Bonus(TrossenMujocoGoalEnv):
+        def compute_reward(self, achieved_goal, desired_goal, info):
+            return 10.0 + super().compute_reward(achieved_goal, desired_goal, info)
+
+    plain, bonus = TrossenMujocoGoalEnv("reach"), Bonus("reach")
+    try:
+        plain.reset(seed=3)
+        bonus.reset(seed=3)
+        rng = np.random.default_rng(0)
+        for _ in range(5):
+            action = rng.uniform(-1, 1, plain.action_space.shape)
+            _, r_plain, _, _, i_plain = plain.step(action)
+            _, r_bonus, _, _, i_bonus = bonus.step(action)
+            assert r_bonus == r_plain + 10.0
+            assert i_bonus["is_success"] == i_plain["is_success"]
+    finally:
+        plain.close()
+        bonus.close()

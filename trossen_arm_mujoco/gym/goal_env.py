@@ -34,6 +34,8 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
                 + ", ".join(goal_tasks)
             )
         super().__init__(task, **kwargs)
+        # a subclass's own compute_reward scores its steps; else one goal_score does
+        self._own_reward = type(self).compute_reward is not TrossenMujocoGoalEnv.compute_reward
 
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray | float:
         """Reward of goal pairs, shapes (..., 3) -> (...); a float for single goals."""
@@ -54,15 +56,12 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
     def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
         info = self._with_safety(self.task.get_info(), clipped)
         achieved, desired = obs["achieved_goal"], obs["desired_goal"]
-        if type(self).compute_reward is TrossenMujocoGoalEnv.compute_reward:
-            # compute_reward(achieved, desired, info) and the success, from one evaluation
-            reward, success = self.probe.goal_score(achieved, desired)
-        else:  # a subclass's own compute_reward
-            success = bool(self.probe.goal_success(achieved, desired))
-            reward = None
-        info["is_success"] = success
-        if reward is None:
+        if self._own_reward:
+            success = info["is_success"] = bool(self.probe.goal_success(achieved, desired))
             reward = float(self.compute_reward(achieved, desired, info))
+        else:  # compute_reward(achieved, desired, info) and the success, from one evaluation
+            reward, success = self.probe.goal_score(achieved, desired)
+            info["is_success"] = success
         # compute_terminated(achieved, desired, info), from the success just computed
         terminated = success and bool(self.config.get("terminate_on_success", False))
         return reward, terminated, info

@@ -56,11 +56,6 @@ class ObservationBuilder:
         if task.goal_conditioned:
             g_low, g_high = task.goal_bounds()
             self.goal_low, self.goal_high = g_low.astype(np.float32), g_high.astype(np.float32)
-            # both goals at once: (2, 3) bounds
-            self._goal_low2, self._goal_high2 = (
-                np.tile(self.goal_low, (2, 1)),
-                np.tile(self.goal_high, (2, 1)),
-            )
             if self.with_goal:
                 bounds["goal"] = (g_low, g_high)
                 bounds["goal_delta"] = (g_low - g_high, g_high - g_low)
@@ -125,27 +120,26 @@ class ObservationBuilder:
         pixels = None
         if self.needs_images:
             pixels = np.concatenate(list((images or {}).values()), axis=1)
-        if self.goal_env and self.obs_type == "state":  # one vector, clipped once; its parts
-            goals = task.goal_views()  # no copies, where the task has the shortcut
-            if goals is None:
-                goals = (task.achieved_goal(), task.desired_goal())
-            vec, n = self.state(task, goals), self._n_state
-            return {"observation": vec[:n], "achieved_goal": vec[n : n + 3],
-                    "desired_goal": vec[n + 3 :]}  # fmt: skip
-        state = self.state(task) if self.obs_type != "pixels" else None
         if not self.goal_env:
+            state = self.state(task) if self.obs_type != "pixels" else None
             if self.obs_type == "pixels":
                 return pixels
             if self.obs_type == "pixels_state":
                 return {"pixels": pixels, "state": state}
             return state
-        out: dict[str, np.ndarray] = {"observation": pixels if state is None else state}
-        if self.obs_type == "pixels_state":
-            out["pixels"] = pixels
+        # goal env: the state (if any), then the achieved and the desired goal, as one vector
+        # clipped once; the entries are its parts
         goals = task.goal_views()  # no copies, where the task has the shortcut
         if goals is None:
             goals = (task.achieved_goal(), task.desired_goal())
-        both = np.array(goals, dtype=np.float32)  # (2, 3): one new array
-        clip(both, self._goal_low2, self._goal_high2, out=both)
-        out["achieved_goal"], out["desired_goal"] = both  # its rows
+        if self.obs_type == "pixels":
+            n = self._n_state
+            vec = np.concatenate(goals, dtype=np.float32)
+            vec, n = clip(vec, self._low_goals[n:], self._high_goals[n:], out=vec), 0
+        else:
+            vec, n = self.state(task, goals), self._n_state
+        out: dict[str, np.ndarray] = {"observation": pixels if n == 0 else vec[:n]}
+        if self.obs_type == "pixels_state":
+            out["pixels"] = pixels
+        out["achieved_goal"], out["desired_goal"] = vec[n : n + 3], vec[n + 3 :]
         return out
