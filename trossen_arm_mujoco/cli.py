@@ -2,7 +2,7 @@
 
 Subcommands: ``record`` (scripts/record_sim_episodes.py), ``visualize``
 (scripts/visualize_eps.py), ``replay-real`` (scripts/replay_episode_real.py), ``export``
-(scripts/export_dataset.py).
+(scripts/export_dataset.py), ``eval`` (scripts/eval_policy.py).
 """
 
 from __future__ import annotations
@@ -18,14 +18,16 @@ SUBCOMMANDS = {
     "visualize": "trossen_arm_mujoco.scripts.visualize_eps",
     "replay-real": "trossen_arm_mujoco.scripts.replay_episode_real",
     "export": "trossen_arm_mujoco.scripts.export_dataset",
+    "eval": "trossen_arm_mujoco.scripts.eval_policy",
 }
 
 USAGE = (
-    "usage: trossen-mujoco {record,visualize,replay-real,export} [flags]\n"
+    "usage: trossen-mujoco {record,visualize,replay-real,export,eval} [flags]\n"
     "  record       scripted rollouts -> HDF5 episodes\n"
     "  visualize    HDF5 episodes -> mp4 camera grid + joint plots\n"
     "  replay-real  replay an episode on two arms (or their simulated twin)\n"
     "  export       HDF5 episodes -> LeRobot v3.0 dataset (parquet + mp4)\n"
+    "  eval         score a policy (LeRobot checkpoint, scripted, module:function) in the sim\n"
     "Run 'trossen-mujoco <subcommand> --help' for its flags."
 )
 

@@ -6,9 +6,10 @@ Run by tests/export/test_lerobot_load.py with the Python that has LeRobot instal
     python lerobot_check.py SPEC.json
 
 SPEC lists datasets ``{"root", "repo_id", "expected"}`` (``expected``: an .npz with, per
-episode ``i``, ``state_i``, ``velocity_i``, ``action_i`` float32, ``reward_i`` float32,
-``success_i`` bool, ``images_<camera>_i`` uint8 (T, H, W, 3), and ``tasks``) and the video
-backends to try. Prints one line ``RESULT <json>`` with what was measured; the test asserts.
+episode ``i``, ``state_i``, ``velocity_i``, ``action_i``, ``env_state_i`` float32,
+``reward_i`` float32, ``success_i`` bool, ``images_<camera>_i`` uint8 (T, H, W, 3): frame
+``t`` of the export, and ``tasks``) and the video backends to try. Prints one line
+``RESULT <json>`` with what was measured; the test asserts.
 """
 
 from __future__ import annotations
@@ -27,6 +28,15 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
     return 100.0 if mse == 0 else 10.0 * np.log10(255.0**2 / mse)
 
 
+#: Vector features compared with the expected values: key -> name in the .npz and result.
+VECTORS = {
+    "observation.state": "state",
+    "observation.velocity": "velocity",
+    "action": "action",
+    "observation.environment_state": "env_state",
+}
+
+
 def check(root: str, repo_id: str, expected_path: str, backend: str) -> dict:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -38,10 +48,11 @@ def check(root: str, repo_id: str, expected_path: str, backend: str) -> dict:
         "num_episodes": ds.num_episodes,
         "fps": ds.fps,
         "cameras": cams,
-        "names": ds.meta.features["observation.state"]["names"],
+        "names": {name: ds.meta.features[key]["names"] for key, name in VECTORS.items()},
+        "shapes": {},
         "tasks": sorted(ds.meta.tasks.index.tolist()),
         "stats_keys": sorted(ds.meta.stats),
-        "max_abs": {"state": 0.0, "velocity": 0.0, "action": 0.0, "reward": 0.0},
+        "max_abs": {name: 0.0 for name in (*VECTORS.values(), "reward")},
         "dtypes": {},
         "success_equal": True,
         "task_equal": True,
@@ -53,14 +64,10 @@ def check(root: str, repo_id: str, expected_path: str, backend: str) -> dict:
         item = ds[idx]
         ep, t = int(item["episode_index"]), int(item["frame_index"])
         out["order"].append([ep, t])
-        for key, name in (
-            ("observation.state", "state"),
-            ("observation.velocity", "velocity"),
-            ("action", "action"),
-            ("next.reward", "reward"),
-        ):
+        for key, name in (*VECTORS.items(), ("next.reward", "reward")):
             got = item[key].numpy()
             out["dtypes"][name] = str(got.dtype)
+            out["shapes"][name] = list(got.shape)
             diff = np.abs(got.astype(np.float64) - exp[f"{name}_{ep}"][t].astype(np.float64))
             out["max_abs"][name] = max(out["max_abs"][name], float(np.max(diff)))
         out["success_equal"] &= bool(item["next.success"]) == bool(exp[f"success_{ep}"][t])

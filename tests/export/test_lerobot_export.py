@@ -8,8 +8,10 @@ wherever pyarrow and PyAV are installed.
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import sys
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -20,16 +22,33 @@ pq = pytest.importorskip("pyarrow.parquet")
 av = pytest.importorskip("av")
 
 from trossen_arm_mujoco import cli as main_cli  # noqa: E402
+from trossen_arm_mujoco.collect.pipeline import ACTION_SPEED_LIMITS  # noqa: E402
+from trossen_arm_mujoco.constants import START_ARM_POSE  # noqa: E402
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode  # noqa: E402
 from trossen_arm_mujoco.data.schema import JOINT_NAMES  # noqa: E402
+from trossen_arm_mujoco.data.writer import EpisodeWriter  # noqa: E402
+from trossen_arm_mujoco.export import export_lerobot  # noqa: E402
 from trossen_arm_mujoco.export import lerobot_format as fmt  # noqa: E402
+from trossen_arm_mujoco.export.lerobot import frame_values  # noqa: E402
+from trossen_arm_mujoco.export.lerobot_plan import frame_map  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo  # noqa: E402
 from trossen_arm_mujoco.scripts.export_dataset import cli  # noqa: E402
 from trossen_arm_mujoco.tasks import registry  # noqa: E402
 
+#: Names, order and units of Trossen's LeRobot plugin for the kit (bi_widowxai_follower_robot):
+#: rad for the joints, m for the carriage (the gripper); written down as facts.
+KIT14_NAMES = [
+    *(f"left_joint_{i}.pos" for i in range(6)), "left_left_carriage_joint.pos",
+    *(f"right_joint_{i}.pos" for i in range(6)), "right_left_carriage_joint.pos",
+]  # fmt: skip
+#: Where each of those comes from in the files' 16 values (the carriage: left_carriage_joint).
+KIT14_FROM_16 = [0, 1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 15]
+BOX_NAMES = ["box_x", "box_y", "box_z", "box_qw", "box_qx", "box_qy", "box_qz"]
 CAMS = ["cam_high", "cam_left_wrist"]  # the recorded fixture's cameras, 48x64
 H, W = 48, 64
 VENDOR = Path(__file__).parents[1] / "fixtures" / "vendor_episode_5steps_4cams.hdf5"
+#: Joint velocities are named after the joints: "left_joint_0.vel" ...
+KIT14_VEL_NAMES = [n.replace(".pos", ".vel") for n in KIT14_NAMES]
 
 
 def run(capsys, data_dir: Path, out: Path, *extra: str) -> tuple[int, str, str]:
@@ -72,7 +91,8 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
     rc, stdout, err = run(capsys, recorded, out)
     assert rc == 0, err
     assert (
-        "exported 2 episode(s), 40 frames at 50 fps (cameras: cam_high, cam_left_wrist)" in stdout
+        "exported 2 episode(s), 40 frames at 50 fps (cameras: cam_high, cam_left_wrist), "
+        "layout kit14" in stdout
     )
     assert "LeRobotDataset('me/ds', root=" in stdout
     assert "export: 100%" in err  # progress bar over episodes
@@ -86,13 +106,18 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
     assert info["splits"] == {"train": "0:2"}
     feats = info["features"]
     assert list(feats) == [
-        "observation.state", "observation.velocity", "action",
+        "observation.state", "observation.velocity", "action", "observation.environment_state",
         "observation.images.cam_high", "observation.images.cam_left_wrist",
         "next.reward", "next.success",
         "timestamp", "frame_index", "episode_index", "index", "task_index",
     ]  # fmt: skip
     for key in ("observation.state", "observation.velocity", "action"):
-        assert feats[key] == {"dtype": "float32", "shape": [16], "names": list(JOINT_NAMES)}
+        names = KIT14_NAMES if key != "observation.velocity" else KIT14_VEL_NAMES
+        assert feats[key] == {"dtype": "float32", "shape": [14], "names": names}
+    assert feats["observation.environment_state"] == {
+        "dtype": "float32", "shape": [7], "names": BOX_NAMES,
+    }  # fmt: skip
+    assert info["robot_type"] == fmt.ROBOT_TYPE
     cam_feat = feats["observation.images.cam_high"]
     assert cam_feat["dtype"] == "video" and cam_feat["shape"] == [H, W, 3]
     assert cam_feat["info"]["video.codec"] == "av1"
@@ -100,7 +125,8 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
     assert cam_feat["info"]["video.fps"] == 50
 
     table = pq.read_table(out / "data/chunk-000/file-000.parquet")
-    assert table.schema.field("observation.state").type == pa.list_(pa.float32(), 16)
+    assert table.schema.field("observation.state").type == pa.list_(pa.float32(), 14)
+    assert table.schema.field("observation.environment_state").type == pa.list_(pa.float32(), 7)
     assert table.schema.field("next.reward").type == pa.float32()
     assert table.schema.field("next.success").type == pa.bool_()
     assert pq.ParquetFile(out / "data/chunk-000/file-000.parquet").num_row_groups == 2
@@ -110,10 +136,15 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
     assert cols["frame_index"] == list(range(20)) * 2
     assert np.array_equal(np.float32(cols["timestamp"]), np.float32(np.arange(40) % 20 / 50))
     state = np.array(cols["observation.state"], dtype=np.float32)
+    velocity = np.array(cols["observation.velocity"], dtype=np.float32)
     action = np.array(cols["action"], dtype=np.float32)
-    for i, ep in enumerate(episodes):
-        assert np.array_equal(state[20 * i : 20 * (i + 1)], ep.qpos.astype(np.float32))
-        assert np.array_equal(action[20 * i : 20 * (i + 1)], ep.action.astype(np.float32))
+    env_state = np.array(cols["observation.environment_state"], dtype=np.float32)
+    for i, ep in enumerate(episodes):  # at the recording rate: the file's values, bit for bit
+        part = slice(20 * i, 20 * (i + 1))
+        assert np.array_equal(state[part], ep.qpos[:, KIT14_FROM_16].astype(np.float32))
+        assert np.array_equal(velocity[part], ep.qvel[:, KIT14_FROM_16].astype(np.float32))
+        assert np.array_equal(action[part], ep.action[:, KIT14_FROM_16].astype(np.float32))
+        assert np.array_equal(env_state[part], ep.env_state.astype(np.float32))
         reward = np.float32(cols["next.reward"][20 * i : 20 * (i + 1)])
         assert np.array_equal(reward, ep.reward.astype(np.float32))
 
@@ -127,7 +158,8 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
         (0.0, 0.4),
         (0.4, 0.8),
     ]
-    assert len(rows[0]["stats/observation.state/mean"]) == 16
+    assert len(rows[0]["stats/observation.state/mean"]) == 14
+    assert len(rows[0]["stats/observation.environment_state/mean"]) == 7
     assert np.array(rows[0]["stats/observation.images.cam_high/mean"]).shape == (3, 1, 1)
 
     tasks = pq.read_table(out / "meta/tasks.parquet")
@@ -186,7 +218,9 @@ def test_float32_and_compressed_episodes_and_rolling_files(
     for i, (ep, (chunk, file)) in enumerate(zip(episodes, where)):
         table = pq.read_table(out / fmt.FileIndex(chunk, file).path(fmt.DATA_PATH)).to_pydict()
         assert table["episode_index"] == [i] * ep.num_steps
-        assert np.array_equal(np.float32(table["observation.velocity"]), np.float32(ep.qvel))
+        velocity = np.float32(ep.qvel[:, KIT14_FROM_16])
+        assert np.array_equal(np.float32(table["observation.velocity"]), velocity)
+        assert np.array_equal(np.float32(table["observation.environment_state"]), ep.env_state)
         assert table["next.success"] == (ep.reward >= 4).tolist()
         assert any(table["next.success"]) and not all(table["next.success"])
         video = out / fmt.FileIndex(chunk, file).path(
@@ -210,6 +244,10 @@ def test_vendor_recording_needs_a_task_and_has_no_reward(tmp_path, capsys):
     assert rc == 0, err
     info = json.loads((tmp_path / "ds/meta/info.json").read_text())
     assert "next.reward" not in info["features"] and "next.success" not in info["features"]
+    assert "observation.environment_state" not in info["features"]  # vendor files have none
+    assert info["features"]["action"]["names"] == KIT14_NAMES
+    assert info["features"]["observation.state"]["names"] == KIT14_NAMES
+    assert info["features"]["observation.velocity"]["names"] == KIT14_VEL_NAMES
     assert info["total_frames"] == 5
     assert [k for k in info["features"] if k.startswith("observation.images.")] == [
         f"observation.images.{cam}" for cam in load_episode(VENDOR).camera_names
@@ -258,6 +296,16 @@ def _dataset_in(folder: Path, mk) -> None:
             "--crf for h264 must be in 0..51",
         ),
         (lambda d, o, mk: _dataset_in(d, mk), ["--task", "  "], "--task must not be empty"),
+        (lambda d, o, mk: _dataset_in(d, mk), ["--fps", "60"], "above the recording rate (50"),
+        (lambda d, o, mk: _dataset_in(d, mk), ["--fps", "29.97"], "must be a whole number"),
+        (lambda d, o, mk: _dataset_in(d, mk), ["--fps", "thirty"], "must be a whole number"),
+        (lambda d, o, mk: _dataset_in(d, mk), ["--fps", "0"], "--fps must be at least 1"),
+        (lambda d, o, mk: _dataset_in(d, mk), ["--fps=-30"], "--fps must be at least 1"),
+        (
+            lambda d, o, mk: _dataset_in(d, mk),  # 3 steps at 50 fps: no whole frame at 10
+            ["--fps", "10"],
+            "has 3 step(s), too short for --fps 10 (needs at least 5",
+        ),
         (
             lambda d, o, mk: (
                 mk(d / "episode_0.hdf5", 3, ["a"], seed=0),
@@ -321,3 +369,227 @@ def test_trossen_mujoco_export_dispatch(tmp_path, capsys, make_episode):
     assert rc == 0, capsys.readouterr().err
     info = json.loads((tmp_path / "ds/meta/info.json").read_text())
     assert info["video_path"] is None and info["total_frames"] == 3
+
+
+def test_vendor16_layout_keeps_the_files_16_values(recorded, tmp_path, capsys):
+    out = tmp_path / "ds"
+    rc, stdout, err = run(capsys, recorded, out, "--layout", "vendor16")
+    assert rc == 0, err
+    assert "layout vendor16" in stdout
+    info = json.loads((out / "meta/info.json").read_text())
+    for key in ("observation.state", "observation.velocity", "action"):
+        assert info["features"][key] == {
+            "dtype": "float32", "shape": [16], "names": list(JOINT_NAMES),
+        }  # fmt: skip
+    assert info["features"]["observation.environment_state"]["names"] == BOX_NAMES
+    cols = pq.read_table(out / "data/chunk-000/file-000.parquet").to_pydict()
+    episodes = [load_episode(p) for _, p in list_episodes(recorded)]
+    qpos = np.concatenate([ep.qpos for ep in episodes]).astype(np.float32)
+    action = np.concatenate([ep.action for ep in episodes]).astype(np.float32)
+    assert np.array_equal(np.array(cols["observation.state"], dtype=np.float32), qpos)
+    assert np.array_equal(np.array(cols["action"], dtype=np.float32), action)
+
+
+def test_environment_state_names_without_object_names(tmp_path, make_episode):
+    # written episodes have two objects (14 values) and no object_names attribute
+    make_episode(tmp_path / "eps" / "episode_0.hdf5", 4, [], seed=0)
+    export_lerobot(tmp_path / "eps", tmp_path / "ds", "me/ds", progress=False)
+    feature = json.loads((tmp_path / "ds/meta/info.json").read_text())["features"][
+        "observation.environment_state"
+    ]
+    parts = ["x", "y", "z", "qw", "qx", "qy", "qz"]
+    assert feature["shape"] == [14]
+    assert feature["names"] == [f"obj{i}_{p}" for i in range(2) for p in parts]
+
+
+# -- resampling (--fps) ---------------------------------------------------------------------
+
+#: A 10-step episode at 50 fps written at 30 fps has floor(10 * 30 / 50) = 6 frames. Frame k
+#: is at t_k = k / 30 s, source index 5k/3; its action is the source's at index 5(k+1)/3 - 1,
+#: its reward that of step ceil(5(k+1)/3) - 1. Worked out by hand:
+#: state at 0, 1 2/3, 3 1/3, 5, 6 2/3, 8 1/3 -> (index, fraction):
+HAND_OBS = [(0, 0.0), (1, 2 / 3), (3, 1 / 3), (5, 0.0), (6, 2 / 3), (8, 1 / 3)]
+#: action at 2/3, 2 1/3, 4, 5 2/3, 7 1/3, 9:
+HAND_ACTION = [(0, 2 / 3), (2, 1 / 3), (4, 0.0), (5, 2 / 3), (7, 1 / 3), (9, 0.0)]
+#: images: the source frame nearest 0, 1.67, 3.33, 5, 6.67, 8.33:
+HAND_IMAGES = [0, 2, 3, 5, 7, 8]
+#: reward: the step whose period (j/50, (j+1)/50] holds the frame's end (k+1)/30:
+HAND_REWARD = [1, 3, 4, 6, 8, 9]
+FLIPPED_STEP = 4  # the peg's quaternion is stored with the other sign at this step
+
+
+def _rotation(axis: int, angle: float) -> np.ndarray:
+    q = np.zeros(4)
+    q[0], q[1 + axis] = np.cos(angle / 2), np.sin(angle / 2)
+    return q
+
+
+def write_synthetic(path: Path, steps: int = 10) -> None:
+    """A hand-checkable episode: ramps and parabolas, a peg turning about z (one step stored
+    with the quaternion's other sign), a socket turning about x, reward = step index, and
+    frames with a square moving 3 px a step."""
+    yy, xx = np.mgrid[0:H, 0:W]
+    with EpisodeWriter(
+        path, steps, ["top"], H, W, compression="none", env_state_dim=14,
+        attrs={"task_name": "sim_insertion", "seed": 0, "object_names": ["peg", "socket"]},
+    ) as writer:  # fmt: skip
+        for t in range(steps):
+            qpos = 0.3 * t / 50 + 0.01 * t**2 * np.arange(16) / 16
+            qpos[0] = 0.3 * t / 50  # a ramp: 0.3 rad/s
+            qvel = -0.02 * t**2 + np.arange(16)
+            action = 0.002 * (t + 1) ** 2 + np.arange(16) / 10
+            action[0] = 0.5 * (t + 1) / 50  # the target for the end of step t, 0.5 rad/s
+            peg_q = _rotation(2, 0.1 * t) * (-1.0 if t == FLIPPED_STEP else 1.0)
+            peg = np.concatenate([[0.1 + 0.01 * t, -0.2, 0.05 + 0.002 * t], peg_q])
+            socket = np.concatenate([[0.2, 0.3, 0.0], _rotation(0, 0.05 * t)])
+            image = np.stack([40 + (150 * (xx + yy) // (H + W)).astype(np.uint8)] * 3, -1)
+            image[H // 3 : H // 3 + 12, 3 * t : 3 * t + 12] = (230, 30, 30)
+            writer.append(qpos, qvel, action, float(t), np.concatenate([peg, socket]),
+                          {"top": image.astype(np.uint8)})  # fmt: skip
+        writer.set_attrs(success=True)
+
+
+def _hand(values: np.ndarray, pairs: list[tuple[int, float]]) -> np.ndarray:
+    return np.array([(1 - f) * values[j] + f * values[min(j + 1, len(values) - 1)]
+                     for j, f in pairs])  # fmt: skip
+
+
+def test_fps_30_resampling_against_a_hand_computation(tmp_path, capsys):
+    data, out = tmp_path / "eps", tmp_path / "ds"
+    write_synthetic(data / "episode_0.hdf5")
+    ep = load_episode(data / "episode_0.hdf5", load_images=True)
+    rc, stdout, err = run(
+        capsys, data, out, "--fps", "30", "--vcodec", "h264", "--pix_fmt", "yuv444p",
+        "--crf", "12",
+    )  # fmt: skip
+    assert rc == 0, err
+    assert "6 frames at 30 fps (resampled from 50 fps)" in stdout
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["fps"] == 30 and info["total_frames"] == 6
+    assert info["features"]["observation.images.top"]["info"]["video.fps"] == 30
+    parts = ["x", "y", "z", "qw", "qx", "qy", "qz"]
+    names = [f"{obj}_{p}" for obj in ("peg", "socket") for p in parts]
+    assert info["features"]["observation.environment_state"]["names"] == names
+    cols = pq.read_table(out / "data/chunk-000/file-000.parquet").to_pydict()
+    assert cols["frame_index"] == list(range(6))
+    assert np.array_equal(np.float32(cols["timestamp"]), np.float32(np.arange(6) / 30))
+
+    state = np.array(cols["observation.state"])
+    velocity = np.array(cols["observation.velocity"])
+    action = np.array(cols["action"])
+    env = np.array(cols["observation.environment_state"])
+    tight = {"rtol": 1e-6, "atol": 1e-7}  # float32 rounding of the written values
+    np.testing.assert_allclose(state, _hand(ep.qpos[:, KIT14_FROM_16], HAND_OBS), **tight)
+    np.testing.assert_allclose(velocity, _hand(ep.qvel[:, KIT14_FROM_16], HAND_OBS), **tight)
+    np.testing.assert_allclose(action, _hand(ep.action[:, KIT14_FROM_16], HAND_ACTION), **tight)
+    # the ramps: state at t_k = k/30, action = the target for t_{k+1} = (k+1)/30
+    np.testing.assert_allclose(state[:, 0], 0.3 * np.arange(6) / 30, **tight)
+    np.testing.assert_allclose(action[:, 0], 0.5 * np.arange(1, 7) / 30, **tight)
+    assert cols["next.reward"] == HAND_REWARD
+    assert cols["next.success"] == [r >= 4 for r in HAND_REWARD]
+
+    # object positions interpolate linearly; quaternions the shorter way, renormalised
+    poses = env.reshape(6, 2, 7)
+    times = np.array([j + f for j, f in HAND_OBS])  # source index of each frame
+    np.testing.assert_allclose(poses[:, 0, 0], 0.1 + 0.01 * times, **tight)
+    np.testing.assert_allclose(poses[:, 0, 2], 0.05 + 0.002 * times, **tight)
+    np.testing.assert_allclose(np.linalg.norm(poses[..., 3:], axis=-1), 1.0, atol=1e-6)
+    for k, (j, f) in enumerate(HAND_OBS):
+        peg = _rotation(2, 0.1 * (j + f))  # up to sign, within nlerp's error
+        sign = np.sign(ep.env_state[j, 3])
+        np.testing.assert_allclose(poses[k, 0, 3:], sign * peg, atol=2e-4)
+        np.testing.assert_allclose(poses[k, 1, 3:], _rotation(0, 0.05 * (j + f)), atol=2e-4)
+        if f == 0:  # source rows keep their values exactly
+            np.testing.assert_array_equal(env[k], ep.env_state[j].astype(np.float32))
+    assert HAND_OBS[2][0] + 1 == FLIPPED_STEP  # frame 2 interpolates across the sign flip
+
+    frames, times_s, _, _ = decode(out / "videos/observation.images.top/chunk-000/file-000.mp4")
+    assert np.allclose(times_s, np.arange(6) / 30)
+    source = ep.images["top"].astype(np.float64)
+    nearest = [int(np.argmin(np.mean((source - f) ** 2, axis=(1, 2, 3)))) for f in frames]
+    assert nearest == HAND_IMAGES
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    assert rows[0]["length"] == 6
+    assert rows[0]["videos/observation.images.top/to_timestamp"] == pytest.approx(6 / 30)
+
+
+def test_fps_30_recorded_episodes_lengths_and_speed_limits(recorded, tmp_path, capsys):
+    out = tmp_path / "ds"
+    rc, stdout, err = run(capsys, recorded, out, "--fps", "30")
+    assert rc == 0, err
+    assert "24 frames at 30 fps (resampled from 50 fps)" in stdout  # 2 x floor(20 * 30 / 50)
+    info = json.loads((out / "meta/info.json").read_text())
+    assert (info["fps"], info["total_frames"], info["robot_type"]) == (30, 24, fmt.ROBOT_TYPE)
+    cols = pq.read_table(out / "data/chunk-000/file-000.parquet").to_pydict()
+    assert cols["frame_index"] == list(range(12)) * 2
+    assert np.array_equal(np.float32(cols["timestamp"]), np.float32(np.arange(24) % 12 / 30))
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    assert [r["length"] for r in rows] == [12, 12]
+    for cam in CAMS:
+        frames, times, _, _ = decode(
+            out / f"videos/observation.images.{cam}/chunk-000/file-000.mp4"
+        )
+        assert frames.shape[0] == 24 and np.allclose(times, np.arange(24) / 30)
+    action = np.array(cols["action"], dtype=np.float64)
+    for ep_actions in (action[:12], action[12:]):
+        _assert_within_speed_limits(ep_actions, 30)
+
+
+def _assert_within_speed_limits(actions: np.ndarray, fps: int) -> float:
+    """Every value of a kit14 action trajectory moves at most its real speed limit per
+    frame (float32 rounding aside); returns the largest fraction of a limit used."""
+    limits = ACTION_SPEED_LIMITS[KIT14_FROM_16]
+    use = np.abs(np.diff(actions, axis=0)) * fps / limits
+    assert use.max(initial=0.0) <= 1 + 1e-5, use.max()
+    return float(use.max(initial=0.0))
+
+
+def test_resampled_action_keeps_the_real_speed_limits(tmp_path):
+    """A source action moving at the speed limits (runs of steps at +-limit / 50) resampled
+    to 30 fps still moves at most the limits, and reaches them."""
+    rng = np.random.default_rng(0)
+    steps = 60
+    signs = np.repeat(rng.choice([-1.0, 1.0], size=(steps // 10, 16)), 10, axis=0)
+    actions = np.array(START_ARM_POSE) + np.cumsum(signs * ACTION_SPEED_LIMITS / 50, axis=0)
+    path = tmp_path / "episode_0.hdf5"
+    attrs = {"task_name": "sim_transfer_cube", "seed": 0, "success": False}
+    with EpisodeWriter(path, steps, [], attrs=attrs) as writer:
+        for a in actions:
+            writer.append(a, np.zeros(16), a, 0.0, np.r_[0, 0, 0, 1.0, 0, 0, 0])
+    ep = load_episode(path)
+    assert _assert_within_speed_limits(ep.action[:, KIT14_FROM_16], 50) > 0.999  # the source
+    for fps in (30, 25, 17, 1):
+        resampled = frame_values(ep, "kit14", fps)["action"].astype(np.float64)
+        assert resampled.shape == (steps * fps // 50, 14)
+        if fps > 1:
+            assert _assert_within_speed_limits(resampled, fps) > 0.99
+
+
+@pytest.mark.parametrize("source", [50, 60, 30, 7])
+def test_frame_map_follows_the_rule_exactly(source):
+    """frame_map against the rule in exact fractions, every rate up to the source's."""
+    for fps in range(1, source + 1):
+        for steps in (1, 2, 3, 7, 20):
+            frames = frame_map(steps, source, fps)
+            assert frames.length == math.floor(Fraction(steps * fps, source))
+            for k in range(frames.length + 1):
+                obs = Fraction(k * source, fps)  # t_k in source steps
+                act = Fraction((k + 1) * source, fps) - 1  # t_k + 1/N - dt in source steps
+                if k == frames.length:  # the next frame would need an action past the end
+                    assert act > steps - 1
+                    break
+                assert act <= steps - 1 and obs <= steps - 1
+                assert frames.obs_index[k] == math.floor(obs)
+                assert frames.obs_frac[k] == float(obs - math.floor(obs))
+                assert frames.action_index[k] == math.floor(act)
+                assert frames.action_frac[k] == float(act - math.floor(act))
+                image = int(frames.image_index[k])  # nearest; a tie takes the earlier
+                assert abs(image - obs) <= Fraction(1, 2) and (image - obs != Fraction(1, 2))
+                end = Fraction((k + 1) * source, fps)  # the frame's end, in source steps
+                j = int(frames.reward_index[k])
+                assert j < end <= j + 1 and 0 <= j < steps
+    same = frame_map(9, source, source)  # at the recording rate: every step itself
+    assert np.array_equal(same.obs_index, np.arange(9)) and not same.obs_frac.any()
+    assert np.array_equal(same.action_index, np.arange(9)) and not same.action_frac.any()
+    assert np.array_equal(same.image_index, np.arange(9))
+    assert np.array_equal(same.reward_index, np.arange(9))

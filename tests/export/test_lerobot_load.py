@@ -2,17 +2,22 @@
 
 LeRobot cannot be installed next to this package's Python 3.11 environment, so the check
 runs in a separate interpreter: ``TROSSEN_LEROBOT_PYTHON`` names a Python with
-``lerobot[dataset]`` installed (``.ci/run`` creates one and sets it). Three exports are
-loaded with the pyav and torchcodec video backends:
+``lerobot[dataset]`` installed (``.ci/run`` creates one and sets it). Four exports, all in
+the default layout (the real kit's 14 values), are loaded with the pyav and torchcodec video
+backends:
 
 - ``recorded``: recorder episodes (2 x 20 steps, 2 cameras 48x64, gzip images) as
   H.264 yuv444p: frames within PSNR 35 dB of the HDF5 images.
 - ``recorded_av1``: the same with the default encoding (AV1 yuv420p, as LeRobot): at 48x64
   half-resolution colour caps PSNR near 33 dB, so the bound is 28 dB here.
+- ``recorded_30``: the recorder episodes resampled to 30 fps (``fps=30``, the real kit's
+  rate), H.264 yuv444p: 2 x 12 frames, each image the source frame the export chose.
 - ``rolled``: written episodes with a moving square (float32 arrays, gzip and lzf images),
   one data and video file per episode: every frame comes back in its place.
 
-State, velocity, action and reward must come back bit for bit as float32.
+State, velocity, action, environment_state and reward must come back bit for bit as the
+float32 values computed from the HDF5 files (``frame_values``: the files' own values at the
+recording rate, resampled ones at 30 fps).
 """
 
 from __future__ import annotations
@@ -29,15 +34,22 @@ pytest.importorskip("pyarrow")
 pytest.importorskip("av")
 
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode  # noqa: E402
-from trossen_arm_mujoco.data.schema import JOINT_NAMES  # noqa: E402
 from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
 from trossen_arm_mujoco.export import lerobot_format as fmt  # noqa: E402
+from trossen_arm_mujoco.export.lerobot import frame_values  # noqa: E402
 from trossen_arm_mujoco.tasks import registry  # noqa: E402
 
 CHECK = Path(__file__).with_name("lerobot_check.py")
 ENV = "TROSSEN_LEROBOT_PYTHON"
 BACKENDS = ("pyav", "torchcodec")
 HIGH_FIDELITY = VideoSettings(codec="h264", pix_fmt="yuv444p", crf=12)
+#: The values of Trossen's LeRobot plugin for the kit (bi_widowxai_follower_robot), in order.
+KIT14_NAMES = [
+    *(f"left_joint_{i}.pos" for i in range(6)), "left_left_carriage_joint.pos",
+    *(f"right_joint_{i}.pos" for i in range(6)), "right_left_carriage_joint.pos",
+]  # fmt: skip
+#: Where each comes from in the HDF5 files' 16 values.
+KIT14_FROM_16 = [0, 1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 15]
 
 
 def _lerobot_python() -> str:
@@ -49,18 +61,28 @@ def _lerobot_python() -> str:
     return python
 
 
-def _expected(data_dir: Path, tasks: list[str], out: Path) -> Path:
-    """The source values the loader must return (see lerobot_check.py), as an .npz."""
+def _expected(data_dir: Path, tasks: list[str], out: Path, fps: int | None = None) -> Path:
+    """The values the loader must return (see lerobot_check.py), as an .npz: what the export
+    computes from the HDF5 files at ``fps``; at the recording rate checked here against the
+    files themselves."""
     arrays: dict[str, np.ndarray] = {"tasks": np.array(tasks)}
     for i, (_, path) in enumerate(list_episodes(data_dir)):
         ep = load_episode(path, load_images=True)
-        arrays[f"state_{i}"] = ep.qpos.astype(np.float32)
-        arrays[f"velocity_{i}"] = ep.qvel.astype(np.float32)
-        arrays[f"action_{i}"] = ep.action.astype(np.float32)
-        arrays[f"reward_{i}"] = ep.reward.astype(np.float32)
-        arrays[f"success_{i}"] = ep.reward >= 4
+        values = frame_values(ep, fps=fps)
+        if fps is None:  # the kit's 14 of the files' 16 values, bit for bit
+            assert np.array_equal(
+                values["observation.state"], np.float32(ep.qpos)[:, KIT14_FROM_16]
+            )
+            assert np.array_equal(values["action"], np.float32(ep.action)[:, KIT14_FROM_16])
+            assert np.array_equal(values["observation.environment_state"], np.float32(ep.env_state))
+        arrays[f"state_{i}"] = values["observation.state"]
+        arrays[f"velocity_{i}"] = values["observation.velocity"]
+        arrays[f"action_{i}"] = values["action"]
+        arrays[f"env_state_{i}"] = values["observation.environment_state"]
+        arrays[f"reward_{i}"] = values["next.reward"]
+        arrays[f"success_{i}"] = values["next.reward"] >= 4
         for cam, frames in ep.images.items():
-            arrays[f"images_{cam}_{i}"] = frames
+            arrays[f"images_{cam}_{i}"] = frames[values["image_index"]]
     np.savez(out, **arrays)
     return out
 
@@ -73,9 +95,13 @@ def loaded(request, make_episode, make_float32, tmp_path_factory) -> dict:
     tmp = tmp_path_factory.mktemp("lerobot_load")
     transfer = registry.load("sim_transfer_cube").description
     datasets = []
-    for name, video in (("recorded", HIGH_FIDELITY), ("recorded_av1", VideoSettings())):
-        export_lerobot(recorded, tmp / name, f"test/{name}", video=video, progress=False)
-        expected = _expected(recorded, [transfer] * 2, tmp / f"{name}.npz")
+    for name, video, fps in (
+        ("recorded", HIGH_FIDELITY, None),
+        ("recorded_av1", VideoSettings(), None),
+        ("recorded_30", HIGH_FIDELITY, 30),
+    ):
+        export_lerobot(recorded, tmp / name, f"test/{name}", video=video, progress=False, fps=fps)
+        expected = _expected(recorded, [transfer] * 2, tmp / f"{name}.npz", fps)
         datasets.append({"name": name, "root": str(tmp / name), "repo_id": f"test/{name}"})
         datasets[-1]["expected"] = str(expected)
 
@@ -117,15 +143,34 @@ def _runs(loaded: dict, backend: str) -> dict:
     return run
 
 
+DATASETS = {  # name: (episodes, frames, fps, objects in environment_state)
+    "recorded": (2, 40, 50, ["box"]),
+    "recorded_av1": (2, 40, 50, ["box"]),
+    "recorded_30": (2, 24, 30, ["box"]),
+    "rolled": (3, 31, 50, ["obj0", "obj1"]),
+}
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_frames_and_arrays_match_the_episodes(loaded, backend):
     run = _runs(loaded, backend)
-    for name, episodes, frames in (("recorded", 2, 40), ("recorded_av1", 2, 40), ("rolled", 3, 31)):
+    parts = ["x", "y", "z", "qw", "qx", "qy", "qz"]
+    for name, (episodes, frames, fps, objects) in DATASETS.items():
         got = run[name]
-        assert (got["num_episodes"], got["num_frames"], got["fps"]) == (episodes, frames, 50)
-        assert got["names"] == list(JOINT_NAMES)
-        assert got["max_abs"] == {"state": 0.0, "velocity": 0.0, "action": 0.0, "reward": 0.0}
-        assert got["dtypes"]["state"] == got["dtypes"]["action"] == "float32"
+        assert (got["num_episodes"], got["num_frames"], got["fps"]) == (episodes, frames, fps)
+        assert got["names"] == {
+            "state": KIT14_NAMES,
+            "velocity": [n.replace(".pos", ".vel") for n in KIT14_NAMES],
+            "action": KIT14_NAMES,
+            "env_state": [f"{obj}_{p}" for obj in objects for p in parts],
+        }
+        zero = {"state": 0.0, "velocity": 0.0, "action": 0.0, "env_state": 0.0, "reward": 0.0}
+        assert got["max_abs"] == zero, name
+        assert got["shapes"] == {
+            "state": [14], "velocity": [14], "action": [14], "env_state": [7 * len(objects)],
+            "reward": [],
+        }  # fmt: skip
+        assert set(got["dtypes"].values()) == {"float32"}
         assert got["success_equal"] and got["task_equal"]
         assert got["order"] == [[e, t] for e, n in enumerate(_lengths(name)) for t in range(n)]
         assert "observation.state" in got["stats_keys"]
@@ -134,7 +179,7 @@ def test_frames_and_arrays_match_the_episodes(loaded, backend):
 
 
 def _lengths(name: str) -> list[int]:
-    return [12, 9, 10] if name == "rolled" else [20, 20]
+    return {"rolled": [12, 9, 10], "recorded_30": [12, 12]}.get(name, [20, 20])
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -142,8 +187,11 @@ def test_video_frames_within_codec_tolerance(loaded, backend):
     run = _runs(loaded, backend)
     for cam, value in run["recorded"]["min_psnr"].items():
         assert value >= 35.0, (cam, value)
+    for cam, value in run["recorded_30"]["min_psnr"].items():
+        assert value >= 35.0, (cam, value)
     for cam, value in run["recorded_av1"]["min_psnr"].items():
         assert value >= 28.0, (cam, value)
     assert min(run["rolled"]["min_psnr"].values()) >= 35.0
     assert run["rolled"]["misaligned"] == []
     assert run["recorded"]["misaligned"] == []
+    assert run["recorded_30"]["misaligned"] == []

@@ -9,6 +9,7 @@ from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, START_ARM_POSE, STATI
 from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
+from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
 from trossen_arm_mujoco.sim_env import TransferCubeTask
 from trossen_arm_mujoco.utils import make_sim_env
 
@@ -113,20 +114,30 @@ def test_unknown_camera_is_a_user_error(task_class):
         make_sim_env(task_class, cam_list=["cam_top"], image_size=SMALL)
 
 
+BOTH_SIZES = r"action must have 14 values \(the real kit's layout\) or 16 \(the qpos layout\)"
+
+
 @pytest.mark.parametrize(
-    ("action", "match"),
+    ("action", "ee_match", "joint_match"),
     [
-        (np.zeros(15), "16 values, got 15"),
-        (np.zeros(17), "16 values, got 17"),
-        (np.zeros(14), "16 values, got 14"),
-        (np.full(16, np.nan), "NaN or inf"),
+        (np.zeros(15), "16 values, got 15", f"{BOTH_SIZES}, got 15"),
+        (np.zeros(17), "16 values, got 17", f"{BOTH_SIZES}, got 17"),
+        (np.zeros(14), "16 values, got 14", None),  # the joint env takes the kit's 14
+        (np.full(16, np.nan), "NaN or inf", "NaN or inf"),
+        (np.full(14, np.inf), "16 values, got 14", "NaN or inf"),
     ],
 )
-def test_action_validation(env, action, match):
+def test_action_validation(env, task_class, action, ee_match, joint_match):
+    match = ee_match if task_class is TransferCubeEETask else joint_match
     env.reset()
     qpos = env.physics.data.qpos.copy()
-    with pytest.raises(UserError, match=match):
+    if match is None:  # valid: the step is taken
         env.step(action)
+        assert not np.array_equal(env.physics.data.qpos, qpos)
+        return
+    with pytest.raises(UserError, match=match) as err:
+        env.step(action)
+    assert "\n" not in str(err.value)
     np.testing.assert_array_equal(env.physics.data.qpos, qpos)  # no step was taken
 
 
@@ -173,6 +184,33 @@ def test_joint_action_mapping():
     np.testing.assert_allclose(ctrl[6], GRIPPER_OPEN)  # left gripper from action[7]
     np.testing.assert_allclose(ctrl[13], GRIPPER_OPEN - 0.001)  # right gripper from action[15]
     env.task.close()
+
+
+def test_joint_env_takes_the_real_kits_14_values():
+    """A 14-value action (REAL_KIT_LAYOUT) drives the joint env exactly as its 16 values."""
+    rng = np.random.default_rng(0)
+    start = np.array(START_ARM_POSE, dtype=float)
+    actions = []
+    for t in range(1, 9):  # small moves within the speed limits, grippers closing
+        a = start.copy()
+        a[:6] += 0.01 * t * rng.uniform(-1, 1, 6)
+        a[8:14] += 0.01 * t * rng.uniform(-1, 1, 6)
+        a[[7, 15]] = GRIPPER_OPEN - 0.001 * t
+        a[[6, 14]] = rng.uniform(0, GRIPPER_OPEN, 2)  # coupled fingers: not commanded
+        actions.append(a)
+    runs = []
+    for layout in ("vendor16", "kit14"):
+        env = make_sim_env(TransferCubeTask, cam_list=[], random=3)
+        env.reset()
+        qpos = []
+        for a in actions:
+            ts = env.step(a if layout == "vendor16" else REAL_KIT_LAYOUT.from_vendor(a))
+            qpos.append(ts.observation["qpos"])
+        runs.append((np.array(qpos), env.physics.data.qpos.copy(), env.physics.data.ctrl.copy()))
+        env.task.close()
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(runs[0][0][0], runs[0][0][-1])  # the arms did move
 
 
 def test_ee_action_moves_mocap_targets():

@@ -183,8 +183,13 @@ class EpisodeRecorder:
         """The end-effector-flavour world (``sim.env.MujocoEnv``)."""
         return self.ee_sampler.env
 
-    def scripted_rollout(self, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
+    def scripted_rollout(
+        self, rng: np.random.Generator, object_poses: dict | None = None
+    ) -> tuple[np.ndarray, dict]:
         """Phase 1. Returns (joint actions (T, 16), initial object poses {name: (7,)}).
+
+        ``object_poses`` places the objects instead of the sampled poses (the scripted
+        reference of an evaluation episode); the generator still drives the sampling.
 
         The actions are within the joint limits and, at the recording rate (50 Hz), within
         the real arm's joint and gripper speed limits (``ACTION_SPEED_LIMITS``): the scripted
@@ -193,7 +198,7 @@ class EpisodeRecorder:
         record is kept in ``self.last_randomization`` for the replay.
         """
         T = self.settings.episode_len
-        task = self.ee_task = self.ee_sampler.next_task(rng)
+        task = self.ee_task = self.ee_sampler.next_task(rng, object_poses=object_poses)
         self.last_randomization = self.ee_sampler.randomization
         poses = task.object_poses()
         policy = self.policy_cls(inject_noise=self.settings.inject_noise, rng=rng)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 import math
 import os
+from collections.abc import Iterable
 from fractions import Fraction
 from functools import lru_cache
 from pathlib import Path
@@ -137,7 +138,7 @@ def write_episode_video(
     Returns:
         ``out_path``.
     """
-    av = _require("av", "av")
+    _require("av", "av")
     cams = list(episode.camera_names if cameras is None else cameras)
     unknown = [cam for cam in cams if cam not in episode.camera_names]
     if unknown:
@@ -150,25 +151,36 @@ def write_episode_video(
     if not (isinstance(fps, int | float) and 0 < fps <= 1000):
         raise UserError(f"fps must be in (0, 1000], got {fps}")
     grid = CameraGrid(cams, episode.image_shapes)
+    with episode.open_frames() as frames:
+        images = (grid.compose(frames.step(t, cams)) for t in range(episode.num_steps))
+        return write_frames_video(images, out_path, fps, grid.height, grid.width)
+
+
+def write_frames_video(
+    frames: Iterable[np.ndarray],
+    out_path: str | os.PathLike[str],
+    fps: float,
+    height: int,
+    width: int,
+) -> Path:
+    """Encode RGB frames (uint8 (height, width, 3), even sizes) as one H.264 mp4, written
+    to a temp name and renamed onto ``out_path`` when complete. Returns ``out_path``."""
+    av = _require("av", "av")
     encoder = h264_encoder()
     out_path = Path(out_path).expanduser()
     out_path.parent.mkdir(parents=True, exist_ok=True)
     rate = Fraction(fps).limit_denominator(1001)
     with atomic_path(out_path) as tmp:
-        with (
-            av.open(str(tmp), "w", format="mp4", options={"movflags": "+faststart"}) as out,
-            episode.open_frames() as frames,
-        ):
+        with av.open(str(tmp), "w", format="mp4", options={"movflags": "+faststart"}) as out:
             stream = out.add_stream(encoder, rate=rate)
-            stream.width, stream.height = grid.width, grid.height
+            stream.width, stream.height = width, height
             stream.pix_fmt = "yuv420p"
             if encoder == "libx264":
                 stream.options = {"crf": "20", "preset": "veryfast"}
             else:
                 stream.bit_rate = 4_000_000
-            for t in range(episode.num_steps):
-                image = grid.compose(frames.step(t, cams))
-                frame = av.VideoFrame.from_ndarray(image, format="rgb24")
+            for image in frames:
+                frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")
                 out.mux(stream.encode(frame))
             out.mux(stream.encode(None))
     return out_path

@@ -1,14 +1,31 @@
 """HDF5 episodes -> a LeRobot v3.0 dataset (layout in :mod:`.lerobot_format`).
 
-Per frame ``t`` of an episode:
+Per written frame ``k``:
 
-- ``observation.state``: qpos (16, float32; rad, fingers m), ``observation.velocity``: qvel,
-  ``action``: the joint targets; names are the kit layout's joint names.
+- ``observation.state``: qpos, ``observation.velocity``: qvel, ``action``: the joint
+  targets, float32 in the chosen layout: ``kit14`` (default), the real kit's 14 values as
+  Trossen's LeRobot plugin for the kit (``bi_widowxai_follower_robot``) names them,
+  ``left_joint_0.pos`` .. ``left_joint_5.pos``, ``left_left_carriage_joint.pos``, then
+  ``right_...`` (rad; the carriage, the gripper, in m; the coupled second finger dropped);
+  or ``vendor16``, the HDF5 files' 16 values and names.
+- ``observation.environment_state``: the episode's env_state, 7 values per object (xyz m,
+  quat wxyz) named ``<object>_x`` .. ``<object>_qz``; left out for files without it
+  (vendor recordings).
 - ``observation.images.<camera>``: the camera image, as a frame of the camera's mp4.
-- ``next.reward``: the task reward after action ``t``; ``next.success``: whether the task
-  judges it a success then (reward reaches the task's maximum). Left out for files
+- ``next.reward``: the task reward after the frame's action; ``next.success``: whether the
+  task judges it a success then (reward reaches the task's maximum). Left out for files
   without rewards (vendor recordings).
 - ``task``: the task's description from the registry (or ``task=``).
+
+At the recording rate (default) frame ``k`` is source step ``k``. At a lower ``fps`` N
+(the real kit runs at 30) frame ``k`` is at ``t_k = k / N``: state, velocity and
+environment_state are the source linearly interpolated at ``t_k`` (quaternions renormalised);
+images are the source frame nearest ``t_k``; the action is the source action trajectory
+interpolated at ``t_k + 1/N - dt`` (action ``j`` being the target for the end of step ``j``,
+holding it for ``1/N`` s reaches where the source was at ``t_{k+1}``); reward and success are
+those of the source step whose period contains ``t_{k+1}``. An episode of ``T`` steps gives
+``floor(T dt N)`` frames: later ones would need an action past the episode's end. The exact
+rule is in :mod:`.lerobot_plan`.
 
 Every episode file is validated before anything is written; the dataset is built in a
 hidden sibling folder and renamed onto ``output`` only when complete.
@@ -33,7 +50,15 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.export import lerobot_format as fmt
 from trossen_arm_mujoco.export import lerobot_stats as st
 from trossen_arm_mujoco.export.deps import require
-from trossen_arm_mujoco.export.lerobot_plan import ExportPlan, plan_export
+from trossen_arm_mujoco.export.lerobot_plan import (
+    DEFAULT_LAYOUT,
+    ExportPlan,
+    FrameMap,
+    check_layout,
+    episode_frames,
+    frame_map,
+    plan_export,
+)
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo, VideoSettings
 
 #: A dataset name: ``<owner>/<name>`` as on the Hugging Face Hub.
@@ -51,6 +76,8 @@ class ExportSummary:
     fps: int
     tasks: list[str]
     seconds: float
+    source_fps: int
+    layout: str
 
 
 def _prepare_output(output: Path, overwrite: bool) -> None:
@@ -78,6 +105,8 @@ def export_lerobot(
     video: VideoSettings | None = None,
     overwrite: bool = False,
     progress: bool = True,
+    layout: str = DEFAULT_LAYOUT,
+    fps: int | None = None,
 ) -> ExportSummary:
     """Write the episodes of ``data_dir`` as a LeRobot v3.0 dataset in ``output``.
 
@@ -93,10 +122,15 @@ def export_lerobot(
         video: camera encoding (default: AV1 yuv420p CRF 30, as LeRobot).
         overwrite: replace an existing dataset in ``output``.
         progress: show a progress bar over episodes on stderr.
+        layout: joint layout of state, velocity and action: ``"kit14"`` (the real kit's 14
+            values) or ``"vendor16"`` (the HDF5 files' 16).
+        fps: frames per second to write, a whole number up to the recording rate (None: the
+            recording rate); below it the episodes are resampled (module docstring).
 
     Raises:
         UserError: missing folder, no episodes, a corrupt or inconsistent episode, a
-            non-empty output, a missing optional dependency (one line each).
+            non-empty output, an unknown layout, a bad ``fps``, a missing optional
+            dependency (one line each).
     """
     start = time.perf_counter()
     _check_repo_id(repo_id)
@@ -105,7 +139,7 @@ def export_lerobot(
     found = list_episodes(data_dir)
     if not found:
         raise UserError(f"no episode_<k>.hdf5 files in {data_dir}; record episodes first")
-    plan = plan_export([load_episode(path) for _, path in found], task)
+    plan = plan_export([load_episode(path) for _, path in found], task, layout, fps)
     video = video or VideoSettings()
     if plan.cameras:
         video.check_available()
@@ -127,6 +161,8 @@ def export_lerobot(
         fps=plan.fps,
         tasks=plan.tasks,
         seconds=time.perf_counter() - start,
+        source_fps=plan.source_fps,
+        layout=plan.layout,
     )
 
 
@@ -183,21 +219,57 @@ class _DataFiles:
             self._writer = None
 
 
+def frame_values(
+    episode: Episode, layout: str = DEFAULT_LAYOUT, fps: int | None = None
+) -> dict[str, np.ndarray]:
+    """What an export writes for ``episode`` per frame, before any encoding.
+
+    Returns:
+        ``observation.state``, ``observation.velocity``, ``action``: float32 ``(K, D)`` in
+        ``layout``; ``observation.environment_state``: float32 ``(K, 7k)`` (episodes with
+        env_state); ``next.reward``: float32 ``(K,)`` (episodes with rewards);
+        ``image_index``: int64 ``(K,)``, the source step whose images frame ``k`` shows.
+        ``K`` frames at ``fps`` (None: the recording rate); see the module docstring.
+
+    Raises:
+        UserError: an unknown layout, a bad ``fps``, an episode too short for ``fps``.
+    """
+    check_layout(layout)
+    return _values(episode, layout, episode_frames(episode, fps))
+
+
+def _values(episode: Episode, layout: str, frames: FrameMap) -> dict[str, np.ndarray]:
+    out = {
+        "observation.state": frames.observations(fmt.layout_values(layout, episode.qpos)),
+        "observation.velocity": frames.observations(fmt.layout_values(layout, episode.qvel)),
+        "action": frames.actions(fmt.layout_values(layout, episode.action)),
+    }
+    if episode.env_state is not None:
+        out[fmt.ENV_STATE_KEY] = frames.poses(episode.env_state)
+    out = {key: values.astype(np.float32) for key, values in out.items()}
+    if episode.reward is not None:
+        out["next.reward"] = episode.reward[frames.reward_index].astype(np.float32)
+    out["image_index"] = frames.image_index
+    return out
+
+
 def _frame_columns(
     ep: Episode, plan: ExportPlan, i: int, first_index: int
-) -> dict[str, np.ndarray]:
-    """Per-frame values of episode ``i`` for every non-video feature."""
-    T = ep.num_steps
-    cols = {key: getattr(ep, attr).astype(np.float32) for key, attr in fmt.VECTOR_FEATURES.items()}
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Per-frame values of episode ``i`` for every non-video feature, and the source step
+    of each frame's images."""
+    frames = frame_map(ep.num_steps, plan.source_fps, plan.fps)
+    cols = _values(ep, plan.layout, frames)
+    image_index = cols.pop("image_index")
     if plan.with_reward:
-        cols["next.reward"] = ep.reward.astype(np.float32)
-        cols["next.success"] = ep.reward >= plan.max_reward[i]
-    cols["timestamp"] = (np.arange(T) / plan.fps).astype(np.float32)
-    cols["frame_index"] = np.arange(T, dtype=np.int64)
-    cols["episode_index"] = np.full(T, i, dtype=np.int64)
-    cols["index"] = np.arange(first_index, first_index + T, dtype=np.int64)
-    cols["task_index"] = np.full(T, plan.task_index[i], dtype=np.int64)
-    return cols
+        cols["next.success"] = ep.reward[frames.reward_index] >= plan.max_reward[i]
+    n = frames.length
+    cols["timestamp"] = (np.arange(n) / plan.fps).astype(np.float32)
+    cols["frame_index"] = np.arange(n, dtype=np.int64)
+    cols["episode_index"] = np.full(n, i, dtype=np.int64)
+    cols["index"] = np.arange(first_index, first_index + n, dtype=np.int64)
+    cols["task_index"] = np.full(n, plan.task_index[i], dtype=np.int64)
+    return cols, image_index
 
 
 def _table(columns: dict[str, np.ndarray], schema: Any) -> Any:
@@ -213,15 +285,18 @@ def _table(columns: dict[str, np.ndarray], schema: Any) -> Any:
     return pa.Table.from_arrays(arrays, schema=schema)
 
 
-def _encode_camera(ep: Episode, cam: str, writer: CameraVideo) -> list[np.ndarray]:
-    """Encode one camera of ``ep``; returns the frames sampled for statistics."""
-    sampled = set(st.image_sample_indices(ep.num_steps).tolist())
+def _encode_camera(
+    ep: Episode, cam: str, writer: CameraVideo, image_index: np.ndarray
+) -> list[np.ndarray]:
+    """Encode one camera of ``ep``, written frame ``k`` showing source step
+    ``image_index[k]``; returns the frames sampled for statistics."""
+    sampled = set(st.image_sample_indices(len(image_index)).tolist())
     samples = []
     with ep.open_frames() as frames:
-        for t in range(ep.num_steps):
+        for k, t in enumerate(image_index.tolist()):
             image = frames.read(cam, t)
             writer.write(image[None])
-            if t in sampled:
+            if k in sampled:
                 samples.append(st.downsample(image).copy())
     return samples
 
@@ -229,7 +304,9 @@ def _encode_camera(ep: Episode, cam: str, writer: CameraVideo) -> list[np.ndarra
 def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress: bool) -> int:
     """Write the whole dataset into ``root``; returns the number of frames."""
     infos = {cam: video.info(h, w, plan.fps) for cam, (h, w, _) in plan.image_shapes.items()}
-    features = fmt.build_features(plan.image_shapes, infos, plan.with_reward)
+    features = fmt.build_features(
+        plan.image_shapes, infos, plan.with_reward, plan.layout, plan.env_names
+    )
     schema = fmt.data_schema(features)
     data = _DataFiles(root, schema)
     videos = {
@@ -247,22 +324,23 @@ def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress:
             plan.episodes, desc="export", unit="episode", file=sys.stderr, disable=not progress
         )
         for i, ep in enumerate(bar):
-            columns = _frame_columns(ep, plan, i, total)
+            columns, image_index = _frame_columns(ep, plan, i, total)
+            length = len(image_index)
             where = data.write(_table(columns, schema))
             row: dict[str, Any] = {
                 "episode_index": i,
                 "tasks": [plan.tasks[plan.task_index[i]]],
-                "length": ep.num_steps,
+                "length": length,
                 "data/chunk_index": where.chunk,
                 "data/file_index": where.file,
                 "dataset_from_index": total,
-                "dataset_to_index": total + ep.num_steps,
+                "dataset_to_index": total + length,
             }
             ep_stats = {key: st.array_stats(values) for key, values in columns.items()}
             for cam, writer in videos.items():
                 key = fmt.video_key(cam)
                 index, start = writer.begin_episode()
-                ep_stats[key] = st.image_stats(_encode_camera(ep, cam, writer))
+                ep_stats[key] = st.image_stats(_encode_camera(ep, cam, writer, image_index))
                 row[f"videos/{key}/chunk_index"] = index.chunk
                 row[f"videos/{key}/file_index"] = index.file
                 row[f"videos/{key}/from_timestamp"] = start
@@ -274,7 +352,7 @@ def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress:
             row["meta/episodes/chunk_index"] = 0
             row["meta/episodes/file_index"] = 0
             rows.append(row)
-            total += ep.num_steps
+            total += length
         bar.close()
         data.close()
         for writer in videos.values():

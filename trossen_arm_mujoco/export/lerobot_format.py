@@ -13,6 +13,9 @@ A dataset folder holds::
     videos/<video_key>/chunk-CCC/file-FFF.mp4        per camera: the episodes one after the other
 
 Vector features are fixed-size lists of float32, features of shape (1,) are plain columns.
+Joint vectors are written in a layout of ``robot.layout.LAYOUTS``: ``kit14`` (the real kit's
+14 values, ``left_joint_0.pos`` .. ``right_left_carriage_joint.pos``, as Trossen's LeRobot
+plugin for the kit) or ``vendor16`` (the HDF5 files' 16 values).
 Files grow up to a size limit (100 MB data, 200 MB video) and then the next file starts;
 ``chunks_size`` files make a chunk folder.
 """
@@ -24,8 +27,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from trossen_arm_mujoco.data.schema import JOINT_NAMES, NUM_JOINTS
+import numpy as np
+
 from trossen_arm_mujoco.export.deps import require
+from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS
 
 #: Format version LeRobot checks when loading.
 CODEBASE_VERSION = "v3.0"
@@ -44,12 +49,14 @@ TASKS_PATH = "meta/tasks.parquet"
 #: Robot type recorded in info.json.
 ROBOT_TYPE = "trossen_ai_stationary"
 
-#: Vector features: key -> (Episode attribute, what it holds).
+#: Joint vector features (in the export's layout): key -> the Episode attribute they hold.
 VECTOR_FEATURES: dict[str, str] = {
     "observation.state": "qpos",
     "observation.velocity": "qvel",
     "action": "action",
 }
+#: Object poses (the episodes' env_state: xyz m + quat wxyz per object), when recorded.
+ENV_STATE_KEY = "observation.environment_state"
 #: Per-frame bookkeeping columns every LeRobot dataset has.
 INDEX_FEATURES: dict[str, str] = {
     "timestamp": "float32",
@@ -88,10 +95,18 @@ class FileIndex:
         return template.format(chunk_index=self.chunk, file_index=self.file, **keys)
 
 
+def layout_values(layout: str, values: np.ndarray) -> np.ndarray:
+    """``(..., 16)`` values of the HDF5 files in ``layout`` (a key of ``LAYOUTS``)."""
+    target = LAYOUTS[layout]
+    return np.asarray(values) if target is KIT_LAYOUT else target.from_vendor(values)
+
+
 def build_features(
     image_shapes: dict[str, tuple[int, int, int]],
     video_info: dict[str, dict[str, Any]],
     with_reward: bool,
+    layout: str = "kit14",
+    env_names: list[str] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """The ``features`` of info.json, in column order.
 
@@ -100,11 +115,28 @@ def build_features(
         video_info: ``{camera: info}``, the ``info`` block of each video feature (codec,
             pix_fmt, fps...).
         with_reward: add ``next.reward`` (float32) and ``next.success`` (bool).
+        layout: joint layout of state, velocity and action (a key of ``LAYOUTS``): its
+            size and names.
+        env_names: names of the ``observation.environment_state`` values (None: no such
+            feature).
     """
-    names = list(JOINT_NAMES)
+    names = list(LAYOUTS[layout].names)
+    # velocities are named after their joints with a ".vel" suffix (kit14: "left_joint_0.vel")
+    vel_names = [n[: -len(".pos")] + ".vel" if n.endswith(".pos") else n for n in names]
     features: dict[str, dict[str, Any]] = {
-        key: {"dtype": "float32", "shape": [NUM_JOINTS], "names": names} for key in VECTOR_FEATURES
+        key: {
+            "dtype": "float32",
+            "shape": [len(names)],
+            "names": vel_names if key == "observation.velocity" else names,
+        }
+        for key in VECTOR_FEATURES
     }
+    if env_names is not None:
+        features[ENV_STATE_KEY] = {
+            "dtype": "float32",
+            "shape": [len(env_names)],
+            "names": list(env_names),
+        }
     for cam, (h, w, c) in image_shapes.items():
         features[video_key(cam)] = {
             "dtype": "video",

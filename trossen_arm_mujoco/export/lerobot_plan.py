@@ -1,18 +1,50 @@
-"""Which episodes a LeRobot export holds, checked before anything is written.
+"""Which episodes a LeRobot export holds and which source values make each written frame,
+checked before anything is written.
 
 All episodes must share the frame rate (a whole number of frames per second), the cameras
-and their image sizes, and either all have rewards or none (vendor recordings). Each gets a
-task description (the registry's, or the one given) and, when it has rewards, the task's
-maximum reward, which marks success.
+and their image sizes, the objects of ``env_state``, and either all have rewards or none
+(vendor recordings). Each gets a task description (the registry's, or the one given) and,
+when it has rewards, the task's maximum reward, which marks success.
+
+Resampling to ``fps`` N (at most the recording rate F = 1 / dt): source step ``j`` holds the
+observation at time ``j / F``, action ``j`` is the joint target for the end of step ``j``
+(time ``(j + 1) / F``) and reward ``j`` is judged then. Written frame ``k`` is at
+``t_k = k / N``:
+
+- state, velocity, environment_state: the source linearly interpolated at ``t_k`` (source
+  index ``s = k F / N``); the quaternion of each object is interpolated the shorter way (the
+  later one's sign flipped when the two point apart) and renormalised where interpolated;
+- images: the source frame nearest ``t_k`` (a tie takes the earlier frame);
+- action: the source action trajectory (action ``j`` placed at ``j / F``) interpolated at
+  ``t_k + 1 / N - 1 / F`` (index ``(k + 1) F / N - 1``): the target for ``t_{k+1}``, so that
+  holding it for ``1 / N`` s reaches where the source trajectory was at ``t_{k+1}``;
+- reward, success: those of source step ``ceil((k + 1) F / N) - 1``, whose period
+  ``(j / F, (j + 1) / F]`` contains the end of frame ``k``, ``t_{k+1}``.
+
+Frames whose action would lie past the source's last one are dropped: an episode of ``T``
+steps gives ``floor(T N / F)`` frames (then every value above exists). At ``N = F`` every
+frame is its source step, bit for bit. An action trajectory within speed limits stays
+within them: each written step spans ``F / N`` source steps of at most ``limit / F`` each.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
 
 from trossen_arm_mujoco.data.reader import Episode
-from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.data.schema import ENV_STATE_DIM
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.layout import LAYOUTS
 from trossen_arm_mujoco.tasks import registry
+
+#: The layout written unless asked otherwise: the real kit's 14 values.
+DEFAULT_LAYOUT = "kit14"
+#: Suffixes of an object's 7 pose values in ``observation.environment_state`` names.
+POSE_COMPONENTS: tuple[str, ...] = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
 
 @dataclass
@@ -21,12 +53,16 @@ class ExportPlan:
 
     Attributes:
         episodes: in export order (episode_index 0, 1, ...).
-        fps: frames per second, ``1 / dt``.
+        fps: frames per second written; source_fps: the recording rate, ``1 / dt``.
         cameras: camera names in recording order; image_shapes: ``{camera: (H, W, 3)}``.
         with_reward: the episodes have rewards (``next.reward`` / ``next.success``).
         tasks: distinct task descriptions, in ``task_index`` order.
         task_index: per episode, its task's index.
         max_reward: per episode, the reward that means success (None without rewards).
+        layout: the joint layout written, a key of ``robot.layout.LAYOUTS``.
+        env_names: names of the ``observation.environment_state`` values (None: the
+            episodes have no env_state).
+        lengths: per episode, the frames written.
     """
 
     episodes: list[Episode]
@@ -37,9 +73,145 @@ class ExportPlan:
     tasks: list[str]  # distinct descriptions, task_index order
     task_index: list[int]  # per episode
     max_reward: list[float | None]  # per episode
+    source_fps: int
+    layout: str
+    env_names: list[str] | None
+    lengths: list[int]  # per episode
 
 
-def _fps(episode: Episode) -> int:
+@dataclass(frozen=True)
+class FrameMap:
+    """Which source steps make the written frames of one episode (module docstring).
+
+    Frame ``k``'s observations are ``(1 - f) x[j] + f x[j + 1]`` with ``j = obs_index[k]``
+    and ``f = obs_frac[k]``, its action likewise with ``action_index`` / ``action_frac``;
+    its images are source frame ``image_index[k]``, its reward source step
+    ``reward_index[k]``.
+    """
+
+    num_steps: int
+    obs_index: np.ndarray
+    obs_frac: np.ndarray
+    action_index: np.ndarray
+    action_frac: np.ndarray
+    image_index: np.ndarray
+    reward_index: np.ndarray
+
+    @property
+    def length(self) -> int:
+        """Frames written."""
+        return int(self.obs_index.shape[0])
+
+    def observations(self, values: np.ndarray) -> np.ndarray:
+        """``(T, D)`` source observations at the written frames (float64)."""
+        return _lerp(values, self.obs_index, self.obs_frac)
+
+    def actions(self, values: np.ndarray) -> np.ndarray:
+        """``(T, D)`` source actions at the written frames (float64)."""
+        return _lerp(values, self.action_index, self.action_frac)
+
+    def poses(self, values: np.ndarray) -> np.ndarray:
+        """``(T, 7k)`` object poses (xyz + quat wxyz each) at the written frames (float64)."""
+        v = np.asarray(values, dtype=np.float64)
+        j0, j1 = self.obs_index, np.minimum(self.obs_index + 1, self.num_steps - 1)
+        a, b = v[j0].reshape(len(j0), -1, 7), v[j1].reshape(len(j0), -1, 7).copy()
+        flip = np.sum(a[..., 3:] * b[..., 3:], axis=-1) < 0  # take the shorter way round
+        b[..., 3:][flip] *= -1.0
+        f = self.obs_frac[:, None, None]
+        out = (1.0 - f) * a + f * b
+        moved = self.obs_frac > 0  # source rows keep their exact values
+        quat = out[moved, :, 3:]
+        out[moved, :, 3:] = quat / np.linalg.norm(quat, axis=-1, keepdims=True)
+        return out.reshape(len(j0), -1)
+
+
+def _lerp(values: np.ndarray, index: np.ndarray, frac: np.ndarray) -> np.ndarray:
+    v = np.asarray(values, dtype=np.float64)
+    after = np.minimum(index + 1, v.shape[0] - 1)
+    f = frac.reshape((-1,) + (1,) * (v.ndim - 1))
+    return (1.0 - f) * v[index] + f * v[after]
+
+
+def frame_map(num_steps: int, source_fps: int, fps: int) -> FrameMap:
+    """The frames an episode of ``num_steps`` steps recorded at ``source_fps`` gives at
+    ``fps`` (``1 <= fps <= source_fps``); exact integer arithmetic throughout."""
+    big_f, n = int(source_fps), int(fps)
+    length = num_steps * n // big_f
+    k = np.arange(length, dtype=np.int64)
+    obs = k * big_f  # source index k F / N = obs / N
+    act = (k + 1) * big_f  # source index (k + 1) F / N - 1 = act / N - 1
+    return FrameMap(
+        num_steps=int(num_steps),
+        obs_index=obs // n,
+        obs_frac=(obs % n) / n,
+        action_index=act // n - 1,
+        action_frac=(act % n) / n,
+        image_index=(2 * obs + n - 1) // (2 * n),  # nearest, ties down: ceil(s - 1/2)
+        reward_index=-(-act // n) - 1,  # ceil((k + 1) F / N) - 1
+    )
+
+
+def output_fps(requested: Real | str | None, source_fps: int) -> int:
+    """The rate to write: ``requested`` (a whole number in ``1 .. source_fps``; a string from
+    the command line is parsed), or ``source_fps`` when None.
+
+    Raises:
+        UserError: not a whole number, not positive, or above the recording rate.
+    """
+    if requested is None:
+        return int(source_fps)
+    value: object = requested
+    if isinstance(value, str):
+        try:
+            value = float(value.strip())
+        except ValueError:
+            value = None
+    whole = (
+        isinstance(value, Real)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and float(value).is_integer()
+    )
+    if not whole:
+        raise UserError(f"--fps must be a whole number of frames per second, got '{requested}'")
+    fps = int(value)
+    if fps <= 0:
+        raise UserError(f"--fps must be at least 1, got {fps}")
+    if fps > source_fps:
+        raise UserError(
+            f"--fps {fps} is above the recording rate ({source_fps} frames/s); frames are "
+            f"resampled, never invented: use --fps {source_fps} or less"
+        )
+    return fps
+
+
+def episode_frames(episode: Episode, fps: Real | str | None = None) -> FrameMap:
+    """The :class:`FrameMap` of ``episode`` written at ``fps`` (None: its recording rate).
+
+    Raises:
+        UserError: a bad ``fps`` (:func:`output_fps`), or an episode too short to give one
+            frame at it.
+    """
+    rate = source_fps(episode)
+    out_fps = output_fps(fps, rate)
+    frames = frame_map(episode.num_steps, rate, out_fps)
+    if frames.length < 1:
+        raise UserError(
+            f"{episode.path.name} has {episode.num_steps} step(s), too short for --fps "
+            f"{out_fps} (needs at least {math.ceil(rate / out_fps)} at {rate} frames/s)"
+        )
+    return frames
+
+
+def check_layout(layout: str) -> str:
+    """``layout`` if it names a layout of ``robot.layout.LAYOUTS``, else a UserError."""
+    if layout not in LAYOUTS:
+        raise unknown_name_error("layout", str(layout), LAYOUTS)
+    return layout
+
+
+def source_fps(episode: Episode) -> int:
+    """The recording rate of ``episode``, ``1 / dt``, a whole number (UserError if not)."""
     rate = 1.0 / episode.dt
     fps = round(rate)
     if fps < 1 or abs(rate - fps) > 1e-6 * rate:
@@ -50,22 +222,51 @@ def _fps(episode: Episode) -> int:
     return fps
 
 
-def plan_export(episodes: list[Episode], task: str | None) -> ExportPlan:
-    """Check ``episodes`` (at least one) for export; ``task`` overrides every description.
+def env_state_names(episode: Episode) -> list[str] | None:
+    """Names of the episode's env_state values, ``<object>_x`` .. ``<object>_qz`` per object
+    (objects from the ``object_names`` attribute, else ``obj0``, ``obj1``...); None without
+    env_state."""
+    if episode.env_state is None:
+        return None
+    count = episode.env_state.shape[1] // ENV_STATE_DIM
+    objects = episode.attrs.get("object_names")
+    objects = [objects] if isinstance(objects, str) else objects
+    if not (
+        isinstance(objects, list)
+        and len(objects) == count
+        and all(isinstance(o, str) and o for o in objects)
+    ):
+        objects = [f"obj{i}" for i in range(count)]
+    return [f"{obj}_{part}" for obj in objects for part in POSE_COMPONENTS]
+
+
+def plan_export(
+    episodes: list[Episode],
+    task: str | None,
+    layout: str = DEFAULT_LAYOUT,
+    fps: Real | str | None = None,
+) -> ExportPlan:
+    """Check ``episodes`` (at least one) for export; ``task`` overrides every description,
+    ``layout`` is the joint layout written and ``fps`` the rate (None: the recording rate).
 
     Raises:
-        UserError: mixed rates, cameras or rewards; no task to describe an episode with.
+        UserError: mixed rates, cameras, rewards or objects; no task to describe an episode
+            with; an unknown layout; a bad ``fps``; an episode too short for ``fps``.
     """
+    check_layout(layout)
     first = episodes[0]
-    fps = _fps(first)
+    rate = source_fps(first)
+    out_fps = output_fps(fps, rate)
+    env_names = env_state_names(first)
     tasks: list[str] = []
     task_index: list[int] = []
     max_reward: list[float | None] = []
+    lengths: list[int] = []
     for ep in episodes:
-        if _fps(ep) != fps:
+        if source_fps(ep) != rate:
             raise UserError(
-                f"{ep.path.name} runs at {_fps(ep)} frames/s but {first.path.name} at {fps}; "
-                "export episodes of one rate together"
+                f"{ep.path.name} runs at {source_fps(ep)} frames/s but {first.path.name} at "
+                f"{rate}; export episodes of one rate together"
             )
         if ep.camera_names != first.camera_names or ep.image_shapes != first.image_shapes:
             raise UserError(
@@ -78,6 +279,12 @@ def plan_export(episodes: list[Episode], task: str | None) -> ExportPlan:
                 f"{has.path.name} has rewards but {lacks.path.name} has none (a vendor "
                 "recording?); export them separately"
             )
+        if env_state_names(ep) != env_names:
+            raise UserError(
+                f"{ep.path.name} has env_state {_describe_env(ep)} but {first.path.name} has "
+                f"{_describe_env(first)}; export episodes with the same objects together"
+            )
+        lengths.append(episode_frames(ep, out_fps).length)
         name = ep.attrs.get("task_name")
         entry = registry.load(name) if isinstance(name, str) and name else None
         if task is None and entry is None:
@@ -97,16 +304,28 @@ def plan_export(episodes: list[Episode], task: str | None) -> ExportPlan:
         max_reward.append(None if entry is None else float(entry.task_class().max_reward))
     return ExportPlan(
         episodes=episodes,
-        fps=fps,
+        fps=out_fps,
         cameras=list(first.camera_names),
         image_shapes={cam: first.image_shapes[cam] for cam in first.camera_names},
         with_reward=first.reward is not None,
         tasks=tasks,
         task_index=task_index,
         max_reward=max_reward,
+        source_fps=rate,
+        layout=layout,
+        env_names=env_names,
+        lengths=lengths,
     )
 
 
 def _describe_cams(ep: Episode) -> str:
     cams = [f"{cam} {h}x{w}" for cam, (h, w, _) in ep.image_shapes.items()]
     return "[" + ", ".join(cams) + "]" if cams else "none"
+
+
+def _describe_env(ep: Episode) -> str:
+    names = env_state_names(ep)
+    if names is None:
+        return "none"
+    objects = [names[i][: -len("_x")] for i in range(0, len(names), ENV_STATE_DIM)]
+    return f"of {len(names)} values ({', '.join(objects)})"

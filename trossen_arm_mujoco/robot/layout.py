@@ -97,6 +97,96 @@ KIT_LAYOUT = KitLayout()
 
 
 @dataclass(frozen=True)
+class RealKitLayout:
+    """The real kit's 14-value layout: what Trossen's LeRobot plugin for the kit
+    (``bi_widowxai_follower_robot``) reads and commands, and what the real driver takes.
+
+    Per arm, left then right: ``joint_0`` .. ``joint_5`` (rad), then the gripper as the
+    ``left_carriage_joint`` travel (m, 0 closed .. 0.044 open); the second finger
+    (``right_carriage_joint``) is coupled to it and has no value of its own. Labels are
+    ``"<side>_<joint>.pos"``: ``left_joint_0.pos`` .. ``left_left_carriage_joint.pos``, then
+    ``right_...``.
+    """
+
+    size: int = 14
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        arm = ARM_JOINTS + ("left_carriage_joint",)
+        return tuple(f"{side}_{joint}.pos" for side in SIDES for joint in arm)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return (("rad",) * 6 + ("m",)) * 2
+
+    def arm(self, side: str) -> slice:
+        """The 6 joint values of ``side``: 0:6 / 7:13."""
+        start = SIDES.index(side) * 7
+        return slice(start, start + 6)
+
+    def gripper_index(self, side: str) -> int:
+        """Index of the gripper (carriage) value of ``side``: 6 / 13."""
+        return SIDES.index(side) * 7 + 6
+
+    @property
+    def vendor_index(self) -> np.ndarray:
+        """Indices into the 16-value layout of the 14 values (the actuated finger, 7 / 15,
+        stands for the gripper)."""
+        return np.array([*range(0, 6), 7, *range(8, 14), 15])
+
+    def from_vendor(self, values: np.ndarray) -> np.ndarray:
+        """``(..., 16)`` kit-layout values -> ``(..., 14)`` (a copy)."""
+        v = np.asarray(values)
+        if v.shape[-1:] != (KIT_LAYOUT.size,):
+            raise ValueError(f"expected {KIT_LAYOUT.size} values per row, got shape {v.shape}")
+        return v[..., self.vendor_index]
+
+    def to_vendor(self, values: np.ndarray) -> np.ndarray:
+        """``(..., 14)`` -> ``(..., 16)``: the coupled finger (6 / 14) repeats the gripper
+        value, as the real gripper's second finger follows the first."""
+        v = np.asarray(values)
+        if v.shape[-1:] != (self.size,):
+            raise ValueError(f"expected {self.size} values per row, got shape {v.shape}")
+        out = np.empty((*v.shape[:-1], KIT_LAYOUT.size), dtype=v.dtype)
+        out[..., self.vendor_index] = v
+        out[..., [6, 14]] = v[..., [6, 13]]
+        return out
+
+    def joint_commands(self, action: np.ndarray) -> dict[str, np.ndarray]:
+        """A (14,) joint action as robot commands: 6 joint targets per arm and one gripper
+        target per gripper (the same commands as the 16-value action it stands for)."""
+        a = np.asarray(action, dtype=float)
+        out: dict[str, np.ndarray] = {}
+        for side in SIDES:
+            out[f"{side}_arm"] = a[self.arm(side)]
+            g = self.gripper_index(side)
+            out[f"{side}_gripper"] = a[g : g + 1]
+        return out
+
+
+#: The real kit's 14-value layout (LeRobot datasets and policies, the real driver).
+REAL_KIT_LAYOUT = RealKitLayout()
+
+#: Layouts of a joint action or state vector by name, as ``export --layout`` takes them:
+#: ``kit14`` (the real kit's, the default toward LeRobot) and ``vendor16`` (the HDF5 files').
+LAYOUTS: dict[str, RealKitLayout | KitLayout] = {"kit14": REAL_KIT_LAYOUT, "vendor16": KIT_LAYOUT}
+
+
+def kit_joint_commands(action: np.ndarray) -> dict[str, np.ndarray]:
+    """Robot commands of a joint action in either layout: 16 values (the qpos layout) or 14
+    (the real kit's). ``ValueError`` for any other length."""
+    size = np.shape(action)[-1] if np.ndim(action) else 0
+    if np.ndim(action) == 1 and size == REAL_KIT_LAYOUT.size:
+        return REAL_KIT_LAYOUT.joint_commands(action)
+    if np.ndim(action) == 1 and size == KIT_LAYOUT.size:
+        return KIT_LAYOUT.joint_commands(action)
+    raise ValueError(
+        f"a joint action of the kit has {REAL_KIT_LAYOUT.size} values (the real kit's layout) "
+        f"or {KIT_LAYOUT.size} (the qpos layout), got shape {np.shape(action)}"
+    )
+
+
+@dataclass(frozen=True)
 class EELayout:
     """The 16-value end-effector action of the mocap env: per arm ``[xyz (m), quat wxyz,
     gripper (m)]``, left then right (world frame; gripper = finger travel)."""

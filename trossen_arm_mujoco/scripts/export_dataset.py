@@ -5,7 +5,9 @@
 
 ``--format lerobot`` writes a LeRobot v3.0 dataset (see ``trossen_arm_mujoco.export``) that
 ``LeRobotDataset(repo_id, root=output)`` loads; it needs the ``lerobot`` extra
-(pyarrow, PyAV), not LeRobot itself.
+(pyarrow, PyAV), not LeRobot itself. Joint values are written in the real kit's 14-value
+layout (``--layout kit14``, the default) or the files' 16 (``--layout vendor16``), at the
+recording rate or, resampled, at ``--fps N`` (the real kit runs at 30).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from collections.abc import Sequence
 from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.reader import resolve_data_dir
 from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.robot.layout import LAYOUTS
 
 FORMATS = ("lerobot",)
 
@@ -61,6 +64,21 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="task description for every episode (default: the task registry's description "
         "of each episode's task; required for vendor recordings)",
+    )
+    p.add_argument(
+        "--layout",
+        default="kit14",
+        choices=tuple(LAYOUTS),
+        help="joint layout of state, velocity and action: kit14 = the real kit's 14 values "
+        "(left_joint_0.pos .. left_left_carriage_joint.pos, then right_; Trossen's LeRobot "
+        "plugin), vendor16 = the HDF5 files' 16 (default: kit14)",
+    )
+    p.add_argument(
+        "--fps",
+        default=None,
+        metavar="N",
+        help="frames per second to write, a whole number up to the recording rate; lower "
+        "rates are resampled (the real kit runs at 30; default: the recording rate, 50)",
     )
     p.add_argument(
         "--vcodec",
@@ -110,12 +128,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         task=args.task,
         video=video,
         overwrite=args.overwrite,
+        layout=args.layout,
+        fps=args.fps,
     )
     rate = summary.frames / max(summary.seconds, 1e-9)
     cams = ", ".join(summary.cameras) or "none"
+    resampled = ""
+    if summary.fps != summary.source_fps:
+        resampled = f" (resampled from {summary.source_fps} fps)"
     print(
-        f"exported {summary.episodes} episode(s), {summary.frames} frames at {summary.fps} fps "
-        f"(cameras: {cams}) to {summary.output} in {summary.seconds:.1f} s ({rate:.0f} frames/s)"
+        f"exported {summary.episodes} episode(s), {summary.frames} frames at {summary.fps} fps"
+        f"{resampled} (cameras: {cams}), layout {summary.layout}, to {summary.output} in "
+        f"{summary.seconds:.1f} s ({rate:.0f} frames/s)"
     )
     print(f"load it with: LeRobotDataset('{args.repo_id}', root='{summary.output.resolve()}')")
     return 0

@@ -106,6 +106,8 @@ class MujocoEnv:
         camera_names, height, width: cameras rendered by ``render_images`` (the renderer is
             created on the first image).
         ctrl_dt: control period (s); default: one physics step.
+        sim_dt: physics timestep (s) to use instead of the scene's ``<option timestep>``
+            (e.g. a step that divides a control period of 1/30 s); default: the scene's.
         keyframe: keyframe loaded at reset when the model has it.
     """
 
@@ -122,6 +124,7 @@ class MujocoEnv:
         height: int = 480,
         width: int = 640,
         ctrl_dt: float | None = None,
+        sim_dt: float | None = None,
         keyframe: str = "home",
     ):
         if physics is not None:
@@ -135,6 +138,10 @@ class MujocoEnv:
         self.physics = physics
         self.model: mujoco.MjModel = model
         self.data: mujoco.MjData = data
+        if sim_dt is not None:
+            if not (0 < sim_dt <= 0.01):
+                raise UserError(f"sim_dt must be in (0, 0.01] s, got {sim_dt!r}")
+            self.model.opt.timestep = float(sim_dt)
         self.sim_dt = float(self.model.opt.timestep)
         self.ctrl_dt = float(ctrl_dt) if ctrl_dt is not None else self.sim_dt
         self.n_substeps = whole_ratio(self.ctrl_dt, self.sim_dt, "ctrl_dt", "sim_dt")

@@ -72,7 +72,7 @@ class TaskSampler:
 
     Args:
         config: task config (``tasks.config.load_task_config``); ``scene`` (path relative to
-            the assets folder) and ``ctrl_dt`` are read here.
+            the assets folder), ``ctrl_dt`` and ``sim_dt`` (when the config has it) are read here.
         command_mode: command mode of the arms (``joint_position``, ``joint_rel_position``,
             ``ee_delta``); grippers always take ``joint_position``.
         camera_names, height, width: cameras rendered by ``env.render_images()``.
@@ -142,6 +142,7 @@ class TaskSampler:
             height=height,
             width=width,
             ctrl_dt=float(self.config["ctrl_dt"]),
+            sim_dt=self.config.get("sim_dt"),
         )
         if (
             flavour == "joint"

@@ -1,7 +1,8 @@
 """dm_control task bases for the Stationary AI kit: the documented customization API.
 
 ``TrossenAIStationaryEETask`` (mocap arms, 16-value EE action) and ``TrossenAIStationaryTask``
-(14 joint actuators, 16-value joint action in the qpos layout) configure the layers (robot
+(14 joint actuators; joint action of 16 values in the qpos layout or 14 in the real kit's
+layout, as LeRobot policies trained on the kit give) configure the layers (robot
 config, cameras, objects) over the dm_control ``Physics`` they are handed; dm_control steps.
 A custom task subclasses one of them and overrides ``initialize_episode(physics)``,
 ``get_env_state(physics)`` and ``get_reward(physics)``. Registered tasks are served by the
@@ -26,7 +27,13 @@ from trossen_arm_mujoco.robot.configs import (
     stationary_ai_joint_config,
     stationary_ai_mocap_config,
 )
-from trossen_arm_mujoco.robot.layout import EE_LAYOUT, GRIPPER_OPEN, KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import (
+    EE_LAYOUT,
+    GRIPPER_OPEN,
+    KIT_LAYOUT,
+    REAL_KIT_LAYOUT,
+    kit_joint_commands,
+)
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import LAYOUT_GROUPS, ROBOT_NAME
 from trossen_arm_mujoco.tasks.task import DEFAULT_POLICY_DT
@@ -121,10 +128,14 @@ class StationaryTaskBase(base.Task):
     def split_action(self, action: np.ndarray) -> dict[str, np.ndarray]:
         raise NotImplementedError
 
+    def check_action_size(self, size: int) -> None:
+        """UserError unless an action of ``size`` values fits this task (16)."""
+        if size != 16:
+            raise UserError(f"action must have 16 values, got {size}")
+
     def before_step(self, action, physics) -> None:
         a = np.asarray(action, dtype=float).reshape(-1)
-        if a.shape != (16,):
-            raise UserError(f"action must have 16 values, got {a.size}")
+        self.check_action_size(a.size)
         if not np.all(np.isfinite(a)):
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
         robot = self.robot(physics)
@@ -198,7 +209,10 @@ class TrossenAIStationaryTask(StationaryTaskBase):
 
     Action (16) in the qpos layout (``robot.layout.KIT_LAYOUT``): each arm's 6 joints and its
     gripper (the actuated finger value, index 7 / 15) go to position actuators; the coupled
-    finger values (index 6 / 14) are not commanded separately. Subclass it and override
+    finger values (index 6 / 14) are not commanded separately. An action of 14 values in the
+    real kit's layout (``robot.layout.REAL_KIT_LAYOUT``: per arm 6 joints, then the gripper,
+    index 6 / 13) gives the same commands. ``action_spec()`` describes the 16. Subclass it
+    and override
     ``initialize_episode(physics)`` (e.g. inside ``physics.reset_context()`` set
     ``physics.named.data.qpos[:16] = START_ARM_POSE``, then call
     ``super().initialize_episode(physics)``), ``get_env_state`` and ``get_reward``.
@@ -216,8 +230,19 @@ class TrossenAIStationaryTask(StationaryTaskBase):
         ranges = np.concatenate([view.group(g).joint_range for g in LAYOUT_GROUPS])
         return ranges[:, 0].copy(), ranges[:, 1].copy()
 
+    def check_action_size(self, size: int) -> None:
+        """UserError unless ``size`` is 14 (the real kit's layout) or 16 (the qpos layout)."""
+        if size not in (REAL_KIT_LAYOUT.size, KIT_LAYOUT.size):
+            raise UserError(
+                f"action must have {REAL_KIT_LAYOUT.size} values (the real kit's layout) or "
+                f"{KIT_LAYOUT.size} (the qpos layout), got {size}"
+            )
+
     def split_action(self, action: np.ndarray) -> dict[str, np.ndarray]:
-        return KIT_LAYOUT.joint_commands(action)
+        """Robot commands of a 14- or 16-value joint action."""
+        a = np.asarray(action, dtype=float).reshape(-1)
+        self.check_action_size(a.size)
+        return kit_joint_commands(a)
 
     def tool_target(self, physics, arm: str) -> np.ndarray:
         """The arm's current tool-frame (ee_site) pose [xyz, quat wxyz], world frame."""

@@ -1,0 +1,109 @@
+"""LeRobot env plugin for trossen_arm_mujoco: ``--env.type=trossen``.
+
+Installed next to LeRobot (``pip install -e plugins/lerobot_env_trossen``), it is imported by
+LeRobot's own scripts (``lerobot-eval``, ``lerobot-train``) and registers ``TrossenEnvConfig``::
+
+    lerobot-eval --policy.path=outputs/train/act/checkpoints/last/pretrained_model \\
+        --env.type=trossen --env.task=sim_transfer_cube --env.cam_names=none \\
+        --eval.n_episodes=50 --eval.batch_size=2 --seed=1000
+
+Options: ``--env.task`` (a Stationary AI kit task: ``sim_transfer_cube``, ``sim_insertion``),
+``--env.cam_names`` (comma list or ``none``; default the four kit cameras), ``--env.image_size``
+(``HxW``, like ``record``), ``--env.fps`` (policy rate; 30 for a dataset exported with
+``--fps 30``), ``--env.episode_length`` (steps; default the task's recording length at that
+rate), ``--env.layout`` (``kit14``, the real kit's 14 values, or ``vendor16``).
+
+Observations and actions carry exactly the feature names and shapes ``trossen-mujoco export``
+writes (``observation.state``, ``observation.velocity``, ``observation.environment_state``,
+``observation.images.<cam>``, ``action``), so a policy trained on an export runs with no
+``--rename_map``. The env itself is ``trossen_arm_mujoco.eval.env.KitPolicyEnv``; vector envs
+are built from it directly (picklable, so ``--eval.use_async_envs=true`` works with any start
+method).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+
+import gymnasium as gym
+from lerobot.configs import FeatureType, PolicyFeature
+from lerobot.envs.configs import EnvConfig
+
+from trossen_arm_mujoco.eval.env import (
+    KitPolicyEnv,
+    bimanual_tasks,
+    feature_spec,
+    parse_cameras,
+    parse_image_size,
+)
+from trossen_arm_mujoco.tasks import registry
+
+__all__ = ["TrossenEnvConfig"]
+
+#: The kit's cameras, in the order ``record`` renders them.
+KIT_CAMERAS = "cam_high,cam_low,cam_left_wrist,cam_right_wrist"
+
+
+@EnvConfig.register_subclass("trossen")
+@dataclass
+class TrossenEnvConfig(EnvConfig):
+    """``--env.type=trossen`` (see the module docstring)."""
+
+    task: str | None = "sim_transfer_cube"
+    fps: int = 50
+    episode_length: int | None = None
+    cam_names: str = KIT_CAMERAS
+    image_size: str = "480x640"
+    layout: str = "kit14"
+    features: dict[str, PolicyFeature] = field(default_factory=dict)
+    features_map: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        name = registry.canonical(self.task or "")
+        if name not in bimanual_tasks():
+            raise ValueError(
+                f"--env.task={self.task} is not a Stationary AI kit task; "
+                f"valid: {', '.join(bimanual_tasks())}"
+            )
+        self.task = name
+        cams = parse_cameras(self.cam_names)
+        size = parse_image_size(self.image_size)
+        self.features, self.features_map = {}, {}
+        for env_key, (key, kind, shape) in feature_spec(name, cams, size, self.layout).items():
+            self.features[env_key] = PolicyFeature(type=FeatureType[kind], shape=tuple(shape))
+            self.features_map[env_key] = key
+
+    @property
+    def package_name(self) -> str:
+        return "lerobot_env_trossen"
+
+    @property
+    def gym_kwargs(self) -> dict:
+        return {
+            "task": self.task,
+            "cam_names": parse_cameras(self.cam_names),
+            "image_size": parse_image_size(self.image_size),
+            "fps": self.fps,
+            "episode_length": self.episode_length,
+            "layout": self.layout,
+            "render_mode": "rgb_array",
+        }
+
+    def create_envs(
+        self, n_envs: int, use_async_envs: bool = False
+    ) -> dict[str, dict[int, gym.vector.VectorEnv]]:
+        """``{"trossen": {0: VectorEnv of n_envs KitPolicyEnv}}``; async envs start their
+        workers with ``spawn`` (each builds its own world; nothing is inherited)."""
+        make = functools.partial(KitPolicyEnv, **self.gym_kwargs)
+        if use_async_envs and n_envs > 1:
+            vec = gym.vector.AsyncVectorEnv(
+                [make] * n_envs,
+                context="spawn",
+                autoreset_mode=gym.vector.AutoresetMode.SAME_STEP,
+            )
+        else:
+            vec = gym.vector.SyncVectorEnv(
+                [make] * n_envs, autoreset_mode=gym.vector.AutoresetMode.SAME_STEP
+            )
+        return {self.type: {0: vec}}

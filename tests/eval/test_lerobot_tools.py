@@ -1,0 +1,171 @@
+"""LeRobot's own tools on our data and our sim (LeRobot needs Python >= 3.12).
+
+One recorded-and-exported dataset (2 transfer episodes, 30 steps, one 24x32 camera) trains
+an ACT policy for 3 steps with ``lerobot-train``; then
+
+- ``lerobot-eval --env.type=trossen`` (the plugin in ``plugins/lerobot_env_trossen``) runs it
+  with no ``--rename_map``, and ``trossen-mujoco eval`` scores the same seeds alike;
+- with ``--eval.recording=true`` and no camera, lerobot-eval's recorded joint states equal the
+  ones ``trossen-mujoco eval``'s loop sees for the same seed (same episode, same policy path);
+- a checkpoint evaluated with other cameras than it was trained on is one line, exit 2.
+
+The tools run in ``TROSSEN_LEROBOT_PYTHON`` (``.ci/run`` builds that venv with the project,
+the plugin and ``lerobot[dataset,training]``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pyarrow")
+pytest.importorskip("av")
+
+from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
+from trossen_arm_mujoco.scripts.record_sim_episodes import cli as record_cli  # noqa: E402
+
+ENV = "TROSSEN_LEROBOT_PYTHON"
+AGREE = Path(__file__).with_name("lerobot_agree.py")
+STEPS, SEED, EVAL_LEN = 30, 7, 25
+
+
+def _python() -> str:
+    python = os.environ.get(ENV, "")
+    if not python or not Path(python).is_file():
+        pytest.skip(f"{ENV} is not set to a Python >= 3.12 with LeRobot (bash .ci/run sets it)")
+    return python
+
+
+def _run(args: list[str], cwd: Path, timeout: int = 600) -> subprocess.CompletedProcess:
+    env = {**os.environ, "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl", "WANDB_MODE": "disabled"}
+    return subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True,
+                          timeout=timeout)  # fmt: skip
+
+
+def _train(python: str, dataset: Path, out: Path, cwd: Path) -> Path:
+    proc = _run([
+        python, "-m", "lerobot.scripts.lerobot_train",
+        "--dataset.repo_id=local/transfer", f"--dataset.root={dataset}",
+        "--policy.type=act", "--policy.device=cpu", "--policy.push_to_hub=false",
+        "--policy.pretrained_backbone_weights=null", "--policy.use_vae=false",
+        "--policy.chunk_size=10", "--policy.n_action_steps=10", "--policy.dim_model=32",
+        "--policy.dim_feedforward=64", "--policy.n_encoder_layers=1",
+        "--policy.n_decoder_layers=1", "--steps=3", "--batch_size=2", "--num_workers=0",
+        "--save_freq=3", "--log_freq=1", "--wandb.enable=false", f"--output_dir={out}",
+    ], cwd)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    checkpoint = out / "checkpoints" / "last" / "pretrained_model"
+    assert (checkpoint / "config.json").is_file()
+    return checkpoint
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory) -> dict[str, Path]:
+    """Checkpoints trained with lerobot-train: with camera cam_high, and state only."""
+    python = _python()
+    root = tmp_path_factory.mktemp("loop")
+    out = {}
+    for name, cams in (("camera", "cam_high"), ("state", "none")):
+        rc = record_cli([
+            "--data_dir", name, "--root_dir", str(root), "--num_episodes", "2",
+            "--episode_len", str(STEPS), "--cam_names", cams, "--image_size", "24x32",
+        ])  # fmt: skip
+        assert rc in (0, 1)  # 30 steps are too few to succeed: the episodes are kept
+        dataset = root / f"ds_{name}"
+        export_lerobot(root / name, dataset, "local/transfer", progress=False,
+                       video=VideoSettings(codec="h264"))  # fmt: skip
+        out[name] = _train(python, dataset, root / f"train_{name}", root)
+    out["root"] = root
+    return out
+
+
+def test_lerobot_eval_runs_the_plugin_and_agrees_with_ours(trained):
+    python, root = _python(), trained["root"]
+    ckpt = trained["camera"]
+    ours_dir, theirs_dir = root / "ours", root / "theirs"
+    theirs = _run([
+        python, "-m", "lerobot.scripts.lerobot_eval", f"--policy.path={ckpt}",
+        "--env.type=trossen", "--env.task=sim_transfer_cube", "--env.cam_names=cam_high",
+        "--env.image_size=24x32", f"--env.episode_length={EVAL_LEN}", "--eval.n_episodes=2",
+        "--eval.batch_size=1", f"--seed={SEED}", f"--output_dir={theirs_dir}",
+    ], root)  # fmt: skip
+    assert theirs.returncode == 0, theirs.stderr[-3000:]
+    ours = _run([
+        python, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", str(ckpt),
+        "--num_episodes", "2", "--seed", str(SEED), "--episode_length", str(EVAL_LEN),
+        "--output_dir", str(ours_dir),
+    ], root)  # fmt: skip
+    assert ours.returncode == 0, ours.stderr[-3000:]
+    metrics = json.loads((theirs_dir / "eval_info.json").read_text())["per_task"][0]["metrics"]
+    mine = json.loads((ours_dir / "eval_info.json").read_text())
+    assert mine["run"]["cam_names"] == ["cam_high"]  # taken from the checkpoint
+    assert [e["success"] for e in mine["per_episode"]] == metrics["successes"]
+    assert [e["sum_reward"] for e in mine["per_episode"]] == metrics["sum_rewards"]
+    assert [e["max_reward"] for e in mine["per_episode"]] == metrics["max_rewards"]
+    assert [e["seed"] for e in mine["per_episode"]] == [SEED, SEED + 1]
+
+
+def test_recorded_rollout_equals_our_loop(trained):
+    """Same seed, same episode, same actions: lerobot-eval's recording (state-only policy)
+    holds the joint states our eval loop sees."""
+    python, root = _python(), trained["root"]
+    ckpt, out = trained["state"], root / "recorded"
+    proc = _run([
+        python, "-m", "lerobot.scripts.lerobot_eval", f"--policy.path={ckpt}",
+        "--env.type=trossen", "--env.task=sim_transfer_cube", "--env.cam_names=none",
+        f"--env.episode_length={EVAL_LEN}", "--eval.n_episodes=1", "--eval.batch_size=1",
+        f"--seed={SEED}", "--eval.recording=true", f"--output_dir={out}",
+    ], root)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    import pyarrow.parquet as pq
+
+    files = sorted((out / "recordings").rglob("data/**/*.parquet"))
+    assert files, list((out / "recordings").rglob("*"))
+    table = pq.read_table(files[0]).to_pydict()
+    recorded = np.array(table["agent_pos"], dtype=np.float32)
+    mine = _run([python, str(AGREE), str(ckpt), str(SEED), str(EVAL_LEN)], root)
+    assert mine.returncode == 0, mine.stderr[-3000:]
+    line = next(x for x in mine.stdout.splitlines() if x.startswith("RESULT "))
+    ours = np.array(json.loads(line[7:])["agent_pos"], dtype=np.float32)
+    assert recorded.shape == ours.shape == (EVAL_LEN, 14)
+    np.testing.assert_allclose(recorded, ours, atol=1e-6)
+
+
+def test_checkpoint_for_other_cameras_is_one_line(trained):
+    python, root = _python(), trained["root"]
+    proc = _run([
+        python, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", str(trained["camera"]),
+        "--cam_names", "cam_low", "--image_size", "24x32", "--num_episodes", "1",
+        "--output_dir", str(root / "mismatch"),
+    ], root)  # fmt: skip
+    assert proc.returncode == 2
+    lines = [x for x in proc.stderr.splitlines() if x.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
+    assert "observation.images.cam_high" in lines[0] and "Traceback" not in proc.stderr
+
+
+def test_missing_lerobot_is_one_line(tmp_path):
+    """In a Python without LeRobot, a checkpoint policy is refused with one line."""
+    if _has_lerobot():
+        pytest.skip("LeRobot is installed in this Python")
+    ckpt = tmp_path / "ckpt"
+    ckpt.mkdir()
+    (ckpt / "config.json").write_text(json.dumps({"type": "act", "input_features": {},
+                                                  "output_features": {}}))  # fmt: skip
+    proc = _run([sys.executable, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", str(ckpt),
+                 "--num_episodes", "1", "--output_dir", str(tmp_path / "o")], tmp_path)  # fmt: skip
+    assert proc.returncode == 2
+    assert proc.stderr.strip().startswith("error: ") and "LeRobot" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def _has_lerobot() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("lerobot") is not None

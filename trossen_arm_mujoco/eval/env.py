@@ -1,0 +1,338 @@
+"""KitPolicyEnv: a bimanual task in the joint flavour, observed and acted on in a dataset's
+layout, so a policy trained on an export runs in the sim unchanged.
+
+One env = one registered bimanual task (``sim_transfer_cube``, ``sim_insertion``) in the
+joint flavour (position actuators, like the real arms), at a chosen rate:
+
+- observation (a dict, as LeRobot's gym envs give it): ``agent_pos`` (joint positions),
+  ``velocity`` (joint velocities), ``environment_state`` (object poses: xyz m + quat wxyz
+  per object) and, with cameras, ``pixels`` = ``{camera: uint8 (H, W, 3)}``. Vectors are
+  float32 in the layout's order: ``kit14`` (the real kit's 14 values, default) or
+  ``vendor16`` (the HDF5 files' 16), clipped into the observation space's bounds (joint
+  ranges, velocity caps, the workspace box) as the gym env's state is.
+- action: joint targets in the same layout (rad; gripper m). Values outside the joint
+  limits are clipped to them; NaN or a wrong length is an error.
+- reward: the task's (0-4); ``info["is_success"]``: the task's success now;
+  ``info["stage"]``: the reward stage reached now. ``truncated`` after ``episode_length``
+  steps; the episode never terminates early (an episode's score is the best it reached, as
+  in the ACT paper's evaluation).
+
+Rates: at ``fps`` F the policy acts every 1/F s and the controllers tick at the same
+period; physics runs ``ceil((1/F) / 2 ms)`` steps per period (the scene's 2 ms at 50 fps,
+1/510 s at 30 fps), so every rate is a whole number of physics steps.
+
+Seeds: ``reset(seed=s)`` draws the episode (object poses) from a generator of its own
+stream (``episode_generator``), never one of the recording seeds ``record`` uses, so an
+evaluation with base seed S never replays a training episode recorded with ``--seed S``.
+
+LEROBOT_KEYS maps each vector observation key to the LeRobot feature it stands for
+(``observation.state``, ``observation.velocity``, ``observation.environment_state``; each
+camera of ``pixels`` is ``observation.images.<cam>``); ``feature_spec`` lists them with their
+shapes, the names the export writes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+from trossen_arm_mujoco.clip import clip
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS, REAL_KIT_LAYOUT
+from trossen_arm_mujoco.sim.cameras import CameraSet
+from trossen_arm_mujoco.sim.closing import close_at_exit, forget
+from trossen_arm_mujoco.tasks import registry
+
+#: Physics step of the scenes (s); a rate's step is the largest that divides its period.
+BASE_SIM_DT = 0.002
+#: Vector observation key -> LeRobot feature key (cameras: ``observation.images.<cam>``).
+LEROBOT_KEYS: dict[str, str] = {
+    "agent_pos": "observation.state",
+    "velocity": "observation.velocity",
+    "environment_state": "observation.environment_state",
+}
+#: Spawn key of the evaluation seed stream (``episode_generator``): ASCII "eval".
+EVAL_STREAM = 0x6576616C
+#: Camera rendered for videos when the policy observes none.
+RENDER_CAMERA = "cam_high"
+
+
+def episode_generator(seed: int) -> np.random.Generator:
+    """The generator of evaluation episode ``seed``: ``SeedSequence(seed)`` spawned on the
+    evaluation stream. ``record`` seeds with plain ints (``default_rng(int)``, no spawn
+    key), so no evaluation episode shares a stream with a recorded one."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise UserError(f"seed must be a non-negative int, got {seed!r}")
+    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(EVAL_STREAM,)))
+
+
+def rate_timing(fps: float) -> dict[str, float]:
+    """Config overrides that run a task at ``fps``: policy and control period 1/fps s, and a
+    physics step that divides it (``BASE_SIM_DT`` or the largest below it)."""
+    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and 1 <= fps <= 500):
+        raise UserError(f"fps must be a number in [1, 500], got {fps!r}")
+    period = 1.0 / float(fps)
+    substeps = math.ceil(period / BASE_SIM_DT - 1e-9)
+    return {"policy_dt": period, "ctrl_dt": period, "sim_dt": period / substeps}
+
+
+def parse_image_size(text: str | Sequence[int]) -> tuple[int, int]:
+    """``"HxW"`` (or a pair) -> (H, W), both positive."""
+    if isinstance(text, str):
+        parts = text.lower().split("x")
+        try:
+            size = tuple(int(p) for p in parts)
+        except ValueError:
+            size = ()
+    else:
+        size = tuple(int(v) for v in text)
+    if len(size) != 2 or min(size) <= 0:
+        raise UserError(f"image size must look like HxW with positive numbers (e.g. 480x640), "
+                        f"got {text!r}")  # fmt: skip
+    return size  # type: ignore[return-value]
+
+
+def parse_cameras(text: str | Sequence[str] | None) -> tuple[str, ...]:
+    """A comma list (or sequence) of camera names; ``none`` or empty: no camera."""
+    if text is None:
+        return ()
+    items = text.split(",") if isinstance(text, str) else list(text)
+    names = tuple(c.strip() for c in items if c.strip())
+    return () if names in (("none",), ("None",)) else names
+
+
+def bimanual_tasks() -> list[str]:
+    """Registered tasks this env serves (the kit's bimanual tasks)."""
+    from trossen_arm_mujoco.tasks.bimanual import BimanualSampler
+
+    return [n for n in registry.names() if issubclass(registry.load(n).sampler_class(),
+                                                      BimanualSampler)]  # fmt: skip
+
+
+def feature_spec(
+    task: str, cam_names: Sequence[str], image_size: Sequence[int], layout: str = "kit14"
+) -> dict[str, tuple[str, str, tuple[int, ...]]]:
+    """What the env observes and takes, as LeRobot features: env key -> (LeRobot key, kind,
+    shape), kind one of ``STATE``, ``ENV``, ``VISUAL``, ``ACTION``. Images are (H, W, 3)."""
+    size = _layout(layout).size
+    n_obj = len(registry.load(task).task_class().objects)
+    h, w = image_size
+    spec: dict[str, tuple[str, str, tuple[int, ...]]] = {
+        "action": ("action", "ACTION", (size,)),
+        "agent_pos": (LEROBOT_KEYS["agent_pos"], "STATE", (size,)),
+        "velocity": (LEROBOT_KEYS["velocity"], "STATE", (size,)),
+        "environment_state": (LEROBOT_KEYS["environment_state"], "ENV", (7 * n_obj,)),
+    }
+    for cam in cam_names:  # keyed by the feature itself: lerobot-eval --eval.recording needs it
+        key = f"observation.images.{cam}"
+        spec[key] = (key, "VISUAL", (h, w, 3))
+    return spec
+
+
+def _layout(name: str):
+    if name not in LAYOUTS:
+        raise unknown_name_error("layout", name, LAYOUTS)
+    return LAYOUTS[name]
+
+
+class KitPolicyEnv(gymnasium.Env):
+    """A policy's view of a bimanual task (see the module docstring).
+
+    Args:
+        task: registered bimanual task name (or alias).
+        cam_names: cameras observed (``pixels``); empty: state only.
+        image_size: (H, W) of the observed images.
+        fps: policy rate (steps per second); default the task's own (50).
+        episode_length: steps per episode; default the task's recording length at this rate
+            (12 s for the transfer, 8 s for the insertion).
+        layout: ``kit14`` or ``vendor16``.
+        render_mode: ``rgb_array`` (``render()`` gives the observed cameras side by side, or
+            ``cam_high`` at 240x320 when none is observed) or None.
+
+    Attributes (what LeRobot's evaluation reads): ``task`` (the task's name),
+    ``task_description``, ``_max_episode_steps``, ``metadata["render_fps"]``; ``episode``
+    is the running ``Task`` (None before the first reset).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(
+        self,
+        task: str = "sim_transfer_cube",
+        *,
+        cam_names: Sequence[str] = (),
+        image_size: Sequence[int] = (480, 640),
+        fps: float | None = None,
+        episode_length: int | None = None,
+        layout: str = "kit14",
+        render_mode: str | None = "rgb_array",
+    ):
+        entry = registry.load(task)
+        if entry.name not in bimanual_tasks():
+            raise UserError(
+                f"task '{entry.name}' is not a Stationary AI kit task; "
+                f"valid tasks: {', '.join(bimanual_tasks())}"
+            )
+        self.layout = _layout(layout)
+        self.layout_name = layout
+        if render_mode not in (None, "rgb_array"):
+            raise unknown_name_error("render mode", str(render_mode), ["rgb_array"])
+        self.render_mode = render_mode
+        cams = parse_cameras(cam_names)
+        h, w = parse_image_size(image_size)
+        config = entry.load_config()
+        native = 1.0 / float(config["policy_dt"])
+        self.fps = float(native if fps is None else fps)
+        overrides = {} if fps is None else rate_timing(self.fps)
+        record_len = int(entry.record.get("episode_len") or config.get("max_episode_steps"))
+        if episode_length is None:
+            episode_length = max(1, round(record_len * self.fps / native))
+        if isinstance(episode_length, bool) or int(episode_length) != episode_length:
+            raise UserError(f"episode_length must be a whole number, got {episode_length!r}")
+        if not 1 <= int(episode_length) <= 100_000:
+            raise UserError(f"episode_length must be in [1, 100000], got {episode_length}")
+        self.task = entry.name
+        self.cam_names = cams
+        self.image_size = (h, w)
+        self.sampler = registry.make_sampler(
+            entry.name,
+            flavour="joint",
+            camera_names=cams,
+            height=h,
+            width=w,
+            **overrides,
+        )
+        self.scene = self.sampler.env
+        probe = self.sampler.make_task()
+        self.task_description = probe.get_task_description()
+        self.max_reward = float(probe.max_reward)
+        self._max_episode_steps = int(episode_length)
+        self.metadata = {**self.metadata, "render_fps": self.fps}
+        view = self.scene.robots[probe.robot_name].view
+        ranges = np.concatenate([view.group(g).joint_range for g in KIT_LAYOUT.groups])
+        low16, high16 = ranges[:, 0], ranges[:, 1]
+        if self.layout is REAL_KIT_LAYOUT:
+            self.action_low = REAL_KIT_LAYOUT.from_vendor(low16)
+            self.action_high = REAL_KIT_LAYOUT.from_vendor(high16)
+        else:
+            self.action_low, self.action_high = low16.copy(), high16.copy()
+        self.action_space = gymnasium.spaces.Box(
+            self.action_low.astype(np.float32), self.action_high.astype(np.float32),
+            dtype=np.float32,
+        )  # fmt: skip
+        self.observation_space = self._observation_space(probe)
+        self._vector_bounds = {
+            key: (self.observation_space[key].low, self.observation_space[key].high)
+            for key in ("agent_pos", "velocity", "environment_state")
+        }
+        self.episode = None
+        self.n_steps = 0
+        self._images: dict[str, np.ndarray] = {}
+        self._render_cams: CameraSet | None = None
+        close_at_exit(self)
+
+    # -- spaces ---------------------------------------------------------------------------
+    def _observation_space(self, probe) -> gymnasium.spaces.Dict:
+        bounds = probe.observation_bounds()
+        size = self.layout.size
+
+        def box(key: str) -> gymnasium.spaces.Box:
+            low, high = (self._to_layout(b) for b in bounds[key])
+            return gymnasium.spaces.Box(low.astype(np.float32), high.astype(np.float32),
+                                        shape=(size,), dtype=np.float32)  # fmt: skip
+
+        spaces: dict[str, gymnasium.spaces.Space] = {
+            "agent_pos": box("qpos"),
+            "velocity": box("qvel"),
+            "environment_state": gymnasium.spaces.Box(
+                *(b.astype(np.float32) for b in bounds["env_state"]), dtype=np.float32
+            ),
+        }
+        if self.cam_names:
+            h, w = self.image_size
+            spaces["pixels"] = gymnasium.spaces.Dict({
+                cam: gymnasium.spaces.Box(0, 255, (h, w, 3), dtype=np.uint8)
+                for cam in self.cam_names
+            })  # fmt: skip
+        return gymnasium.spaces.Dict(spaces)
+
+    def _to_layout(self, values16: np.ndarray) -> np.ndarray:
+        if self.layout is REAL_KIT_LAYOUT:
+            return REAL_KIT_LAYOUT.from_vendor(values16)
+        return np.asarray(values16)
+
+    # -- gymnasium API --------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode; ``seed`` picks it (see ``episode_generator``); None draws one
+        from the env's own generator. ``options={"object_poses": {name: pose}}`` places the
+        objects instead (e.g. a recorded episode's start)."""
+        super().reset(seed=seed)
+        if seed is None:
+            seed = int(self.np_random.integers(2**31))
+        rng = episode_generator(seed)
+        poses = (options or {}).get("object_poses")
+        self.episode = self.sampler.next_task(rng, object_poses=poses)
+        self.n_steps = 0
+        return self._observe(), self._info(self.episode.get_reward())
+
+    def step(self, action):
+        if self.episode is None:
+            raise UserError("call reset() before step()")
+        a = np.array(action, dtype=float).reshape(-1)  # a copy: clipped below, in place
+        if a.shape != (self.layout.size,):
+            raise UserError(
+                f"action must have {self.layout.size} values (layout {self.layout_name}), "
+                f"got shape {np.shape(action)}"
+            )
+        if not np.isfinite(a).all():
+            raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
+        np.clip(a, self.action_low, self.action_high, out=a)
+        self.episode.advance(self.layout.joint_commands(a))
+        self.n_steps += 1
+        reward = float(self.episode.get_reward())
+        truncated = self.n_steps >= self._max_episode_steps
+        return self._observe(), reward, False, truncated, self._info(reward)
+
+    def render(self):
+        """The observed cameras side by side (uint8 (H, n*W, 3)), or ``cam_high`` at
+        240x320 when none is observed."""
+        if self.render_mode != "rgb_array" or self.episode is None:
+            return None
+        if self.cam_names:  # the images of the last observation
+            return np.concatenate([self._images[c] for c in self.cam_names], axis=1)
+        if self._render_cams is None:
+            self._render_cams = CameraSet(self.scene.model, [RENDER_CAMERA], 240, 320)
+        return self._render_cams.render(self.scene.data, RENDER_CAMERA)
+
+    def close(self):
+        forget(self)
+        if self._render_cams is not None:
+            self._render_cams.close()
+            self._render_cams = None
+        self.sampler.close()
+
+    # -- what a policy reads --------------------------------------------------------------
+    def object_poses(self) -> dict[str, np.ndarray]:
+        """Object name -> current pose (7,) (e.g. for the scripted reference)."""
+        return self.episode.object_poses()
+
+    def _observe(self) -> dict[str, Any]:
+        obs = self.episode.get_observation()
+        out: dict[str, Any] = {
+            "agent_pos": self._to_layout(obs["qpos"]).astype(np.float32),
+            "velocity": self._to_layout(obs["qvel"]).astype(np.float32),
+            "environment_state": obs["env_state"].astype(np.float32),
+        }
+        for key, (low, high) in self._vector_bounds.items():  # e.g. a finger 0.1 mm past
+            clip(out[key], low, high, out=out[key])  # its limit: inside the space, as gym's
+        if self.cam_names:
+            self._images = self.scene.render_images()
+            out["pixels"] = self._images
+        return out
+
+    def _info(self, reward: float) -> dict[str, Any]:
+        return {"is_success": bool(reward >= self.max_reward), "stage": float(reward)}

@@ -1,0 +1,178 @@
+"""A LeRobot ``PreTrainedPolicy`` checkpoint (ACT, diffusion, ...) driving a ``KitPolicyEnv``.
+
+The checkpoint folder is what ``lerobot-train`` saves (``.../checkpoints/last/
+pretrained_model``: ``config.json``, the weights and the saved pre/post-processors; the
+``checkpoints/<step>`` folder above it is accepted too). Before anything runs, the policy's
+input features are held against the env's (names and shapes: cameras, image size, the
+14- or 16-value layout, the objects' poses): a mismatch is one line naming the features
+that differ. Each step runs LeRobot's own path: ``preprocess_observation``, the task
+description, the saved preprocessor, ``select_action``, the saved postprocessor.
+
+LeRobot (Python >= 3.12) is imported only here.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
+
+LEROBOT_MISSING = (
+    "evaluating a LeRobot checkpoint needs LeRobot 0.6 (Python >= 3.12): "
+    "pip install 'trossen-arm-mujoco[train]'"
+)
+
+
+def import_lerobot() -> Any:
+    """The ``lerobot`` package, or a one-line UserError saying how to install it."""
+    try:
+        import lerobot  # noqa: F401
+        from lerobot.configs.policies import PreTrainedConfig  # noqa: F401
+    except ImportError:
+        raise UserError(LEROBOT_MISSING) from None
+    import lerobot
+
+    return lerobot
+
+
+def checkpoint_dir(path: str | Path) -> Path:
+    """The folder holding the checkpoint's ``config.json`` (``path`` or its
+    ``pretrained_model``); a one-line UserError when there is none."""
+    p = Path(path).expanduser()
+    for candidate in (p, p / "pretrained_model"):
+        if (candidate / "config.json").is_file():
+            return candidate
+    if not p.exists():
+        raise UserError(f"--policy {path}: no such checkpoint folder; give the "
+                        "pretrained_model folder lerobot-train saved, 'scripted' or "
+                        "module:function")  # fmt: skip
+    raise UserError(f"--policy {path} holds no LeRobot checkpoint (no config.json in it or in "
+                    "its pretrained_model folder)")  # fmt: skip
+
+
+def checkpoint_features(path: str | Path) -> dict[str, Any]:
+    """What a checkpoint's ``config.json`` says it observes, read without LeRobot: its
+    cameras (``cam_names``), their (H, W) (``image_size``), the layout name of its action
+    (``layout``: ``kit14`` for 14 values, ``vendor16`` for 16). Keys are missing when the
+    config does not say."""
+    folder = checkpoint_dir(path)
+    try:
+        config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
+        inputs = dict(config.get("input_features") or {})
+        outputs = dict(config.get("output_features") or {})
+    except (OSError, ValueError, AttributeError, TypeError) as exc:
+        raise UserError(f"--policy {path}: cannot read its config.json ({exc})") from None
+    found: dict[str, Any] = {}
+    prefix = "observation.images."
+    cams = [k[len(prefix) :] for k in inputs if k.startswith(prefix)]
+    found["cam_names"] = tuple(cams)
+    if cams:
+        shape = inputs[prefix + cams[0]].get("shape") or []
+        if len(shape) == 3:
+            found["image_size"] = (int(shape[1]), int(shape[2]))
+    size = (outputs.get("action") or {}).get("shape") or []
+    if list(size) == [14]:
+        found["layout"] = "kit14"
+    elif list(size) == [16]:
+        found["layout"] = "vendor16"
+    return found
+
+
+def check_checkpoint(path: str | Path, env: KitPolicyEnv) -> None:
+    """Refuse, in one line, a checkpoint whose ``config.json`` features ``env`` cannot
+    serve (read without LeRobot; ``LeRobotPolicy`` checks again with LeRobot's config)."""
+    folder = checkpoint_dir(path)
+    try:
+        config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
+        inputs = {k: tuple(v["shape"]) for k, v in (config.get("input_features") or {}).items()}
+        action = ((config.get("output_features") or {}).get("action") or {}).get("shape")
+    except (OSError, ValueError, AttributeError, TypeError, KeyError) as exc:
+        raise UserError(f"--policy {path}: cannot read its config.json ({exc})") from None
+    _raise_on_mismatch(path, inputs, action, env)
+
+
+def _raise_on_mismatch(
+    path: str | Path, inputs: dict[str, tuple[int, ...]], action: Any, env: KitPolicyEnv
+) -> None:
+    problems = feature_mismatch(inputs, env)
+    if action is not None and tuple(action) != (env.layout.size,):
+        problems.append(f"action {list(action)} (the env takes {env.layout.size} values, "
+                        f"layout {env.layout_name})")  # fmt: skip
+    if problems:
+        raise UserError(
+            f"--policy {path} was trained on other features than this env offers: "
+            + "; ".join(problems)
+            + " (match --cam_names, --image_size, --layout and the task to its dataset)"
+        )
+
+
+def feature_mismatch(policy_inputs: dict[str, tuple[int, ...]], env: KitPolicyEnv) -> list[str]:
+    """Differences between a policy's input features (LeRobot key -> shape; images (C,H,W))
+    and what ``env`` observes; empty when the policy can run on it."""
+    offered: dict[str, tuple[int, ...]] = {}
+    for key, kind, shape in feature_spec(env.task, env.cam_names, env.image_size,
+                                         env.layout_name).values():  # fmt: skip
+        if kind == "VISUAL":
+            shape = (shape[2], shape[0], shape[1])
+        if kind != "ACTION":
+            offered[key] = tuple(shape)
+    problems = []
+    for key, shape in policy_inputs.items():
+        if key not in offered:
+            problems.append(f"{key} {list(shape)} (not observed by this env)")
+        elif offered[key] != tuple(shape):
+            problems.append(f"{key} {list(shape)} (the env gives {list(offered[key])})")
+    return problems
+
+
+class LeRobotPolicy:
+    """A checkpoint loaded for one env (see the module docstring)."""
+
+    def __init__(self, path: str | Path, env: KitPolicyEnv, device: str = "cpu"):
+        import_lerobot()
+        import torch
+        from lerobot.configs.policies import PreTrainedConfig
+        from lerobot.envs.utils import preprocess_observation
+        from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+
+        folder = checkpoint_dir(path)
+        try:
+            cfg = PreTrainedConfig.from_pretrained(str(folder))
+        except Exception as exc:  # a corrupt or foreign config.json
+            raise UserError(f"--policy {path}: cannot read its config.json ({exc})") from None
+        cfg.pretrained_path = str(folder)
+        cfg.device = device
+        inputs = {k: tuple(f.shape) for k, f in cfg.input_features.items()}
+        out = cfg.output_features.get("action")
+        _raise_on_mismatch(path, inputs, None if out is None else out.shape, env)
+        self.torch = torch
+        self.policy = get_policy_class(cfg.type).from_pretrained(str(folder), config=cfg)
+        self.policy.eval()
+        self.pre, self.post = make_pre_post_processors(
+            cfg,
+            pretrained_path=str(folder),
+            preprocessor_overrides={"device_processor": {"device": device}},
+        )
+        self._preprocess_observation = preprocess_observation
+        self.task_text = env.task_description
+
+    def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        self.policy.reset()
+        self.task_text = env.task_description
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        obs = self._preprocess_observation(observation)
+        obs["task"] = [self.task_text]
+        obs = self.pre(obs)
+        with self.torch.inference_mode():
+            action = self.policy.select_action(obs)
+        action = self.post(action)
+        return action.to("cpu").numpy().reshape(-1).astype(float)
+
+    def close(self) -> None:
+        pass

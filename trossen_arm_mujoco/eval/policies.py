@@ -1,0 +1,120 @@
+"""The policies ``trossen-mujoco eval`` runs: what ``--policy`` names, made ready for one env.
+
+- ``scripted``: the task's scripted policy, as ``record`` runs it (a mocap rollout from the
+  episode's object poses, its joint trajectory replayed at the env's rate with the export's
+  action rule, ``export.lerobot_plan.frame_map``): the reference row.
+- ``module:function``: a plain Python callable ``function(observation) -> action`` (the
+  env's observation dict; an action in the env's layout); an optional ``reset()``
+  attribute is called at every episode start.
+- a path: a LeRobot ``PreTrainedPolicy`` checkpoint (``eval.lerobot_policy``).
+
+Every policy has ``reset(env)`` (called after ``env.reset``) and ``act(observation)``.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.env import KitPolicyEnv, episode_generator
+from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
+
+
+class Policy(Protocol):
+    def reset(self, env: KitPolicyEnv, seed: int) -> None: ...
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray: ...
+
+    def close(self) -> None: ...
+
+
+class ScriptedPolicy:
+    """The task's scripted policy for the episode ``env`` was reset to (see the module
+    docstring). Its EE world is built once and reused."""
+
+    def __init__(self, task: str):
+        from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings
+
+        self.recorder = EpisodeRecorder(RecordSettings(task_name=task))
+        self._plan = np.zeros((0, REAL_KIT_LAYOUT.size))
+        self._t = 0
+
+    def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        src_dt = self.recorder.policy_dt
+        native_len = int(round(env._max_episode_steps / env.fps / src_dt))
+        self.recorder.settings = type(self.recorder.settings)(
+            task_name=env.task, episode_len=max(native_len, 1)
+        )
+        actions, _ = self.recorder.scripted_rollout(
+            episode_generator(seed), object_poses=env.object_poses()
+        )
+        source_fps = round(1.0 / src_dt)
+        if round(env.fps) != source_fps:
+            from trossen_arm_mujoco.export.lerobot_plan import frame_map
+
+            actions = frame_map(len(actions), source_fps, round(env.fps)).actions(actions)
+        self._plan = actions if env.layout.size == actions.shape[1] else (
+            env.layout.from_vendor(actions)
+        )  # fmt: skip
+        self._t = 0
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        row = self._plan[min(self._t, len(self._plan) - 1)]
+        self._t += 1
+        return row
+
+    def close(self) -> None:
+        self.recorder.close()
+
+
+class FunctionPolicy:
+    """``module:function`` (see the module docstring)."""
+
+    def __init__(self, spec: str):
+        module, _, name = spec.partition(":")
+        try:
+            fn = getattr(importlib.import_module(module), name)
+        except (ImportError, AttributeError) as exc:
+            raise UserError(
+                f"--policy {spec}: cannot import it ({exc}); give module:function "
+                "importable from the current folder or PYTHONPATH"
+            ) from None
+        if not callable(fn):
+            raise UserError(f"--policy {spec} is not callable")
+        self.fn = fn
+
+    def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        reset = getattr(self.fn, "reset", None)
+        if callable(reset):
+            reset()
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        return np.asarray(self.fn(observation), dtype=float)
+
+    def close(self) -> None:
+        pass
+
+
+def is_function_spec(spec: str) -> bool:
+    """``module:function`` rather than a path (a path with a colon that exists wins)."""
+    module, sep, name = spec.partition(":")
+    return (
+        bool(sep)
+        and module.replace(".", "").replace("_", "").isalnum()
+        and (name.isidentifier() and not Path(spec).exists())
+    )
+
+
+def make_policy(spec: str, env: KitPolicyEnv, device: str = "cpu") -> Policy:
+    """The policy ``--policy spec`` names, checked against ``env``'s features."""
+    if spec == "scripted":
+        return ScriptedPolicy(env.task)
+    if is_function_spec(spec):
+        return FunctionPolicy(spec)
+    from trossen_arm_mujoco.eval.lerobot_policy import LeRobotPolicy
+
+    return LeRobotPolicy(spec, env, device=device)

@@ -1,0 +1,206 @@
+"""Run a policy over evaluation seeds in the sim, on local worker processes or Ray.
+
+Episode ``i`` of a run with base seed S is ``env.reset(seed=S + i)``, the seeds
+``lerobot-eval --seed S`` uses, so both tools score the same episodes (and, through
+``eval.env.episode_generator``, none of them is a recording episode). Each worker builds
+its env and policy once; episodes come back in order; the first ``videos`` rollouts are
+written as mp4 (``videos/eval_episode_<i>.mp4``). The scores go to ``eval_info.json``
+(``eval.scores``).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.env import KitPolicyEnv
+from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
+
+#: Where the rollout videos go, in the output folder.
+VIDEO_DIR = "videos"
+
+
+@dataclass(frozen=True)
+class EvalSettings:
+    """What every episode of an evaluation shares (the CLI's flags)."""
+
+    policy: str = "scripted"
+    task: str = "sim_transfer_cube"
+    num_episodes: int = 10
+    seed: int = 0
+    cam_names: tuple[str, ...] = ()
+    image_size: tuple[int, int] = (480, 640)
+    fps: float | None = None
+    episode_length: int | None = None
+    layout: str = "kit14"
+    videos: int = 0
+    output_dir: str = "eval"
+    device: str = "cpu"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def make_env(self) -> KitPolicyEnv:
+        return KitPolicyEnv(
+            self.task,
+            cam_names=self.cam_names,
+            image_size=self.image_size,
+            fps=self.fps,
+            episode_length=self.episode_length,
+            layout=self.layout,
+            render_mode="rgb_array",
+        )
+
+
+class EpisodeRunner:
+    """One env and one policy, built once; runs episodes by index."""
+
+    def __init__(self, settings: EvalSettings):
+        from trossen_arm_mujoco.eval.policies import make_policy
+
+        self.settings = settings
+        self.env = settings.make_env()
+        try:
+            self.policy = make_policy(settings.policy, self.env, settings.device)
+        except BaseException:
+            self.env.close()
+            raise
+
+    def run(self, index: int) -> tuple[EpisodeScore, str | None]:
+        """Episode ``index`` (seed ``settings.seed + index``); its score and video path."""
+        s, env = self.settings, self.env
+        seed = s.seed + index
+        obs, info = env.reset(seed=seed)
+        self.policy.reset(env, seed)
+        frames = [] if index < s.videos else None
+        if frames is not None:
+            frames.append(env.render())
+        rewards, success = [], False
+        for _ in range(env._max_episode_steps):
+            obs, reward, terminated, truncated, info = env.step(self.policy.act(obs))
+            rewards.append(reward)
+            success = success or bool(info["is_success"])
+            if frames is not None:
+                frames.append(env.render())
+            if terminated or truncated:
+                break
+        best = float(max(rewards)) if rewards else 0.0
+        score = EpisodeScore(
+            episode_ix=index,
+            seed=seed,
+            sum_reward=float(sum(rewards)),
+            max_reward=best,
+            success=success,
+            steps=len(rewards),
+            stages=stages_reached(env.task, best),
+        )
+        video = None
+        if frames:
+            from trossen_arm_mujoco.data.video import write_frames_video
+
+            path = Path(s.output_dir) / VIDEO_DIR / f"eval_episode_{index}.mp4"
+            h, w = frames[0].shape[:2]
+            even = [np.pad(f, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge") for f in frames]
+            video = str(write_frames_video(even, path, env.fps, h + h % 2, w + w % 2))
+        return score, video
+
+    def close(self) -> None:
+        self.policy.close()
+        self.env.close()
+
+
+# -- local worker processes -------------------------------------------------------------
+_RUNNER: EpisodeRunner | None = None
+#: A user error building the worker's runner, raised again by its first task (an error in
+#: the pool's initializer would break the pool: a traceback and "a worker died").
+_INIT_ERROR: UserError | None = None
+
+
+def _init_worker(settings: EvalSettings) -> None:
+    global _RUNNER, _INIT_ERROR
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    try:
+        _RUNNER = EpisodeRunner(settings)
+    except UserError as exc:
+        _INIT_ERROR = exc
+
+
+def _run_in_worker(index: int) -> tuple[EpisodeScore, str | None]:
+    if _INIT_ERROR is not None:
+        raise UserError(str(_INIT_ERROR))
+    assert _RUNNER is not None
+    return _RUNNER.run(index)
+
+
+def _local(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore, str | None]]:
+    indices = range(settings.num_episodes)
+    if workers <= 1:
+        runner = EpisodeRunner(settings)
+        try:
+            for i in indices:
+                yield runner.run(i)
+        finally:
+            runner.close()
+        return
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+                             initargs=(settings,)) as pool:  # fmt: skip
+        try:
+            yield from pool.map(_run_in_worker, indices)
+        except BrokenProcessPool:
+            raise UserError(
+                "an evaluation worker died (out of memory?); rerun with fewer --num_workers"
+            ) from None
+
+
+def _ray(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore, str | None]]:
+    from trossen_arm_mujoco.collect.ray_session import ray_session
+
+    with ray_session(num_cpus=max(workers, 1)) as ray:
+        actor_cls = ray.remote(num_cpus=1)(EpisodeRunner)
+        actors = [actor_cls.remote(settings) for _ in range(max(1, workers))]
+        refs = [actors[i % len(actors)].run.remote(i) for i in range(settings.num_episodes)]
+        for ref in refs:
+            yield ray.get(ref)
+
+
+ENGINES: dict[str, Callable[[EvalSettings, int], Iterator[tuple[EpisodeScore, str | None]]]] = {
+    "local": _local,
+    "ray": _ray,
+}
+
+
+def evaluate(
+    settings: EvalSettings,
+    num_workers: int = 1,
+    engine: str = "local",
+    on_episode: Callable[[EpisodeScore], None] | None = None,
+) -> dict[str, Any]:
+    """Run the evaluation; returns the ``eval_info.json`` content (not written here).
+
+    ``on_episode`` is called with each episode's score as it arrives (a progress bar).
+    """
+    if engine not in ENGINES:
+        from trossen_arm_mujoco.errors import unknown_name_error
+
+        raise unknown_name_error("engine", engine, ENGINES)
+    start = time.perf_counter()
+    scores: list[EpisodeScore] = []
+    videos: list[str] = []
+    for score, video in ENGINES[engine](settings, num_workers):
+        scores.append(score)
+        if video:
+            videos.append(video)
+        if on_episode is not None:
+            on_episode(score)
+    run = {k: v for k, v in asdict(settings).items() if k != "extra"}
+    run.update(num_workers=num_workers, engine=engine)
+    return eval_info(settings.task, scores, time.perf_counter() - start, videos, run)

@@ -1,0 +1,121 @@
+"""Scores of an evaluation: per episode, aggregated, stage-wise, with a confidence interval,
+written as ``eval_info.json`` in ``lerobot-eval``'s layout.
+
+An episode's success is whether the task judged it a success at any step (LeRobot's rule,
+and the ACT paper's: the best reward reached); its stages are the reward levels it reached
+(``STAGES``: the ACT paper's stage-wise rates). ``eval_info.json`` holds::
+
+    per_episode:  [{episode_ix, seed, sum_reward, max_reward, success, stages{...}}]
+    aggregated:   {avg_sum_reward, avg_max_reward, pc_success, pc_success_ci95 [lo, hi],
+                   n_episodes, stages {name: pc}, eval_s, eval_ep_s}
+    overall:      the aggregated numbers as lerobot-eval 0.6 names them at its top level
+    video_paths:  the rollout videos
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from trossen_arm_mujoco.fileio import atomic_path
+
+#: Task -> stage name -> the reward that marks it (reached when max reward >= it).
+STAGES: dict[str, dict[str, float]] = {
+    # 1 right fingers touch the cube, 2 and it is off the table, 4 the left holds it up
+    "sim_transfer_cube": {"touched": 1.0, "lifted": 2.0, "transferred": 4.0},
+    # 2 both objects grasped and lifted, 3 peg touches socket, 4 peg touches the pin
+    "sim_insertion": {"grasped": 2.0, "contact": 3.0, "inserted": 4.0},
+}
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """95% Wilson score interval of a success rate, in percent (0, 0 for n = 0)."""
+    if n <= 0:
+        return 0.0, 0.0
+    p = successes / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    lo = 0.0 if successes == 0 else 100.0 * max(0.0, centre - half)
+    hi = 100.0 if successes == n else 100.0 * min(1.0, centre + half)
+    return lo, hi
+
+
+@dataclass
+class EpisodeScore:
+    """One rollout's result."""
+
+    episode_ix: int
+    seed: int
+    sum_reward: float
+    max_reward: float
+    success: bool
+    steps: int
+    stages: dict[str, bool] = field(default_factory=dict)
+
+
+def stages_reached(task: str, max_reward: float) -> dict[str, bool]:
+    """Which stages of ``task`` an episode with best reward ``max_reward`` reached."""
+    return {name: max_reward >= level for name, level in STAGES.get(task, {}).items()}
+
+
+def aggregate(task: str, episodes: Sequence[EpisodeScore], seconds: float) -> dict[str, Any]:
+    """The ``aggregated`` block of ``eval_info.json``."""
+    n = len(episodes)
+    wins = sum(e.success for e in episodes)
+    lo, hi = wilson_interval(wins, n)
+
+    def mean(values: list[float]) -> float:
+        return float(sum(values) / len(values)) if values else float("nan")
+
+    return {
+        "avg_sum_reward": mean([e.sum_reward for e in episodes]),
+        "avg_max_reward": mean([e.max_reward for e in episodes]),
+        "pc_success": 100.0 * wins / n if n else float("nan"),
+        "pc_success_ci95": [lo, hi],
+        "n_episodes": n,
+        "stages": {
+            name: 100.0 * sum(e.stages.get(name, False) for e in episodes) / n if n else 0.0
+            for name in STAGES.get(task, {})
+        },
+        "eval_s": float(seconds),
+        "eval_ep_s": float(seconds) / max(1, n),
+    }
+
+
+def eval_info(
+    task: str,
+    episodes: Sequence[EpisodeScore],
+    seconds: float,
+    video_paths: Sequence[str] = (),
+    run: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The content of ``eval_info.json`` (see the module docstring)."""
+    agg = aggregate(task, episodes, seconds)
+    overall = {k: agg[k] for k in ("avg_sum_reward", "avg_max_reward", "pc_success",
+                                   "n_episodes", "eval_s", "eval_ep_s")}  # fmt: skip
+    per_episode = []
+    for e in episodes:
+        row = asdict(e)
+        per_episode.append(row)
+    return {
+        "task": task,
+        "per_episode": per_episode,
+        "aggregated": agg,
+        "overall": {**overall, "video_paths": list(video_paths)},
+        "video_paths": list(video_paths),
+        **({"run": run} if run else {}),
+    }
+
+
+def write_eval_info(path: Path, info: dict[str, Any]) -> Path:
+    """Write ``info`` as JSON to ``path`` atomically (temp file, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
+    return path

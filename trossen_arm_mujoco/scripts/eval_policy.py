@@ -1,0 +1,201 @@
+"""Score a policy in the sim (also ``trossen-mujoco eval``).
+
+    trossen-mujoco eval --policy scripted --task_name sim_transfer_cube --num_episodes 10
+    trossen-mujoco eval --policy outputs/train/act/checkpoints/last/pretrained_model \\
+        --task_name sim_transfer_cube --num_episodes 50 --num_workers 2 --videos 2
+
+``--policy`` is ``scripted`` (the task's scripted policy: the reference row), a
+``module:function`` (a callable observation -> action), or a LeRobot checkpoint folder
+(ACT, diffusion, ...: its saved processors are used; the cameras, image size and layout
+default to the ones it was trained on). Episode ``i`` is ``env.reset(seed=S + i)``, as
+``lerobot-eval --seed S``; no evaluation episode is a recording episode. Writes
+``--output_dir/eval_info.json`` (``trossen_arm_mujoco.eval.scores``) and the mp4 of the
+first ``--videos`` rollouts.
+"""
+
+from __future__ import annotations
+
+if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
+    import sys
+    from pathlib import Path
+
+    sys.path[0] = str(
+        next(p for p in Path(__file__).resolve().parents if not (p / "__init__.py").is_file())
+    )
+    import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
+
+import argparse
+import os
+import sys
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+from tqdm import tqdm
+
+from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.robot.layout import LAYOUTS
+
+#: Largest number of episodes one run takes.
+MAX_EPISODES = 100_000
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line flags."""
+    p = argparse.ArgumentParser(
+        prog="trossen-mujoco eval",
+        description="Score a policy (LeRobot checkpoint, scripted, module:function) over "
+        "evaluation seeds in the sim; writes eval_info.json and rollout videos.",
+    )
+    p.add_argument("--policy", required=True,
+                   help="'scripted', module:function, or a LeRobot checkpoint folder "
+                   "(.../checkpoints/last/pretrained_model)")  # fmt: skip
+    p.add_argument("--task_name", default="sim_transfer_cube",
+                   help="registered kit task (default sim_transfer_cube)")  # fmt: skip
+    p.add_argument("--num_episodes", type=int, default=10, help="episodes (default 10)")
+    p.add_argument("--num_workers", type=int, default=1,
+                   help="worker processes (default 1; at most the CPU count)")  # fmt: skip
+    p.add_argument("--seed", type=int, default=0,
+                   help="base seed: episode i is env.reset(seed=seed + i) (default 0)")  # fmt: skip
+    p.add_argument("--cam_names", default=None,
+                   help="observed cameras, comma list or 'none' (default: the checkpoint's, "
+                   "else none)")  # fmt: skip
+    p.add_argument(
+        "--image_size",
+        default=None,
+        help="HxW of the observed images (default: the checkpoint's, else 480x640)",
+    )
+    p.add_argument("--fps", type=float, default=None,
+                   help="policy rate; 30 for data exported with --fps 30 (default: the "
+                   "task's 50)")  # fmt: skip
+    p.add_argument("--episode_length", type=int, default=None,
+                   help="steps per episode (default: the task's recording length, 12 s for "
+                   "the transfer)")  # fmt: skip
+    p.add_argument("--layout", default=None, choices=sorted(LAYOUTS),
+                   help="joint layout of observations and actions (default: the checkpoint's, "
+                   "else kit14)")  # fmt: skip
+    p.add_argument("--output_dir", default="eval_out",
+                   help="where eval_info.json and videos/ go (default eval_out)")  # fmt: skip
+    p.add_argument("--videos", type=int, default=0, help="mp4 of the first K rollouts")
+    p.add_argument("--engine", default="local", choices=("local", "ray"),
+                   help="local worker processes (default) or Ray")  # fmt: skip
+    p.add_argument("--device", default="cpu", help="torch device of a checkpoint (default cpu)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an eval_info.json already in --output_dir")  # fmt: skip
+    return p
+
+
+def _settings(args: argparse.Namespace):
+    from trossen_arm_mujoco.eval.env import parse_cameras, parse_image_size
+    from trossen_arm_mujoco.eval.policies import is_function_spec
+    from trossen_arm_mujoco.eval.runner import EvalSettings
+    from trossen_arm_mujoco.tasks import registry
+
+    task = registry.canonical(args.task_name)
+    if not 1 <= args.num_episodes <= MAX_EPISODES:
+        raise UserError(f"--num_episodes must be in [1, {MAX_EPISODES}], got {args.num_episodes}")
+    if not 0 <= args.seed <= 2**63 - 1 - args.num_episodes:
+        raise UserError(f"--seed must be in [0, 2**63 - 1 - num_episodes], got {args.seed}")
+    if not 0 <= args.videos <= args.num_episodes:
+        raise UserError(f"--videos must be in [0, --num_episodes], got {args.videos}")
+    if args.num_workers < 1:
+        raise UserError(f"--num_workers must be at least 1, got {args.num_workers}")
+    cpus = os.cpu_count() or 1
+    workers = min(args.num_workers, args.num_episodes)
+    if workers > cpus:
+        warnings.warn(f"--num_workers {workers} > {cpus} CPUs; using {cpus}", stacklevel=1)
+        workers = cpus
+    inferred: dict = {}
+    if args.policy not in ("scripted",) and not is_function_spec(args.policy):
+        from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_features
+
+        inferred = checkpoint_features(args.policy)
+    cams = parse_cameras(args.cam_names) if args.cam_names is not None else (
+        inferred.get("cam_names", ())
+    )  # fmt: skip
+    size = parse_image_size(args.image_size) if args.image_size else (
+        inferred.get("image_size", (480, 640))
+    )  # fmt: skip
+    if args.videos and not _has_av():
+        raise UserError("--videos needs PyAV: pip install 'trossen-arm-mujoco[video]'")
+    out = Path(args.output_dir).expanduser()
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--output_dir {out} is a file; give a folder")
+    if (out / "eval_info.json").exists() and not args.overwrite:
+        raise UserError(f"{out / 'eval_info.json'} exists; choose another --output_dir or pass "
+                        "--overwrite")  # fmt: skip
+    settings = EvalSettings(
+        policy=args.policy,
+        task=task,
+        num_episodes=args.num_episodes,
+        seed=args.seed,
+        cam_names=tuple(cams),
+        image_size=tuple(size),
+        fps=args.fps,
+        episode_length=args.episode_length,
+        layout=args.layout or inferred.get("layout", "kit14"),
+        videos=args.videos,
+        output_dir=str(out),
+        device=args.device,
+    )
+    return settings, workers
+
+
+def _has_av() -> bool:
+    try:
+        import av  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Evaluate; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    from trossen_arm_mujoco.eval.policies import is_function_spec
+    from trossen_arm_mujoco.eval.runner import evaluate
+    from trossen_arm_mujoco.eval.scores import write_eval_info
+
+    settings, workers = _settings(args)
+    env = settings.make_env()  # fail fast on a bad task, camera, size or checkpoint
+    try:
+        if settings.policy != "scripted" and not is_function_spec(settings.policy):
+            from trossen_arm_mujoco.eval.lerobot_policy import check_checkpoint, import_lerobot
+
+            check_checkpoint(settings.policy, env)
+            import_lerobot()
+    finally:
+        env.close()
+    bar = tqdm(total=settings.num_episodes, desc="eval", unit="episode", file=sys.stderr)
+    wins = [0]
+
+    def tick(score) -> None:
+        wins[0] += score.success
+        bar.update(1)
+        bar.set_postfix(success=f"{wins[0]}/{bar.n}")
+
+    try:
+        info = evaluate(settings, workers, args.engine, on_episode=tick)
+    finally:
+        bar.close()
+    path = write_eval_info(Path(settings.output_dir) / "eval_info.json", info)
+    agg = info["aggregated"]
+    lo, hi = agg["pc_success_ci95"]
+    stages = ", ".join(f"{k} {v:.0f}%" for k, v in agg["stages"].items())
+    print(
+        f"{settings.task}: {wins[0]}/{agg['n_episodes']} succeeded, {agg['pc_success']:.1f}% "
+        f"(95% CI {lo:.1f}-{hi:.1f}); stages: {stages or 'none'}; avg max reward "
+        f"{agg['avg_max_reward']:.2f}; {agg['eval_s']:.1f} s"
+    )
+    print(f"wrote {path}" + (f" and {len(info['video_paths'])} video(s)" if info["video_paths"]
+                             else ""))  # fmt: skip
+    return 0
+
+
+def cli(argv: Sequence[str] | None = None) -> int:
+    """Entry point: like :func:`main`, with user errors as one line and exit status 2."""
+    return run_cli(main, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(cli())
