@@ -23,8 +23,8 @@ def test_unknown_subcommand_is_one_error_line(capsys):
     out, err = capsys.readouterr()
     assert out == ""
     assert err == (
-        "error: unknown subcommand 'recrod'; valid subcommands: export, record, replay-real, "
-        "visualize (see 'trossen-mujoco --help')\n"
+        "error: unknown subcommand 'recrod'; valid subcommands: eval, export, record, "
+        "replay-real, visualize (see 'trossen-mujoco --help')\n"
     )
 
 
