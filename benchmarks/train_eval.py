@@ -55,6 +55,7 @@ def main() -> None:
     p.add_argument("--fps", type=int, default=50, help="export (and eval) rate")
     p.add_argument("--steps", type=int, default=8000)
     p.add_argument("--batch_size", type=int, default=16)
+    p.add_argument("--save_freq", type=int, default=1000, help="checkpoint every N steps")
     p.add_argument("--lr", type=float, default=1e-4)
     p.add_argument("--dim_model", type=int, default=256)
     p.add_argument("--chunk_size", type=int, default=50)
@@ -105,7 +106,7 @@ def main() -> None:
         }),
         f"--policy.n_action_steps={args.chunk_size}", f"--policy.optimizer_lr={args.lr}",
         f"--steps={args.steps}", f"--batch_size={args.batch_size}", "--num_workers=0",
-        f"--save_freq={args.steps}", "--log_freq=200", "--wandb.enable=false",
+        f"--save_freq={min(args.save_freq, args.steps)}", "--log_freq=200", "--wandb.enable=false",
         f"--output_dir={train}",
     ], work / "train.log", env)  # fmt: skip
     losses = [

@@ -7,6 +7,7 @@ import importlib
 import pytest
 
 from trossen_arm_mujoco import cli
+from trossen_arm_mujoco.errors import Terminated
 
 
 @pytest.mark.parametrize("argv", [[], ["-h"], ["--help"]])
@@ -42,8 +43,28 @@ def test_dispatch_passes_the_remaining_arguments(monkeypatch):
     assert seen == [["--data_dir", "d", "--fps", "10"]]
 
 
-def test_subcommand_help_exits_zero(capsys):
+@pytest.mark.parametrize("name", sorted(cli.SUBCOMMANDS))
+def test_subcommand_help_names_the_command(name, capsys):
     with pytest.raises(SystemExit) as exc:
-        cli.main(["visualize", "--help"])
+        cli.main([name, "--help"])
     assert exc.value.code == 0
-    assert "--data_dir" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: trossen-mujoco {name} "), out.splitlines()[0]
+
+
+@pytest.mark.parametrize(
+    ("error", "status", "line"),
+    [
+        (KeyboardInterrupt, 130, "interrupted (Ctrl-C)\n"),
+        (Terminated, 143, "interrupted (SIGTERM)\n"),
+    ],
+)
+def test_interrupt_while_importing_the_subcommand_is_one_line(
+    error, status, line, monkeypatch, capsys
+):
+    def slow_import(name):
+        raise error
+
+    monkeypatch.setattr(cli.importlib, "import_module", slow_import)
+    assert cli.main(["export", "--help"]) == status
+    assert capsys.readouterr() == ("", line)

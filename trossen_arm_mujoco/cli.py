@@ -11,7 +11,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from trossen_arm_mujoco.errors import report_error, unknown_name_error
+from trossen_arm_mujoco.errors import report_error, run_cli, unknown_name_error
 
 SUBCOMMANDS = {
     "record": "trossen_arm_mujoco.scripts.record_sim_episodes",
@@ -42,8 +42,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return report_error(
             unknown_name_error("subcommand", name, SUBCOMMANDS, "see 'trossen-mujoco --help'")
         )
-    module = importlib.import_module(SUBCOMMANDS[name])
-    return int(module.cli(rest) or 0)
+    loaded = []  # the import takes a moment: Ctrl-C or SIGTERM meanwhile ends with one line
+    status = run_cli(lambda _: loaded.append(importlib.import_module(SUBCOMMANDS[name])))
+    if not loaded:
+        return status
+    return int(loaded[0].cli(rest) or 0)
 
 
 if __name__ == "__main__":

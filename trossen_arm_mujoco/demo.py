@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, STATIONARY_CAMERAS
-from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
 from trossen_arm_mujoco.images import encode_png, write_png  # noqa: F401  (re-exported)
 from trossen_arm_mujoco.viewer import close_viewer, display_problem, launch_viewer
 
@@ -179,7 +179,7 @@ def run_headless(flavour: str, seconds: float, seed: int | None, out_dir: Path) 
 def build_parser(flavour: str) -> argparse.ArgumentParser:
     script = "ee_sim_env.py" if flavour == "ee" else "sim_env.py"
     kind = "mocap (end-effector)" if flavour == "ee" else "joint-position"
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog=f"python trossen_arm_mujoco/{script}",
         description=f"Demo of the Stationary AI {kind} env: a live viewer when a display is "
         "available, else one PNG per camera.",

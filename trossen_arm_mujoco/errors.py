@@ -1,14 +1,31 @@
-"""User-facing errors and the command-line wrapper that turns them into one-line messages."""
+"""User-facing errors and the command-line wrapper that turns them into one-line messages.
+
+:func:`run_cli` runs a command's ``main``: a :class:`UserError` becomes one ``error: ...``
+line and exit status 2; Ctrl-C (SIGINT) and SIGTERM both unwind the command as a
+``KeyboardInterrupt`` (SIGTERM as its subclass :class:`Terminated`, and so do SIGHUP and
+the other signals that would end the process), so every cleanup written for Ctrl-C also
+runs for them, and end with one ``interrupted (...)`` line and exit status 130 or 143
+(128 + the signal). A command says what an interruption kept with :func:`interrupt_note`.
+"""
 
 from __future__ import annotations
 
+import argparse
+import errno
+import os
+import signal
 import sys
-from collections.abc import Callable, Iterable, Sequence
+import threading
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any
 
 #: Exit status of a command-line entry point after a user error.
 EXIT_USER_ERROR = 2
-#: Exit status after Ctrl-C or SIGTERM (128 + SIGINT).
-EXIT_INTERRUPTED = 130
+#: Exit status after Ctrl-C (128 + SIGINT).
+EXIT_INTERRUPTED = 128 + signal.SIGINT
+#: Exit status after SIGTERM (128 + SIGTERM).
+EXIT_TERMINATED = 128 + signal.SIGTERM
 
 
 class UserError(Exception):
@@ -19,17 +36,91 @@ class UserError(Exception):
     """
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (or another signal that would end the process), raised in the main thread
+    while :func:`run_cli` runs a command.
+
+    A ``KeyboardInterrupt``, so code that cleans up after Ctrl-C cleans up after SIGTERM
+    alike; :func:`run_cli` exits with status 128 + :attr:`signum` (143 for SIGTERM).
+    """
+
+    def __init__(self, signum: int = signal.SIGTERM) -> None:
+        super().__init__(_signal_name(signum))
+        self.signum = int(signum)
+
+    def __reduce__(self):  # the signal number survives pickling (worker pools)
+        return (type(self), (self.signum,))
+
+
+def _signal_name(signum: int) -> str:
+    try:
+        return signal.Signals(signum).name
+    except ValueError:
+        return f"signal {signum}"
+
+
+def raise_terminated(signum: int, frame: Any) -> None:
+    """Signal handler raising :class:`Terminated`: SIGTERM handled like Ctrl-C.
+
+    :func:`run_cli` installs it; a command that installs a SIGTERM handler of its own can
+    install this one and keep exit status 143.
+    """
+    _received.append(signum)
+    raise Terminated(signum)
+
+
+#: Signals :func:`raise_terminated` turned into exceptions during the current command.
+_received: list[int] = []
+
+#: Signals whose default action ends the process, handled like SIGTERM by :func:`run_cli`
+#: (SIGTERM always, unless ignored; the others where no handler is installed). Not SIGKILL
+#: (it cannot be caught), nor the faults (SIGSEGV, SIGABRT...): after those nothing can run.
+TERMINATING_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name)
+    for name in (
+        "SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGALRM", "SIGVTALRM",
+        "SIGPROF", "SIGXCPU",
+    )
+    if hasattr(signal, name)
+)  # fmt: skip
+
+
+def _default_sigterm_in_child() -> None:
+    """A process forked while a command runs (a worker pool) is not the command: SIGTERM
+    and the others end it at once, as before, instead of unwinding a copy of the command."""
+    for sig in TERMINATING_SIGNALS:
+        if signal.getsignal(sig) is raise_terminated:
+            signal.signal(sig, signal.SIG_DFL)
+    _received.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_default_sigterm_in_child)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` whose flag mistakes are a ``UserError`` (one ``error:``
+    line and exit 2 through ``run_cli``) instead of usage text plus an error line."""
+
+    def error(self, message: str):  # type: ignore[override]
+        raise UserError(f"{message} (see '{self.prog} --help')")
+
+
 def report_error(message: object, status: int = EXIT_USER_ERROR) -> int:
     """Print ``error: <message>`` to stderr as one line and return the exit status.
 
     A message spanning several lines is joined with "; ", so stderr holds exactly one
     line per error. Usage in a command's ``main``: ``return report_error(msg, 1)``.
     """
+    print(f"error: {_one_line(message)}", file=sys.stderr)
+    return status
+
+
+def _one_line(message: object) -> str:
     text = str(message)
     if "\n" in text:
         text = "; ".join(line.strip() for line in text.splitlines() if line.strip())
-    print(f"error: {text}", file=sys.stderr)
-    return status
+    return text
 
 
 def unknown_name_error(kind: str, name: str, valid: Iterable[str], hint: str = "") -> UserError:
@@ -41,18 +132,108 @@ def unknown_name_error(kind: str, name: str, valid: Iterable[str], hint: str = "
     return UserError(msg)
 
 
+def describe_os_error(exc: BaseException) -> str:
+    """The cause of a failed file operation in a few words: ``No space left on device
+    (ENOSPC)``; the exception's own text when it has no errno."""
+    number = getattr(exc, "errno", None)
+    if isinstance(number, int) and number:
+        return f"{os.strerror(number)} ({errno.errorcode.get(number, number)})"
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def os_error_hint(exc: BaseException, flag: str) -> str:
+    """What to do about a failed write, naming the flag that chose the place (``--output``)."""
+    number = getattr(exc, "errno", None)
+    if number in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        return f"free some disk space or choose another {flag}"
+    if number == errno.EROFS:
+        return f"the file system is read-only; choose another {flag}"
+    if number in (errno.EACCES, errno.EPERM):
+        return f"check the folder's permissions (and immutable attribute) or choose another {flag}"
+    if number in (errno.ENOTDIR, errno.EEXIST):
+        return f"a file is in the way; choose another {flag}"
+    if number in (errno.EBUSY, errno.EXDEV):
+        return f"{flag} is a mount point or on another file system; give a folder inside it"
+    return f"check the folder or choose another {flag}"
+
+
+@contextmanager
+def interrupt_note(describe: Callable[[], str]) -> Iterator[None]:
+    """Say what a Ctrl-C or SIGTERM inside the block kept: ``describe()`` is called when the
+    interrupt passes through, and :func:`run_cli` prints it after ``interrupted (...):``.
+
+    The innermost note wins (it knows the most).
+    """
+    try:
+        yield
+    except KeyboardInterrupt as exc:
+        if getattr(exc, "kept", None) is None:
+            try:
+                exc.kept = describe()
+            except Exception:  # a note must never replace the interrupt
+                pass
+        raise
+
+
+def _install_handlers() -> dict[int, Any]:
+    """Make SIGTERM and the other :data:`TERMINATING_SIGNALS` raise :class:`Terminated`
+    (main thread only; an ignored signal stays ignored, a handler already installed for one
+    of the others stays). Returns the handlers replaced."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    previous = {}
+    for sig in TERMINATING_SIGNALS:
+        old = signal.getsignal(sig)
+        if old in (signal.SIG_IGN, None) or (sig != signal.SIGTERM and old != signal.SIG_DFL):
+            continue  # ignored, a handler not from Python (faulthandler), or one in place
+        signal.signal(sig, raise_terminated)
+        previous[sig] = old
+    return previous
+
+
+def _restore_handlers(previous: dict[int, Any]) -> None:
+    for sig, old in previous.items():
+        signal.signal(sig, old)
+    previous.clear()
+
+
+def _interrupt_line(exc: KeyboardInterrupt, signum: int) -> str:
+    name = "Ctrl-C" if signum == signal.SIGINT else _signal_name(signum)
+    kept = getattr(exc, "kept", None)
+    return f"interrupted ({name}): {_one_line(kept)}" if kept else f"interrupted ({name})"
+
+
 def run_cli(
     main: Callable[[Sequence[str] | None], int | None], argv: Sequence[str] | None = None
 ) -> int:
     """Run a CLI ``main`` and map user errors to a one-line message and exit code 2.
 
-    KeyboardInterrupt exits with 130 after the callee has cleaned up.
+    For the duration of ``main``, SIGTERM raises :class:`Terminated` (a
+    ``KeyboardInterrupt``) in the main thread, and so do the other signals that would end
+    the process (:data:`TERMINATING_SIGNALS`) where no handler is installed; a handler
+    ``main`` installs itself replaces that one, and the previous handlers are restored
+    afterwards. An interrupt that reaches here, after the callee has cleaned up, prints one
+    line (with the callee's :func:`interrupt_note`) and exits with 130 after Ctrl-C, 143
+    after SIGTERM (128 + the signal's number).
     """
+    previous = _install_handlers()
+    _received.clear()
     try:
-        rc = main(argv)
-    except UserError as exc:
-        return report_error(exc)
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    return int(rc or 0)
+        try:
+            rc = main(argv)
+        except UserError as exc:
+            message = str(exc)
+            _restore_handlers(previous)
+            return report_error(message)
+        return int(rc or 0)
+    except KeyboardInterrupt as exc:
+        if isinstance(exc, Terminated):
+            signum = exc.signum
+        else:  # a handler's exception caught and raised again as a plain one
+            signum = _received[0] if _received else signal.SIGINT
+        _restore_handlers(previous)
+        print(_interrupt_line(exc, signum), file=sys.stderr)
+        return 128 + int(signum)
+    finally:
+        _restore_handlers(previous)
+        _received.clear()

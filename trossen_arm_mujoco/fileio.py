@@ -3,21 +3,38 @@
 Every file the package writes goes through here: the content is written to a temporary
 sibling ``.<name>.tmp`` (same folder, hence same file system, and hidden), fsynced, and
 renamed onto the final name; the folder is fsynced so that the rename survives a crash.
-On any error, Ctrl-C included, the temporary file is removed.
+On any error, Ctrl-C and SIGTERM included, the temporary file is removed.
 
 - :func:`atomic_path`: a context manager yielding the temporary path to write.
 - :func:`publish`: the last step alone, for writers that keep a temporary file open across
   many calls (the episode writer) or move a finished file into place (the recorder).
+- :func:`deferred_signals`: hold Ctrl-C, SIGTERM and the like over a few steps that must
+  finish together (a rename and its cleanup), then deliver them.
+- :func:`folder_lock` and :func:`remove_stale_temps`: one writer per output folder, and the
+  temporary files of a killed (SIGKILL) run removed by the next.
 """
 
 from __future__ import annotations
 
 import os
+import re
+import shutil
+import signal
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from trossen_arm_mujoco.errors import TERMINATING_SIGNALS
+
 PathLike = str | os.PathLike[str]
+
+#: Signals held by :func:`deferred_signals`: Ctrl-C and those that would end the process.
+DEFERRED_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, *TERMINATING_SIGNALS)
+
+
+class FolderBusyError(OSError):
+    """Another process holds the lock of the folder (:func:`folder_lock`)."""
 
 
 def temp_path(path: PathLike) -> Path:
@@ -69,6 +86,14 @@ def publish(src: PathLike, dst: PathLike, *, overwrite: bool = False, fsync: boo
     src, dst = Path(src), Path(dst)
     if fsync:
         fsync_file(src)
+    with deferred_signals():  # the link and the unlink of src go together
+        _move(src, dst, overwrite)
+    if fsync:
+        fsync_dir(dst.parent)
+    return dst
+
+
+def _move(src: Path, dst: Path, overwrite: bool) -> None:
     if overwrite:
         os.replace(src, dst)
     else:
@@ -82,9 +107,6 @@ def publish(src: PathLike, dst: PathLike, *, overwrite: bool = False, fsync: boo
             os.replace(src, dst)
         else:
             src.unlink()
-    if fsync:
-        fsync_dir(dst.parent)
-    return dst
 
 
 @contextmanager
@@ -109,7 +131,8 @@ def atomic_path(path: PathLike, *, overwrite: bool = True, fsync: bool = True) -
         yield tmp
         publish(tmp, path, overwrite=overwrite, fsync=fsync)
     finally:
-        tmp.unlink(missing_ok=True)
+        with deferred_signals():  # a second Ctrl-C must not skip the cleanup
+            tmp.unlink(missing_ok=True)
 
 
 def write_bytes(path: PathLike, data: bytes, *, overwrite: bool = True) -> Path:
@@ -122,3 +145,98 @@ def write_bytes(path: PathLike, data: bytes, *, overwrite: bool = True) -> Path:
 def write_text(path: PathLike, text: str, *, overwrite: bool = True) -> Path:
     """Atomically write ``text`` (UTF-8) to ``path`` (see :func:`atomic_path`)."""
     return write_bytes(path, text.encode("utf-8"), overwrite=overwrite)
+
+
+@contextmanager
+def deferred_signals() -> Iterator[None]:
+    """Hold SIGINT, SIGTERM and the other signals that would end the process until the block
+    ends, then deliver them to the handlers that were in place (a ``KeyboardInterrupt``
+    raised at the end of the block, say).
+
+    For a few steps that must not be cut in half: a rename and the cleanup that goes with
+    it, the removal of a temporary file. Only the main thread handles signals; elsewhere
+    (and for a signal that was ignored) this does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+
+    def hold(signum: int, frame: object) -> None:
+        caught.append(signum)
+
+    previous = {}
+    try:
+        for sig in DEFERRED_SIGNALS:
+            old = signal.getsignal(sig)
+            if old not in (signal.SIG_IGN, None):  # None: a handler not from Python
+                previous[sig] = old
+                signal.signal(sig, hold)
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+        for sig in dict.fromkeys(caught):  # once each, in arrival order
+            signal.raise_signal(sig)
+
+
+@contextmanager
+def folder_lock(folder: PathLike) -> Iterator[Path]:
+    """Hold an exclusive lock on ``folder`` (which must exist) for the block.
+
+    An advisory ``flock`` on the folder itself, so nothing is left behind; the OS releases
+    it when the process dies, even by SIGKILL. Where ``flock`` is missing (Windows) the
+    block runs unlocked.
+
+    Raises:
+        FolderBusyError: another process holds the lock.
+    """
+    folder = Path(folder)
+    try:
+        import fcntl
+    except ImportError:  # no flock on this platform
+        yield folder
+        return
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusyError(f"{folder} is in use by another process") from None
+        yield folder
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def remove_stale_temps(folder: PathLike, final_name: str | re.Pattern[str]) -> list[Path]:
+    """Delete the temporary siblings (:func:`temp_path`) that a killed run left in ``folder``:
+    those whose final name matches ``final_name`` (a regular expression matched whole).
+
+    Only call it while holding the folder (:func:`folder_lock`): a temporary file of a run
+    in progress is not stale. Folders are removed with their content. Returns the deleted
+    paths (none when ``folder`` does not exist or cannot be listed).
+    """
+    pattern = re.compile(final_name)
+    removed = []
+    try:
+        entries = sorted(Path(folder).iterdir())
+    except OSError:
+        return []
+    for path in entries:
+        name = path.name
+        if not (name.startswith(".") and name.endswith(".tmp")):
+            continue
+        if not pattern.fullmatch(name[1 : -len(".tmp")]):
+            continue
+        with deferred_signals():
+            try:
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path)
+                else:
+                    path.unlink()
+            except FileNotFoundError:
+                pass
+            except OSError:  # read-only: the write that follows says so
+                continue
+        removed.append(path)
+    return removed

@@ -22,6 +22,8 @@ from trossen_arm_mujoco.errors import UserError  # noqa: E402
 from trossen_arm_mujoco.scripts.record_sim_episodes import cli  # noqa: E402
 
 STATE = RecordSettings(episode_len=20)
+#: The shortest episodes the scripted transfer succeeds in (failed ones are recorded again).
+SUCCEEDS = RecordSettings(episode_len=440)
 CAMERA = RecordSettings(episode_len=20, cam_names=("cam_high",), height=16, width=16)
 
 
@@ -106,12 +108,12 @@ def test_ray_and_local_give_identical_files(ray_instance, tmp_path):
 
 
 def test_resume_continues_after_highest_index(ray_instance, tmp_path):
-    _on_ray(tmp_path / "r", 1)
+    _on_ray(tmp_path / "r", 1, SUCCEEDS)
     before = (tmp_path / "r" / "episode_0.hdf5").stat().st_mtime_ns
-    report = _on_ray(tmp_path / "r", 3)
+    report = _on_ray(tmp_path / "r", 3, SUCCEEDS)
     assert [o.attempt for o in report.saved] == [1, 2]
     assert (tmp_path / "r" / "episode_0.hdf5").stat().st_mtime_ns == before
-    _local(tmp_path / "l", 3)
+    _local(tmp_path / "l", 3, SUCCEEDS)
     for k in range(3):
         _assert_same_file(
             tmp_path / "l" / f"episode_{k}.hdf5", tmp_path / "r" / f"episode_{k}.hdf5"
@@ -193,32 +195,36 @@ def test_user_error_in_a_task_is_raised_as_it_is(ray_instance, tmp_path):
         _on_ray(tmp_path, 1, before_attempt=refuse)
 
 
-def test_interrupt_keeps_only_episodes_without_gap_and_resume_completes(ray_instance, tmp_path):
-    """Ctrl-C while attempt 1 runs and attempt 2 has finished: only episode 0 is kept (attempt
-    2 is not published before 1), nothing else is left, and a rerun completes the dataset."""
+def test_interrupt_publishes_finished_attempts_and_resume_fills_the_gap(ray_instance, tmp_path):
+    """Ctrl-C while attempt 1 runs and attempt 2 has finished: episodes 0 and 2 are kept
+    (nothing finished is lost), nothing else is left, and a rerun records episode 1 with
+    attempt 1, completing the dataset of an uninterrupted run."""
     folder, markers = tmp_path / "r", tmp_path / "markers"
     markers.mkdir()
 
     def slow_first_run(k: int) -> None:
-        deadline = time.time() + 60
+        deadline = time.time() + 120
         while k == 1 and not (markers / "resume").exists() and time.time() < deadline:
             time.sleep(0.05)
 
     def interrupt_once_2_is_done(line: str) -> None:
         if line.startswith("episode 0:"):
-            deadline = time.time() + 60
+            deadline = time.time() + 120
             while not (folder / STAGING / "attempt_2.hdf5").exists():
                 assert time.time() < deadline, "attempt 2 never finished"
                 time.sleep(0.05)
             raise KeyboardInterrupt
 
-    report = _on_ray(folder, 3, log=interrupt_once_2_is_done, before_attempt=slow_first_run)
-    assert report.interrupted and [o.attempt for o in report.saved] == [0]
-    assert _names(folder) == ["episode_0.hdf5"]
+    report = _on_ray(
+        folder, 3, SUCCEEDS, log=interrupt_once_2_is_done, before_attempt=slow_first_run
+    )
+    assert report.interrupted and [o.attempt for o in report.saved] == [0, 2]
+    assert report.saved_at == [0, 2]
+    assert _names(folder) == ["episode_0.hdf5", "episode_2.hdf5"]
     (markers / "resume").write_text("")
-    report = _on_ray(folder, 3, before_attempt=slow_first_run)
-    assert [o.attempt for o in report.saved] == [1, 2]
-    _local(tmp_path / "l", 3)
+    report = _on_ray(folder, 3, SUCCEEDS, before_attempt=slow_first_run)
+    assert [o.attempt for o in report.saved] == [1] and report.saved_at == [1]
+    _local(tmp_path / "l", 3, SUCCEEDS)
     for k in range(3):
         _assert_same_file(tmp_path / "l" / f"episode_{k}.hdf5", folder / f"episode_{k}.hdf5")
 
@@ -227,7 +233,7 @@ def test_record_cli_engine_ray(ray_instance, tmp_path, capsys):
     args = ["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "20"]
     rc = cli([*args, "--cam_names", "none", "--num_episodes", "2", "--engine", "ray"])
     out = capsys.readouterr().out
-    assert rc == 0, out
+    assert rc == 1, out  # the episodes failed (kept): exit status 1
     # 20 steps are too short for the scripted transfer: both fail, and the line says why
     assert out.strip().splitlines()[-1].startswith("Success: 0 / 2; 2 of 2 episodes failed")
     assert [k for k, _ in list_episodes(tmp_path / "d")] == [0, 1]

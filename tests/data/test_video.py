@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 import tracemalloc
 
+import h5py
 import numpy as np
 import pytest
 from PIL import Image
@@ -164,3 +165,36 @@ def test_failed_plot_keeps_the_old_file_and_leaves_no_temp(tmp_path, make_episod
         plot_joints(load_episode(path), out)
     assert out.read_bytes() == b"previous plot"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["episode_0.hdf5", "episode_0_joints.png"]
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.02, float("nan"), "fast"])
+def test_plot_joints_with_an_invalid_dt_plots_against_steps(tmp_path, make_episode, dt):
+    path = tmp_path / "episode_0.hdf5"
+    make_episode(path, num_steps=4, cams=[])
+    with h5py.File(path, "r+") as f:
+        f.attrs["dt"] = dt
+    out = plot_joints(load_episode(path), tmp_path / "episode_0_joints.png")
+    with Image.open(out) as img:
+        assert img.format == "PNG"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["episode_0.hdf5", "episode_0_joints.png"]
+    assert video._step_period(load_episode(path)) is None
+
+
+def test_interrupted_video_leaves_no_temp(tmp_path, make_episode, monkeypatch):
+    """Ctrl-C (or SIGTERM, which run_cli raises the same way) mid-video: no file, no temp."""
+    path = tmp_path / "episode_0.hdf5"
+    make_episode(path, num_steps=5, cams=["a"], height=24, width=32)
+    real_compose = video.CameraGrid.compose
+    calls = []
+
+    def compose_then_interrupt(self, frames):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real_compose(self, frames)
+
+    monkeypatch.setattr(video.CameraGrid, "compose", compose_then_interrupt)
+    out = tmp_path / "videos" / "episode_0.mp4"
+    with pytest.raises(KeyboardInterrupt):
+        write_episode_video(load_episode(path), out)
+    assert list(out.parent.iterdir()) == []

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import tracemalloc
 
 import h5py
@@ -85,7 +86,7 @@ def test_exception_mid_episode_leaves_nothing(tmp_path):
         EpisodeWriter(path, 4, ["cam_a"], H, W, attrs=ATTRS) as w,
     ):
         w.append(**_step())
-        assert (tmp_path / ".episode_0.hdf5.tmp").exists()
+        assert w.temp_path.exists() and w.temp_path.parent == tmp_path
         assert list_episodes(tmp_path) == []
         raise RuntimeError("boom")
     assert _files(tmp_path) == []
@@ -213,13 +214,69 @@ def test_creates_folder_and_set_attrs_at_end(tmp_path):
 
 
 def test_remove_stale_temp_files(tmp_path, make_episode):
+    import subprocess
+    import sys
+
     make_episode(tmp_path / "episode_0.hdf5", num_steps=1, cams=[])
-    stale = tmp_path / ".episode_1.hdf5.tmp"
-    stale.write_bytes(b"partial")
-    (tmp_path / "notes.tmp").write_text("keep")
-    assert remove_stale_temp_files(tmp_path) == [stale]
-    assert _files(tmp_path) == ["episode_0.hdf5", "notes.tmp"]
+    old_style = tmp_path / ".episode_1.hdf5.tmp"
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)  # fmt: skip
+    dead_writer = tmp_path / f".episode_2.hdf5.{int(gone.stdout)}-0a1b2c3d.tmp"
+    mine = tmp_path / f".episode_3.hdf5.{os.getpid()}-0a1b2c3d.tmp"
+    for path in (old_style, dead_writer, mine):
+        path.write_bytes(b"partial")
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:  # a writer that still runs (outside any locked run) keeps its file
+        running = tmp_path / f".episode_4.hdf5.{live.pid}-0a1b2c3d.tmp"
+        running.write_bytes(b"being written")
+        (tmp_path / "notes.tmp").write_text("keep")
+        assert remove_stale_temp_files(tmp_path) == [old_style, dead_writer, mine]
+        assert _files(tmp_path) == [running.name, "episode_0.hdf5", "notes.tmp"]
+    finally:
+        live.kill()
+        live.wait()
+    assert remove_stale_temp_files(tmp_path) == [running]
     assert remove_stale_temp_files(tmp_path / "missing") == []
+
+
+def test_temporary_names_are_unique_per_writer(tmp_path):
+    """Two writers of one episode name never share a temporary file (two runs on one
+    folder used to delete and overwrite each other's)."""
+    path = tmp_path / "episode_0.hdf5"
+    first = EpisodeWriter(path, 1, attrs=ATTRS)
+    second = EpisodeWriter(path, 1, attrs=ATTRS)
+    try:
+        assert first.temp_path != second.temp_path
+        for w in (first, second):
+            assert w.temp_path.name.startswith(f".episode_0.hdf5.{os.getpid()}-")
+            assert w.temp_path.name.endswith(".tmp")
+        first.append(**_step(cams=()))
+        first.close()
+        second.append(**_step(cams=()))
+        with pytest.raises(EpisodeWriteError, match="appeared while writing"):
+            second.close()
+    finally:
+        second.abort()
+    assert _files(tmp_path) == ["episode_0.hdf5"]
+    assert load_episode(path).num_steps == 1
+
+
+def test_a_file_that_does_not_read_back_is_not_published(tmp_path, monkeypatch):
+    from trossen_arm_mujoco.data import reader
+
+    def unreadable(path, load_images=False):
+        raise reader.EpisodeError(f"{path}: not a readable HDF5 episode file (truncated?)")
+
+    monkeypatch.setattr(reader, "load_episode", unreadable)
+    with pytest.raises(EpisodeWriteError, match="does not read back") as exc_info:
+        with EpisodeWriter(tmp_path / "episode_0.hdf5", 1, attrs=ATTRS) as w:
+            w.append(**_step(cams=()))
+    _assert_one_line(exc_info)
+    assert _files(tmp_path) == []
+    monkeypatch.undo()
+    with EpisodeWriter(tmp_path / "episode_0.hdf5", 1, attrs=ATTRS, verify=False) as w:
+        w.append(**_step(cams=()))
+    assert _files(tmp_path) == ["episode_0.hdf5"]
 
 
 def test_writer_owned_attributes_cannot_change(tmp_path):
@@ -285,7 +342,7 @@ def test_commit_is_flushed_to_disk(tmp_path, monkeypatch):
     with EpisodeWriter(path, 1, attrs=ATTRS) as w:
         w.append(**_step(cams=()))
         assert synced == []
-    assert synced == [("file", str(tmp_path / ".episode_0.hdf5.tmp")), ("dir", str(tmp_path))]
+    assert synced == [("file", str(w.temp_path)), ("dir", str(tmp_path))]
     assert os.path.exists(path)
 
 

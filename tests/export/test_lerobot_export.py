@@ -2,18 +2,25 @@
 
 tests/export/test_lerobot_load.py loads the same kind of export with the real
 ``LeRobotDataset``; this file checks the written files directly so the feature is tested
-wherever pyarrow and PyAV are installed.
+wherever pyarrow and PyAV are installed. Also: one-line errors for bad episodes and for
+output folders that refuse the writes, and Ctrl-C / SIGTERM in a real process.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
+import signal
+import subprocess
 import sys
+import time
+from contextlib import contextmanager
 from fractions import Fraction
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
@@ -27,11 +34,12 @@ from trossen_arm_mujoco.constants import START_ARM_POSE  # noqa: E402
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode  # noqa: E402
 from trossen_arm_mujoco.data.schema import JOINT_NAMES  # noqa: E402
 from trossen_arm_mujoco.data.writer import EpisodeWriter  # noqa: E402
-from trossen_arm_mujoco.export import export_lerobot  # noqa: E402
+from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
 from trossen_arm_mujoco.export import lerobot_format as fmt  # noqa: E402
 from trossen_arm_mujoco.export.lerobot import frame_values  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_plan import frame_map  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo  # noqa: E402
+from trossen_arm_mujoco.fileio import folder_lock  # noqa: E402
 from trossen_arm_mujoco.scripts.export_dataset import cli  # noqa: E402
 from trossen_arm_mujoco.tasks import registry  # noqa: E402
 
@@ -593,3 +601,228 @@ def test_frame_map_follows_the_rule_exactly(source):
     assert np.array_equal(same.action_index, np.arange(9)) and not same.action_frac.any()
     assert np.array_equal(same.image_index, np.arange(9))
     assert np.array_equal(same.reward_index, np.arange(9))
+
+
+# -- bad step periods, output folders that refuse the writes ------------------------------------
+
+
+def _one_error(capfd) -> str:
+    """The one ``error:`` line of a failed run (stderr at the file-descriptor level, library
+    noise included); no traceback."""
+    out, err = capfd.readouterr()
+    assert "Traceback" not in err + out
+    lines = [line for line in err.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def _export(data: Path, out: Path, *extra: str) -> int:
+    return cli(["--data_dir", str(data), "--output", str(out), "--repo_id", "me/ds", *extra])
+
+
+def _temps(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.rglob("*") if p.name.endswith((".tmp", ".old")))
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.02, float("nan"), float("inf"), "fast"])
+def test_bad_step_period_is_one_line_exit_2(tmp_path, capfd, make_episode, dt):
+    data = tmp_path / "eps"
+    make_episode(data / "episode_0.hdf5", 3, [], seed=0)
+    with h5py.File(data / "episode_0.hdf5", "r+") as f:
+        f.attrs["dt"] = dt
+    assert _export(data, tmp_path / "ds") == 2
+    line = _one_error(capfd)
+    assert "episode_0.hdf5: step period dt=" in line and "not a positive number" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["eps"]
+
+
+@contextmanager
+def tmpfs(path: Path, size: str = "64k", read_only: bool = False, folders: tuple = ()):
+    """A tiny tmpfs mounted at ``path`` (a full disk after ``size``), or a read-only one
+    holding ``folders``; skips when this process cannot mount (not root)."""
+    path.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+        capture_output=True,
+        text=True,
+    )
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs (needs root): {proc.stderr.strip()}")
+    try:
+        for name in folders:
+            (path / name).mkdir()
+        if read_only:
+            subprocess.run(["mount", "-o", "remount,ro", str(path)], check=True)
+        yield path
+    finally:
+        if subprocess.run(["umount", str(path)]).returncode != 0:
+            subprocess.run(["umount", "-l", str(path)])
+
+
+@contextmanager
+def immutable(path: Path):
+    """``path`` (a folder) with the immutable attribute: nothing, root included, may create
+    files in it; skips where ``chattr +i`` is unavailable."""
+    path.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.run(["chattr", "+i", str(path)], capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot set the immutable attribute: {proc.stderr.strip() or 'no chattr'}")
+    try:
+        yield path
+    finally:
+        subprocess.run(["chattr", "-i", str(path)], check=True)
+
+
+def test_read_only_output(tmp_path, capfd, make_episode):
+    data = tmp_path / "eps"
+    make_episode(data / "episode_0.hdf5", 3, ["top"], seed=0)
+    with tmpfs(tmp_path / "ro", read_only=True, folders=("ds",)) as ro:
+        for out in (ro / "ds", ro / "new" / "ds"):  # an empty folder there, or none
+            assert _export(data, out) == 2
+            line = _one_error(capfd)
+            assert "Read-only file system (EROFS)" in line and "choose another --output" in line
+        assert os.listdir(ro) == ["ds"] and os.listdir(ro / "ds") == []
+
+
+def test_full_disk(tmp_path, capfd):
+    data = tmp_path / "eps"
+    _noise_episodes(data, episodes=2, steps=20)
+    with tmpfs(tmp_path / "full", size="64k") as full:
+        assert _export(data, full / "ds") == 2
+        line = _one_error(capfd)
+        assert f"export to {full / 'ds'} failed: No space left on device (ENOSPC)" in line
+        assert "the partial dataset was removed" in line and "free some disk space" in line
+        assert os.listdir(full) == []  # the build folder is gone
+
+
+def test_immutable_parent(tmp_path, capfd, make_episode):
+    data = tmp_path / "eps"
+    make_episode(data / "episode_0.hdf5", 3, [], seed=0)
+    with immutable(tmp_path / "frozen") as frozen:
+        assert _export(data, frozen / "ds") == 2
+        line = _one_error(capfd)
+        assert "Operation not permitted (EPERM)" in line and "immutable" in line
+        assert os.listdir(frozen) == []
+
+
+def test_output_on_a_mount_point(tmp_path, capfd, make_episode):
+    data = tmp_path / "eps"
+    make_episode(data / "episode_0.hdf5", 3, [], seed=0)
+    with tmpfs(tmp_path / "mnt", size="1m") as mnt:
+        assert _export(data, mnt) == 2
+        assert "is a mount point; give a folder inside it" in _one_error(capfd)
+        assert _export(data, mnt / "ds") == 0
+    assert _temps(tmp_path) == []
+
+
+def test_rerun_removes_a_killed_runs_build_folder(tmp_path, capfd, make_episode):
+    """SIGKILL runs no handler: the next export empties and reuses the build folder."""
+    data, out = tmp_path / "eps", tmp_path / "ds"
+    make_episode(data / "episode_0.hdf5", 3, [], seed=0)
+    stale = tmp_path / ".ds.tmp"
+    (stale / "data" / "chunk-000").mkdir(parents=True)
+    (stale / "data" / "chunk-000" / "file-000.parquet").write_bytes(b"half a file")
+    assert _export(data, out) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
+    assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 3
+
+
+def test_rerun_restores_a_dataset_a_killed_overwrite_moved_aside(tmp_path, capfd, make_episode):
+    """Killed between moving the old dataset aside and moving the new one in: the next run
+    puts the old one back (never lost), then behaves as with that dataset in place."""
+    data, out = tmp_path / "eps", tmp_path / "ds"
+    make_episode(data / "episode_0.hdf5", 3, [], seed=0)
+    assert _export(data, out) == 0
+    out.rename(tmp_path / ".ds.old")
+    (tmp_path / ".ds.tmp").mkdir()
+    capfd.readouterr()
+    assert _export(data, out) == 2
+    assert "is not empty; choose another --output or pass --overwrite" in _one_error(capfd)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
+    assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 3
+    make_episode(data / "episode_1.hdf5", 4, [], seed=1)
+    (tmp_path / ".ds.old").mkdir()  # moved aside, new one in place, old not yet removed
+    assert _export(data, out, "--overwrite") == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
+    assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 7
+
+
+def test_another_export_to_the_same_output(tmp_path, capfd, make_episode):
+    data, out = tmp_path / "eps", tmp_path / "ds"
+    make_episode(data / "episode_0.hdf5", 3, [], seed=0)
+    (tmp_path / ".ds.tmp").mkdir()
+    with folder_lock(tmp_path / ".ds.tmp"):
+        assert _export(data, out) == 2
+        assert (tmp_path / ".ds.tmp").is_dir()  # the other export's folder is left alone
+    assert "another export is writing" in _one_error(capfd)
+    assert _export(data, out) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
+
+
+# -- Ctrl-C and SIGTERM in a real process --------------------------------------------------------
+
+
+def _noise_episodes(folder: Path, episodes: int = 4, steps: int = 120) -> None:
+    """Episodes whose videos take a while to encode: noise images, 2 cameras 96x128."""
+    rng = np.random.default_rng(1)
+    cams = ["cam_high", "cam_low"]
+    attrs = {"task_name": "sim_transfer_cube", "seed": 0, "success": False}
+    first = folder / "episode_0.hdf5"
+    with EpisodeWriter(first, steps, cams, 96, 128, attrs=attrs) as writer:
+        for _ in range(steps):
+            images = {c: rng.integers(0, 256, (96, 128, 3), dtype=np.uint8) for c in cams}
+            pose = np.r_[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+            writer.append(rng.normal(size=16), np.zeros(16), np.zeros(16), 0.0, pose, images)
+    for k in range(1, episodes):
+        shutil.copy(first, folder / f"episode_{k}.hdf5")
+
+
+def _default_sigint() -> None:  # a background shell may start us with SIGINT ignored
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.mark.parametrize(
+    ("sig", "status", "name", "overwrite"),
+    [(signal.SIGTERM, 143, "SIGTERM", False), (signal.SIGINT, 130, "Ctrl-C", True)],
+)
+def test_signal_mid_write_leaves_no_temporary_folder(tmp_path, sig, status, name, overwrite):
+    data, out = tmp_path / "eps", tmp_path / "ds"
+    _noise_episodes(data)
+    if overwrite:  # a dataset in place (of the first episode), to be replaced
+        first = tmp_path / "first"
+        first.mkdir()
+        shutil.copy(data / "episode_0.hdf5", first)
+        export_lerobot(first, out, "me/ds", progress=False, video=VideoSettings(codec="h264"))
+        shutil.rmtree(first)
+    cmd = [
+        sys.executable, "-m", "trossen_arm_mujoco.cli", "export", "--data_dir", str(data),
+        "--output", str(out), "--repo_id", "me/ds", *(["--overwrite"] if overwrite else []),
+    ]  # fmt: skip
+    proc = subprocess.Popen(
+        cmd, cwd=Path(__file__).parents[2], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, preexec_fn=_default_sigint,
+    )  # fmt: skip
+    build = tmp_path / ".ds.tmp"
+    deadline = time.time() + 120
+    try:  # wait for the first episode's frames in the build folder
+        while not (build.is_dir() and any(build.rglob("*.parquet"))):
+            assert proc.poll() is None, proc.communicate()
+            assert time.time() < deadline, "no frames written within 120 s"
+            time.sleep(0.005)
+        proc.send_signal(sig)
+        stdout, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == status, err
+    assert "Traceback" not in err and stdout == ""
+    lines = [line for line in err.splitlines() if line.startswith(("interrupted", "error"))]
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"interrupted ({name}): the partial dataset was removed; ")
+    assert _temps(tmp_path) == []
+    if overwrite:
+        assert lines[0].endswith(f"the dataset already in {out} is unchanged")
+        assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 120
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
+    else:
+        assert lines[0].endswith(f"nothing was written to {out}")
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["eps"]

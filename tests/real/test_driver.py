@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.metadata
 import sys
+import time
 import types
 
 import numpy as np
@@ -153,6 +154,19 @@ def test_wall_clock_sleeps_in_real_time() -> None:
     clock.sleep(0.01)
     clock.sleep(-1.0)
     assert 0.009 <= clock.now() - t0 < 0.5
+
+
+def test_realtime_sim_clock_paces_the_twin_to_the_wall_clock() -> None:
+    fast, paced = SimClock(), SimClock(realtime=True)
+    arms = [SimArmDriver(fast), SimArmDriver(paced)]
+    t0 = time.monotonic()
+    fast.sleep(0.2)
+    assert time.monotonic() - t0 < 0.2  # as fast as it simulates
+    t0 = time.monotonic()
+    for _ in range(4):
+        paced.sleep(0.05)
+    assert 0.2 <= time.monotonic() - t0 < 1.0
+    assert paced.now() == pytest.approx(0.2) and arms[1].sim_time == pytest.approx(0.2)
 
 
 def test_trossen_backend_without_package_gives_install_hint(

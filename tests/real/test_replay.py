@@ -9,12 +9,28 @@ import time
 import numpy as np
 import pytest
 
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.real.clock import SimClock
-from trossen_arm_mujoco.real.driver import SLEEP_POSE
+from trossen_arm_mujoco.real.driver import HOME_POSE, SLEEP_POSE
 from trossen_arm_mujoco.real.gripper import clamp_gripper
-from trossen_arm_mujoco.real.replay import ReplayConfig, make_drivers, replay
+from trossen_arm_mujoco.real.replay import (
+    MAX_COMMAND_PERIOD,
+    MAX_FPS,
+    MIN_FPS,
+    ReplayConfig,
+    check_fps,
+    make_drivers,
+    replay,
+    wait,
+)
 from trossen_arm_mujoco.real.sim_driver import SimArmDriver
-from trossen_arm_mujoco.real.stop import StopFlag, stop_on_signals
+from trossen_arm_mujoco.real.stop import (
+    STOP_SIGNALS,
+    WAIT_SLICE,
+    Interrupted,
+    StopFlag,
+    stop_on_signals,
+)
 from trossen_arm_mujoco.real.validate import validate_actions
 
 
@@ -175,3 +191,118 @@ def test_stop_on_signals_restores_handlers_and_keeps_first_reason() -> None:
         time.sleep(0.01)
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
     assert flag.reason == "interrupted by SIGTERM" and flag.exit_code == 143
+
+
+@pytest.fixture
+def leak_guard():
+    """SIGTERM/SIGHUP/SIGQUIT raise here while a test runs, instead of ending pytest."""
+
+    def leaked(signum, _frame):
+        raise RuntimeError(f"signal leaked: {signal.Signals(signum).name}")
+
+    previous = {s: signal.signal(s, leaked) for s in STOP_SIGNALS if s != signal.SIGINT}
+    yield leaked
+    for s, old in previous.items():
+        signal.signal(s, old)
+
+
+@pytest.mark.parametrize("fps", [0.5, 1.0, 10.0, 1000.0])
+def test_check_fps_accepts_command_periods_from_1_ms_to_2_s(fps: float) -> None:
+    check_fps(fps)
+
+
+@pytest.mark.parametrize(
+    ("fps", "expected"),
+    [
+        (1e-9, "got 1e-09: one command would last 1e+09 s; one command lasts 1/fps"),
+        (0.4999, "got 0.4999: one command would last 2 s;"),
+        (0.0, "got 0: one command lasts 1/fps, which must be between 1 ms and 2 s"),
+        (-5.0, "got -5: one command lasts 1/fps"),
+        (float("nan"), "got nan:"),
+        (float("inf"), "got inf:"),
+        (1000.5, "got 1000.5:"),
+    ],
+)
+def test_check_fps_rejects_with_the_bounds_and_the_reason(fps: float, expected: str) -> None:
+    with pytest.raises(UserError) as exc:
+        check_fps(fps)
+    text = str(exc.value)
+    assert text.startswith("--fps must be in [0.5, 1000] Hz, ") and expected in text
+    assert "trossen_arm gives a whole move by default" in text and "\n" not in text
+    assert MIN_FPS == 1 / MAX_COMMAND_PERIOD == 0.5 and MAX_FPS == 1000
+
+
+class StampedArm(SimArmDriver):
+    """The twin, recording the clock time of every goal it is sent."""
+
+    def __init__(self, clock: SimClock) -> None:
+        super().__init__(clock)
+        self.stamps: list[tuple[float, np.ndarray]] = []
+
+    def set_all_positions(self, positions, goal_time, blocking) -> None:
+        self.stamps.append((self.clock.now(), np.asarray(positions, dtype=float).copy()))
+        super().set_all_positions(positions, goal_time, blocking)
+
+
+@pytest.mark.parametrize("signum", STOP_SIGNALS)
+def test_a_signal_mid_period_stops_within_one_wait_slice(signum: int, smooth, leak_guard) -> None:
+    """At 0.5 fps each command lasts 2 s; a signal 0.3 s into a period is acted on within
+    one wait slice, not at the period's end; the step is not logged (its measurement
+    would come early)."""
+    previous = signal.getsignal(signum)
+    fps, at = 0.5, 2.5 + 2.0 + 0.3  # start + settle, one period, then 0.3 s into step 1
+    clock = SignalClock(at=at, signum=signum)
+    drivers = {side: StampedArm(clock) for side in ("left", "right")}
+    traj = validate_actions(smooth(5, fps=fps), fps)
+    result = replay(traj, drivers, clock, ReplayConfig(fps=fps, progress=False))
+    assert result.status == "interrupted" and result.exit_code == 128 + signum
+    assert result.steps_done == 1 and result.late_signals == []
+    home_sent = next(t for t, goal in drivers["left"].stamps if np.allclose(goal, HOME_POSE))
+    assert clock.sent_at <= home_sent <= clock.sent_at + WAIT_SLICE + 1e-9
+    assert_asleep(result, drivers)
+    assert signal.getsignal(signum) is previous
+
+
+def test_a_signal_while_the_arms_go_home_is_only_noted(smooth, leak_guard) -> None:
+    clock = SignalClock(at=2.5 + 1.0 + 0.5, signum=signal.SIGTERM)  # streaming ends at 3.5 s
+    drivers, clock = make_drivers("sim", clock)
+    result = replay(
+        validate_actions(smooth(10), 10.0), drivers, clock, ReplayConfig(progress=False)
+    )
+    assert clock.sent_at is not None
+    assert result.status == "completed" and result.exit_code == 0 and result.reason is None
+    assert result.late_signals == ["SIGTERM"] and result.steps_done == 10
+    assert_asleep(result, drivers)
+
+
+def test_an_unarmed_flag_raises_and_a_closed_one_only_notes() -> None:
+    flag = StopFlag(armed=False)
+    with pytest.raises(Interrupted) as exc:
+        flag.on_signal(signal.SIGTERM)
+    assert exc.value.exit_code == 143 and str(exc.value) == "interrupted by SIGTERM"
+    assert isinstance(exc.value, KeyboardInterrupt) and not flag
+    flag.arm()
+    flag.on_signal(signal.SIGINT)
+    flag.on_signal(signal.SIGTERM)
+    assert flag.reason == "interrupted by SIGINT" and flag.exit_code == 130
+    flag.close()
+    flag.on_signal(signal.SIGHUP)
+    assert flag.late == ["SIGHUP"] and flag.reason == "interrupted by SIGINT"
+
+
+def test_waits_are_sliced_and_end_once_the_flag_is_set() -> None:
+    class Counting(SimClock):
+        def __init__(self) -> None:
+            super().__init__()
+            self.slices: list[float] = []
+
+        def sleep(self, seconds: float) -> None:
+            self.slices.append(seconds)
+            super().sleep(seconds)
+
+    clock, flag = Counting(), StopFlag()
+    wait(clock, 1.0, flag)
+    assert clock.now() == pytest.approx(1.0) and max(clock.slices) <= WAIT_SLICE
+    flag.set("stop", 1)
+    wait(clock, 1e9, flag)  # returns at once
+    assert clock.now() == pytest.approx(1.0)

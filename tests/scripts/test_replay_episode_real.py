@@ -14,6 +14,8 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -284,7 +286,9 @@ def test_sigint_mid_stream_returns_home_then_sleep(
 @pytest.mark.parametrize(
     ("argv", "expected"),
     [
-        (["--fps", "0"], "--fps must be in (0, 1000]"),
+        (["--fps", "0"], "--fps must be in [0.5, 1000] Hz, got 0: one command lasts 1/fps"),
+        (["--fps", "nan"], "--fps must be in [0.5, 1000] Hz, got nan"),
+        (["--fps", "1001"], "--fps must be in [0.5, 1000] Hz, got 1001"),
         (["--goal_time_factor", "-1"], "--goal_time_factor must be in (0, 20]"),
         (["--episode_idx", "7"], "episode file not found"),
         (["--gripper_max", "0"], "--gripper_max must be in (0, 0.044] m, got 0"),
@@ -404,3 +408,253 @@ def test_runs_as_a_file_on_the_sim_twin(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert "replay completed: 10 steps" in proc.stdout
     assert (tmp_path / "replay" / "episode_0_sim_tracking.csv").exists()
+
+
+# --- rate bounds, episode dt, --help, and stopping by signal at any moment -----------------
+
+
+@pytest.fixture
+def leak_guard() -> Any:
+    """While a test runs, SIGTERM/SIGHUP/SIGQUIT raise here instead of killing pytest.
+
+    The replay saves and restores these handlers; a signal it failed to catch ends the
+    test with ``RuntimeError: signal leaked`` rather than the whole session.
+    """
+
+    def leaked(signum: int, _frame: Any) -> None:
+        raise RuntimeError(f"signal leaked: {signal.Signals(signum).name}")
+
+    sigs = (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
+    previous = {s: signal.signal(s, leaked) for s in sigs}
+    yield leaked
+    for s, old in previous.items():
+        signal.signal(s, old)
+
+
+def no_matplotlib(*args: Any, **kwargs: Any) -> None:
+    raise ImportError("matplotlib")
+
+
+def temp_files(folder: Path) -> list[Path]:
+    return sorted(folder.rglob("*.tmp"))
+
+
+def test_fps_below_the_lower_bound_is_one_line_with_the_bound_and_reason(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_episode(tmp_path, smooth_actions(5))
+    spy = Spy()
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim", "--fps", "1e-9"], driver_factory=spy)
+    assert rc == 2 and spy.calls == []
+    assert one_line_error(capsys) == (
+        "error: --fps must be in [0.5, 1000] Hz, got 1e-09: one command would last 1e+09 s; "
+        "one command lasts 1/fps, which must be between 1 ms and 2 s, the goal time "
+        "trossen_arm gives a whole move by default (as do this replay's start and home moves)"
+    )
+    assert run(["--data_dir", str(tmp_path), "--fps", "0.49", "--dry_run"]) == 2
+    assert "got 0.49: one command would last 2.04 s" in one_line_error(capsys)
+    assert run(["--data_dir", str(tmp_path), "--fps", "0.5", "--dry_run"]) == 0  # the bound
+
+
+def test_fps_bound_through_the_subprocess_exits_2_with_one_line(tmp_path: Path) -> None:
+    write_episode(tmp_path, smooth_actions(5))
+    argv = ["replay-real", "--data_dir", str(tmp_path), "--backend", "sim", "--fps", "1e-9"]
+    proc = subprocess.run(
+        [sys.executable, "-m", "trossen_arm_mujoco.cli", *argv],
+        capture_output=True, text=True, timeout=60, cwd=REPO,
+    )  # fmt: skip
+    assert proc.returncode == 2 and proc.stdout == ""
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: --fps must be in [0.5, 1000] Hz")
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.02, float("nan"), float("inf")])
+@pytest.mark.parametrize("dry_run", [True, False])
+def test_bad_dt_attribute_is_one_line_naming_file_and_attribute(
+    dt: float, dry_run: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = write_episode(tmp_path, smooth_actions(5))
+    with h5py.File(path, "a") as f:
+        f.attrs["dt"] = dt
+    spy = Spy()
+    argv = ["--data_dir", str(tmp_path), "--backend", "sim", *(["--dry_run"] * dry_run)]
+    rc = run(argv, driver_factory=spy)
+    line = one_line_error(capsys)
+    assert rc == 2 and spy.calls == [] and not (tmp_path / "replay").exists()
+    assert line.startswith(f"error: {path}: attribute 'dt' is {dt!r}; expected the step period")
+
+
+def test_help_names_the_trossen_mujoco_subcommand(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        top_cli.main(["replay-real", "--help"])
+    out = capsys.readouterr().out
+    assert exc.value.code == 0 and out.startswith("usage: trossen-mujoco replay-real ")
+    assert "[0.5, 1000]" in out and "--realtime" in out
+
+
+def _signal_during_factory(signum: int) -> Any:
+    def factory(backend: str, clock: Clock | None) -> tuple[dict[str, Any], Clock]:
+        drivers, clock = make_drivers("sim", clock)
+        factory.drivers = drivers  # type: ignore[attr-defined]
+        os.kill(os.getpid(), signum)  # handled before this returns: nothing may move yet
+        return drivers, clock
+
+    return factory
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_before_any_arm_is_configured_ends_at_once(
+    signum: int, tmp_path: Path, capsys: pytest.CaptureFixture[str], leak_guard: Any
+) -> None:
+    write_episode(tmp_path, smooth_actions(5))
+    factory = _signal_during_factory(signum)
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim"], driver_factory=factory)
+    name = signal.Signals(signum).name
+    assert rc == 128 + signum
+    assert one_line_error(capsys) == (
+        f"error: interrupted by {name} before any arm was configured; nothing moved"
+    )
+    assert not any(d.configured for d in factory.drivers.values())
+    assert list((tmp_path / "replay").iterdir()) == []  # nothing written, no temp file
+    assert signal.getsignal(signal.SIGTERM) is leak_guard
+
+
+def test_signal_during_homing_is_noted_and_the_replay_still_completes(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    leak_guard: Any,
+) -> None:
+    from trossen_arm_mujoco.real import report
+
+    monkeypatch.setattr(report, "plot_tracking", no_matplotlib)  # the PNG takes ~1 s
+    write_episode(tmp_path, smooth_actions(5))
+    clock = SignalClock(at=2.5 + 0.5 + 1.0, signum=signal.SIGTERM)  # 1 s into the home move
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim"], driver_factory=Spy(), clock=clock)
+    out, err = capsys.readouterr()
+    assert clock.sent and rc == 0 and err == ""
+    assert "note: SIGTERM arrived after streaming had ended; noted and ignored" in out
+    assert out.strip().splitlines()[-1].endswith("arms are home and asleep")
+    summary = json.loads((tmp_path / "replay/episode_0_sim_summary.json").read_text())
+    assert summary["status"] == "completed" and summary["late_signals"] == ["SIGTERM"]
+    assert summary["arms_home_and_asleep"] is True and summary["steps_done"] == 5
+    assert temp_files(tmp_path) == []
+
+
+@pytest.mark.parametrize("target", ["csv", "summary"])
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_while_the_results_are_written_leaves_them_complete(
+    target: str,
+    signum: int,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    leak_guard: Any,
+) -> None:
+    from trossen_arm_mujoco.real import report
+
+    real_write = report.write_text
+    sent: list[Path] = []
+
+    def write_with_a_signal(path: Path, text: str, **kwargs: Any) -> Path:
+        if Path(path).name.endswith(f"_{'tracking.csv' if target == 'csv' else 'summary.json'}"):
+            with report.atomic_path(path) as tmp:  # the signal lands mid-write
+                tmp.write_text(text[: len(text) // 2])
+                os.kill(os.getpid(), signum)
+                sent.append(tmp)
+                with open(tmp, "a") as f:
+                    f.write(text[len(text) // 2 :])
+            return Path(path)
+        return real_write(path, text, **kwargs)
+
+    monkeypatch.setattr(report, "write_text", write_with_a_signal)
+    monkeypatch.setattr(report, "plot_tracking", no_matplotlib)  # the PNG takes ~1 s
+    write_episode(tmp_path, smooth_actions(8))
+    rc = run(["--data_dir", str(tmp_path), "--backend", "sim"], driver_factory=Spy())
+    out, err = capsys.readouterr()
+    name = signal.Signals(signum).name
+    assert sent and rc == 0 and err == "", err
+    assert f"note: {name} arrived after streaming had ended" in out
+    last = out.strip().splitlines()[-1]
+    assert last.startswith("replay completed: 8 steps, ")
+    assert last.endswith("; arms are home and asleep")
+    folder = tmp_path / "replay"
+    summary = json.loads((folder / "episode_0_sim_summary.json").read_text())
+    assert summary["status"] == "completed" and summary["steps_done"] == 8
+    assert set(summary["tracking_error"]) >= {"left_joint_0", "right_gripper"}
+    assert len((folder / "episode_0_sim_tracking.csv").read_text().splitlines()) == 9
+    assert temp_files(tmp_path) == []
+
+
+def _read_lines(stream: Any, sink: list[tuple[float, str]]) -> None:
+    for line in stream:
+        sink.append((time.monotonic(), line.rstrip("\n")))
+
+
+def _wait_for(lines: list[tuple[float, str]], text: str, timeout: float) -> float | None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        for t, line in list(lines):
+            if text in line:
+                return t
+        time.sleep(0.02)
+    return None
+
+
+def test_real_sigint_and_sigterm_stop_a_slow_replay_mid_command(tmp_path: Path) -> None:
+    """Two ``trossen-mujoco replay-real`` processes on the twin paced to real time at
+    --fps 0.5 (2 s per command), one sent SIGINT and one SIGTERM in the middle of a
+    command period: each stops within 2 s, homes, writes the summary, says the arms are
+    home and exits with 128 + the signal's number. Both run at once, to keep this short.
+    """
+    runs = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        folder = tmp_path / signal.Signals(signum).name
+        write_episode(folder, smooth_actions(10))
+        argv = ["replay-real", "--data_dir", str(folder), "--backend", "sim", "--realtime"]
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "trossen_arm_mujoco.cli", *argv, "--fps", "0.5",
+             "--no_progress"],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )  # fmt: skip
+        lines: list[tuple[float, str]] = []
+        reader = threading.Thread(target=_read_lines, args=(proc.stdout, lines), daemon=True)
+        reader.start()
+        runs[signum] = (folder, proc, lines, reader)
+    try:
+        starts = [
+            _wait_for(lines, "goal time 6 s per command", 60) for _, _, lines, _ in runs.values()
+        ]
+        assert None not in starts, runs
+        # start move 2 s + settle 0.5 s in real time, then 1.2 s into the first 2 s period
+        time.sleep(max(0.0, max(starts) + 3.7 - time.monotonic()))
+        sent_at = {}
+        for signum, (_, proc, _, _) in runs.items():
+            sent_at[signum] = time.monotonic()
+            proc.send_signal(signum)
+        for signum, (folder, proc, lines, reader) in runs.items():
+            name = signal.Signals(signum).name
+            stopping = _wait_for(lines, f"stopping: interrupted by {name}", timeout=10)
+            assert stopping is not None, lines
+            assert stopping - sent_at[signum] < 2.0  # not at the end of the 2 s period
+            rc = proc.wait(timeout=60)
+            reader.join(timeout=5)
+            err = proc.stderr.read()
+            assert rc == 128 + signum, (rc, err)
+            assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+            assert err.startswith("error: replay stopped at step ")
+            assert f"interrupted by {name}" in err
+            out = [line for _, line in lines]
+            assert any(line.endswith("; arms are home and asleep") for line in out), out
+            summary = json.loads((folder / "replay/episode_0_sim_summary.json").read_text())
+            assert summary["status"] == "interrupted" and summary["steps_done"] < 10
+            assert summary["arms_home_and_asleep"] is True
+            for final in summary["final_positions"].values():
+                np.testing.assert_allclose(final[:6], 0.0, atol=0.01)
+            assert temp_files(folder) == []
+    finally:
+        for _, proc, _, _ in runs.values():
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()

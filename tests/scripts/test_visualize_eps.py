@@ -1,10 +1,15 @@
-"""visualize_eps: mp4 + joint plots per episode, one-line errors with exit status 2."""
+"""visualize_eps: mp4 + joint plots per episode, one-line errors with exit status 2, and
+Ctrl-C / SIGTERM that leave no temporary file (exit status 130 / 143)."""
 
 from __future__ import annotations
 
+import os
 import shutil
+import signal
 import subprocess
 import sys
+import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +18,7 @@ import pytest
 from trossen_arm_mujoco import cli as top_cli
 from trossen_arm_mujoco.data.video import video_info
 from trossen_arm_mujoco.data.writer import EpisodeWriter
+from trossen_arm_mujoco.fileio import folder_lock
 from trossen_arm_mujoco.scripts import visualize_eps
 
 REPO = Path(__file__).resolve().parents[2]
@@ -133,3 +139,183 @@ def test_run_as_file(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     assert "wrote 0 video(s) and 1 joint plot(s)" in proc.stdout
+
+
+# -- output folders that refuse the writes -----------------------------------------------------
+
+
+@contextmanager
+def tmpfs(path: Path, size: str = "64k", read_only: bool = False):
+    """A tiny tmpfs mounted at ``path`` (a full disk after ``size``), or a read-only one;
+    skips when this process cannot mount (not root)."""
+    path.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+        capture_output=True,
+        text=True,
+    )
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs (needs root): {proc.stderr.strip()}")
+    try:
+        if read_only:
+            subprocess.run(["mount", "-o", "remount,ro", str(path)], check=True)
+        yield path
+    finally:
+        if subprocess.run(["umount", str(path)]).returncode != 0:
+            subprocess.run(["umount", "-l", str(path)])
+
+
+@contextmanager
+def immutable(path: Path):
+    """``path`` (a folder) with the immutable attribute: nothing, root included, may create
+    files in it; skips where ``chattr +i`` is unavailable."""
+    path.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.run(["chattr", "+i", str(path)], capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot set the immutable attribute: {proc.stderr.strip() or 'no chattr'}")
+    try:
+        yield path
+    finally:
+        subprocess.run(["chattr", "-i", str(path)], check=True)
+
+
+def _one_error(capfd) -> str:
+    """The one ``error:`` line of a failed run (stderr at the file-descriptor level: library
+    noise included); no traceback."""
+    out, err = capfd.readouterr()
+    assert "Traceback" not in err + out
+    return _error_line(err)
+
+
+def _temps(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.rglob("*") if p.name.endswith(".tmp"))
+
+
+def test_output_dir_is_a_file_or_under_one(tmp_path, capfd):
+    _write(tmp_path / "episode_0.hdf5", num_steps=2, cams=["cam_high"])
+    (tmp_path / "notes.txt").write_text("x")
+    argv = ["--data_dir", str(tmp_path), "--output_dir"]
+    assert visualize_eps.cli([*argv, str(tmp_path / "notes.txt")]) == 2
+    assert "is a file; give a folder" in _one_error(capfd)
+    assert visualize_eps.cli([*argv, str(tmp_path / "notes.txt" / "videos")]) == 2
+    line = _one_error(capfd)
+    assert "cannot create --output_dir" in line and "a file is in the way" in line
+    assert _temps(tmp_path) == []
+
+
+def test_output_dir_read_only(tmp_path, capfd):
+    _write(tmp_path / "eps" / "episode_0.hdf5", num_steps=2, cams=["cam_high"])
+    with tmpfs(tmp_path / "ro", read_only=True) as ro:
+        argv = ["--data_dir", str(tmp_path / "eps"), "--output_dir"]
+        assert visualize_eps.cli([*argv, str(ro)]) == 2
+        line = _one_error(capfd)
+        assert f"cannot write {ro / 'episode_0.mp4'}" in line and "Read-only file system" in line
+        assert visualize_eps.cli([*argv, str(ro / "videos")]) == 2  # a folder to create
+        assert "cannot create --output_dir" in _one_error(capfd)
+        assert os.listdir(ro) == []
+
+
+def test_output_dir_on_a_full_disk(tmp_path, capfd):
+    _write(tmp_path / "eps" / "episode_0.hdf5", num_steps=30, cams=["cam_high"], h=96, w=128)
+    with tmpfs(tmp_path / "full", size="48k") as full:
+        rc = visualize_eps.cli(["--data_dir", str(tmp_path / "eps"), "--output_dir", str(full)])
+        assert rc == 2
+        line = _one_error(capfd)
+        assert "No space left on device (ENOSPC)" in line and "free some disk space" in line
+        assert _temps(full) == []  # the file in progress is removed
+        for name in os.listdir(full):  # what was kept is complete
+            assert name.endswith((".mp4", ".png"))
+
+
+def test_output_dir_immutable(tmp_path, capfd):
+    _write(tmp_path / "eps" / "episode_0.hdf5", num_steps=2, cams=[])
+    with immutable(tmp_path / "frozen") as frozen:
+        argv = ["--data_dir", str(tmp_path / "eps"), "--output_dir", str(frozen)]
+        assert visualize_eps.cli(argv) == 2
+        line = _one_error(capfd)
+        assert "Operation not permitted (EPERM)" in line and "immutable" in line
+        assert os.listdir(frozen) == []
+
+
+def test_another_run_holds_the_output_folder(tmp_path, capfd):
+    _write(tmp_path / "episode_0.hdf5", num_steps=2, cams=[])
+    (tmp_path / "videos").mkdir()
+    with folder_lock(tmp_path / "videos"):
+        assert visualize_eps.cli(["--data_dir", str(tmp_path)]) == 2
+    assert "another visualize is writing into" in _one_error(capfd)
+    assert visualize_eps.cli(["--data_dir", str(tmp_path)]) == 0
+
+
+def test_rerun_removes_its_own_stale_temporary_files(tmp_path):
+    """What a run killed with SIGKILL leaves (no handler runs) goes with the next run; the
+    recorder's temporary episode in the same folder is not this command's to remove."""
+    _write(tmp_path / "episode_0.hdf5", num_steps=2, cams=["cam_high"])
+    stale = [".episode_0.mp4.tmp", ".episode_7.mp4.tmp", ".episode_3_joints.png.tmp"]
+    for name in stale:
+        (tmp_path / name).write_bytes(b"partial")
+    (tmp_path / ".episode_1.hdf5.tmp").write_bytes(b"a recording in progress")
+    assert visualize_eps.cli(["--data_dir", str(tmp_path), "--output_dir", "."]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".episode_1.hdf5.tmp",
+        "episode_0.hdf5",
+        "episode_0.mp4",
+        "episode_0_joints.png",
+    ]
+
+
+# -- Ctrl-C and SIGTERM in a real process --------------------------------------------------------
+
+
+def _long_job(folder: Path, episodes: int = 4, steps: int = 120) -> None:
+    """Episodes whose video takes a while: noise images (slow to encode), 2 cameras."""
+    rng = np.random.default_rng(1)
+    cams = ["cam_high", "cam_low"]
+    attrs = {"task_name": "t", "seed": 0, "success": True}
+    first = folder / "episode_0.hdf5"
+    with EpisodeWriter(first, steps, cams, 96, 128, attrs=attrs) as writer:
+        for _ in range(steps):
+            images = {c: rng.integers(0, 256, (96, 128, 3), dtype=np.uint8) for c in cams}
+            writer.append(rng.normal(size=16), np.zeros(16), np.zeros(16), 0.0, np.zeros(7), images)
+    for k in range(1, episodes):
+        shutil.copy(first, folder / f"episode_{k}.hdf5")
+
+
+def _default_sigint() -> None:  # a background shell may start us with SIGINT ignored
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.mark.parametrize(
+    ("sig", "status", "name"), [(signal.SIGTERM, 143, "SIGTERM"), (signal.SIGINT, 130, "Ctrl-C")]
+)
+def test_signal_mid_write_leaves_no_temporary_file(tmp_path, sig, status, name):
+    data = tmp_path / "eps"
+    _long_job(data)
+    videos = data / "videos"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "trossen_arm_mujoco.cli", "visualize", "--data_dir", str(data)],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_sigint,
+    )
+    deadline = time.time() + 120
+    try:  # wait for a finished file and the next one in progress
+        while not (videos.is_dir() and _temps(videos) and any(videos.glob("episode_*.mp4"))):
+            assert proc.poll() is None, proc.communicate()
+            assert time.time() < deadline, "no file in progress within 120 s"
+            time.sleep(0.005)
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == status, err
+    assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if line.startswith(("interrupted", "error"))]
+    assert len(lines) == 1 and lines[0].startswith(f"interrupted ({name}): kept "), err
+    assert "the file in progress was removed" in lines[0]
+    assert _temps(videos) == []
+    kept = sorted(p.name for p in videos.iterdir())
+    assert kept and "episode_0.mp4" in kept
+    for mp4 in videos.glob("*.mp4"):  # every file kept is complete
+        assert video_info(mp4)["frames"] == 120

@@ -115,5 +115,6 @@ def test_bad_randomization_in_a_yaml_file_is_reported(tmp_path, monkeypatch):
     text = (CONFIG_DIR / "reach.yaml").read_text()
     (tmp_path / "reach.yaml").write_text(text.replace("direction_deg: 15.0", "direction_deg: 120"))
     monkeypatch.setattr(config_module, "CONFIG_DIR", tmp_path)
-    with pytest.raises(UserError, match="config 'reach', randomization.lights.direction_deg"):
+    match = r"reach.yaml, key randomization.lights.direction_deg: expected a number in \[0, 90\]"
+    with pytest.raises(UserError, match=match):
         config_module.load_task_config("reach")

@@ -1,48 +1,90 @@
-"""Recording a dataset: resume planning, N local worker processes, ordered publishing.
+"""Recording a dataset: N local worker processes, ordered publishing, one writer per folder.
 
-Episode ``k`` of a run is attempt ``k`` (seed derived from the run seed and ``k``), so the
-files are the same whatever the number of workers. With ``skip_failed``, attempts continue
-until enough successes exist; successes get consecutive indices in attempt order.
+A run holds the folder's lock (:mod:`~trossen_arm_mujoco.data.dataset_lock`) from its first
+look at the folder to its last rename, and records what :func:`.resume.plan_run` says:
+without ``skip_failed`` each planned index is one attempt (episode ``k`` of a fresh run is
+attempt ``k``, seed derived from the run seed and ``k``), so the files are the same whatever
+the number of workers; with ``skip_failed`` attempts continue until the planned indices hold
+successes, given in attempt order.
 
 Files are written atomically. With more than one worker (or ``skip_failed``) each attempt is
-written under ``.staging/`` and renamed to its episode name in attempt order, so the folder
-only ever holds episodes ``0..k`` without gaps. On SIGINT/SIGTERM the partial episodes are
-discarded, finished episodes stay, and rerunning the same command continues where the run
-stopped. A write the file system refuses (disk full, read-only folder, folder removed) stops
-the run the same way, with :attr:`RunReport.io_error` saying why. :mod:`.ray_engine` runs the
-same attempts as Ray tasks.
+written under ``.staging/``, read back with the reader's validation and renamed to its
+episode name in attempt order. A worker process that dies (``kill -9``, the OOM killer)
+loses only the attempt it was running, which runs again in a new worker
+(:mod:`.local_pool`). On SIGINT/SIGTERM the partial episodes are discarded and every
+finished one is published (an attempt that finished before an earlier one leaves a gap that
+a rerun fills with the attempt a clean run would have used); rerunning the same command
+continues where the run stopped. A write the file system refuses (disk full, read-only
+folder, folder removed) stops the run the same way, with :attr:`RunReport.io_error` saying
+why. :mod:`.ray_engine` runs the same attempts as Ray tasks.
 """
 
 from __future__ import annotations
 
 import contextlib
-import multiprocessing as mp
 import os
 import shutil
 import signal
+import sys
+import threading
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from trossen_arm_mujoco.collect.local_pool import WorkerPool
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
 from trossen_arm_mujoco.collect.progress import Progress
+from trossen_arm_mujoco.collect.resume import RunPlan, format_indices, plan_run
+from trossen_arm_mujoco.data.dataset_lock import DatasetLock
 from trossen_arm_mujoco.data.io_errors import EpisodeIOError, folder_io_error, io_error
-from trossen_arm_mujoco.data.reader import episode_path, list_episodes, load_episode
+from trossen_arm_mujoco.data.reader import EpisodeError, episode_path, load_episode
 from trossen_arm_mujoco.data.writer import remove_stale_temp_files
-from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.errors import Terminated, UserError
 from trossen_arm_mujoco.fileio import publish
+
+__all__ = [
+    "STAGING",
+    "DatasetRecorder",
+    "Job",
+    "RunPlan",
+    "RunReport",
+    "failure_summary",
+    "format_indices",
+    "format_size",
+    "plan_run",
+    "record_in_worker",
+]
 
 STAGING = ".staging"
 
+#: Finished attempts kept waiting for an earlier one, per worker, before no more start.
+MAX_BUFFERED = 4
 
-@dataclass
-class RunPlan:
-    """Which episode indices and attempts a run records."""
 
-    first_index: int
-    first_attempt: int
-    existing: list[int] = field(default_factory=list)
+@dataclass(frozen=True)
+class Job:
+    """One attempt of a run.
+
+    Attributes:
+        position: place in the run's attempt order (results are published in this order).
+        attempt: attempt number (its seed derives from the run seed and this number).
+        index: the episode it becomes; None with ``skip_failed`` (the next free index, if
+            it succeeds).
+        path: where it is written (its final name, or a staging name).
+        overwrite: whether that write may replace an existing file.
+    """
+
+    position: int
+    attempt: int
+    index: int | None
+    path: Path
+    overwrite: bool
+
+    @property
+    def payload(self) -> tuple[int, str, bool]:
+        """What a worker gets: ``(attempt, path, overwrite)``."""
+        return self.attempt, str(self.path), self.overwrite
 
 
 @dataclass
@@ -50,18 +92,24 @@ class RunReport:
     """What a run did.
 
     Attributes:
-        saved: episodes written, in index order.
+        saved: episodes written, in the order they were published.
         failed: failed attempts (saved as failures, or discarded with ``skip_failed``).
         attempts: attempts finished.
         interrupted: stopped by Ctrl-C / SIGTERM.
+        terminated: the interrupt was SIGTERM.
         io_error: the file system refused a write; the run stopped (one-line message).
+        plan: what the run was asked to record.
+        saved_at: the episode index of each of ``saved``.
     """
 
     saved: list[EpisodeOutcome] = field(default_factory=list)
     failed: list[EpisodeOutcome] = field(default_factory=list)
     attempts: int = 0
     interrupted: bool = False
+    terminated: bool = False
     io_error: EpisodeIOError | None = None
+    plan: RunPlan | None = None
+    saved_at: list[int] = field(default_factory=list)
 
     @property
     def successes(self) -> int:
@@ -71,6 +119,11 @@ class RunReport:
     def saved_bytes(self) -> int:
         """Total size of the episodes saved by this run (bytes)."""
         return sum(o.nbytes for o in self.saved)
+
+    @property
+    def failed_indices(self) -> list[int]:
+        """Indices of the episodes this run saved as failures."""
+        return sorted(k for o, k in zip(self.saved, self.saved_at, strict=True) if not o.success)
 
 
 def failure_summary(
@@ -97,17 +150,6 @@ def format_size(nbytes: float) -> str:
         if nbytes >= scale:
             return f"{nbytes / scale:.{3 if scale == 1e9 else 1}f} {unit}"
     return f"{int(nbytes)} B"
-
-
-def plan_run(folder: Path, num_episodes: int, overwrite: bool) -> RunPlan:
-    """Start after the highest existing index (or at 0 with ``overwrite``)."""
-    existing = [k for k, _ in list_episodes(folder, missing_ok=True)]
-    if overwrite or not existing:
-        return RunPlan(0, 0, existing)
-    last = max(existing)
-    attrs = load_episode(episode_path(folder, last)).attrs
-    attempt = int(attrs.get("attempt", last)) + 1
-    return RunPlan(last + 1, attempt, existing)
 
 
 def _ignore_sigint() -> None:
@@ -141,8 +183,39 @@ def record_in_worker(settings: RecordSettings, job: tuple[int, str, bool]) -> Ep
     return _worker_record(job)
 
 
+def _describe(payload: tuple[int, str, bool]) -> str:
+    return f"attempt {payload[0]}"
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+@contextlib.contextmanager
+def _signals_held(report: RunReport) -> Iterator[None]:
+    """Hold Ctrl-C / SIGTERM while finished files are put in place: a signal meanwhile
+    marks the run interrupted instead of cutting the renames short."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+
+    def note(signum, frame) -> None:
+        caught.append(signum)
+        report.terminated = report.terminated or signum == signal.SIGTERM
+
+    previous = {sig: signal.signal(sig, note) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+        if caught:
+            report.interrupted = True
+
+
 class DatasetRecorder:
-    """Records episodes ``first_index .. num_episodes - 1`` into ``folder``.
+    """Records the episodes a :class:`RunPlan` asks for into ``folder``.
 
     Args:
         settings: shared run settings.
@@ -154,6 +227,8 @@ class DatasetRecorder:
         log: where the per-episode lines go (default print).
         progress_stream: where progress goes (default stderr): a bar on a terminal, a
             plain line every ``progress.LOG_INTERVAL_S`` seconds otherwise.
+        wait: wait for another run that holds the folder instead of refusing.
+        warn: where warnings go (a worker that died; default stderr).
     """
 
     def __init__(
@@ -166,6 +241,8 @@ class DatasetRecorder:
         step_hook: Callable | None = None,
         log: Callable[[str], None] = print,
         progress_stream=None,
+        wait: bool = False,
+        warn: Callable[[str], None] = _stderr,
     ):
         self.settings = settings
         self.folder = Path(folder)
@@ -175,83 +252,130 @@ class DatasetRecorder:
         self.step_hook = step_hook
         self.log = log
         self.progress_stream = progress_stream
+        self.wait = wait
+        self.warn = warn
 
     def max_attempts(self, needed: int) -> int:
         """Bound on attempts with ``skip_failed``: 3x the episodes needed, plus 10."""
         return 3 * needed + 10
 
-    def run(self, num_episodes: int, plan: RunPlan) -> RunReport:
+    def run(self, num_episodes: int, plan: RunPlan | None = None) -> RunReport:
+        """Record until episodes ``0 .. num_episodes - 1`` exist as ``plan`` says (default:
+        :func:`plan_run` of the folder, made under the lock)."""
         self.folder.mkdir(parents=True, exist_ok=True)
-        remove_stale_temp_files(self.folder)
-        shutil.rmtree(self.folder / STAGING, ignore_errors=True)
-        report = RunReport()
-        needed = num_episodes - plan.first_index
-        if needed <= 0:
+        with DatasetLock(self.folder, wait=self.wait):
+            if plan is None:
+                plan = plan_run(self.folder, num_episodes, self.overwrite, self.settings)
+            return self._run_locked(plan)
+
+    def _run_locked(self, plan: RunPlan) -> RunReport:
+        self._clean()
+        report = RunReport(plan=plan)
+        self._plan = plan
+        self._todo = list(plan.indices)
+        self._finished: dict[int, tuple[Job, EpisodeOutcome]] = {}
+        self._next = 0
+        if not self._todo:
             return report
-        attempts = self._attempts(plan.first_attempt, needed)
+        jobs = self._jobs(plan)
         try:
-            self._execute(attempts, plan.first_index, num_episodes, report)
-        except KeyboardInterrupt:
+            self._execute(jobs, report)
+        except KeyboardInterrupt as exc:
             report.interrupted = True
+            report.terminated = isinstance(exc, Terminated)
         except EpisodeIOError as exc:
             report.io_error = exc
         except OSError as exc:  # the folder itself: staging, a finished file vanishing
             report.io_error = folder_io_error(self.folder, exc)
         finally:
-            remove_stale_temp_files(self.folder)
-            shutil.rmtree(self.folder / STAGING, ignore_errors=True)
+            with _signals_held(report):
+                if self._todo:
+                    self._publish_finished(report)
+                self._clean()
         return report
 
-    def _execute(self, attempts: range, index: int, total: int, report: RunReport) -> None:
-        """Record ``attempts`` until episode ``total - 1`` is saved (the engine's part)."""
+    def _clean(self) -> None:
+        remove_stale_temp_files(self.folder)
+        shutil.rmtree(self.folder / STAGING, ignore_errors=True)
+
+    def _execute(self, jobs: Sequence[Job], report: RunReport) -> None:
+        """Record ``jobs`` until the planned indices are filled (the engine's part); each
+        finished attempt goes to :meth:`_deliver`."""
         if self.num_workers == 1:
-            self._run_here(attempts, index, total, report)
+            self._run_here(jobs, report)
         else:
-            self._run_pool(attempts, index, total, report)
+            self._run_pool(jobs, report)
 
     @property
     def stages_files(self) -> bool:
         """Whether attempts are written under ``.staging/`` and renamed in attempt order
-        (several at once could otherwise finish out of order and leave a gap on Ctrl-C)."""
+        (several at once could otherwise finish out of order)."""
         return self.skip_failed or self.num_workers > 1
 
-    def _attempts(self, first: int, needed: int) -> range:
-        count = self.max_attempts(needed) if self.skip_failed else needed
-        return range(first, first + count)
+    def _jobs(self, plan: RunPlan) -> list[Job]:
+        if self.skip_failed:
+            first = plan.first_attempt
+            attempts = range(first, first + self.max_attempts(len(plan.indices)))
+            return [Job(i, a, None, *self._target(a, None, plan)) for i, a in enumerate(attempts)]
+        return [
+            Job(i, a, k, *self._target(a, k, plan))
+            for i, (a, k) in enumerate(zip(plan.attempts, plan.indices, strict=True))
+        ]
 
-    def _target(self, attempt: int, index: int) -> tuple[Path, bool]:
+    def _target(self, attempt: int, index: int | None, plan: RunPlan) -> tuple[Path, bool]:
         """Where an attempt is written: its final name, or a staging name."""
         if self.stages_files:
-            staging = self.folder / STAGING
-            staging.mkdir(exist_ok=True)
-            return staging / f"attempt_{attempt}.hdf5", True
-        return episode_path(self.folder, index), self.overwrite
+            return self.folder / STAGING / f"attempt_{attempt}.hdf5", True
+        assert index is not None
+        return episode_path(self.folder, index), plan.replaces(index)
 
-    def _publish(self, outcome: EpisodeOutcome, index: int, report: RunReport) -> bool:
-        """Account for one finished attempt; returns True when it became episode ``index``."""
+    def _staging(self) -> None:
+        if self.stages_files:
+            (self.folder / STAGING).mkdir(exist_ok=True)
+
+    @property
+    def done(self) -> bool:
+        """Whether every planned index holds its episode."""
+        return not self._todo
+
+    def _deliver(self, job: Job, outcome: EpisodeOutcome, report: RunReport) -> None:
+        """Take a finished attempt; publish it and any held-back later ones in order."""
+        self._finished[job.position] = (job, outcome)
+        while self._next in self._finished and not self.done:
+            self._publish(*self._finished.pop(self._next), report)
+            self._next += 1
+
+    def _publish_finished(self, report: RunReport) -> None:
+        """After an interrupt or error: publish every finished attempt still held back, in
+        attempt order (a rename each; stops at the first that fails)."""
+        for position in sorted(self._finished):
+            if self.done:
+                return
+            job, outcome = self._finished.pop(position)
+            try:
+                self._publish(job, outcome, report)
+            except (OSError, UserError) as exc:
+                self.warn(f"warning: attempt {job.attempt} was not kept: {exc}")
+                return
+
+    def _publish(self, job: Job, outcome: EpisodeOutcome, report: RunReport) -> bool:
+        """Account for one finished attempt; returns True when it became an episode."""
         report.attempts += 1
+        if self.skip_failed and not outcome.success:
+            report.failed.append(outcome)
+            if outcome.path is not None:
+                outcome.path.unlink(missing_ok=True)
+            self.log(
+                f"attempt {outcome.attempt}: failed (reward {outcome.final_reward:g}), discarded"
+            )
+            return False
+        index = self._todo[0] if job.index is None else job.index
         if self.stages_files:
             assert outcome.path is not None
-            if self.skip_failed and not outcome.success:
-                report.failed.append(outcome)
-                outcome.path.unlink(missing_ok=True)
-                self.log(
-                    f"attempt {outcome.attempt}: failed (reward {outcome.final_reward:g}),"
-                    " discarded"
-                )
-                return False
-            final = episode_path(self.folder, index)
-            try:
-                outcome.path = publish(outcome.path, final, overwrite=self.overwrite)
-            except FileExistsError:
-                raise UserError(
-                    f"{final} appeared during the run; refusing to overwrite it"
-                ) from None
-            except OSError as exc:
-                with contextlib.suppress(OSError):
-                    outcome.path.unlink(missing_ok=True)
-                raise io_error(final, exc) from exc
+            outcome.path = self._move_into_place(outcome.path, index)
+        self._todo.remove(index)
         report.saved.append(outcome)
+        report.saved_at.append(index)
         if not outcome.success:
             report.failed.append(outcome)
         status = "success" if outcome.success else "failure"
@@ -261,45 +385,64 @@ class DatasetRecorder:
         )
         return True
 
-    def _run_here(self, attempts: range, index: int, total: int, report: RunReport) -> None:
+    def _move_into_place(self, staged: Path, index: int) -> Path:
+        """Rename a staged attempt to episode ``index``, after reading it back."""
+        final = episode_path(self.folder, index)
+        try:
+            load_episode(staged)
+        except EpisodeError as exc:
+            staged.unlink(missing_ok=True)
+            raise UserError(
+                f"{staged.name} does not read back ({exc}); not published as {final.name}; "
+                "rerun the same command to record it again"
+            ) from None
+        try:
+            return publish(staged, final, overwrite=self._plan.replaces(index))
+        except FileExistsError:
+            raise UserError(f"{final} appeared during the run; refusing to overwrite it") from None
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                staged.unlink(missing_ok=True)
+            raise io_error(final, exc) from exc
+
+    def _run_here(self, jobs: Sequence[Job], report: RunReport) -> None:
+        self._staging()
         recorder = EpisodeRecorder(self.settings, step_hook=self.step_hook)
         try:
-            for attempt in attempts:
-                if index >= total:
+            for job in jobs:
+                if self.done:
                     break
-                path, overwrite = self._target(attempt, index)
+                index = self._todo[0] if job.index is None else job.index
                 with Progress(
                     self.settings.episode_len, f"episode {index}", "step", self.progress_stream
                 ) as bar:
                     outcome = recorder.record(
-                        attempt, path, overwrite, bar.update, create_folder=False
+                        job.attempt, job.path, job.overwrite, bar.update, create_folder=False
                     )
-                if self._publish(outcome, index, report):
-                    index += 1
+                self._deliver(job, outcome, report)
         finally:
             recorder.close()
 
-    def _jobs(self, attempts: range, first_index: int) -> Iterator[tuple[int, str, bool]]:
-        for i, attempt in enumerate(attempts):
-            path, overwrite = self._target(attempt, first_index + i)
-            yield attempt, str(path), overwrite
-
-    def _run_pool(self, attempts: range, index: int, total: int, report: RunReport) -> None:
-        ctx = mp.get_context("spawn")
-        pool = ctx.Pool(self.num_workers, initializer=_worker_init, initargs=(self.settings,))
-        bar = Progress(total - index, "episodes", "episode", self.progress_stream, leave=True)
+    def _run_pool(self, jobs: Sequence[Job], report: RunReport) -> None:
+        self._staging()
+        pool = WorkerPool(
+            min(self.num_workers, len(jobs)),
+            _worker_init,
+            (self.settings,),
+            _worker_record,
+            window=MAX_BUFFERED * self.num_workers,
+            describe=_describe,
+            warn=self.warn,
+        )
+        bar = Progress(len(self._todo), "episodes", "episode", self.progress_stream, leave=True)
         try:
-            for outcome in pool.imap(_worker_record, self._jobs(attempts, index)):
-                if self._publish(outcome, index, report):
-                    index += 1
-                    bar.update()
-                if index >= total:
-                    pool.terminate()
+            for position, outcome in pool.results(job.payload for job in jobs):
+                before = len(self._todo)
+                self._deliver(jobs[position], outcome, report)
+                bar.update(before - len(self._todo))
+                if self.done:
                     break
-            pool.close()
-        except BaseException:
-            pool.terminate()
-            raise
         finally:
-            pool.join()
+            for position, outcome in pool.shutdown(cancel=True):
+                self._finished.setdefault(position, (jobs[position], outcome))
             bar.close()

@@ -2,7 +2,8 @@
 
 This process plans the run, submits attempts as Ray tasks, and publishes the finished files
 in attempt order, exactly as :class:`~.parallel.DatasetRecorder` does for local workers
-(resume, ``skip_failed``, staging and atomic renames, Ctrl-C are that class's). Each task
+(the folder's lock, resume, ``skip_failed``, staging and atomic renames, Ctrl-C are that
+class's; on Ctrl-C every attempt that finished is published). Each task
 calls the local workers' per-episode function (:func:`~.parallel.record_in_worker`), so the
 files, names, seeds and attributes are those of ``--engine local`` for the same run seed.
 
@@ -14,13 +15,19 @@ staging file. On a cluster every node must see the dataset folder at the same ab
 
 from __future__ import annotations
 
+import contextlib
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from tqdm import tqdm
 
-from trossen_arm_mujoco.collect.parallel import DatasetRecorder, RunReport, record_in_worker
+from trossen_arm_mujoco.collect.parallel import (
+    DatasetRecorder,
+    Job,
+    RunReport,
+    record_in_worker,
+)
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, RecordSettings
 from trossen_arm_mujoco.errors import UserError
 
@@ -98,32 +105,46 @@ class RayDatasetRecorder(DatasetRecorder):
     def stages_files(self) -> bool:
         return True
 
-    def _execute(self, attempts: range, index: int, total: int, report: RunReport) -> None:
+    def _execute(self, jobs: Sequence[Job], report: RunReport) -> None:
         import ray
 
-        jobs = iter(self._jobs(attempts, index))
-        pending: deque = deque()  # (attempt, ref), in attempt order; finished ones included
+        self._staging()
+        source = iter(jobs)
+        pending: deque = deque()  # (job, ref), in attempt order; finished ones included
         settings_ref = ray.put(self.settings)
-        bar = tqdm(total=total - index, desc="episodes", unit="episode")
+        bar = tqdm(total=len(self._todo), desc="episodes", unit="episode")
         try:
-            while index < total:
-                running = self._top_up(ray, pending, jobs, settings_ref)
+            while not self.done:
+                running = self._top_up(ray, pending, source, settings_ref)
                 if not pending:
                     break
-                attempt, ref = pending[0]
+                job, ref = pending[0]
                 if ref in running:  # wait for any task to finish, in short steps (Ctrl-C)
                     ray.wait(running, num_returns=1, timeout=WAIT_STEP_S, fetch_local=False)
                     continue
                 pending.popleft()
-                outcome = self._result(ray, attempt, ref)
-                if self._publish(outcome, index, report):
-                    index += 1
-                    bar.update()
+                before = len(self._todo)
+                self._deliver(job, self._result(ray, job.attempt, ref), report)
+                bar.update(before - len(self._todo))
         finally:
+            if not self.done:
+                self._keep_finished(ray, pending)
             self._cancel(ray, [ref for _, ref in pending])
             bar.close()
 
-    def _top_up(self, ray, pending: deque, jobs: Iterator, settings_ref) -> list:
+    def _keep_finished(self, ray, pending: deque) -> None:
+        """Hold the outcomes of tasks that finished (for publishing after an interrupt)."""
+        refs = [ref for _, ref in pending]
+        if not refs:
+            return
+        ready, _ = ray.wait(refs, num_returns=len(refs), timeout=0, fetch_local=True)
+        ready_set = set(ready)
+        for job, ref in pending:
+            if ref in ready_set:
+                with contextlib.suppress(Exception):  # a lost or failed task: nothing kept
+                    self._finished.setdefault(job.position, (job, ray.get(ref, timeout=5)))
+
+    def _top_up(self, ray, pending: deque, jobs: Iterator[Job], settings_ref) -> list:
         """Submit attempts until ``num_workers`` run at once (at most ``MAX_BUFFERED`` times
         that many finished but unpublished); returns the refs still running."""
         refs = [ref for _, ref in pending]
@@ -134,8 +155,8 @@ class RayDatasetRecorder(DatasetRecorder):
             job = next(jobs, None)
             if job is None:
                 break
-            ref = self._task.remote(settings_ref, job, self.before_attempt)
-            pending.append((job[0], ref))
+            ref = self._task.remote(settings_ref, job.payload, self.before_attempt)
+            pending.append((job, ref))
             running.append(ref)
         return running
 

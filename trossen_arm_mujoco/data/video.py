@@ -202,8 +202,18 @@ def video_info(path: str | os.PathLike[str]) -> dict[str, Any]:
         }
 
 
+def _step_period(episode: Episode) -> float | None:
+    """The episode's ``dt`` when it is a positive number, else None (plot against steps)."""
+    try:
+        dt = float(episode.dt)
+    except (TypeError, ValueError):
+        return None
+    return dt if math.isfinite(dt) and dt > 0 else None
+
+
 def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80) -> Path:
-    """Write one PNG with a subplot per joint (16): qpos and action against time (s).
+    """Write one PNG with a subplot per joint (16): qpos and action against time (s), or
+    against the step index when the episode's ``dt`` is not a positive number.
 
     Returns:
         ``out_png`` (replaced if it exists; written to a temp name first).
@@ -214,7 +224,8 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
 
     out_png = Path(out_png).expanduser()
     out_png.parent.mkdir(parents=True, exist_ok=True)
-    time = np.arange(episode.num_steps) * episode.dt
+    dt = _step_period(episode)
+    time = np.arange(episode.num_steps) * (1.0 if dt is None else dt)
     fig = Figure(figsize=(16, 12), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(4, 4, sharex=True).ravel()
@@ -225,7 +236,7 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
         ax.set_ylabel(JOINT_UNITS[j], fontsize=8)
         ax.tick_params(labelsize=7)
     for ax in axes[-4:]:
-        ax.set_xlabel("time (s)", fontsize=8)
+        ax.set_xlabel("time (s)" if dt is not None else "step (no valid dt)", fontsize=8)
     axes[0].legend(fontsize=7, loc="best")
     title = episode.path.name
     if "success" in episode.attrs:

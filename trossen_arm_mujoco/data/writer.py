@@ -2,8 +2,10 @@
 
 Each :meth:`EpisodeWriter.append` writes one step straight into preallocated datasets of a
 temporary file next to the final one, so memory stays flat whatever the episode length.
-The temporary file becomes ``episode_<k>.hdf5`` only after all steps are written, flushed
-and fsynced; on any error it is deleted, so a folder never holds a half-written episode.
+The temporary file (``.episode_<k>.hdf5.<pid>-<random>.tmp``: unique, so two writers never
+share one) becomes ``episode_<k>.hdf5`` only after all steps are written, flushed, fsynced
+and read back with the reader's validation; on any error it is deleted, so a folder never
+holds a half-written episode.
 
 Images are gzip-compressed by default, in background threads
 (:mod:`.chunk_compressor`), so compression stays off the render path. A write the file
@@ -13,7 +15,10 @@ system refuses (disk full, read-only or unwritable folder, folder removed meanwh
 
 from __future__ import annotations
 
+import errno
 import os
+import re
+import secrets
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -38,6 +43,28 @@ from trossen_arm_mujoco.fileio import publish
 
 #: Attributes that follow from the writer's arguments; callers may not change them.
 _WRITER_ATTRS = frozenset({"sim", "episode_len", "camera_names", "schema_version"})
+
+#: Temporary episode files: ``.<final>.tmp`` (older versions) or ``.<final>.<pid>-<hex>.tmp``.
+_TEMP_RE = re.compile(r"^\.(?P<final>.+\.hdf5)(?:\.(?P<pid>[0-9]+)-[0-9a-f]+)?\.tmp$")
+
+
+def unique_temp_path(path: Path) -> Path:
+    """A temporary sibling of ``path`` that no other writer uses:
+    ``.<name>.<pid>-<random>.tmp`` (hidden, never an episode name)."""
+    base = temp_file_name(path.name)  # ".<name>.tmp"
+    return path.with_name(f"{base[: -len('.tmp')]}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+
+
+def _process_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return False  # this process: its own leftovers are stale when it cleans up
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by another user
+        return True
+    return True
 
 
 class EpisodeWriteError(UserError):
@@ -85,6 +112,9 @@ class EpisodeWriter:
         env_state_dim: values per step of ``env_state`` (7 per object of the task).
         attrs: root attributes; ``task_name``, ``seed`` and ``success`` must be
             set before :meth:`close` (here or with :meth:`set_attrs`).
+        verify: before the rename, read the finished file back with the reader's
+            validation (:func:`~.reader.load_episode`); a file that does not read back is
+            discarded with an :class:`EpisodeWriteError`.
         overwrite: replace an existing final file instead of refusing.
         create_folder: create the folder of ``path`` when missing; with False a missing
             folder is an :class:`EpisodeIOError` (the recorder: a folder removed during a
@@ -112,6 +142,7 @@ class EpisodeWriter:
         create_folder: bool = True,
         compress_workers: int | None = None,
         gzip_level: int = GZIP_LEVEL,
+        verify: bool = True,
     ) -> None:
         self.path = Path(path).expanduser()
         if int(env_state_dim) < 1 or int(env_state_dim) % ENV_STATE_DIM:
@@ -124,7 +155,8 @@ class EpisodeWriter:
             name: (int(env_state_dim),) if spec.variable else spec.width
             for name, spec in zip(SCHEMA.array_names, SCHEMA.arrays, strict=True)
         }
-        self.temp_path = self.path.with_name(temp_file_name(self.path.name))
+        self.temp_path = unique_temp_path(self.path)
+        self.verify = verify
         self.episode_len = int(episode_len)
         self.camera_names = list(camera_names)
         self.height, self.width = int(height), int(width)
@@ -352,6 +384,8 @@ class EpisodeWriter:
                 self._file.flush()
                 self._file.close()
                 self._file = None
+                if self.verify:
+                    self._verify()
                 publish(self.temp_path, self.path, overwrite=self.overwrite)
             except FileExistsError:
                 raise EpisodeWriteError(
@@ -364,6 +398,26 @@ class EpisodeWriter:
             raise
         self._committed = True
         return self.path
+
+    def _verify(self) -> None:
+        """Read the closed temporary file back as the reader would."""
+        from trossen_arm_mujoco.data.reader import EpisodeError, load_episode
+
+        try:
+            episode = load_episode(self.temp_path)
+        except EpisodeError as exc:
+            if not self.temp_path.exists():  # the folder (or the file) was removed meanwhile
+                missing = FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT))
+                raise io_error(self.path, missing) from None
+            raise EpisodeWriteError(
+                f"{self.path.name}: the written file does not read back ({exc}); episode discarded"
+            ) from None
+        if episode.num_steps != self.episode_len or episode.camera_names != self.camera_names:
+            raise EpisodeWriteError(
+                f"{self.path.name}: the written file reads back as {episode.num_steps} steps "
+                f"of cameras {episode.camera_names}, expected {self.episode_len} of "
+                f"{self.camera_names}; episode discarded"
+            )
 
     def abort(self) -> None:
         """Discard the episode: close and delete the temporary file (idempotent, never
@@ -381,9 +435,11 @@ class EpisodeWriter:
 
 
 def remove_stale_temp_files(folder: str | os.PathLike[str]) -> list[Path]:
-    """Delete temporary episode files left by interrupted runs in ``folder``.
+    """Delete temporary episode files left by interrupted or killed runs in ``folder``.
 
-    Only call it when no writer is active on ``folder``.
+    Call it only while holding the folder's lock (:mod:`.dataset_lock`), so that no other
+    run writes there. A file whose name carries the pid of a process that still runs (a
+    writer outside any locked run) is left alone.
 
     Returns:
         The deleted paths (empty when the folder does not exist).
@@ -393,7 +449,12 @@ def remove_stale_temp_files(folder: str | os.PathLike[str]) -> list[Path]:
         return []
     removed = []
     try:
-        for path in sorted(folder.glob(temp_file_name("episode_*.hdf5"))):
+        for path in sorted(folder.glob(".episode_*.hdf5*.tmp")):
+            match = _TEMP_RE.match(path.name)
+            if match is None:
+                continue
+            if match["pid"] is not None and _process_alive(int(match["pid"])):
+                continue
             path.unlink(missing_ok=True)
             removed.append(path)
     except OSError:  # folder removed meanwhile, or read-only: nothing to clean

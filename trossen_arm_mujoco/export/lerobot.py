@@ -28,7 +28,11 @@ those of the source step whose period contains ``t_{k+1}``. An episode of ``T`` 
 rule is in :mod:`.lerobot_plan`.
 
 Every episode file is validated before anything is written; the dataset is built in a
-hidden sibling folder and renamed onto ``output`` only when complete.
+hidden sibling folder, ``.<output name>.tmp``, and renamed onto ``output`` only when
+complete. An error, Ctrl-C or SIGTERM removes the build folder and leaves ``output`` as it
+was; the build folder is locked while in use, so the next export removes one that a killed
+run (SIGKILL) left behind, and refuses to start while another export builds the same
+dataset. A file system that refuses the writes (full, read-only) is a one-line UserError.
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ import re
 import shutil
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,7 +52,12 @@ import numpy as np
 from tqdm import tqdm
 
 from trossen_arm_mujoco.data.reader import Episode, list_episodes, load_episode
-from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.errors import (
+    UserError,
+    describe_os_error,
+    interrupt_note,
+    os_error_hint,
+)
 from trossen_arm_mujoco.export import lerobot_format as fmt
 from trossen_arm_mujoco.export import lerobot_stats as st
 from trossen_arm_mujoco.export.deps import require
@@ -60,6 +71,7 @@ from trossen_arm_mujoco.export.lerobot_plan import (
     plan_export,
 )
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo, VideoSettings
+from trossen_arm_mujoco.fileio import FolderBusyError, deferred_signals, folder_lock, temp_path
 
 #: A dataset name: ``<owner>/<name>`` as on the Hugging Face Hub.
 REPO_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -83,6 +95,8 @@ class ExportSummary:
 def _prepare_output(output: Path, overwrite: bool) -> None:
     if output.exists() and not output.is_dir():
         raise UserError(f"--output {output} is a file; give a folder")
+    if os.path.ismount(output):  # the dataset is built next to it and renamed onto it
+        raise UserError(f"--output {output} is a mount point; give a folder inside it")
     if output.is_dir() and any(output.iterdir()):
         if not overwrite:
             raise UserError(
@@ -143,16 +157,28 @@ def export_lerobot(
     video = video or VideoSettings()
     if plan.cameras:
         video.check_available()
-    _prepare_output(output, overwrite)
-
-    output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = output.with_name(f".{output.name}.tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
+    state = {"existing": False, "published": False}
     try:
-        frames = _write_dataset(tmp, plan, video, progress)
-        _publish(tmp, output)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        with interrupt_note(lambda: _kept(output, **state)):
+            output.parent.mkdir(parents=True, exist_ok=True)
+            with _build_folder(output) as tmp:
+                _recover_old(output)
+                _prepare_output(output, overwrite)
+                state["existing"] = (output / fmt.INFO_PATH).is_file()
+                frames = _write_dataset(tmp, plan, video, progress)
+                with deferred_signals():
+                    _publish(tmp, output)
+                    state["published"] = True
+    except FolderBusyError:
+        raise UserError(
+            f"another export is writing {output} (its build folder {temp_path(output)} is "
+            "locked); wait for it to finish or choose another --output"
+        ) from None
+    except OSError as exc:
+        raise UserError(
+            f"export to {output} failed: {describe_os_error(exc)}{_where(exc)}; the partial "
+            f"dataset was removed and {output} left as it was; {os_error_hint(exc, '--output')}"
+        ) from None
     return ExportSummary(
         output=output,
         episodes=len(plan.episodes),
@@ -164,6 +190,69 @@ def export_lerobot(
         source_fps=plan.source_fps,
         layout=plan.layout,
     )
+
+
+@contextmanager
+def _build_folder(output: Path) -> Iterator[Path]:
+    """The hidden folder the dataset is built in, empty and locked for this export, and
+    removed on the way out (error, Ctrl-C, SIGTERM). One a killed run left is reused after
+    emptying it; one another export holds raises FolderBusyError."""
+    tmp = temp_path(output)
+    if tmp.is_symlink() or (tmp.exists() and not tmp.is_dir()):
+        tmp.unlink()
+    try:
+        tmp.mkdir()
+    except FileExistsError:  # a killed run's, or another export's: the lock tells
+        pass
+    with folder_lock(tmp):
+        ours = _identity(tmp)
+        try:
+            for entry in list(tmp.iterdir()):  # a killed run's leftovers
+                if entry.is_dir() and not entry.is_symlink():
+                    shutil.rmtree(entry)
+                else:
+                    entry.unlink()
+            yield tmp
+        finally:
+            with deferred_signals():  # a second signal must not stop the cleanup
+                if _identity(tmp) == ours:  # not yet published, nor another export's since
+                    shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+def _recover_old(output: Path) -> None:
+    """Deal with the ``.<name>.old`` folder of a run killed while replacing a dataset: put
+    it back when ``output`` is missing (the old dataset is never lost), else remove it.
+    Called holding the build folder's lock."""
+    old = output.with_name(f".{output.name}.old")
+    if not old.is_dir():
+        return
+    with deferred_signals():
+        if output.exists():
+            shutil.rmtree(old)
+        else:
+            os.replace(old, output)
+
+
+def _kept(output: Path, existing: bool, published: bool) -> str:
+    """What an interrupted export kept, for the one line of ``run_cli``."""
+    if published:
+        return f"the export had finished: the dataset is complete in {output}"
+    if existing:
+        return f"the partial dataset was removed; the dataset already in {output} is unchanged"
+    return f"the partial dataset was removed; nothing was written to {output}"
+
+
+def _where(exc: OSError) -> str:
+    name = getattr(exc, "filename", None)
+    return f" ({name})" if name else ""
 
 
 def _publish(tmp: Path, output: Path) -> None:
@@ -358,9 +447,11 @@ def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress:
         for writer in videos.values():
             writer.close()
     except BaseException:
-        data.close()
-        for writer in videos.values():
-            writer.abort()
+        for close in (data.close, *(writer.abort for writer in videos.values())):
+            try:
+                close()
+            except Exception:  # the folder is deleted anyway; report the first error
+                pass
         raise
     fmt.write_episodes(root / fmt.FileIndex().path(fmt.EPISODES_PATH), rows)
     fmt.write_tasks(root / fmt.TASKS_PATH, plan.tasks)

@@ -211,12 +211,24 @@ def check_layout(layout: str) -> str:
 
 
 def source_fps(episode: Episode) -> int:
-    """The recording rate of ``episode``, ``1 / dt``, a whole number (UserError if not)."""
-    rate = 1.0 / episode.dt
+    """The recording rate of ``episode``, ``1 / dt``, a whole number (UserError if not, and
+    for a ``dt`` that is not a positive number: zero, negative, NaN, infinite, text)."""
+    try:
+        dt = float(episode.dt)
+    except (TypeError, ValueError):
+        dt = math.nan
+    if not (math.isfinite(dt) and dt > 0):
+        raw = episode.attrs.get("dt")
+        shown = repr(raw) if isinstance(raw, str | bytes) else f"{dt:g}"
+        raise UserError(
+            f"{episode.path.name}: step period dt={shown} is not a positive number of seconds; "
+            "fix the file's 'dt' attribute (50 frames/s is dt=0.02)"
+        )
+    rate = 1.0 / dt
     fps = round(rate)
     if fps < 1 or abs(rate - fps) > 1e-6 * rate:
         raise UserError(
-            f"{episode.path.name}: step period dt={episode.dt:g} s gives {rate:g} frames/s; "
+            f"{episode.path.name}: step period dt={dt:g} s gives {rate:g} frames/s; "
             "LeRobot datasets need a whole number of frames per second"
         )
     return fps

@@ -47,12 +47,27 @@ from trossen_arm_mujoco.robot.joint_target_batch import JointTargets
 from trossen_arm_mujoco.robot.kinematics import Kinematics, orientation_error
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.robot.selection import as_slice
+from trossen_arm_mujoco.tasks.config_schema import KEYS
 
 ACTION_MODES = ("joint_position", "joint_rel_position", "ee_delta")
 #: rotation correction per step when holding the tool orientation (rad).
 MAX_ROTATION_STEP = 0.2
 #: fractions of a joint move tried when the full move would cross the safety floor.
 BACKOFF = (0.5, 0.25, 0.125, 0.0)
+#: config keys the mapper reads, checked once at construction (``tasks.config_schema``).
+CONFIG_KEYS = ("table_height", "safety_margin", "ee_delta_limit", "joint_rel_limit", "policy_dt")
+
+
+def _checked(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The values of ``CONFIG_KEYS`` in ``config``, checked: a NaN floor would switch the
+    safety floor off, a negative limit would turn actions around."""
+    out = {}
+    for key in CONFIG_KEYS:
+        if key not in config:
+            raise UserError(f"action mapper: the task config has no key {key}; add it")
+        out[key] = KEYS[key].check(f"action mapper config key {key}", config[key])
+    out["hold_orientation"] = bool(config.get("hold_orientation", False))
+    return out
 
 
 class _ArmPart:
@@ -88,6 +103,7 @@ class ActionMapper:
     ):
         if mode not in ACTION_MODES:
             raise unknown_name_error("action mode", mode, ACTION_MODES)
+        config = _checked(config)
         self.robot = robot
         self.mode = mode
         self.floor_z = float(config["table_height"]) + float(config["safety_margin"])

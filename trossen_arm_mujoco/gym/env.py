@@ -24,6 +24,12 @@ Keyword arguments (besides the task's config keys, which override its YAML file)
         of a MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR``; see ``sim.looks``).
         Only what is drawn changes; physics is the same.
 
+Every keyword argument is checked once, at construction (``tasks.config_schema`` for the
+config keys: kind, range, NaN/inf, ``*_low <= *_high``): a bad one is a one-line
+``UserError`` naming it and what is valid. After ``close()``, ``step`` and ``render`` raise
+a one-line ``UserError`` until ``reset()`` reopens the env (renderers, viewer and stepping
+thread are made again when needed).
+
 Reward: the task's reward (dense shaping for the wxai tasks, 0-4 for transfer_cube).
 ``terminated``: the task ended (``terminate_on_success``); time limits come from the
 registered ``max_episode_steps`` (TimeLimit). ``info``: ``is_success``, ``safety_clipped``,
@@ -49,6 +55,8 @@ from trossen_arm_mujoco.sim.cameras import check_can_render
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.config import merge_overrides
+from trossen_arm_mujoco.tasks.config_schema import Key
 from trossen_arm_mujoco.tasks.task import Task
 
 RENDER_MODES = ("rgb_array", "human")
@@ -56,9 +64,27 @@ ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "wi
                "height", "cameras", "randomize", "shadows", "visual")  # fmt: skip
 
 
+#: Image sizes (pixels); the model's offscreen buffer bounds them further when rendering.
+_IMAGE_SIZE = Key("int", 1, 16384)
+_CLOSED = "this env is closed; call reset() to reopen it (or make a new one)"
+
+
 def _check_choice(kind: str, value: Any, valid: Sequence[str]) -> None:
-    if value not in valid:
+    if not isinstance(value, str) or value not in valid:
         raise unknown_name_error(kind, str(value), valid)
+
+
+def _check_cameras(cameras: Any) -> list[str] | None:
+    """The ``cameras`` keyword argument as a list of names (None: the default)."""
+    if cameras is None:
+        return None
+    names = [cameras] if isinstance(cameras, str) else cameras
+    if not isinstance(names, (list, tuple)) or not all(isinstance(c, str) for c in names):
+        raise UserError(
+            f"env keyword argument cameras: expected a camera name or a list of them, "
+            f"got {cameras!r:.60}"
+        )
+    return list(names)
 
 
 def has_display() -> bool:
@@ -92,7 +118,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         **config: Any,
     ):
         entry = registry.load(task)
-        defaults = entry.load_config()
+        defaults = entry.load_config()  # the YAML file, checked
         for key in config:
             if key not in defaults:
                 raise unknown_name_error("env option or config key", key,
@@ -100,6 +126,11 @@ class TrossenMujocoEnv(gymnasium.Env):
         _check_choice("observation type", obs_type, OBS_TYPES)
         _check_choice("action mode", action_mode, ACTION_MODES)
         _check_choice("stepping mode", stepping, STEPPING_MODES)
+        width = _IMAGE_SIZE.check("env keyword argument width", width)
+        height = _IMAGE_SIZE.check("env keyword argument height", height)
+        randomize = Key("bool").check("env keyword argument randomize", randomize)
+        cameras = _check_cameras(cameras)
+        self.config = merge_overrides(entry.config, defaults, config)  # the kwargs, checked
         looks = SceneLooks(shadows=shadows, visual=visual)
         if render_mode is not None:
             _check_choice("render mode", render_mode, RENDER_MODES)
@@ -112,8 +143,7 @@ class TrossenMujocoEnv(gymnasium.Env):
             )
         sampler_cls = entry.sampler_class()
         if cameras is None:
-            cameras = sampler_cls.cameras[:1]
-        cameras = [cameras] if isinstance(cameras, str) else list(cameras)
+            cameras = list(sampler_cls.cameras[:1])
         renders = obs_type != "state" or render_mode == "rgb_array"
         if renders and not cameras:
             raise UserError("pixel observations and rgb_array renders need at least one camera")
@@ -121,7 +151,6 @@ class TrossenMujocoEnv(gymnasium.Env):
             check_can_render()  # fail now, not with a hang at the first image
         self.task_name = task
         self.obs_type, self.action_mode, self.render_mode = obs_type, action_mode, render_mode
-        self.config = entry.load_config(**config)
         with scene_looks(looks):
             self.sampler = sampler_cls(
                 self.config,
@@ -144,10 +173,14 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.stepper = make_stepper(stepping)
         self.task: Task | None = None
         self._viewer = None
+        self._closed = False
         close_at_exit(self)  # renderers, viewer window and stepping thread, if never closed
 
     # -- gymnasium API --------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        if self._closed:  # reopen: what close() released is made again when needed
+            self._closed = False
+            close_at_exit(self)
         super().reset(seed=seed)
         if seed is not None:
             self.action_space.seed(seed)
@@ -165,8 +198,8 @@ class TrossenMujocoEnv(gymnasium.Env):
         return obs, info
 
     def step(self, action):
-        if self.task is None:
-            raise UserError("call reset() before step()")
+        if self.task is None:  # never reset, or closed: nothing more on the hot path
+            raise UserError(_CLOSED if self._closed else "call reset() before step()")
         with self.stepper.lock:
             commands, clipped = self.actions(self.scene.data, action)
         self.stepper.step(self.task, commands)
@@ -178,6 +211,8 @@ class TrossenMujocoEnv(gymnasium.Env):
         return obs, reward, terminated, False, info
 
     def render(self):
+        if self._closed:
+            raise UserError(_CLOSED)
         if self.render_mode == "rgb_array":
             with self.stepper.lock:
                 return np.concatenate(list(self.scene.render_images().values()), axis=1)
@@ -186,6 +221,10 @@ class TrossenMujocoEnv(gymnasium.Env):
         return None
 
     def close(self):
+        if getattr(self, "_closed", True):  # closed already, or never fully built
+            return
+        self._closed = True
+        self.task = None  # step() now says the env is closed, until reset()
         forget(self)
         self.stepper.close()
         if self._viewer is not None:

@@ -1,8 +1,11 @@
 """Gymnasium ids of every env, registered on ``import trossen_arm_mujoco``.
 
-Entry points are strings, so registering builds nothing; calling ``register_envs`` again
-is harmless (ids already in ``gymnasium.registry`` are skipped). Episode lengths
-(``max_episode_steps``) come from the tasks' YAML configs.
+Entry points are strings, so registering builds nothing and reads no file; calling
+``register_envs`` again is harmless (ids already in ``gymnasium.registry`` are skipped).
+Episode lengths (``max_episode_steps``) come from the tasks' YAML configs, read the first
+time a spec's ``max_episode_steps`` is asked for (``gymnasium.make`` asks after building the
+env, which reads the config first): a broken config fails only the ids of its task, with
+its one-line ``UserError``.
 
     >>> import gymnasium as gym, trossen_arm_mujoco
     >>> env = gym.make("TrossenMujoco/WXAIReachGoal-v0", action_mode="ee_delta")
@@ -15,6 +18,8 @@ render_mode, stepping, width, height, cameras, shadows, visual) and the task's c
 from __future__ import annotations
 
 from typing import Any
+
+from gymnasium.envs.registration import EnvSpec
 
 NAMESPACE = "TrossenMujoco"
 _ENV = "trossen_arm_mujoco.gym.env:TrossenMujocoEnv"
@@ -33,25 +38,42 @@ ENV_IDS: dict[str, tuple[str, str, dict[str, Any]]] = {
 }
 
 
-def _max_episode_steps(task: str) -> int:
-    from trossen_arm_mujoco.tasks import registry
+class TaskEnvSpec(EnvSpec):
+    """``EnvSpec`` of a registered task whose ``max_episode_steps`` is the task's YAML value,
+    read on first use (and kept); setting it replaces that."""
 
-    return int(registry.load(task).load_config()["max_episode_steps"])
+    def __init__(self, *args: Any, task: str = "", **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self._task = task
+        self._lazy = bool(task) and kwargs.get("max_episode_steps") is None
+
+    @property  # type: ignore[override]
+    def max_episode_steps(self) -> int | None:
+        if self.__dict__.get("_lazy"):
+            from trossen_arm_mujoco.tasks import registry
+
+            config = registry.load(self._task).load_config()
+            self._steps, self._lazy = int(config["max_episode_steps"]), False
+        return self.__dict__.get("_steps")
+
+    @max_episode_steps.setter
+    def max_episode_steps(self, value: int | None) -> None:
+        self._steps, self._lazy = value, False
 
 
 def register_envs() -> list[str]:
-    """Register every id not yet in ``gymnasium.registry``; returns the ids registered now."""
+    """Register every id not yet in ``gymnasium.registry``; returns the ids registered now.
+    No config is read (see ``TaskEnvSpec``)."""
     import gymnasium
 
     added = []
     for env_id, (entry_point, task, kwargs) in ENV_IDS.items():
         if env_id in gymnasium.registry:
             continue
-        gymnasium.register(
-            id=env_id,
-            entry_point=entry_point,
-            max_episode_steps=_max_episode_steps(task),
-            kwargs={"task": task, **kwargs},
+        kwargs = {"task": task, **kwargs}
+        gymnasium.register(id=env_id, entry_point=entry_point, kwargs=kwargs)  # its checks
+        gymnasium.registry[env_id] = TaskEnvSpec(
+            id=env_id, entry_point=entry_point, kwargs=kwargs, task=task
         )
         added.append(env_id)
     return added

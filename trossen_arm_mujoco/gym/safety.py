@@ -29,11 +29,13 @@ moves nothing up or down), which bounds that lag.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.selection import as_slice
 
 #: Sides of the polygons standing in for cylinder end discs.
@@ -227,6 +229,11 @@ class SafetyFloor:
     def __init__(self, model: mujoco.MjModel, arms: Sequence, floor_z: float):
         self.model = model
         self.floor_z = float(floor_z)
+        if not math.isfinite(self.floor_z):  # NaN would compare False: no floor at all
+            raise UserError(
+                f"safety floor height must be a finite number (m), got {floor_z!r}; "
+                "check table_height and safety_margin"
+            )
         self.arms = {arm.name: _ArmPoints(model, arm) for arm in arms}
         self._data = mujoco.MjData(model)
         self._dt = float(model.opt.timestep)

@@ -24,7 +24,7 @@ import numpy as np
 from gymnasium import spaces
 
 from trossen_arm_mujoco.clip import clip
-from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.tasks.task import Task
 
 OBS_TYPES = ("state", "pixels", "pixels_state")
@@ -32,6 +32,19 @@ OBS_TYPES = ("state", "pixels", "pixels_state")
 
 def _box(low: np.ndarray, high: np.ndarray) -> spaces.Box:
     return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+
+def _check_bounds(bounds: dict[str, tuple]) -> None:
+    """Every entry's bounds finite with low <= high (a one-line UserError naming the entry);
+    checked once, when the space is built."""
+    for key, (low, high) in bounds.items():
+        low, high = np.asarray(low, float), np.asarray(high, float)
+        if not (np.isfinite(low).all() and np.isfinite(high).all()) or (low > high).any():
+            raise UserError(
+                f"observation entry '{key}': bounds must be finite with low <= high, got low "
+                f"{np.round(low, 4).tolist()}, high {np.round(high, 4).tolist()}; check the "
+                "task config (workspace_low/high, max_joint_velocity, max_object_velocity)"
+            )
 
 
 class ObservationBuilder:
@@ -51,14 +64,19 @@ class ObservationBuilder:
             raise unknown_name_error("observation type", obs_type, OBS_TYPES)
         self.obs_type = obs_type
         self.goal_env = goal_env
+        for name, size in (("n_cameras", n_cameras), ("height", height), ("width", width)):
+            if not isinstance(size, (int, np.integer)) or isinstance(size, bool) or size < 0:
+                raise UserError(f"observation {name} must be a whole number >= 0, got {size!r}")
         self.with_goal = task.goal_conditioned and not goal_env
         bounds = dict(task.observation_bounds())
         if task.goal_conditioned:
             g_low, g_high = task.goal_bounds()
+            _check_bounds({"goal": (g_low, g_high)})
             self.goal_low, self.goal_high = g_low.astype(np.float32), g_high.astype(np.float32)
             if self.with_goal:
                 bounds["goal"] = (g_low, g_high)
                 bounds["goal_delta"] = (g_low - g_high, g_high - g_low)
+        _check_bounds(bounds)
         self.keys = list(bounds)
         self.state_space = _box(
             np.concatenate([np.asarray(bounds[k][0], float) for k in self.keys]),

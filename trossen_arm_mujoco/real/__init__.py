@@ -7,7 +7,7 @@
 - :mod:`.gripper`: gripper commands clamped to the controller's range, and counted;
 - :mod:`.replay`: the rate-limited replay loop;
 - :mod:`.shutdown`: driver calls as one-line errors, and the safe home/sleep/cleanup exit;
-- :mod:`.stop`: SIGINT/SIGTERM as a stop flag;
+- :mod:`.stop`: SIGINT, SIGTERM, SIGHUP and SIGQUIT as a stop flag;
 - :mod:`.report`: tracking-error CSV, JSON summary and plot.
 
 The command line is ``scripts/replay_episode_real.py`` (``trossen-mujoco replay-real``).

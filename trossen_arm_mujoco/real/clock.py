@@ -5,7 +5,9 @@ Replay never calls :func:`time.sleep` or :func:`time.monotonic` directly; it ask
 :class:`SimClock` nothing moves between calls: ``sleep(dt)`` advances every attached
 simulated arm by ``dt`` seconds of physics (as fast as the CPU allows) and then
 advances ``now()``. Both arms of a bimanual replay share one clock, so they stay in
-step, exactly as two real arms share the wall clock.
+step, exactly as two real arms share the wall clock. ``SimClock(realtime=True)`` also
+lets each ``sleep(dt)`` take ``dt`` of wall-clock time (simulating, then sleeping the
+rest), so a rehearsal on the twin runs at the real arms' pace (``--realtime``).
 """
 
 from __future__ import annotations
@@ -55,11 +57,17 @@ class SimClock:
     ``sleep(dt)`` advances each attached object (see :meth:`attach`) by ``dt`` and then
     adds ``dt`` to :meth:`now`. It starts at 0 s. Subclass and override
     :meth:`sleep` to inject events at chosen times (tests do this).
+
+    Args:
+        realtime: pace to the wall clock: ``sleep(dt)`` returns no sooner than ``dt`` of
+            real time after it was called (it takes longer only when simulating ``dt``
+            does); replay's waits come in short slices, so it stays interruptible.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, realtime: bool = False) -> None:
         self._time = 0.0
         self._sims: list[Advanceable] = []
+        self.realtime = realtime
 
     def attach(self, sim: Advanceable) -> None:
         """Advance ``sim`` whenever this clock sleeps (idempotent)."""
@@ -74,6 +82,11 @@ class SimClock:
         """Simulate ``seconds`` (s) on every attached simulation, then advance the time."""
         if seconds <= 0:
             return
+        start = time.monotonic()
         for sim in self._sims:
             sim.advance(seconds)
         self._time += seconds
+        if self.realtime:
+            left = seconds - (time.monotonic() - start)
+            if left > 0:
+                time.sleep(left)

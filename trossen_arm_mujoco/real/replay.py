@@ -10,20 +10,27 @@
    blocking=False)`` to both arms with ``goal_time = goal_time_factor / fps``, wait
    until the step's deadline (``t0 + (k + 1) / fps``, so waits do not drift), then read
    both arms' positions and log commanded (as sent) vs measured;
-4. always, after any exception (of any type, from any call), SIGINT or SIGTERM: stop
+4. always, after any exception (of any type, from any call) or a stop signal: stop
    streaming, move every configured arm home (``driver.HOME_POSE``), then to the sleep
    pose (all joints 0), then ``cleanup`` (:func:`.shutdown.shutdown`: each arm on its
    own, each call retried once, every failure reported).
 
-SIGINT and SIGTERM are caught while replay runs (main thread only) and only set a stop
-flag, checked before every step; the previous handlers are restored afterwards. The
-home and sleep moves are not interruptible. All waiting goes through a
-:class:`~trossen_arm_mujoco.real.clock.Clock`: real time for real arms, simulated time
-(much faster) for the twin.
+SIGINT, SIGTERM, SIGHUP and SIGQUIT are caught while replay runs (main thread only) and
+only set a stop flag (:mod:`.stop`); the previous handlers are restored afterwards.
+Every wait (to the start pose, the settle time, each command period) is done in slices
+of at most :data:`~.stop.WAIT_SLICE` (0.05 s) with the flag checked between them, so a
+stop takes effect within one slice even at the lowest ``fps``. The home and sleep moves
+are not interruptible: a signal arriving then is only noted (``late_signals``). All
+waiting goes through a :class:`~trossen_arm_mujoco.real.clock.Clock`: real time for
+real arms, simulated time (much faster, or paced to real time) for the twin.
+
+The command rate is bounded by :func:`check_fps`: one command lasts ``1 / fps``, which
+must lie between 1 ms and :data:`MAX_COMMAND_PERIOD` (2 s).
 """
 
 from __future__ import annotations
 
+import math
 import signal
 import sys
 from collections.abc import Callable, Mapping
@@ -32,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
-from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.real.clock import Clock, SimClock, WallClock
 from trossen_arm_mujoco.real.driver import (
     DEFAULT_END_EFFECTOR,
@@ -51,20 +58,53 @@ from trossen_arm_mujoco.real.shutdown import (
     shutdown,
 )
 from trossen_arm_mujoco.real.sim_driver import SimArmDriver
-from trossen_arm_mujoco.real.stop import StopFlag, stop_on_signals
+from trossen_arm_mujoco.real.stop import WAIT_SLICE, StopFlag, stop_on_signals
 from trossen_arm_mujoco.real.validate import ARMS, ArmLimits, Trajectory, safe_move_time
 
 __all__ = [
     "BACKENDS",
+    "MAX_COMMAND_PERIOD",
+    "MAX_FPS",
+    "MIN_FPS",
     "DriverError",
     "DriverFactory",
     "ReplayConfig",
     "ReplayResult",
+    "check_fps",
     "make_drivers",
     "replay",
 ]
 
 BACKENDS: tuple[str, ...] = ("trossen", "sim")
+
+#: Longest time one streamed command may last (s), i.e. ``1 / MIN_FPS``: the goal time
+#: ``trossen_arm`` gives a whole move by default (``set_all_positions(goal_time=2.0)``),
+#: as do this replay's start and home moves. A slower "stream" is a series of separate
+#: moves, and at absurd rates (``--fps 1e-9``) one command would last for years.
+MAX_COMMAND_PERIOD: float = 2.0
+#: Lowest command rate (Hz).
+MIN_FPS: float = 1.0 / MAX_COMMAND_PERIOD
+#: Highest command rate (Hz): one command per millisecond.
+MAX_FPS: float = 1000.0
+
+
+def check_fps(fps: float, flag: str = "--fps") -> None:
+    """Raise a one-line :class:`UserError` unless ``MIN_FPS <= fps <= MAX_FPS``.
+
+    The line states the bounds and why: one command lasts ``1 / fps``, which must lie
+    between 1 ms and :data:`MAX_COMMAND_PERIOD`.
+    """
+    if math.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS:
+        return
+    why = (
+        f"one command lasts 1/fps, which must be between 1 ms and {MAX_COMMAND_PERIOD:g} s, "
+        f"the goal time trossen_arm gives a whole move by default (as do this replay's start "
+        f"and home moves)"
+    )
+    if math.isfinite(fps) and 0 < fps < MIN_FPS:
+        why = f"one command would last {1.0 / fps:.3g} s; {why}"
+    raise UserError(f"{flag} must be in [{MIN_FPS:g}, {MAX_FPS:g}] Hz, got {fps:g}: {why}")
+
 
 #: Builds the two drivers of a backend: ``(backend, clock or None) -> (drivers, clock)``.
 DriverFactory = Callable[[str, "Clock | None"], "tuple[dict[str, ArmDriver], Clock]"]
@@ -125,6 +165,10 @@ class ReplayResult:
         final_positions: ``{arm: (7,)}`` measured after the sleep move (rad, m).
         late_steps: steps whose measurement came over half a period late.
         gripper: the gripper commands clamped to ``config.gripper_max``.
+        configured: arms whose ``configure`` returned (the arms that could move).
+        shutdown_errors: one line per failed call of the home/sleep/cleanup exit.
+        late_signals: stop signals (names) received after streaming had ended, while
+            the arms went home; they change nothing (the exit ran to its end).
     """
 
     log: TrackingLog
@@ -135,18 +179,39 @@ class ReplayResult:
     final_positions: dict[str, np.ndarray] = field(default_factory=dict)
     late_steps: int = 0
     gripper: GripperClamp | None = None
+    configured: list[str] = field(default_factory=list)
+    shutdown_errors: list[str] = field(default_factory=list)
+    late_signals: list[str] = field(default_factory=list)
 
     @property
     def steps_done(self) -> int:
         """Steps streamed and logged."""
         return len(self.log)
 
+    @property
+    def arms_safe(self) -> bool:
+        """Every configured arm went home and to sleep and was cleaned up, without error."""
+        return not self.shutdown_errors
 
-def _wait(clock: Clock, seconds: float, flag: StopFlag, chunk: float = 0.1) -> None:
-    """Wait ``seconds`` (s) in chunks, returning early once ``flag`` is set."""
+
+def wait(clock: Clock, seconds: float, flag: StopFlag, chunk: float = WAIT_SLICE) -> None:
+    """Wait ``seconds`` (s) in slices of at most ``chunk``, returning early once ``flag`` is set.
+
+    A signal handler runs between two slices at the latest, and sets the flag: however
+    long the wait, a stop takes effect within ``chunk`` (plus the time one slice takes to
+    simulate, on the twin).
+    """
     end = clock.now() + seconds
     while not flag and (left := end - clock.now()) > 1e-9:
         clock.sleep(min(chunk, left))
+
+
+def _say(text: str) -> None:
+    """Print ``text`` to stdout; a closed stdout (SIGHUP) must not stop the safe exit."""
+    try:
+        print(text, flush=True)
+    except (OSError, ValueError):
+        pass
 
 
 def _move_to_start(
@@ -172,6 +237,8 @@ def _stream(
     result: ReplayResult,
 ) -> None:
     for side in ARMS:
+        if flag:
+            return
         drv = drivers[side]
         args = (config.ips[side], config.model, config.end_effector, True)
         states.attempted.append(side)
@@ -181,8 +248,8 @@ def _stream(
         states.position_mode.append(side)
     if flag:
         return
-    _wait(clock, _move_to_start(drivers, commands[0], config.start_time, limits), flag)
-    _wait(clock, config.settle_time, flag)
+    wait(clock, _move_to_start(drivers, commands[0], config.start_time, limits), flag)
+    wait(clock, config.settle_time, flag)
     period, goal_time = 1.0 / config.fps, config.goal_time
     bar = tqdm(
         total=len(commands), desc="replay", unit="step", file=sys.stderr,
@@ -197,7 +264,9 @@ def _stream(
                 send = drivers[side].set_all_positions
                 call(side, f"set_all_positions (step {k})", send, cmd[a], goal_time, False)
             deadline = t0 + (k + 1) * period
-            clock.sleep(deadline - clock.now())
+            wait(clock, deadline - clock.now(), flag)
+            if flag:  # stopped within the period: its measurement would be early, not logged
+                return
             if clock.now() > deadline + 0.5 * period:
                 result.late_steps += 1
             meas = [read_positions(s, drivers[s]) for s in ARMS]
@@ -211,19 +280,26 @@ def replay(
     clock: Clock,
     config: ReplayConfig | None = None,
     limits: ArmLimits | None = None,
+    flag: StopFlag | None = None,
 ) -> ReplayResult:
     """Replay ``trajectory`` on ``drivers`` (``{"left", "right"}``); see the module doc.
 
     Never raises for driver errors (of any exception type) or signals: the outcome is in
     the result, after the arms went home and to sleep. The ``stopping: ...`` notice goes
     to stdout, so that stderr holds only the caller's one-line error.
+
+    Args:
+        flag: the caller's stop flag (armed here, closed when streaming ends), so that
+            the caller keeps handling signals the same way after replay (while it writes
+            the results); a fresh one when None.
     """
     config = config if config is not None else ReplayConfig(fps=trajectory.fps)
     limits = limits if limits is not None else ArmLimits.from_mjcf()
     result = ReplayResult(log=TrackingLog(), steps_total=trajectory.num_steps)
     commands, result.gripper = clamp_gripper(trajectory.commands, config.gripper_max, ARMS)
-    flag, states = StopFlag(), ArmStates()
+    flag, states = flag if flag is not None else StopFlag(), ArmStates()
     with stop_on_signals(flag):
+        flag.arm()
         try:
             _stream(commands, drivers, clock, config, limits, flag, states, result)
         except KeyboardInterrupt:
@@ -231,16 +307,21 @@ def replay(
         except Exception as exc:
             flag.set(one_line(exc), 1)
         finally:
+            flag.close()  # from here on a signal is only noted: the exit runs to its end
             if flag:
-                print(
+                _say(
                     f"stopping: {flag.reason}; moving the arms home, then to sleep "
-                    "(further Ctrl-C is ignored until they are asleep)",
-                    flush=True,
+                    "(further signals are noted but ignored until they are asleep; only "
+                    "SIGKILL ends this at once, leaving the arms where they are)"
+                    if states.configured
+                    else f"stopping: {flag.reason}; no arm was configured, none moved"
                 )
             result.final_positions, shutdown_errors = shutdown(
                 drivers, states, clock, config.home_time, config.sleep_time,
                 config.settle_time, limits,
             )  # fmt: skip
+    result.configured, result.shutdown_errors = list(states.configured), shutdown_errors
+    result.late_signals = list(flag.late)
     at = f"at step {result.steps_done}/{result.steps_total}"
     if flag:
         result.status = "failed" if flag.exit_code == 1 else "interrupted"

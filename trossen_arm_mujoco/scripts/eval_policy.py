@@ -33,7 +33,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.errors import ArgumentParser, UserError, interrupt_note, run_cli
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 
 #: Largest number of episodes one run takes.
@@ -42,7 +42,7 @@ MAX_EPISODES = 100_000
 
 def build_parser() -> argparse.ArgumentParser:
     """Command-line flags."""
-    p = argparse.ArgumentParser(
+    p = ArgumentParser(
         prog="trossen-mujoco eval",
         description="Score a policy (LeRobot checkpoint, scripted, module:function) over "
         "evaluation seeds in the sim; writes eval_info.json and rollout videos.",
@@ -153,7 +153,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Evaluate; returns the exit status."""
     args = build_parser().parse_args(argv)
     from trossen_arm_mujoco.eval.policies import is_function_spec
-    from trossen_arm_mujoco.eval.runner import evaluate
+    from trossen_arm_mujoco.eval.runner import VIDEO_DIR, evaluate
     from trossen_arm_mujoco.eval.scores import write_eval_info
 
     settings, workers = _settings(args)
@@ -174,8 +174,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         bar.update(1)
         bar.set_postfix(success=f"{wins[0]}/{bar.n}")
 
+    def kept() -> str:  # Ctrl-C or SIGTERM: what the one line of run_cli says
+        videos = ""
+        if settings.videos and bar.n:
+            folder = Path(settings.output_dir) / VIDEO_DIR
+            videos = f"; the finished rollout videos stay in {folder}"
+        return (
+            f"{bar.n} of {settings.num_episodes} episode(s) finished; no eval_info.json "
+            f"written{videos}"
+        )
+
     try:
-        info = evaluate(settings, workers, args.engine, on_episode=tick)
+        with interrupt_note(kept):
+            info = evaluate(settings, workers, args.engine, on_episode=tick)
     finally:
         bar.close()
     path = write_eval_info(Path(settings.output_dir) / "eval_info.json", info)

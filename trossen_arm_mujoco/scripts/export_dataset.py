@@ -27,7 +27,7 @@ from collections.abc import Sequence
 
 from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.reader import resolve_data_dir
-from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 
 FORMATS = ("lerobot",)
@@ -35,7 +35,7 @@ FORMATS = ("lerobot",)
 
 def build_parser() -> argparse.ArgumentParser:
     """Command-line flags."""
-    p = argparse.ArgumentParser(
+    p = ArgumentParser(
         prog="trossen-mujoco export",
         description="Export recorded HDF5 episodes as a LeRobot v3.0 dataset (parquet + mp4).",
     )

@@ -7,9 +7,14 @@ joint trajectory in the joint env, rendering the requested cameras and streaming
 to ``<root_dir>/<data_dir>/episode_<k>.hdf5`` (images gzip-compressed unless
 ``--compression none``). Unset flags come from ``SIM_TASK_CONFIGS[task_name]``.
 
-The last line says how many episodes succeeded and, when some failed, why. A write the file
-system refuses (disk full, read-only folder, folder removed) ends the run with one
-``error:`` line listing the complete episodes; no partial file is left.
+One run writes to a folder at a time: a second one refuses with the first one's pid, or
+waits for it with ``--wait``. A rerun continues the dataset: it checks every episode there
+(unreadable files and episodes recorded with other flags stop it with one line) and records
+the missing and the failed ones. The last line says how many episodes succeeded and, when
+some failed, why; the exit status is 1 when some failed (they are kept, and a rerun records
+them again). Ctrl-C or SIGTERM keeps every finished episode. A write the file system refuses
+(disk full, read-only folder, folder removed) ends the run with one ``error:`` line listing
+the complete episodes; no partial file is left.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
     import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
 
 import argparse
+import os
 import signal
 import sys
 import time
@@ -33,10 +39,13 @@ from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from trossen_arm_mujoco.collect.resume import format_indices
 from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION, GZIP_LEVEL
 from trossen_arm_mujoco.errors import (
     EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
+    ArgumentParser,
     UserError,
     report_error,
     run_cli,
@@ -44,11 +53,20 @@ from trossen_arm_mujoco.errors import (
 )
 
 if TYPE_CHECKING:
-    from trossen_arm_mujoco.collect.parallel import DatasetRecorder
+    from trossen_arm_mujoco.collect.parallel import DatasetRecorder, RunPlan
+
+#: Longest episode accepted (steps; 2000 s at 50 Hz).
+MAX_EPISODE_LEN = 100_000
+#: Most episodes one dataset may be asked to hold.
+MAX_EPISODES = 1_000_000
+#: Largest run seed (stored as a signed 64-bit attribute).
+MAX_SEED = 2**63 - 1
+#: Exit status when some episodes failed (without --skip_failed).
+EXIT_FAILED_EPISODES = 1
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = ArgumentParser(
         prog="trossen-mujoco record",
         description="Record scripted simulation episodes (two-phase: mocap rollout, joint "
         "replay with cameras) into HDF5 files.",
@@ -72,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--episode_len",
         type=int,
         default=None,
-        help="steps per episode at 50 Hz (default: task config, 600)",
+        help=f"steps per episode at 50 Hz, at most {MAX_EPISODE_LEN} (default: task config, 600)",
     )
     p.add_argument(
         "--onscreen_render",
@@ -102,15 +120,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--seed",
         type=int,
         default=0,
-        help="run seed; episode k uses a seed derived from (seed, k) (default: 0)",
+        help="run seed, 0 .. 2**63-1; episode k uses a seed derived from (seed, k) (default: 0)",
     )
     p.add_argument(
         "--num_workers",
         type=int,
         default=None,
-        help="episodes recorded at once: local worker processes (default: 1), or with "
-        "--engine ray the Ray tasks in flight (default: the cluster's CPUs; also the CPUs "
-        "of a local Ray); results are identical for any number",
+        help="episodes recorded at once: local worker processes (default: 1; at most the "
+        "CPUs, a worker that dies is replaced and its episode retried), or with --engine ray "
+        "the Ray tasks in flight (default: the cluster's CPUs; also the CPUs of a local "
+        "Ray); results are identical for any number",
     )
     p.add_argument(
         "--engine",
@@ -132,7 +151,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--skip_failed",
         action="store_true",
-        help="keep attempting until num_episodes successful episodes are saved",
+        help="keep attempting until num_episodes successful episodes are saved (without it "
+        "failed episodes are kept, the exit status is 1, and a rerun records them again)",
+    )
+    p.add_argument(
+        "--wait",
+        action="store_true",
+        help="when another record run is writing to the folder, wait for it to finish and "
+        "then continue the dataset (default: refuse, naming its pid)",
     )
     p.add_argument(
         "--compression",
@@ -195,15 +221,12 @@ def _looks(args: argparse.Namespace):
     return looks
 
 
-def _writable_folder(root: str, data_dir: str) -> Path:
+def _dataset_folder(root: str, data_dir: str) -> Path:
     from trossen_arm_mujoco.data.reader import resolve_data_dir
 
     folder = resolve_data_dir(root, data_dir)
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        probe = folder / ".write_test"
-        probe.write_bytes(b"")
-        probe.unlink()
     except OSError as exc:
         raise UserError(
             f"cannot write to {folder}: {exc.strerror or exc}; choose another --root_dir"
@@ -211,7 +234,96 @@ def _writable_folder(root: str, data_dir: str) -> Path:
     return folder
 
 
-def _raise_interrupt(signum, frame):  # SIGTERM -> same clean path as Ctrl-C
+def _check_writable(folder: Path) -> None:
+    """Create and remove a file of this run's own (another process never shares its name)."""
+    import secrets
+
+    probe = folder / f".write_test.{os.getpid()}-{secrets.token_hex(4)}"
+    try:
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise UserError(
+            f"cannot write to {folder}: {exc.strerror or exc}; choose another --root_dir"
+        ) from None
+
+
+def _cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):  # not Linux
+        return os.cpu_count() or 1
+
+
+def _num_workers(args: argparse.Namespace) -> int | None:
+    """``--num_workers``, at most the CPUs of this machine (with a warning) unless the
+    episodes run on a Ray cluster elsewhere."""
+    n = args.num_workers
+    if n is None or (args.engine == "ray" and args.ray_address is not None):
+        return n
+    cpus = _cpus()
+    if n > cpus:
+        print(
+            f"warning: --num_workers {n} is more than the {cpus} CPUs of this machine; "
+            f"using {cpus}",
+            file=sys.stderr,
+        )
+        return cpus
+    return n
+
+
+def _check_numbers(args: argparse.Namespace, num_episodes: int, episode_len: int) -> None:
+    if not 1 <= num_episodes <= MAX_EPISODES:
+        raise UserError(f"--num_episodes must be in 1 .. {MAX_EPISODES}, got {num_episodes}")
+    if not 1 <= episode_len <= MAX_EPISODE_LEN:
+        raise UserError(
+            f"--episode_len must be in 1 .. {MAX_EPISODE_LEN} steps (2000 s at 50 Hz), "
+            f"got {episode_len}"
+        )
+    if not 0 <= args.seed <= MAX_SEED:
+        raise UserError(f"--seed must be in 0 .. 2**63-1 ({MAX_SEED}), got {args.seed}")
+    if args.num_workers is not None and args.num_workers < 1:
+        raise UserError(f"--num_workers must be at least 1, got {args.num_workers}")
+
+
+def _on_wait(folder: Path):
+    def say(pid, host) -> None:
+        from trossen_arm_mujoco.data.dataset_lock import holder_text
+
+        print(
+            f"waiting for the record run ({holder_text(pid, host)}) writing to {folder} to "
+            "finish (Ctrl-C to stop waiting)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    return say
+
+
+def _warn_disk_space(folder: Path, settings, count: int) -> None:
+    """Warn when raw (uncompressed) episodes cannot fit in the free space."""
+    import shutil
+
+    if settings.compression != "none":
+        return  # compressed sizes are not known in advance
+    per_step = len(settings.cam_names) * settings.height * settings.width * 3 + 4 * 56
+    need = per_step * settings.episode_len * count
+    try:
+        free = shutil.disk_usage(folder).free
+    except OSError:
+        return
+    if need > free:
+        from trossen_arm_mujoco.collect.parallel import format_size
+
+        print(
+            f"warning: {count} episode(s) need about {format_size(need)} but {folder} has "
+            f"{format_size(free)} free; free disk space, record fewer episodes or use "
+            "--compression gzip",
+            file=sys.stderr,
+        )
+
+
+def _raise_hangup(signum, frame):  # a closed terminal: the same clean path as Ctrl-C
     raise KeyboardInterrupt
 
 
@@ -227,12 +339,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     episode_len = config["episode_len"] if args.episode_len is None else args.episode_len
     onscreen = config["onscreen_render"] if args.onscreen_render is None else True
     noise = config["inject_noise"] if args.inject_noise is None else True
-    if num_episodes < 1:
-        raise UserError(f"--num_episodes must be at least 1, got {num_episodes}")
-    if episode_len < 1:
-        raise UserError(f"--episode_len must be at least 1, got {episode_len}")
-    if args.num_workers is not None and args.num_workers < 1:
-        raise UserError(f"--num_workers must be at least 1, got {args.num_workers}")
+    _check_numbers(args, num_episodes, episode_len)
     if args.ray_address is not None and args.engine != "ray":
         raise UserError("--ray_address needs --engine ray")
     if onscreen and (args.engine != "local" or (args.num_workers or 1) != 1):
@@ -244,10 +351,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     cams = _cameras(args.cam_names, args.task_name)
     height, width = _image_size(args.image_size)
     looks = _looks(args)
-    folder = _writable_folder(args.root_dir, args.data_dir)
+    args.num_workers = _num_workers(args)
 
-    from trossen_arm_mujoco.collect.parallel import failure_summary, format_size, plan_run
-    from trossen_arm_mujoco.collect.pipeline import RecordSettings, policy_minimum_episode_len
+    from trossen_arm_mujoco.collect.pipeline import RecordSettings
 
     settings = RecordSettings(
         task_name=args.task_name,
@@ -262,15 +368,47 @@ def main(argv: Sequence[str] | None = None) -> int:
         shadows=looks.shadows,
         visual=looks.visual,
     )
-    plan = plan_run(folder, num_episodes, args.overwrite)
-    if plan.first_index >= num_episodes:
+    folder = _dataset_folder(args.root_dir, args.data_dir)
+    from trossen_arm_mujoco.data.dataset_lock import DatasetLock
+
+    hangup = _catch_hangup()
+    try:
+        with DatasetLock(folder, wait=args.wait, on_wait=_on_wait(folder)):
+            return _record(args, settings, folder, num_episodes, onscreen)
+    finally:
+        if hangup is not None:
+            signal.signal(signal.SIGHUP, hangup)
+
+
+def _catch_hangup():
+    """SIGHUP (the terminal closed) ends the run like Ctrl-C; returns the previous handler."""
+    import threading
+
+    sighup = getattr(signal, "SIGHUP", None)
+    if sighup is None or threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(sighup)
+    if previous == signal.SIG_IGN:  # nohup: keep running
+        return None
+    signal.signal(sighup, _raise_hangup)
+    return signal.SIG_DFL if previous is None else previous
+
+
+def _record(args, settings, folder: Path, num_episodes: int, onscreen: bool) -> int:
+    """The run, inside the folder's lock."""
+    from trossen_arm_mujoco.collect.parallel import failure_summary, format_size, plan_run
+    from trossen_arm_mujoco.collect.pipeline import policy_minimum_episode_len
+
+    _check_writable(folder)
+    plan = plan_run(folder, num_episodes, args.overwrite, settings)
+    if not plan.indices:
         print(
-            f"{folder} already holds episodes 0..{plan.first_index - 1}; nothing to record "
-            f"(raise --num_episodes to add more, or --overwrite to start afresh)"
+            f"{folder} already holds {format_indices(plan.existing)}; nothing to record "
+            "(raise --num_episodes to add more, or --overwrite to start afresh)"
         )
         return 0
-    if plan.first_index:
-        print(f"continuing after existing episode {plan.first_index - 1} in {folder}")
+    _say_plan(plan, folder, num_episodes)
+    episode_len = settings.episode_len
     minimum_len = policy_minimum_episode_len(args.task_name)
     if episode_len < minimum_len:
         print(
@@ -279,9 +417,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"the task is done and count as failed (use --episode_len {minimum_len} or more)",
             file=sys.stderr,
         )
+    _warn_disk_space(folder, settings, len(plan.indices))
     print(
-        f"recording episodes {plan.first_index}..{num_episodes - 1} of '{args.task_name}' "
-        f"({episode_len} steps, cameras: {', '.join(cams) or 'none'}"
+        f"recording {format_indices(plan.indices)} of '{args.task_name}' "
+        f"({episode_len} steps, cameras: {', '.join(settings.cam_names) or 'none'}"
         f"{', randomized' if args.randomize else ''}) into {folder}"
     )
 
@@ -289,7 +428,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     hook = None
     if onscreen:
         viewer, hook = _live_view_hook(settings)
-    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     start = time.perf_counter()
     try:
         with _engine(args, hook) as make_recorder:
@@ -298,7 +436,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             report = recorder.run(num_episodes, plan)
     finally:
-        signal.signal(signal.SIGTERM, previous)
         if viewer is not None and viewer[0] is not None:
             viewer[0].close()
     wall = time.perf_counter() - start
@@ -308,12 +445,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if report.interrupted:
         kept = sorted(k for k, _ in _episodes(folder))
         print(
-            f"interrupted: the episode in progress was discarded; {len(kept)} finished "
-            f"episode(s) kept in {folder} ({_ranges(kept)}); rerun the same command to "
-            "continue",
+            f"interrupted ({'SIGTERM' if report.terminated else 'Ctrl-C'}): the episodes in "
+            f"progress were discarded; {len(kept)} finished episode(s) kept in {folder} "
+            f"({format_indices(kept)}){_missing(kept, num_episodes)}; rerun the same command "
+            "to continue",
             file=sys.stderr,
         )
-        return EXIT_INTERRUPTED
+        return EXIT_TERMINATED if report.terminated else EXIT_INTERRUPTED
     episodes = _episodes(folder)
     total_bytes = sum(path.stat().st_size for _, path in episodes)
     print(
@@ -323,8 +461,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     noun, total = ("attempts", report.attempts) if args.skip_failed else ("episodes", len(saved))
     why = failure_summary(report.failed, total, noun, episode_len, minimum_len)
     if args.skip_failed:
-        print(f"attempts: {report.attempts} (bound {recorder.max_attempts(num_episodes)})")
-        if len(saved) < num_episodes - plan.first_index:
+        print(f"attempts: {report.attempts} (bound {recorder.max_attempts(len(plan.indices))})")
+        if len(saved) < len(plan.indices):
             print(f"Success: {report.successes} / {report.attempts}")
             raise UserError(
                 f"only {len(saved)} successful episodes after {report.attempts} "
@@ -332,7 +470,34 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         why = why and f"{why} (discarded)"
     print(f"Success: {report.successes} / {total}" + (f"; {why}" if why else ""))
+    failed = report.failed_indices
+    if failed and not args.skip_failed:
+        print(
+            f"failed: {format_indices(failed)} kept with success=False; rerunning the same "
+            "command records them again (or pass --skip_failed to keep only successes)",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED_EPISODES
     return 0
+
+
+def _say_plan(plan: RunPlan, folder: Path, num_episodes: int) -> None:
+    """One line on what a run that continues a dataset keeps and records."""
+    if not (plan.existing or plan.failed):
+        return
+    parts = [f"keeping {format_indices(plan.existing)}"] if plan.existing else []
+    gaps = [k for k in plan.gaps if k < num_episodes and k in plan.indices]
+    if gaps:
+        parts.append(f"missing: {format_indices(gaps)}")
+    again = [k for k in plan.indices if k in plan.failed]
+    if again:
+        parts.append(f"failed before, recording again: {format_indices(again)}")
+    print(f"continuing the dataset in {folder}: " + "; ".join(parts))
+
+
+def _missing(kept: list[int], num_episodes: int) -> str:
+    missing = sorted(set(range(num_episodes)) - set(kept))
+    return f"; missing: {format_indices(missing)}" if missing and kept else ""
 
 
 @contextmanager
@@ -363,7 +528,9 @@ def _kept(folder: Path) -> str:
     if not folder.is_dir():
         return "complete episodes: none (the folder is gone)"
     kept = sorted(k for k, _ in _episodes(folder))
-    return f"complete episodes: {_ranges(kept)} in {folder}" if kept else "complete episodes: none"
+    if not kept:
+        return "complete episodes: none"
+    return f"complete episodes: {format_indices(kept)} in {folder}"
 
 
 def _io_hint(exc) -> str:
@@ -373,13 +540,12 @@ def _io_hint(exc) -> str:
         return "rerun to record again"
     if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
         return "free disk space or choose another --root_dir, then rerun to continue"
+    if exc.errno in (errno.EAGAIN, errno.ENOENT):
+        return (
+            "another program changed or holds files in the folder; stop it (or use another "
+            "--data_dir), then rerun to continue"
+        )
     return "check the folder's permissions or choose another --root_dir, then rerun to continue"
-
-
-def _ranges(indices: list[int]) -> str:
-    if not indices:
-        return "none"
-    return f"episodes {indices[0]}..{indices[-1]}" if len(indices) > 1 else f"episode {indices[0]}"
 
 
 def _live_view_hook(settings):

@@ -1,21 +1,26 @@
 """Replay a recorded episode on two real arms, or on their simulated twin.
 
 The whole trajectory is validated first (shape, finite values, joint limits, joint
-speeds at ``--fps``); any violation is one line and exit status 2, before any driver is
-created. Gripper commands above ``--gripper_max`` (the controller's range, 0.04 m) are
-clamped and counted. Then both arms are configured with the ``--end_effector`` preset,
-move to the first action over 2 s, follow the actions at ``--fps``, and finally go home
-and to the sleep pose; any error, Ctrl-C or SIGTERM stops streaming and still runs the
+speeds at ``--fps``, which must be in [0.5, 1000] Hz: one command lasts at most 2 s);
+any violation is one line and exit status 2, before any driver is created. Gripper
+commands above ``--gripper_max`` (the controller's range, 0.04 m) are clamped and
+counted. Then both arms are configured with the ``--end_effector`` preset, move to the
+first action over 2 s, follow the actions at ``--fps``, and finally go home and to the
+sleep pose; any error, or Ctrl-C, SIGTERM, SIGHUP or SIGQUIT (at any moment, within
+0.05 s, even in the middle of a command period) stops streaming and still runs the
 home/sleep/cleanup sequence on every configured arm, and the exit status is non-zero
-with one line on stderr. Tracking results (CSV, JSON summary, PNG) go to
-``<data folder>/replay/``. Also available as ``trossen-mujoco replay-real``.
+(128 + the signal's number after a signal) with one line on stderr. Tracking results
+(CSV, JSON summary, PNG) go to ``<data folder>/replay/``, whatever stopped the replay;
+a signal arriving while the arms go home or the results are written is noted and
+changes nothing, so the files are always complete. A signal before any arm was
+configured ends the command at once. Also available as ``trossen-mujoco replay-real``.
 
 Examples::
 
     # check an episode and print what would be sent; nothing moves
     python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
         --dry_run
-    # rehearse on the simulated twin (faster than real time)
+    # rehearse on the simulated twin (faster than real time; --realtime: at the arms' pace)
     python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
         --backend sim
     # real arms (needs: pip install 'trossen-arm-mujoco[real]'); arms built in 2025
@@ -35,16 +40,16 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
     import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
 
 import argparse
-import functools
 import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from trossen_arm_mujoco.constants import ROOT_DIR
-from trossen_arm_mujoco.data.reader import episode_path, load_episode, resolve_data_dir
-from trossen_arm_mujoco.errors import UserError, report_error, run_cli
-from trossen_arm_mujoco.real.clock import Clock
+from trossen_arm_mujoco.data.reader import Episode, episode_path, load_episode, resolve_data_dir
+from trossen_arm_mujoco.errors import ArgumentParser, UserError, report_error, run_cli
+from trossen_arm_mujoco.real.clock import Clock, SimClock
 from trossen_arm_mujoco.real.driver import (
     DEFAULT_END_EFFECTOR,
     DEFAULT_MODEL,
@@ -56,19 +61,24 @@ from trossen_arm_mujoco.real.driver import (
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX, clamp_gripper
 from trossen_arm_mujoco.real.replay import (
     BACKENDS,
+    MAX_FPS,
+    MIN_FPS,
     DriverFactory,
     ReplayConfig,
+    ReplayResult,
+    check_fps,
     make_drivers,
     replay,
 )
 from trossen_arm_mujoco.real.report import PLOT_HINT, format_error_table, write_outputs
+from trossen_arm_mujoco.real.stop import Interrupted, StopFlag, stop_on_signals
 from trossen_arm_mujoco.real.validate import ArmLimits, format_trajectory_report, validate_actions
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Command-line flags."""
-    p = argparse.ArgumentParser(
-        prog="replay_episode_real",
+    p = ArgumentParser(
+        prog="trossen-mujoco replay-real",
         description="Replay a recorded episode on two Trossen AI arms (or their simulated "
         "twin), with validation, tracking-error logging and a safe home/sleep exit.",
     )
@@ -77,7 +87,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--root_dir", default=ROOT_DIR, help=f"datasets root (default {ROOT_DIR})")
     p.add_argument("--episode_idx", type=int, default=0, help="episode to replay (default 0)")
-    p.add_argument("--fps", type=float, default=10.0, help="command rate in Hz (default 10)")
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=10.0,
+        help=f"command rate in Hz, in [{MIN_FPS:g}, {MAX_FPS:g}]: one command lasts at most "
+        f"{1 / MIN_FPS:g} s, the goal time trossen_arm gives a whole move (default 10)",
+    )
     p.add_argument("--left_ip", default="192.168.1.5", help="left arm (default 192.168.1.5)")
     p.add_argument("--right_ip", default="192.168.1.4", help="right arm (default 192.168.1.4)")
     p.add_argument(
@@ -85,6 +101,12 @@ def build_parser() -> argparse.ArgumentParser:
         choices=BACKENDS,
         default="trossen",
         help="trossen: real arms via trossen_arm; sim: the MuJoCo twin (default trossen)",
+    )
+    p.add_argument(
+        "--realtime",
+        action="store_true",
+        help="with --backend sim: run the twin at the real arms' pace (wall-clock time) "
+        "instead of as fast as it simulates; real arms always run in real time",
     )
     p.add_argument(
         "--goal_time_factor",
@@ -125,10 +147,24 @@ def main(
 
     ``driver_factory`` (default :func:`make_drivers`) and ``clock`` are for tests and
     embedding: ``driver_factory(backend, clock) -> (drivers, clock)``.
+
+    Stop signals are handled from start to end (:mod:`trossen_arm_mujoco.real.stop`):
+    before any arm may move one raises :class:`~trossen_arm_mujoco.real.stop.Interrupted`
+    (:func:`cli` turns it into one line); from then on it stops the replay cleanly, and
+    once streaming is over it is only noted, so the results are always written whole.
     """
-    args = build_parser().parse_args(argv)
-    if not (math.isfinite(args.fps) and 0 < args.fps <= 1000):
-        raise UserError(f"--fps must be in (0, 1000], got {args.fps:g}")
+    flag = StopFlag(armed=False)
+    with stop_on_signals(flag):
+        return _run(build_parser().parse_args(argv), driver_factory, clock, flag)
+
+
+def _run(
+    args: argparse.Namespace,
+    driver_factory: DriverFactory | None,
+    clock: Clock | None,
+    flag: StopFlag,
+) -> int:
+    check_fps(args.fps)
     if not (math.isfinite(args.goal_time_factor) and 0 < args.goal_time_factor <= 20):
         raise UserError(f"--goal_time_factor must be in (0, 20], got {args.goal_time_factor:g}")
     limits = ArmLimits.from_mjcf()
@@ -138,13 +174,14 @@ def main(
     ee_note = _check_end_effector(args.end_effector, args.backend, args.dry_run)
     folder = resolve_data_dir(args.root_dir, args.data_dir)
     episode = load_episode(episode_path(folder, args.episode_idx))
+    dt = recorded_dt(episode)
     trajectory = validate_actions(episode.action, args.fps, limits)
     gripper = clamp_gripper(trajectory.commands, args.gripper_max)[1]
-    speed = episode.dt * args.fps  # replay speed relative to the recording
+    speed = dt * args.fps  # replay speed relative to the recording
     pace = "the recorded speed" if abs(speed - 1) < 1e-9 else f"{speed:.3g}x the recorded speed"
     print(
         f"{episode.path}: {trajectory.num_steps} steps, {trajectory.num_steps / args.fps:.1f} s "
-        f"at --fps {args.fps:g} ({pace}, recorded at {1.0 / episode.dt:g} Hz), "
+        f"at --fps {args.fps:g} ({pace}, recorded at {1.0 / dt:g} Hz), "
         f"goal time {args.goal_time_factor / args.fps:.3g} s per command"
     )
     print(gripper.describe())
@@ -161,6 +198,8 @@ def main(
     except OSError as exc:
         raise UserError(f"cannot create the output folder {out_dir}: {exc.strerror}") from None
     factory = driver_factory if driver_factory is not None else make_drivers
+    if clock is None and args.backend == "sim" and args.realtime:
+        clock = SimClock(realtime=True)
     drivers, run_clock = factory(args.backend, clock)
     config = ReplayConfig(
         fps=args.fps,
@@ -172,14 +211,16 @@ def main(
         gripper_max=args.gripper_max,
         progress=not args.no_progress,
     )
-    result = replay(trajectory, drivers, run_clock, config, limits)
+    # from here on a signal never raises: it stops streaming, or (once streaming is over,
+    # flag closed) is only noted, so the arms always go home and the results are whole
+    result = replay(trajectory, drivers, run_clock, config, limits, flag=flag)
 
     summary = {
         "episode": str(episode.path),
         "backend": args.backend,
         "fps": args.fps,
         "goal_time_s": config.goal_time,
-        "recorded_dt_s": episode.dt,
+        "recorded_dt_s": dt,
         "steps_total": result.steps_total,
         "steps_done": result.steps_done,
         "status": result.status,
@@ -191,6 +232,8 @@ def main(
         "end_effector": args.end_effector,
         "trossen_arm_version": installed_version() if find_trossen_arm() else None,
         "measured_at": "end of each command period, just before the next command",
+        "arms_home_and_asleep": bool(result.configured) and result.arms_safe,
+        "late_signals": result.late_signals,
         "final_positions": {k: v.tolist() for k, v in result.final_positions.items()},
     }
     stem = f"episode_{args.episode_idx}_{args.backend}"
@@ -198,6 +241,7 @@ def main(
         paths = write_outputs(out_dir, stem, result.log, summary)
     except OSError as exc:
         also = f"; {result.reason}" if result.reason else ""
+        _say_safe(result)
         return report_error(
             f"cannot write the replay results to {out_dir}: {exc}{also}", result.exit_code or 1
         )
@@ -208,7 +252,14 @@ def main(
     print(f"wrote {written}")
     if paths["plot"] is None and result.steps_done:
         print(f"note: no plot: matplotlib is not installed ({PLOT_HINT})")
+    if flag.late:
+        names = ", ".join(dict.fromkeys(flag.late))
+        print(
+            f"note: {names} arrived after streaming had ended; noted and ignored: the arms "
+            f"finished their home/sleep moves and the results were written in full"
+        )
     if result.exit_code:
+        _say_safe(result)
         return report_error(result.reason, result.exit_code)
     clamped = (result.gripper or gripper).count
     print(
@@ -216,6 +267,37 @@ def main(
         f"to {args.gripper_max:g} m; arms are home and asleep"
     )
     return 0
+
+
+def recorded_dt(episode: Episode) -> float:
+    """The episode's step period (s), checked: positive and finite.
+
+    Raises:
+        UserError: naming the file and its ``dt`` attribute (zero, negative, NaN, inf,
+            or not a number).
+    """
+    try:
+        dt = float(episode.dt)
+    except (TypeError, ValueError):
+        dt = math.nan
+    if not (math.isfinite(dt) and dt > 0):
+        raw: Any = episode.attrs.get("dt")
+        raise UserError(
+            f"{episode.path}: attribute 'dt' is {raw!r}; expected the step period in s, a "
+            f"positive finite number (e.g. 0.02 for 50 Hz): fix or delete the attribute"
+        )
+    return dt
+
+
+def _say_safe(result: ReplayResult) -> None:
+    """After a stop: say on stdout where the arms are (stderr keeps the one error line)."""
+    if not result.arms_safe:
+        return  # the error line lists the shutdown errors
+    done = f"replay stopped after {result.steps_done}/{result.steps_total} steps"
+    if result.configured:
+        print(f"{done}; arms are home and asleep", flush=True)
+    else:
+        print(f"{done}; no arm was configured, none moved", flush=True)
 
 
 def _check_end_effector(name: str, backend: str, dry_run: bool) -> str | None:
@@ -242,8 +324,20 @@ def cli(
     driver_factory: DriverFactory | None = None,
     clock: Clock | None = None,
 ) -> int:
-    """Entry point: like :func:`main`, with user errors as one line and exit status 2."""
-    return run_cli(functools.partial(main, driver_factory=driver_factory, clock=clock), argv)
+    """Entry point: like :func:`main`, with user errors as one line and exit status 2.
+
+    A stop signal before any arm was configured is one line too, with exit status
+    128 + its number.
+    """
+
+    def guarded(args: Sequence[str] | None) -> int:
+        try:
+            return main(args, driver_factory=driver_factory, clock=clock)
+        except Interrupted as exc:
+            return report_error(f"{exc} before any arm was configured; nothing moved",
+                                exc.exit_code)  # fmt: skip
+
+    return run_cli(guarded, argv)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,11 @@ For every ``episode_<k>.hdf5`` in the data folder: ``episode_<k>.mp4`` (all came
 labelled grid, H.264) when the episode has images, and ``episode_<k>_joints.png`` (qpos
 against action, one subplot per joint). Also available as ``trossen-mujoco visualize``.
 
+Each file appears under its name only once complete. Ctrl-C or SIGTERM stops after removing
+the file in progress (exit status 130 or 143) and keeps the finished ones; a run killed
+harder leaves hidden ``.episode_<k>.mp4.tmp`` files, which the next run removes. One run at
+a time writes into an output folder.
+
 Example::
 
     python trossen_arm_mujoco/scripts/visualize_eps.py --data_dir sim_transfer_cube
@@ -30,13 +35,24 @@ from tqdm import tqdm
 from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode, resolve_data_dir
 from trossen_arm_mujoco.data.video import h264_encoder, plot_joints, write_episode_video
-from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.errors import (
+    ArgumentParser,
+    UserError,
+    describe_os_error,
+    interrupt_note,
+    os_error_hint,
+    run_cli,
+)
+from trossen_arm_mujoco.fileio import FolderBusyError, folder_lock, remove_stale_temps
+
+#: Final names of the files this command writes (their temporary names are ``.<name>.tmp``).
+OWN_FILES = r"episode_\d+(\.mp4|_joints\.png)"
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Command-line flags."""
-    parser = argparse.ArgumentParser(
-        prog="visualize_eps",
+    parser = ArgumentParser(
+        prog="trossen-mujoco visualize",
         description="Write an mp4 (camera grid) and a joint plot for each recorded episode.",
     )
     parser.add_argument(
@@ -92,15 +108,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     out_dir = Path(args.output_dir).expanduser()
     if not out_dir.is_absolute():
         out_dir = data_dir / out_dir
-    videos, plots, no_images = 0, 0, []
-    for idx, episode in tqdm(episodes, desc="visualize", unit="episode", file=sys.stderr):
-        if episode.has_images:
-            write_episode_video(episode, out_dir / f"episode_{idx}.mp4", fps=args.fps)
-            videos += 1
-        else:
-            no_images.append(episode.path.name)
-        plot_joints(episode, out_dir / f"episode_{idx}_joints.png")
-        plots += 1
+    _make_output_dir(out_dir)
+    written: list[Path] = []
+    no_images: list[str] = []
+    try:
+        with folder_lock(out_dir):
+            remove_stale_temps(out_dir, OWN_FILES)  # left by a run killed with SIGKILL
+            with interrupt_note(lambda: _kept(written, out_dir)):
+                _write_all(episodes, out_dir, args.fps, written, no_images)
+    except FolderBusyError:
+        raise UserError(
+            f"another visualize is writing into {out_dir}; wait for it to finish or choose "
+            "another --output_dir"
+        ) from None
+    videos = sum(path.suffix == ".mp4" for path in written)
+    plots = len(written) - videos
 
     if no_images:
         print(
@@ -110,6 +132,50 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
     print(f"wrote {videos} video(s) and {plots} joint plot(s) to {out_dir}")
     return 0
+
+
+def _make_output_dir(out_dir: Path) -> None:
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserError(f"--output_dir {out_dir} is a file; give a folder")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(
+            f"cannot create --output_dir {out_dir}: {describe_os_error(exc)}; "
+            f"{os_error_hint(exc, '--output_dir')}"
+        ) from None
+
+
+def _write_all(episodes, out_dir: Path, fps: float, written: list, no_images: list) -> None:
+    """Write every episode's video and plot, appending each finished file to ``written``."""
+    with tqdm(episodes, desc="visualize", unit="episode", file=sys.stderr) as bar:
+        for idx, episode in bar:
+            targets = []
+            if episode.has_images:
+                targets.append((write_episode_video, out_dir / f"episode_{idx}.mp4", {"fps": fps}))
+            else:
+                no_images.append(episode.path.name)
+            targets.append((plot_joints, out_dir / f"episode_{idx}_joints.png", {}))
+            for write, path, kwargs in targets:
+                try:
+                    write(episode, path, **kwargs)
+                except OSError as exc:
+                    raise UserError(
+                        f"cannot write {path}: {describe_os_error(exc)}; "
+                        f"{os_error_hint(exc, '--output_dir')}; {_kept(written, out_dir)}"
+                    ) from None
+                written.append(path)
+
+
+def _kept(written: list[Path], out_dir: Path) -> str:
+    """What a stopped run kept: the finished files (the one in progress is removed)."""
+    if not written:
+        return f"no file was finished in {out_dir}"
+    videos = sum(path.suffix == ".mp4" for path in written)
+    return (
+        f"kept {videos} finished video(s) and {len(written) - videos} joint plot(s) in "
+        f"{out_dir} (last: {written[-1].name}); the file in progress was removed"
+    )
 
 
 def cli(argv: Sequence[str] | None = None) -> int:

@@ -4,14 +4,17 @@ An entry names everything about a task: its task class (reward, success, descrip
 observations), its sampler (scenes of both flavours, randomization), its YAML config, its
 scripted policy when it has one, and the recording defaults the record CLI starts from.
 ``SIM_TASK_CONFIGS`` (``constants.py``) is derived from the entries that have a scripted
-policy. Classes are named by import path and imported on first use, so listing is cheap.
+policy. Classes are named by import path and imported on first use, and YAML configs are
+read only when a task is used (``load_config``, ``make_sampler``, ``RecordDefaults[name]``),
+so listing is cheap and a broken config fails only the commands that use its task.
 
     >>> from trossen_arm_mujoco.tasks import registry
     >>> sampler = registry.make_sampler("reach", command_mode="ee_delta", success_tolerance=0.03)
     >>> task = sampler.sample_task(seed=0)
 
 Adding a task = one task module (task + sampler), one scripted policy module (optional), one
-YAML file in ``config/``, one ``TaskEntry`` below (and a gym id in ``gym/registration.py``).
+YAML file in ``config/``, one ``TaskEntry`` below (and a gym id in ``gym/registration.py``;
+config keys no task had before: a line each in ``tasks.config_schema.KEYS``).
 """
 
 from __future__ import annotations
@@ -70,7 +73,9 @@ class TaskEntry:
         return _import(self.policy)
 
     def load_config(self, **overrides: Any) -> dict[str, Any]:
-        """``config/<config>.yaml`` with keyword overrides (unknown keys -> UserError)."""
+        """``config/<config>.yaml``, validated, with keyword overrides (an unknown key or an
+        invalid value, in the file or an override: a one-line UserError; see
+        ``tasks.config_schema``)."""
         return load_task_config(self.config, **overrides)
 
 
@@ -147,8 +152,25 @@ def scripted_names() -> list[str]:
 
 
 def sim_task_configs() -> dict[str, dict[str, Any]]:
-    """``SIM_TASK_CONFIGS``: recording defaults of every task with a scripted policy."""
+    """Recording defaults of every task with a scripted policy (static: no file is read)."""
     return {e.name: dict(e.record) for e in ENTRIES if e.policy}
+
+
+class RecordDefaults(dict):
+    """``SIM_TASK_CONFIGS``: task name -> recording defaults (``num_episodes``,
+    ``episode_len``, ``onscreen_render``, ``inject_noise``, ``cam_names``), a plain dict of
+    ``sim_task_configs()`` except for one thing: ``defaults[name]`` first checks the task's
+    YAML config, so a command that looks its task up fails right there, with the config's
+    one-line ``UserError``, when that file is broken. Listing (``in``, iteration, ``len``,
+    ``keys``, ``get``, ``items``) reads no file."""
+
+    def __init__(self) -> None:
+        super().__init__(sim_task_configs())
+
+    def __getitem__(self, name: str) -> dict[str, Any]:
+        defaults = super().__getitem__(name)  # KeyError for a task without a policy
+        TASKS[name].load_config()
+        return defaults
 
 
 def make_sampler(

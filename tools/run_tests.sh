@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# The test command: installs what the tests need on a fresh Debian/Ubuntu machine (system
+# packages with apt-get, the [dev] extra with a CPU torch, a Python 3.12 venv with LeRobot
+# 0.6.1, the project and the LeRobot env plugin), then runs the whole suite on this Python and
+# again on 3.12 next to LeRobot. Already set up? MUJOCO_GL=egl python -m pytest -q
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+export DEBIAN_FRONTEND=noninteractive
+SUDO=""
+if [ "$(id -u)" != "0" ]; then SUDO="sudo"; fi
+# Software EGL (Mesa) for headless rendering; Xvfb + screenshot tools for the live-viewer tests;
+# FFmpeg's shared libraries, which torchcodec (LeRobot's video decoder) loads.
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends \
+    libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri \
+    xvfb x11-apps imagemagick ffmpeg >/dev/null
+
+python -m pip install -q --upgrade pip
+# torch (for stable-baselines3) as the CPU build: without a torch already installed, [dev]
+# would pull the multi-GB CUDA build. TORCH_SPEC overrides it (e.g. a CUDA machine's pin).
+python -m pip install -q "${TORCH_SPEC:-torch==2.13.0}" || python -m pip install -q torch
+python -m pip install -q -e ".[dev]"
+
+# LeRobot (the real dataset loader, lerobot-train and lerobot-eval the export and the env plugin
+# are tested against) needs Python >= 3.12: a second venv, reused while it holds the pinned
+# version. The project itself (with [dev,train]) and the env plugin are installed into it on
+# every run (editable, from this clone), and the whole suite runs there too: Python 3.12 is a
+# first-class home. Tests run LeRobot's tools through TROSSEN_LEROBOT_PYTHON.
+LEROBOT_PINS="lerobot[dataset,training]==0.6.1 torch==2.11.0 torchvision==0.26.0 torchcodec==0.11.1 av==15.1.0 datasets==4.8.5"
+LEROBOT_VENV="${TROSSEN_LEROBOT_VENV:-$HOME/.cache/trossen-arm-mujoco/lerobot-venv}"
+PY312=""
+PYENV_312=""
+if command -v pyenv >/dev/null 2>&1; then PYENV_312="$(pyenv root)/versions/3.12.1/bin/python"; fi
+for candidate in "$PYENV_312" python3.12; do  # a pyenv shim may exist yet not run: try it
+    if [ -n "$candidate" ] && "$candidate" -c "import sys; assert sys.version_info[:2] == (3, 12)" 2>/dev/null; then
+        PY312="$candidate"
+        break
+    fi
+done
+if [ -z "$PY312" ]; then
+    echo "error: no Python 3.12 found for the LeRobot venv (pyenv install 3.12.1)" >&2
+    exit 1
+fi
+if ! "$LEROBOT_VENV/bin/python" -c "import lerobot, accelerate, sys; sys.exit(lerobot.__version__ != '0.6.1')" 2>/dev/null; then
+    rm -rf "$LEROBOT_VENV"
+    "$PY312" -m venv "$LEROBOT_VENV"
+    start=$(date +%s)
+    for attempt in 1 2 3; do
+        # shellcheck disable=SC2086
+        "$LEROBOT_VENV/bin/python" -m pip install -q $LEROBOT_PINS && break
+        if [ "$attempt" = 3 ]; then echo "error: installing LeRobot failed" >&2; exit 1; fi
+        sleep 10
+    done
+    echo "LeRobot venv installed in $(( $(date +%s) - start )) s: $LEROBOT_VENV"
+fi
+"$LEROBOT_VENV/bin/python" -m pip install -q -e ".[dev,train]" -e plugins/lerobot_env_trossen
+export TROSSEN_LEROBOT_PYTHON="$LEROBOT_VENV/bin/python"
+
+# The suite on this Python (3.11 in CI), then the same suite on 3.12
+# next to LeRobot 0.6.1.
+MUJOCO_GL=egl python -m pytest -q
+MUJOCO_GL=egl "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider
