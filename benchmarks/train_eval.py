@@ -1,7 +1,7 @@
 """The whole loop, measured: record -> export -> lerobot-train (ACT) -> trossen-mujoco eval.
 
     TROSSEN_LEROBOT_PYTHON=~/.cache/trossen-arm-mujoco/lerobot-venv/bin/python \\
-        python benchmarks/train_eval.py --episodes 50 --steps 8000 --eval_episodes 50
+        python benchmarks/train_eval.py --episodes 50 --steps 6000 --eval_episodes 50
 
 1. ``trossen-mujoco record`` of ``--episodes`` scripted transfer episodes (``--seed``), no
    camera by default (``--cam_names cam_high --image_size 96x128`` for the image recipe);
@@ -53,7 +53,7 @@ def main() -> None:
     p.add_argument("--cam_names", default="none")
     p.add_argument("--image_size", default="96x128")
     p.add_argument("--fps", type=int, default=50, help="export (and eval) rate")
-    p.add_argument("--steps", type=int, default=8000)
+    p.add_argument("--steps", type=int, default=6000)
     p.add_argument("--batch_size", type=int, default=16)
     p.add_argument("--save_freq", type=int, default=1000, help="checkpoint every N steps")
     p.add_argument("--lr", type=float, default=1e-4)

@@ -7,6 +7,7 @@ import errno
 import os
 import signal
 import threading
+import time
 
 import pytest
 
@@ -262,3 +263,30 @@ def test_sighup_is_handled_like_sigterm_and_a_handler_in_place_is_kept(capsys):
         assert signal.getsignal(signal.SIGHUP) == before_hup
     finally:
         signal.signal(signal.SIGUSR1, previous_usr1)
+
+
+def test_signal_in_a_finalizer_is_delivered_after_it(monkeypatch):
+    """SIGTERM arriving while a ``__del__`` runs is not lost as "Exception ignored in": it
+    is raised once the finalizer has returned."""
+    import signal as _signal
+
+    from trossen_arm_mujoco import errors as _errors
+
+    seen = []
+
+    class Finalized:
+        def __del__(self):
+            _signal.raise_signal(_signal.SIGTERM)  # the handler runs inside __del__
+            seen.append("finalizer done")
+
+    old = _signal.signal(_signal.SIGTERM, _errors.raise_terminated)
+    try:
+        with pytest.raises(_errors.Terminated):
+            Finalized()  # collected at once: __del__ runs here
+            deadline = time.monotonic() + 5.0
+            while time.monotonic() < deadline:  # the signal comes again a moment later
+                time.sleep(0.001)
+    finally:
+        _signal.signal(_signal.SIGTERM, old)
+        _errors._received.clear()
+    assert seen and seen[0] == "finalizer done"

@@ -65,8 +65,31 @@ def raise_terminated(signum: int, frame: Any) -> None:
     :func:`run_cli` installs it; a command that installs a SIGTERM handler of its own can
     install this one and keep exit status 143.
     """
+    if _in_finalizer(frame):
+        # An exception raised in a finalizer (``__del__``, a weakref callback) is printed as
+        # "Exception ignored in ..." with a traceback and then lost: deliver the signal again
+        # a moment later, once the finalizer has returned (a timer thread signals this
+        # process again; Python runs the handler in the main thread).
+        timer = threading.Timer(0.002, os.kill, (os.getpid(), signum))
+        timer.daemon = True
+        timer.start()
+        return
     _received.append(signum)
     raise Terminated(signum)
+
+
+#: Modules whose functions run as finalizers (weakref callbacks).
+_FINALIZER_FILES = ("weakref.py", "_weakrefset.py")
+
+
+def _in_finalizer(frame: Any, depth: int = 64) -> bool:
+    """Whether ``frame`` (the one a signal interrupted) runs inside a finalizer."""
+    while frame is not None and depth > 0:
+        code = frame.f_code
+        if code.co_name == "__del__" or code.co_filename.endswith(_FINALIZER_FILES):
+            return True
+        frame, depth = frame.f_back, depth - 1
+    return False
 
 
 #: Signals :func:`raise_terminated` turned into exceptions during the current command.
