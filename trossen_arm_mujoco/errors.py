@@ -65,14 +65,7 @@ def raise_terminated(signum: int, frame: Any) -> None:
     :func:`run_cli` installs it; a command that installs a SIGTERM handler of its own can
     install this one and keep exit status 143.
     """
-    if _in_finalizer(frame):
-        # An exception raised in a finalizer (``__del__``, a weakref callback) is printed as
-        # "Exception ignored in ..." with a traceback and then lost: deliver the signal again
-        # a moment later, once the finalizer has returned (a timer thread signals this
-        # process again; Python runs the handler in the main thread).
-        timer = threading.Timer(0.002, os.kill, (os.getpid(), signum))
-        timer.daemon = True
-        timer.start()
+    if redeliver_if_in_finalizer(signum, frame):
         return
     _received.append(signum)
     raise Terminated(signum)
@@ -80,6 +73,20 @@ def raise_terminated(signum: int, frame: Any) -> None:
 
 #: Modules whose functions run as finalizers (weakref callbacks).
 _FINALIZER_FILES = ("weakref.py", "_weakrefset.py")
+
+
+def redeliver_if_in_finalizer(signum: int, frame: Any) -> bool:
+    """For a signal handler that raises: when the interrupted ``frame`` runs inside a
+    finalizer (``__del__``, a weakref callback), an exception raised there is printed as
+    "Exception ignored in ..." with a traceback and then lost. Then this signals the process
+    again a moment later (a timer thread; Python runs the handler in the main thread, once
+    the finalizer has returned) and returns True: the handler returns without raising."""
+    if not _in_finalizer(frame):
+        return False
+    timer = threading.Timer(0.002, os.kill, (os.getpid(), signum))
+    timer.daemon = True
+    timer.start()
+    return True
 
 
 def _in_finalizer(frame: Any, depth: int = 64) -> bool:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
-from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.errors import UserError, redeliver_if_in_finalizer
 
 #: Tries of one job, the first included, before a worker dying on it ends the run.
 MAX_TRIES = 3
@@ -40,6 +40,8 @@ STOP_WAIT_S = 15.0
 
 
 def _raise_interrupt(signum, frame):
+    if redeliver_if_in_finalizer(signum, frame):  # not inside a finalizer: it would be lost
+        return
     raise KeyboardInterrupt
 
 

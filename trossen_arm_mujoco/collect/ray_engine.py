@@ -46,6 +46,10 @@ CANCEL_WAIT_S = 30.0
 #: Called in the worker with the attempt number before the attempt is recorded.
 BeforeAttempt = Callable[[int], None]
 
+#: Seconds an interrupt waits for tasks that are returning (their staged file written) so
+#: that their outcomes are kept.
+FINISH_GRACE_S = 1.0
+
 
 def _record_task(
     settings: RecordSettings, job: tuple[int, str, bool], before: BeforeAttempt | None
@@ -137,7 +141,8 @@ class RayDatasetRecorder(DatasetRecorder):
         refs = [ref for _, ref in pending]
         if not refs:
             return
-        ready, _ = ray.wait(refs, num_returns=len(refs), timeout=0, fetch_local=True)
+        # a task publishes its staged file just before it returns: give those a moment
+        ready, _ = ray.wait(refs, num_returns=len(refs), timeout=FINISH_GRACE_S, fetch_local=True)
         ready_set = set(ready)
         for job, ref in pending:
             if ref in ready_set:

@@ -47,6 +47,7 @@ from trossen_arm_mujoco.errors import (
     EXIT_TERMINATED,
     ArgumentParser,
     UserError,
+    redeliver_if_in_finalizer,
     report_error,
     run_cli,
     unknown_name_error,
@@ -324,6 +325,8 @@ def _warn_disk_space(folder: Path, settings, count: int) -> None:
 
 
 def _raise_hangup(signum, frame):  # a closed terminal: the same clean path as Ctrl-C
+    if redeliver_if_in_finalizer(signum, frame):
+        return
     raise KeyboardInterrupt
 
 
