@@ -13,7 +13,10 @@ from __future__ import annotations
 import ipaddress
 import os
 import socket
+import subprocess
 from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 
@@ -191,3 +194,51 @@ def fake_menagerie(tmp_path, monkeypatch):
     root = write_fake_menagerie(tmp_path / "mujoco_menagerie")
     monkeypatch.setenv("TROSSEN_MENAGERIE_DIR", str(root))
     return root
+
+
+# -- output folders that refuse writes (read-only, full, immutable), for the error tests ---
+@contextmanager
+def tmpfs(path: Path, size: str = "64k", read_only: bool = False, folders: tuple = ()):
+    """A tiny tmpfs mounted at ``path`` (a full disk after ``size``), or a read-only one
+    holding ``folders``; skips when this process cannot mount (not root)."""
+    path.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+        capture_output=True,
+        text=True,
+    )
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs (needs root): {proc.stderr.strip()}")
+    try:
+        for name in folders:
+            (path / name).mkdir()
+        if read_only:
+            subprocess.run(["mount", "-o", "remount,ro", str(path)], check=True)
+        yield path
+    finally:
+        if subprocess.run(["umount", str(path)]).returncode != 0:
+            subprocess.run(["umount", "-l", str(path)])
+
+
+@contextmanager
+def immutable(path: Path):
+    """``path`` (a folder) with the immutable attribute: nothing, root included, may create
+    files in it; skips where ``chattr +i`` is unavailable."""
+    path.mkdir(parents=True, exist_ok=True)
+    proc = subprocess.run(["chattr", "+i", str(path)], capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot set the immutable attribute: {proc.stderr.strip() or 'no chattr'}")
+    try:
+        yield path
+    finally:
+        subprocess.run(["chattr", "-i", str(path)], check=True)
+
+
+@pytest.fixture
+def fs_faults():
+    """``fs_faults.tmpfs(path, size, read_only, folders)`` and ``fs_faults.immutable(path)``:
+    context managers giving folders that refuse writes (they skip where root cannot make
+    them)."""
+    import types
+
+    return types.SimpleNamespace(tmpfs=tmpfs, immutable=immutable)

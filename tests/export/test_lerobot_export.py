@@ -16,7 +16,6 @@ import signal
 import subprocess
 import sys
 import time
-from contextlib import contextmanager
 from fractions import Fraction
 from pathlib import Path
 
@@ -636,47 +635,10 @@ def test_bad_step_period_is_one_line_exit_2(tmp_path, capfd, make_episode, dt):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["eps"]
 
 
-@contextmanager
-def tmpfs(path: Path, size: str = "64k", read_only: bool = False, folders: tuple = ()):
-    """A tiny tmpfs mounted at ``path`` (a full disk after ``size``), or a read-only one
-    holding ``folders``; skips when this process cannot mount (not root)."""
-    path.mkdir(parents=True, exist_ok=True)
-    proc = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-        capture_output=True,
-        text=True,
-    )
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs (needs root): {proc.stderr.strip()}")
-    try:
-        for name in folders:
-            (path / name).mkdir()
-        if read_only:
-            subprocess.run(["mount", "-o", "remount,ro", str(path)], check=True)
-        yield path
-    finally:
-        if subprocess.run(["umount", str(path)]).returncode != 0:
-            subprocess.run(["umount", "-l", str(path)])
-
-
-@contextmanager
-def immutable(path: Path):
-    """``path`` (a folder) with the immutable attribute: nothing, root included, may create
-    files in it; skips where ``chattr +i`` is unavailable."""
-    path.mkdir(parents=True, exist_ok=True)
-    proc = subprocess.run(["chattr", "+i", str(path)], capture_output=True, text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot set the immutable attribute: {proc.stderr.strip() or 'no chattr'}")
-    try:
-        yield path
-    finally:
-        subprocess.run(["chattr", "-i", str(path)], check=True)
-
-
-def test_read_only_output(tmp_path, capfd, make_episode):
+def test_read_only_output(tmp_path, fs_faults, capfd, make_episode):
     data = tmp_path / "eps"
     make_episode(data / "episode_0.hdf5", 3, ["top"], seed=0)
-    with tmpfs(tmp_path / "ro", read_only=True, folders=("ds",)) as ro:
+    with fs_faults.tmpfs(tmp_path / "ro", read_only=True, folders=("ds",)) as ro:
         for out in (ro / "ds", ro / "new" / "ds"):  # an empty folder there, or none
             assert _export(data, out) == 2
             line = _one_error(capfd)
@@ -684,10 +646,10 @@ def test_read_only_output(tmp_path, capfd, make_episode):
         assert os.listdir(ro) == ["ds"] and os.listdir(ro / "ds") == []
 
 
-def test_full_disk(tmp_path, capfd):
+def test_full_disk(tmp_path, fs_faults, capfd):
     data = tmp_path / "eps"
     _noise_episodes(data, episodes=2, steps=20)
-    with tmpfs(tmp_path / "full", size="64k") as full:
+    with fs_faults.tmpfs(tmp_path / "full", size="64k") as full:
         assert _export(data, full / "ds") == 2
         line = _one_error(capfd)
         assert f"export to {full / 'ds'} failed: No space left on device (ENOSPC)" in line
@@ -695,20 +657,20 @@ def test_full_disk(tmp_path, capfd):
         assert os.listdir(full) == []  # the build folder is gone
 
 
-def test_immutable_parent(tmp_path, capfd, make_episode):
+def test_immutable_parent(tmp_path, fs_faults, capfd, make_episode):
     data = tmp_path / "eps"
     make_episode(data / "episode_0.hdf5", 3, [], seed=0)
-    with immutable(tmp_path / "frozen") as frozen:
+    with fs_faults.immutable(tmp_path / "frozen") as frozen:
         assert _export(data, frozen / "ds") == 2
         line = _one_error(capfd)
         assert "Operation not permitted (EPERM)" in line and "immutable" in line
         assert os.listdir(frozen) == []
 
 
-def test_output_on_a_mount_point(tmp_path, capfd, make_episode):
+def test_output_on_a_mount_point(tmp_path, fs_faults, capfd, make_episode):
     data = tmp_path / "eps"
     make_episode(data / "episode_0.hdf5", 3, [], seed=0)
-    with tmpfs(tmp_path / "mnt", size="1m") as mnt:
+    with fs_faults.tmpfs(tmp_path / "mnt", size="1m") as mnt:
         assert _export(data, mnt) == 2
         assert "is a mount point; give a folder inside it" in _one_error(capfd)
         assert _export(data, mnt / "ds") == 0

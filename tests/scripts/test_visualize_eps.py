@@ -9,7 +9,6 @@ import signal
 import subprocess
 import sys
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -144,41 +143,6 @@ def test_run_as_file(tmp_path):
 # -- output folders that refuse the writes -----------------------------------------------------
 
 
-@contextmanager
-def tmpfs(path: Path, size: str = "64k", read_only: bool = False):
-    """A tiny tmpfs mounted at ``path`` (a full disk after ``size``), or a read-only one;
-    skips when this process cannot mount (not root)."""
-    path.mkdir(parents=True, exist_ok=True)
-    proc = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-        capture_output=True,
-        text=True,
-    )
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs (needs root): {proc.stderr.strip()}")
-    try:
-        if read_only:
-            subprocess.run(["mount", "-o", "remount,ro", str(path)], check=True)
-        yield path
-    finally:
-        if subprocess.run(["umount", str(path)]).returncode != 0:
-            subprocess.run(["umount", "-l", str(path)])
-
-
-@contextmanager
-def immutable(path: Path):
-    """``path`` (a folder) with the immutable attribute: nothing, root included, may create
-    files in it; skips where ``chattr +i`` is unavailable."""
-    path.mkdir(parents=True, exist_ok=True)
-    proc = subprocess.run(["chattr", "+i", str(path)], capture_output=True, text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot set the immutable attribute: {proc.stderr.strip() or 'no chattr'}")
-    try:
-        yield path
-    finally:
-        subprocess.run(["chattr", "-i", str(path)], check=True)
-
-
 def _one_error(capfd) -> str:
     """The one ``error:`` line of a failed run (stderr at the file-descriptor level: library
     noise included); no traceback."""
@@ -203,9 +167,9 @@ def test_output_dir_is_a_file_or_under_one(tmp_path, capfd):
     assert _temps(tmp_path) == []
 
 
-def test_output_dir_read_only(tmp_path, capfd):
+def test_output_dir_read_only(tmp_path, fs_faults, capfd):
     _write(tmp_path / "eps" / "episode_0.hdf5", num_steps=2, cams=["cam_high"])
-    with tmpfs(tmp_path / "ro", read_only=True) as ro:
+    with fs_faults.tmpfs(tmp_path / "ro", read_only=True) as ro:
         argv = ["--data_dir", str(tmp_path / "eps"), "--output_dir"]
         assert visualize_eps.cli([*argv, str(ro)]) == 2
         line = _one_error(capfd)
@@ -215,9 +179,9 @@ def test_output_dir_read_only(tmp_path, capfd):
         assert os.listdir(ro) == []
 
 
-def test_output_dir_on_a_full_disk(tmp_path, capfd):
+def test_output_dir_on_a_full_disk(tmp_path, fs_faults, capfd):
     _write(tmp_path / "eps" / "episode_0.hdf5", num_steps=30, cams=["cam_high"], h=96, w=128)
-    with tmpfs(tmp_path / "full", size="48k") as full:
+    with fs_faults.tmpfs(tmp_path / "full", size="48k") as full:
         rc = visualize_eps.cli(["--data_dir", str(tmp_path / "eps"), "--output_dir", str(full)])
         assert rc == 2
         line = _one_error(capfd)
@@ -227,9 +191,9 @@ def test_output_dir_on_a_full_disk(tmp_path, capfd):
             assert name.endswith((".mp4", ".png"))
 
 
-def test_output_dir_immutable(tmp_path, capfd):
+def test_output_dir_immutable(tmp_path, fs_faults, capfd):
     _write(tmp_path / "eps" / "episode_0.hdf5", num_steps=2, cams=[])
-    with immutable(tmp_path / "frozen") as frozen:
+    with fs_faults.immutable(tmp_path / "frozen") as frozen:
         argv = ["--data_dir", str(tmp_path / "eps"), "--output_dir", str(frozen)]
         assert visualize_eps.cli(argv) == 2
         line = _one_error(capfd)

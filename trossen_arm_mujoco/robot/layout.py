@@ -27,6 +27,18 @@ ARM_VALUES: tuple[str, ...] = ARM_JOINTS + FINGER_JOINTS
 SIDES: tuple[str, ...] = ("left", "right")
 
 
+def _joint_commands(layout, action: np.ndarray) -> dict[str, np.ndarray]:
+    """Robot commands of a joint action in ``layout`` (anything with ``arm(side)`` and
+    ``gripper_index(side)``): 6 joint targets per arm, one gripper target per gripper."""
+    a = np.asarray(action, dtype=float)
+    out: dict[str, np.ndarray] = {}
+    for side in SIDES:
+        out[f"{side}_arm"] = a[layout.arm(side)]
+        g = layout.gripper_index(side)
+        out[f"{side}_gripper"] = a[g : g + 1]
+    return out
+
+
 @dataclass(frozen=True)
 class KitLayout:
     """Names, units and slices of the 16-value vector (and the per-arm 8-value blocks).
@@ -83,13 +95,7 @@ class KitLayout:
     def joint_commands(self, action: np.ndarray) -> dict[str, np.ndarray]:
         """A (16,) joint action as robot commands: 6 joint targets per arm and one gripper
         target (the actuated finger's value) per gripper."""
-        a = np.asarray(action, dtype=float)
-        out: dict[str, np.ndarray] = {}
-        for side in SIDES:
-            out[f"{side}_arm"] = a[self.arm(side)]
-            g = self.gripper_index(side)
-            out[f"{side}_gripper"] = a[g : g + 1]
-        return out
+        return _joint_commands(self, action)
 
 
 #: The layout of the Stationary AI kit (both arms).
@@ -155,13 +161,7 @@ class RealKitLayout:
     def joint_commands(self, action: np.ndarray) -> dict[str, np.ndarray]:
         """A (14,) joint action as robot commands: 6 joint targets per arm and one gripper
         target per gripper (the same commands as the 16-value action it stands for)."""
-        a = np.asarray(action, dtype=float)
-        out: dict[str, np.ndarray] = {}
-        for side in SIDES:
-            out[f"{side}_arm"] = a[self.arm(side)]
-            g = self.gripper_index(side)
-            out[f"{side}_gripper"] = a[g : g + 1]
-        return out
+        return _joint_commands(self, action)
 
 
 #: The real kit's 14-value layout (LeRobot datasets and policies, the real driver).
