@@ -31,8 +31,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco  # noqa: E402
 
-from trossen_arm_mujoco.collect.parallel import DatasetRecorder, plan_run  # noqa: E402
+from trossen_arm_mujoco.collect.parallel import DatasetRecorder  # noqa: E402
 from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings  # noqa: E402
+from trossen_arm_mujoco.collect.resume import plan_run  # noqa: E402
 
 
 def raw_floor_seconds(settings: RecordSettings, frames: int = 60, repeats: int = 3) -> float:

@@ -13,10 +13,12 @@ For every registered task it times, state only (no rendering):
 - the floor: one episode's physics, ``max_episode_steps * policy_dt / sim_dt`` raw
   ``mujoco.mj_step`` calls on the same model; the ratio is randomize_scene / that.
 
-and for the gym env of every task, the action mapping with the safety floor (``ActionMapper``
-call: normalization, per-link forward-kinematics check, IK prediction for ``ee_delta``) in
-each action mode, in microseconds and as a fraction of one policy step's raw physics
-(``policy_dt / sim_dt`` ``mj_step`` calls). The best of ``--repeats`` runs is kept.
+and for the gym env of every task, the action mapping and one control tick with the safety
+floor (``ActionMapper`` call: normalization; then the robot's ``update_control`` and
+``apply_control``: rate limits, IK for ``ee_delta``, the per-link forward-kinematics check of
+``robot.safety_floor``) in each action mode, in microseconds and as a fraction of one policy
+step's raw physics (``policy_dt / sim_dt`` ``mj_step`` calls). The best of ``--repeats``
+runs is kept.
 """
 
 from __future__ import annotations
@@ -81,7 +83,13 @@ def action_time(env_id: str, mode: str, args, clock) -> str:
     u = env.unwrapped
     acts = np.random.default_rng(0).uniform(-1, 1, size=(args.steps, env.action_space.shape[0]))
     data = u.scene.data
-    t = best(lambda i: u.actions(data, acts[i]), args.steps, args.repeats, clock)
+    robot = u.task.robot
+
+    def tick(i: int) -> None:
+        robot.update_control(u.actions(data, acts[i])[0])
+        robot.apply_control(data)
+
+    t = best(tick, args.steps, args.repeats, clock)
     n_phys = round(u.task.policy_dt / u.scene.sim_dt)
     t_phys = mj_step_time(u.scene.model, 2000, args.repeats, clock) * n_phys
     env.close()
@@ -103,7 +111,10 @@ def main() -> None:
           "episode physics  randomize / physics")  # fmt: skip
     for name in registry.names():
         print(episode_row(name, args, clock), flush=True)
-    print("\naction mapping with the safety floor, per step (us; fraction of a step's physics)")
+    print(
+        "\naction mapping and a control tick with the safety floor, per step (us; fraction "
+        "of a step's physics)"
+    )
     tasks = {task: env_id for env_id, (_, task, _) in reversed(ENV_IDS.items())}
     for task, env_id in sorted(tasks.items()):
         modes = ("joint_position", "joint_rel_position", "ee_delta")

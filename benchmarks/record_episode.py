@@ -13,7 +13,13 @@
    (rotating which goes first), so a shared machine's changing load hits all three alike;
    wall and CPU time (all threads of the process) per step and their ratios to the floor
    are printed.
-3. Size and write cost of every compression option and gzip level, rewriting the recorded
+3. Marginal cost per rendered step (``--marginal L1,L2``, best of ``--repeats`` runs each):
+   the wall and CPU time of phase 2 (default compression, writer closed) and of the raw
+   floor over the first L1 and the first L2 steps, each run on its own, not interleaved; the
+   difference divided by L2 - L1 is the cost of one more step, free of the fixed costs
+   (opening the GL context, the file, the last chunks' compression). Background work on a
+   shared machine inflates single runs; the best of several is the least disturbed one.
+4. Size and write cost of every compression option and gzip level, rewriting the recorded
    frames: time spent in ``EpisodeWriter.append`` + ``close`` (reading the frames back is
    not counted) and the zlib CPU time per frame.
 
@@ -46,6 +52,7 @@ from trossen_arm_mujoco.constants import STATIONARY_CAMERAS  # noqa: E402
 from trossen_arm_mujoco.data.reader import load_episode  # noqa: E402
 from trossen_arm_mujoco.data.schema import DEFAULT_COMPRESSION, GZIP_LEVEL  # noqa: E402
 from trossen_arm_mujoco.data.writer import EpisodeWriter  # noqa: E402
+from trossen_arm_mujoco.sim.cameras import shadow_map_size  # noqa: E402
 
 #: Compression options of the size table: (label, compression, gzip level).
 OPTIONS = [("none", "none", None), ("lzf", "lzf", None)] + [
@@ -57,11 +64,13 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _writer(recorder: EpisodeRecorder, path: Path, compression: str, poses) -> EpisodeWriter:
+def _writer(
+    recorder: EpisodeRecorder, path: Path, compression: str, poses, steps: int | None = None
+) -> EpisodeWriter:
     s = recorder.settings
     return EpisodeWriter(
         path,
-        s.episode_len,
+        s.episode_len if steps is None else steps,
         s.cam_names,
         s.height,
         s.width,
@@ -101,7 +110,14 @@ class RawFloor:
         data = mujoco.MjData(model)
         mujoco.mj_setState(model, data, self.state, spec)
         mujoco.mj_forward(model, data)
-        with mujoco.Renderer(model, *self.size) as renderer:
+        quality = model.vis.quality
+        full = int(quality.shadowsize)  # the recorder's cameras size the shadow map so too
+        quality.shadowsize = shadow_map_size(full, *self.size)
+        try:
+            renderer = mujoco.Renderer(model, *self.size)
+        finally:
+            quality.shadowsize = full
+        with renderer:
             for t, ctrl in enumerate(self.ctrls):
                 for cam in self.cams:
                     renderer.update_scene(data, camera=cam)
@@ -141,6 +157,49 @@ def side_by_side(settings, actions, poses, out: Path, block: int) -> dict[str, t
         (out / f"bench_{name}.hdf5").unlink()
         rec.close()
     return {name: (wall, cpu) for name, (wall, cpu) in totals.items()}
+
+
+def _timed(run: Iterator[int], steps: int, writer: EpisodeWriter | None) -> tuple[float, float]:
+    """(wall s, CPU s) of ``steps`` iterations of ``run`` (and closing ``writer``)."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    for _ in islice(run, steps):
+        pass
+    if writer is not None:
+        writer.close()
+    took = time.perf_counter() - wall, time.process_time() - cpu
+    run.close()
+    return took
+
+
+def marginal(settings, actions, poses, out: Path, lengths: tuple[int, int], repeats: int):
+    """{variant: (wall s, CPU s) of one more step} between the two lengths, best of
+    ``repeats`` runs per length (floor and phase 2 alternate, so load hits both alike)."""
+    recorder = EpisodeRecorder(settings)
+    floor = RawFloor(recorder, actions, poses)
+    best = {(name, n): [float("inf"), float("inf")] for name in ("floor", "phase 2")
+            for n in lengths}  # fmt: skip
+    for _ in range(repeats):
+        for n in lengths:
+            path = out / "marginal.hdf5"
+            writer = _writer(recorder, path, DEFAULT_COMPRESSION, poses, n)
+            runs = {
+                "floor": (floor.steps(), None),
+                "phase 2": (
+                    recorder.replay_steps(actions, poses, np.empty(len(actions)), writer),
+                    writer,
+                ),  # fmt: skip
+            }
+            for name, (run, w) in runs.items():
+                wall, cpu = _timed(run, n, w)
+                slot = best[(name, n)]
+                slot[0], slot[1] = min(slot[0], wall), min(slot[1], cpu)
+            path.unlink()
+    recorder.close()
+    a, b = lengths
+    return {
+        name: tuple((best[(name, b)][i] - best[(name, a)][i]) / (b - a) for i in range(2))
+        for name in ("floor", "phase 2")
+    }
 
 
 def compression_table(path: Path, out_dir: Path) -> list[tuple[str, float, float, int]]:
@@ -196,6 +255,13 @@ def main() -> None:
         "--block", type=int, default=20, help="steps per turn in the side-by-side timing"
     )
     parser.add_argument("--no_compression", action="store_true", help="skip the compression table")
+    parser.add_argument(
+        "--marginal",
+        default="",
+        metavar="L1,L2",
+        help="also time one more rendered step between L1 and L2 steps (e.g. 40,120)",
+    )
+    parser.add_argument("--repeats", type=int, default=3, help="runs per length (--marginal)")
     args = parser.parse_args()
     cams = list(STATIONARY_CAMERAS)
     settings = RecordSettings(
@@ -237,6 +303,20 @@ def main() -> None:
                 f"  {label:32s} wall {wall * 1e3:7.1f} ms  ratio {wall / floor_wall:.3f}   "
                 f"CPU {cpu * 1e3:7.1f} ms  ratio {cpu / floor_cpu:.3f}"
             )
+        if args.marginal:
+            lengths = tuple(int(v) for v in args.marginal.split(","))
+            if len(lengths) != 2 or not 0 < lengths[0] < lengths[1] <= steps:
+                parser.error(f"--marginal takes L1,L2 with 0 < L1 < L2 <= {steps}")
+            per = marginal(settings, actions, poses, out, lengths, args.repeats)
+            print(
+                f"one more rendered step, steps {lengths[0]} -> {lengths[1]}, best of "
+                f"{args.repeats}, load average now {os.getloadavg()[0]:.1f}:"
+            )
+            for name, (wall, cpu) in per.items():
+                print(
+                    f"  {name:8s} wall {wall * 1e3:7.1f} ms  ratio {wall / per['floor'][0]:.3f}"
+                    f"   CPU {cpu * 1e3:7.1f} ms  ratio {cpu / per['floor'][1]:.3f}"
+                )
         print(
             "vendor package, same settings, measured on a 2-core CPU: 38 min 13 s "
             f"(this run: {record_s / 2293:.3f}x of it)"

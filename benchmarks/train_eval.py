@@ -45,6 +45,24 @@ def _run(name: str, args: list[str], log: Path, env: dict) -> dict:
     return took
 
 
+def _inputs_flag(args: argparse.Namespace, dataset: Path) -> list[str]:
+    """``--policy.input_features`` without ``observation.environment_state`` when asked
+    (LeRobot otherwise feeds the policy every ``observation.*`` feature of the dataset)."""
+    if not args.no_env_state:
+        return []
+    info = json.loads((dataset / "meta" / "info.json").read_text())
+    inputs = {}
+    for key, ft in info["features"].items():
+        if key == "observation.state":
+            inputs[key] = {"type": "STATE", "shape": ft["shape"]}
+        elif key.startswith("observation.images."):
+            h, w, c = ft["shape"]  # LeRobot stores video features (H, W, C); policies see CHW
+            inputs[key] = {"type": "VISUAL", "shape": [c, h, w]}
+    if not any(k.startswith("observation.images.") for k in inputs):
+        sys.exit("--no_env_state needs a camera: pass --cam_names (e.g. cam_high)")
+    return ["--policy.input_features=" + json.dumps(inputs)]
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work_dir", default="train_eval_out")
@@ -67,6 +85,13 @@ def main() -> None:
         help="normalization of observation.environment_state (ACT's default mapping leaves "
         "ENV features raw, in metres, and the policy then learns to ignore the cube: "
         "MEAN_STD fixes that; IDENTITY is LeRobot's default)",
+    )
+    p.add_argument(
+        "--no_env_state",
+        action="store_true",
+        help="train on the state and the cameras only: the policy does not see "
+        "observation.environment_state (the object poses), so it must find the cube in the "
+        "images (the image recipe)",
     )
     p.add_argument("--device", default="cpu")
     p.add_argument("--eval_episodes", type=int, default=50)
@@ -108,7 +133,7 @@ def main() -> None:
         f"--steps={args.steps}", f"--batch_size={args.batch_size}", "--num_workers=0",
         f"--save_freq={min(args.save_freq, args.steps)}", "--log_freq=200", "--wandb.enable=false",
         f"--output_dir={train}",
-    ], work / "train.log", env)  # fmt: skip
+    ] + _inputs_flag(args, dataset), work / "train.log", env)  # fmt: skip
     losses = [
         float(part.split(":")[1])
         for line in (work / "train.log").read_text().splitlines()

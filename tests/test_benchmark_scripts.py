@@ -37,3 +37,16 @@ def test_eval_throughput_prints_the_ratio_and_the_scaling():
     assert any("last images identical: yes" in line for line in lines), done.stdout
     rows = [line.split() for line in lines if line.split()[:1] in (["1"], ["2"])]
     assert [r[0] for r in rows] == ["1", "2"] and all(float(r[1]) > 0 for r in rows)
+
+
+def test_numpy_paths_compares_the_variants_and_checks_the_draws():
+    script = SCRIPT.parent / "numpy_paths.py"
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    args = ["--n", "20", "--repeats", "1", "--draws", "50"]
+    done = subprocess.run(
+        [sys.executable, str(script), *args], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    rows = [line for line in done.stdout.splitlines() if line.startswith("| two floats")]
+    assert rows and all(line.rstrip(" |").endswith("yes") for line in rows)  # same draws
+    assert "umath.clip" in done.stdout and "| 58 " in done.stdout

@@ -25,7 +25,7 @@ def test_unknown_subcommand_is_one_error_line(capsys):
     assert out == ""
     assert err == (
         "error: unknown subcommand 'recrod'; valid subcommands: eval, export, record, "
-        "replay-real, visualize (see 'trossen-mujoco --help')\n"
+        "replay-real, serve, teleop, visualize (see 'trossen-mujoco --help')\n"
     )
 
 

@@ -2,7 +2,8 @@
 
 Subcommands: ``record`` (scripts/record_sim_episodes.py), ``visualize``
 (scripts/visualize_eps.py), ``replay-real`` (scripts/replay_episode_real.py), ``export``
-(scripts/export_dataset.py), ``eval`` (scripts/eval_policy.py).
+(scripts/export_dataset.py), ``eval`` (scripts/eval_policy.py), ``serve``
+(scripts/serve.py), ``teleop`` (scripts/teleop.py).
 """
 
 from __future__ import annotations
@@ -19,15 +20,19 @@ SUBCOMMANDS = {
     "replay-real": "trossen_arm_mujoco.scripts.replay_episode_real",
     "export": "trossen_arm_mujoco.scripts.export_dataset",
     "eval": "trossen_arm_mujoco.scripts.eval_policy",
+    "serve": "trossen_arm_mujoco.scripts.serve",
+    "teleop": "trossen_arm_mujoco.scripts.teleop",
 }
 
 USAGE = (
-    "usage: trossen-mujoco {record,visualize,replay-real,export,eval} [flags]\n"
+    "usage: trossen-mujoco {record,visualize,replay-real,export,eval,serve,teleop} [flags]\n"
     "  record       scripted rollouts -> HDF5 episodes\n"
     "  visualize    HDF5 episodes -> mp4 camera grid + joint plots\n"
     "  replay-real  replay an episode on two arms (or their simulated twin)\n"
     "  export       HDF5 episodes -> LeRobot v3.0 dataset (parquet + mp4)\n"
     "  eval         score a policy (LeRobot checkpoint, scripted, module:function) in the sim\n"
+    "  serve        serve the simulated kit over the arms' wire protocol (loopback), record it\n"
+    "  teleop       leader arms drive the simulated kit, recording HDF5 episodes\n"
     "Run 'trossen-mujoco <subcommand> --help' for its flags."
 )
 

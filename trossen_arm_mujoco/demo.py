@@ -24,7 +24,7 @@ import numpy as np
 
 from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
-from trossen_arm_mujoco.images import encode_png, write_png  # noqa: F401  (re-exported)
+from trossen_arm_mujoco.images import write_png
 from trossen_arm_mujoco.viewer import close_viewer, display_problem, launch_viewer
 
 FLAVOURS = ("ee", "joint")

@@ -18,11 +18,10 @@ from trossen_arm_mujoco.collect.parallel import (
     STAGING,
     DatasetRecorder,
     failure_summary,
-    format_indices,
     format_size,
-    plan_run,
 )
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
+from trossen_arm_mujoco.collect.resume import plan_run
 from trossen_arm_mujoco.data.dataset_lock import read_holder
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
 from trossen_arm_mujoco.errors import UserError
@@ -109,13 +108,6 @@ def test_a_gap_is_filled_with_the_attempt_of_a_clean_run(tmp_path):
     report = _run(holed, 3, settings=SUCCEEDS_STATE)
     assert report.saved_at == [1]
     _same(clean / "episode_1.hdf5", holed / "episode_1.hdf5")
-
-
-def test_format_indices_shows_gaps():
-    assert format_indices([0, 5]) == "episodes 0, 5"
-    assert format_indices([7, 0, 1, 2, 5, 8]) == "episodes 0..2, 5, 7..8"
-    assert format_indices([3]) == "episode 3"
-    assert format_indices([]) == "none"
 
 
 @pytest.fixture(scope="module")

@@ -156,7 +156,7 @@ def test_default_recording_is_bit_identical_to_one_without_randomization(tmp_pat
 
 
 def test_randomized_recording_stores_its_record_and_is_reproducible(tmp_path):
-    from trossen_arm_mujoco.tasks.randomization import KINDS, record_from_json
+    from trossen_arm_mujoco.tasks.randomization_record import KINDS, record_from_json
 
     a = _record(tmp_path, "a", randomize=True)
     b = _record(tmp_path, "b", randomize=True)
@@ -214,7 +214,7 @@ def test_both_phases_see_the_same_randomized_scene():
 def test_stored_record_re_renders_the_episode_exactly(tmp_path):
     from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
     from trossen_arm_mujoco.tasks import registry
-    from trossen_arm_mujoco.tasks.randomization import record_from_json
+    from trossen_arm_mujoco.tasks.randomization_record import record_from_json
 
     path = _record(tmp_path, "ep", randomize=True)
     ep = load_episode(path)

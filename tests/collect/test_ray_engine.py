@@ -13,10 +13,11 @@ import pytest
 
 pytest.importorskip("ray")
 
-from trossen_arm_mujoco.collect.parallel import STAGING, DatasetRecorder, plan_run  # noqa: E402
+from trossen_arm_mujoco.collect.parallel import STAGING, DatasetRecorder  # noqa: E402
 from trossen_arm_mujoco.collect.pipeline import RecordSettings  # noqa: E402
 from trossen_arm_mujoco.collect.ray_engine import RayDatasetRecorder  # noqa: E402
 from trossen_arm_mujoco.collect.ray_session import is_loopback_node, ray_session  # noqa: E402
+from trossen_arm_mujoco.collect.resume import plan_run  # noqa: E402
 from trossen_arm_mujoco.data.reader import list_episodes  # noqa: E402
 from trossen_arm_mujoco.errors import UserError  # noqa: E402
 from trossen_arm_mujoco.scripts.record_sim_episodes import cli  # noqa: E402

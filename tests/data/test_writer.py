@@ -9,12 +9,9 @@ import h5py
 import numpy as np
 import pytest
 
+from trossen_arm_mujoco.data.io_errors import EpisodeWriteError
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
-from trossen_arm_mujoco.data.writer import (
-    EpisodeWriteError,
-    EpisodeWriter,
-    remove_stale_temp_files,
-)
+from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.errors import UserError
 
 H, W = 24, 32
@@ -213,32 +210,6 @@ def test_creates_folder_and_set_attrs_at_end(tmp_path):
     assert ep.attrs["success"] is True and ep.attrs["note"] == "extra attribute"
 
 
-def test_remove_stale_temp_files(tmp_path, make_episode):
-    import subprocess
-    import sys
-
-    make_episode(tmp_path / "episode_0.hdf5", num_steps=1, cams=[])
-    old_style = tmp_path / ".episode_1.hdf5.tmp"
-    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True, check=True)  # fmt: skip
-    dead_writer = tmp_path / f".episode_2.hdf5.{int(gone.stdout)}-0a1b2c3d.tmp"
-    mine = tmp_path / f".episode_3.hdf5.{os.getpid()}-0a1b2c3d.tmp"
-    for path in (old_style, dead_writer, mine):
-        path.write_bytes(b"partial")
-    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
-    try:  # a writer that still runs (outside any locked run) keeps its file
-        running = tmp_path / f".episode_4.hdf5.{live.pid}-0a1b2c3d.tmp"
-        running.write_bytes(b"being written")
-        (tmp_path / "notes.tmp").write_text("keep")
-        assert remove_stale_temp_files(tmp_path) == [old_style, dead_writer, mine]
-        assert _files(tmp_path) == [running.name, "episode_0.hdf5", "notes.tmp"]
-    finally:
-        live.kill()
-        live.wait()
-    assert remove_stale_temp_files(tmp_path) == [running]
-    assert remove_stale_temp_files(tmp_path / "missing") == []
-
-
 def test_temporary_names_are_unique_per_writer(tmp_path):
     """Two writers of one episode name never share a temporary file (two runs on one
     folder used to delete and overwrite each other's)."""
@@ -259,24 +230,6 @@ def test_temporary_names_are_unique_per_writer(tmp_path):
         second.abort()
     assert _files(tmp_path) == ["episode_0.hdf5"]
     assert load_episode(path).num_steps == 1
-
-
-def test_a_file_that_does_not_read_back_is_not_published(tmp_path, monkeypatch):
-    from trossen_arm_mujoco.data import reader
-
-    def unreadable(path, load_images=False):
-        raise reader.EpisodeError(f"{path}: not a readable HDF5 episode file (truncated?)")
-
-    monkeypatch.setattr(reader, "load_episode", unreadable)
-    with pytest.raises(EpisodeWriteError, match="does not read back") as exc_info:
-        with EpisodeWriter(tmp_path / "episode_0.hdf5", 1, attrs=ATTRS) as w:
-            w.append(**_step(cams=()))
-    _assert_one_line(exc_info)
-    assert _files(tmp_path) == []
-    monkeypatch.undo()
-    with EpisodeWriter(tmp_path / "episode_0.hdf5", 1, attrs=ATTRS, verify=False) as w:
-        w.append(**_step(cams=()))
-    assert _files(tmp_path) == ["episode_0.hdf5"]
 
 
 def test_writer_owned_attributes_cannot_change(tmp_path):
@@ -307,43 +260,6 @@ def test_memory_stays_flat(tmp_path):
     finally:
         tracemalloc.stop()
     assert peak < 2_000_000
-
-
-def test_no_clobbering_without_hard_links(tmp_path, monkeypatch):
-    """On a file system without hard links the episode is still committed by rename, and a
-    file that appeared meanwhile is still never replaced."""
-
-    def no_links(src, dst):
-        raise PermissionError("hard links not supported")
-
-    monkeypatch.setattr("trossen_arm_mujoco.fileio.os.link", no_links)
-    with EpisodeWriter(tmp_path / "episode_0.hdf5", 1, attrs=ATTRS) as w:
-        w.append(**_step(cams=()))
-    assert load_episode(tmp_path / "episode_0.hdf5").num_steps == 1
-    path = tmp_path / "episode_1.hdf5"
-    with pytest.raises(EpisodeWriteError, match="appeared while writing"):
-        with EpisodeWriter(path, 1, attrs=ATTRS) as w:
-            w.append(**_step(cams=()))
-            path.write_bytes(b"other run")
-    assert path.read_bytes() == b"other run"
-    assert _files(tmp_path) == ["episode_0.hdf5", "episode_1.hdf5"]
-
-
-def test_commit_is_flushed_to_disk(tmp_path, monkeypatch):
-    """close() fsyncs the episode file before the rename and the folder after it."""
-    import os
-
-    from trossen_arm_mujoco import fileio
-
-    synced = []
-    monkeypatch.setattr(fileio, "fsync_file", lambda p: synced.append(("file", str(p))))
-    monkeypatch.setattr(fileio, "fsync_dir", lambda p: synced.append(("dir", str(p))))
-    path = tmp_path / "episode_0.hdf5"
-    with EpisodeWriter(path, 1, attrs=ATTRS) as w:
-        w.append(**_step(cams=()))
-        assert synced == []
-    assert synced == [("file", str(w.temp_path)), ("dir", str(tmp_path))]
-    assert os.path.exists(path)
 
 
 def test_env_state_width_is_chosen_per_episode(tmp_path):

@@ -134,3 +134,11 @@ def test_videos_writes_the_first_rollouts(hold_policy, tmp_path):
     meta = video_info(Path(path))
     # no camera observed: cam_high at 240x320; the first frame is the reset's
     assert (meta["height"], meta["width"], meta["frames"]) == (240, 320, 11)
+
+
+def test_ray_engine_gives_the_same_episodes_as_local(scripted_info, tmp_path):
+    pytest.importorskip("ray")
+    settings = EvalSettings(**{**SCRIPTED.__dict__, "output_dir": str(tmp_path)})
+    on_ray = evaluate(settings, 2, engine="ray")
+    assert _rows(on_ray) == _rows(scripted_info)
+    assert on_ray["run"]["engine"] == "ray" and on_ray["aggregated"]["pc_success"] == 100.0

@@ -1,4 +1,4 @@
-"""Action modes, action validation and the safety floor above the table."""
+"""Action modes, action validation, and the robot layer's safety floor behind every mode."""
 
 from __future__ import annotations
 
@@ -6,12 +6,18 @@ import numpy as np
 import pytest
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.kinematics import Kinematics
 
 REACH = "TrossenMujoco/WXAIReach-v0"
 
 
 def _ee_z(env):
     return env.unwrapped.task.ee_pos()[2]
+
+
+def _floor_z(env) -> float:
+    """Height (m) of the robot's safety floor: table_height + safety_margin."""
+    return env.unwrapped.actions.robot.safety_floor.floor_z
 
 
 @pytest.mark.parametrize(
@@ -55,7 +61,7 @@ def test_ee_delta_hold_orientation(make_env):
 def test_safety_floor_ee_delta(make_env):
     env = make_env("TrossenMujoco/WXAIPush-v0", action_mode="ee_delta")
     env.reset(seed=0)
-    floor = env.unwrapped.actions.floor_z
+    floor = _floor_z(env)
     clipped = []
     for _ in range(40):
         _, _, _, _, info = env.step(np.array([0.0, 0.0, -1.0, 0.0]))
@@ -73,17 +79,18 @@ def test_safety_floor_joint_position(make_env):
     low, high = arm.ctrl_limits()
     target = np.array([0.0, 2.6, 0.3, 0.0, 0.0, 0.0])
     action = np.append(2 * (target - low) / (high - low) - 1, 1.0)
-    kin = u.actions.kin["arm"]
-    assert kin.site_pose(u.scene.data.qpos, target)[2] < u.actions.floor_z
+    kin = Kinematics(u.scene.model, arm.frame_site_id, arm.qpos_idx, arm.dof_idx, arm.joint_range)
+    floor = _floor_z(env)
+    assert floor == pytest.approx(0.05)
+    assert kin.site_pose(u.scene.data.qpos, target)[2] < floor
     clipped = []
     for _ in range(60):  # toward the target at the speed limits, then held at the floor
         _, _, _, _, info = env.step(action)
         clipped.append(info["safety_clipped"])
-        assert _ee_z(env) > u.actions.floor_z - 0.01
+        assert _ee_z(env) > floor - 0.01
+        # the joint targets the robot holds keep the tool frame above the floor
+        assert kin.site_pose(u.scene.data.qpos, arm.get_ctrl(u.scene.data))[2] >= floor
     assert not clipped[0] and all(clipped[-20:])
-    commands, clipped = u.actions(u.scene.data, action)
-    assert clipped
-    assert kin.site_pose(u.scene.data.qpos, commands["arm"])[2] >= u.actions.floor_z
 
 
 class _WithoutBatches:
@@ -132,7 +139,7 @@ def test_safety_floor_joint_rel_position(make_env):
     for _ in range(40):
         _, _, _, _, info = env.step(action)
         seen |= info["safety_clipped"]
-        assert _ee_z(env) > env.unwrapped.actions.floor_z - 0.01
+        assert _ee_z(env) > _floor_z(env) - 0.01
     assert seen
 
 

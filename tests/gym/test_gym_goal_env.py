@@ -97,8 +97,7 @@ def test_pixels_goal_observation(make_env):
 
 
 def test_a_subclass_compute_reward_scores_the_steps():
-    """A goal env subclass with its own compute_reward gets it as the step reward (the
-    one-distance goal_score is only for the env's own compute_reward)."""
+    """A goal env subclass with its own compute_reward gets it as the step reward."""
 
     class Bonus(TrossenMujocoGoalEnv):
         def compute_reward(self, achieved_goal, desired_goal, info):

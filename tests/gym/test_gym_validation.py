@@ -14,8 +14,8 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.gym.actions import ActionMapper
 from trossen_arm_mujoco.gym.env import TrossenMujocoEnv
 from trossen_arm_mujoco.gym.goal_env import TrossenMujocoGoalEnv
-from trossen_arm_mujoco.gym.safety import SafetyFloor
 from trossen_arm_mujoco.gym.spaces import ObservationBuilder
+from trossen_arm_mujoco.robot.safety_floor import SafetyFloor
 
 REACH = "TrossenMujoco/WXAIReach-v0"
 PUSH = "TrossenMujoco/WXAIPush-v0"
@@ -102,10 +102,9 @@ def test_nan_floor_is_refused_by_the_safety_floor_itself():
 
 @pytest.mark.parametrize(
     "key, value, match",
-    [("table_height", math.nan, "table_height: expected .*got nan"),
-     ("safety_margin", math.nan, "safety_margin: expected .*got nan"),
+    [("joint_rel_limit", math.nan, "joint_rel_limit: expected .*got nan"),
      ("ee_delta_limit", -0.1, "ee_delta_limit: expected"),
-     ("policy_dt", 0.0, "policy_dt: expected")],
+     ("joint_rel_limit", -0.1, "joint_rel_limit: expected")],
 )  # fmt: skip
 def test_action_mapper_refuses_a_bad_config(make_env, key, value, match):
     env = make_env(REACH).unwrapped
@@ -119,16 +118,20 @@ def test_action_mapper_refuses_a_bad_config(make_env, key, value, match):
 
 
 def test_observation_bounds_must_be_finite_and_ordered(make_env):
-    probe = make_env(REACH).unwrapped.probe
+    from trossen_arm_mujoco.tasks.observation import Part
+    from trossen_arm_mujoco.tasks.reach import ReachTask
 
-    class Inverted:
-        goal_conditioned = False
+    env = make_env(REACH).unwrapped
+    probe = env.probe
 
-        def observation_bounds(self):
-            return {**probe.observation_bounds(), "ee_pos": (np.ones(3), np.zeros(3))}
+    class Inverted(ReachTask):
+        def observation_parts(self):
+            parts = super().observation_parts()
+            return [*parts[:-1], Part("ee_pos", parts[-1].value, 1.0, 0.0)]
 
+    inverted = Inverted(env.scene, env.config)
     with pytest.raises(UserError, match="observation entry 'ee_pos': bounds must be finite"):
-        ObservationBuilder(Inverted(), "state", False, 0, 8, 8)
+        ObservationBuilder(inverted, "state", False, 0, 8, 8)
     with pytest.raises(UserError, match="observation width must be a whole number"):
         ObservationBuilder(probe, "state", False, 0, 8, 8.5)
 

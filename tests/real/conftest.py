@@ -6,8 +6,10 @@ Guards (autouse, every test in this folder):
   fail the test (``pytest.fail``, which ``except Exception`` cannot swallow) for any
   address that is not loopback (127.0.0.0/8, ::1, localhost) or a unix socket; a
   violation is also re-checked at teardown.
-- ``no_real_configure``: ``TrossenArmDriver.configure`` fails the test, since the C++
-  ``trossen_arm`` driver opens its own sockets, out of reach of the socket guard.
+- ``no_real_configure``: ``TrossenArmDriver.configure`` fails the test for any address
+  that is not loopback, since the C++ ``trossen_arm`` driver opens its own sockets, out of
+  reach of the socket guard (loopback addresses are the simulated kit served by
+  ``trossen_arm_mujoco.twin``, never a real arm).
 """
 
 from __future__ import annotations
@@ -86,10 +88,13 @@ def no_network(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[str]]:
 
 @pytest.fixture(autouse=True)
 def no_real_configure(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Fail the test if anything configures a real arm."""
+    """Fail the test if anything configures a real arm (any address but loopback)."""
+    real = driver_module.TrossenArmDriver.configure
 
     def refuse(self: Any, ip_address: str, *args: Any, **kwargs: Any) -> None:
-        pytest.fail(f"test tried to configure a real arm at {ip_address!r}")
+        if not _allowed((ip_address, 0)):
+            pytest.fail(f"test tried to configure a real arm at {ip_address!r}")
+        return real(self, ip_address, *args, **kwargs)
 
     monkeypatch.setattr(driver_module.TrossenArmDriver, "configure", refuse)
 

@@ -9,6 +9,8 @@ from types import SimpleNamespace
 import mujoco
 import pytest
 
+from trossen_arm_mujoco.assets import ASSETS_DIR
+from trossen_arm_mujoco.robot.arm_groups import ArmMoveGroup
 from trossen_arm_mujoco.robot.configs import MoveGroupSpec, RobotConfig
 
 _BASE = {
@@ -88,11 +90,37 @@ def toy_model() -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_string(toy_xml("fixed"))
 
 
+def toy_arm(model_or_data, frame: str = "tool", frame_type: str = "site") -> ArmMoveGroup:
+    """The toy arm's joints (j1, j2, j3) as an ``ArmMoveGroup`` with leaf frame ``frame``."""
+    return ArmMoveGroup(
+        model_or_data, "arm", ["j1", "j2", "j3"], ["a1", "a2", "a3"], frame, frame_type
+    )
+
+
 @pytest.fixture
 def toy():
-    """The factories: ``toy.xml(base)``, ``toy.config(base)``, ``toy.model(base)``."""
+    """The factories: ``toy.xml(base)``, ``toy.config(base)``, ``toy.model(base)``,
+    ``toy.arm(model_or_data, frame="tool", frame_type="site")``."""
 
     def model(base: str = "fixed") -> mujoco.MjModel:
         return mujoco.MjModel.from_xml_string(toy_xml(base))
 
-    return SimpleNamespace(xml=toy_xml, config=toy_config, model=model)
+    return SimpleNamespace(xml=toy_xml, config=toy_config, model=model, arm=toy_arm)
+
+
+@pytest.fixture(scope="session")
+def wxai() -> mujoco.MjModel:
+    """The single wxai arm (``assets/wxai/wxai_follower.xml``)."""
+    return mujoco.MjModel.from_xml_path(f"{ASSETS_DIR}/wxai/wxai_follower.xml")
+
+
+@pytest.fixture(scope="session")
+def kit_joint() -> mujoco.MjModel:
+    """The kit's joint-controlled scene."""
+    return mujoco.MjModel.from_xml_path(f"{ASSETS_DIR}/stationary_ai/trossen_ai_scene_joint.xml")
+
+
+@pytest.fixture(scope="session")
+def kit_mocap() -> mujoco.MjModel:
+    """The kit's mocap (end-effector) scene."""
+    return mujoco.MjModel.from_xml_path(f"{ASSETS_DIR}/stationary_ai/trossen_ai_scene.xml")

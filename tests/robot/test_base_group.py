@@ -6,16 +6,16 @@ import mujoco
 import numpy as np
 import pytest
 
+from trossen_arm_mujoco.constants import ASSETS_DIR
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.robot import move_group
 from trossen_arm_mujoco.robot.base_group import (
     FreeJointRobotBaseGroup,
-    ImmobileBaseGroup,
     ImmobileRobotBaseGroup,
     MocapRobotBaseGroup,
     RobotBaseGroup,
 )
 from trossen_arm_mujoco.robot.frames import pose7_to_transform
+from trossen_arm_mujoco.robot.move_group import MoveGroup
 
 BASE_POSE = pose7_to_transform([0.1, -0.2, 0.3, 0.9238795, 0, 0, 0.3826834])
 NEW_POSE = pose7_to_transform([0.5, 0.4, 0.2, 0.7071068, 0, 0.7071068, 0])
@@ -40,10 +40,22 @@ def link3_pose(model, data) -> np.ndarray:
     return out
 
 
-def test_earlier_names():
-    assert ImmobileBaseGroup is ImmobileRobotBaseGroup
-    assert move_group.ImmobileBaseGroup is ImmobileRobotBaseGroup
-    assert issubclass(MocapRobotBaseGroup, RobotBaseGroup)
+def test_base_groups_are_move_groups():
+    for kind in (ImmobileRobotBaseGroup, MocapRobotBaseGroup, FreeJointRobotBaseGroup):
+        assert issubclass(kind, RobotBaseGroup) and issubclass(kind, MoveGroup)
+
+
+def test_immobile_base_of_the_kit():
+    kit = mujoco.MjModel.from_xml_path(f"{ASSETS_DIR}/stationary_ai/trossen_ai_scene_joint.xml")
+    data = mujoco.MjData(kit)
+    mujoco.mj_kinematics(kit, data)
+    base = ImmobileRobotBaseGroup(kit, "left_base", "left/base_link")
+    assert base.n_joints == 0 and base.ctrl_dim == 0
+    np.testing.assert_allclose(
+        base.get_pose(data), [-0.019982, 0.4575, 0.039086, 0.707107, 0, 0, -0.707107], atol=1e-6
+    )
+    with pytest.raises(UserError, match="unknown body"):
+        ImmobileRobotBaseGroup(kit, "b", "base")
 
 
 def test_immobile_base(make):
@@ -122,4 +134,4 @@ def test_free_joint_base(make):
 def test_plain_groups_reject_free_joints(make):
     model, data = make("free")
     with pytest.raises(UserError, match="'base_free' of move group 'x' is not a hinge or slide"):
-        move_group.MoveGroup(data, "x", ["base_free"])
+        MoveGroup(data, "x", ["base_free"])

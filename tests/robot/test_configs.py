@@ -10,6 +10,8 @@ import pytest
 
 from trossen_arm_mujoco.constants import ASSETS_DIR, GRIPPER_OPEN, START_ARM_POSE
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.arm_groups import ArmMoveGroup, MocapArmGroup
+from trossen_arm_mujoco.robot.base_group import ImmobileRobotBaseGroup
 from trossen_arm_mujoco.robot.configs import (
     JOINT_VELOCITY_LIMITS,
     MoveGroupSpec,
@@ -18,12 +20,7 @@ from trossen_arm_mujoco.robot.configs import (
     stationary_ai_mocap_config,
     wxai_config,
 )
-from trossen_arm_mujoco.robot.move_group import (
-    ArmMoveGroup,
-    GripperGroup,
-    ImmobileBaseGroup,
-    MocapArmGroup,
-)
+from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 
 ASSETS = Path(ASSETS_DIR)
 CONFIG_MODELS = [
@@ -58,7 +55,7 @@ def test_wxai_config():
     view = config.build_view(model)
     assert isinstance(view.group("arm"), ArmMoveGroup)
     assert isinstance(view.group("gripper"), GripperGroup)
-    assert isinstance(view.group("base"), ImmobileBaseGroup)
+    assert isinstance(view.group("base"), ImmobileRobotBaseGroup)
     assert view.group("arm").frame_site_name == "ee_site"
 
 

@@ -416,3 +416,141 @@ def test_physical_joint_speed_stays_at_the_limit(group, index, ctrl_dt):
     tol = UNDERDAMPED_TOL if (group, index) in UNDERDAMPED else TICK_TOL
     assert tick_peak <= 1 + tol, (tick_peak, inst_peak)
     assert inst_peak <= 1 + (tol if ctrl_dt == model.opt.timestep else RIPPLE_TOL), inst_peak
+
+
+# -- the safety floor (robot.safety_floor): controls held above the table, tick by tick ----
+#: shoulder far forward, elbow nearly straight, wrist bent up: the tool frame stays 0.17 m
+#: above the floor while link_4 (the forearm, past the elbow) goes 7 cm below it.
+ELBOW_DOWN = np.array([0.0, 3.0, 0.4, -1.5, 0.0, 0.0])
+FLOOR_MARGIN = 0.02
+
+
+def floor_env(mode: str = "joint_position", config=None, xml=WXAI) -> MujocoEnv:
+    """The arm(s) with a safety floor 2 cm above z = 0."""
+    config = config or wxai_config(mode)
+    env = MujocoEnv(
+        xml, robots={"r": config}, ctrl_dt=CTRL_DT, table_height=0.0, floor_margin=FLOOR_MARGIN
+    )
+    env.reset()
+    return env
+
+
+def test_floor_clips_an_elbow_into_the_table_command():
+    env = floor_env()
+    robot = env.robots["r"]
+    floor, arm = robot.safety_floor, robot.view.group("arm")
+    assert floor.floor_z == FLOOR_MARGIN and set(floor.arms) == {"arm"}
+    assert robot.controllers["arm"].floor is floor
+    # the tool frame alone would pass: only the forearm goes under the floor
+    assert floor.lowest(env.data.qpos, "arm", ELBOW_DOWN)[0] < FLOOR_MARGIN - 0.05
+    clipped = []
+    for _ in range(100):  # a policy asking for it every tick
+        robot.update_control({"arm": ELBOW_DOWN})
+        before = arm.get_ctrl(env.data)
+        env.step(1)
+        report = robot.floor_report
+        clipped.append(report.clipped)
+        assert floor.lowest(env.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.005
+        ctrl = arm.get_ctrl(env.data)
+        assert np.all(np.abs(ctrl - before) <= arm.velocity_limits * CTRL_DT + 1e-12)
+        if report.clipped:  # the held link is one of the arm's bodies
+            assert report.links[0].startswith("link_") or "carriage" in report.links[0]
+        assert floor.below(env.data.qpos, {"arm": ctrl}) == []  # the control: exactly
+    # toward the target at the speed limits first, then held at the floor on every tick
+    assert not clipped[0] and all(clipped[-30:])
+    # the command is kept: a command leading away moves the arm again at once
+    robot.update_control({"arm": np.zeros(6)})
+    env.step(1)
+    assert not robot.floor_report.clipped
+
+
+def test_without_the_floor_the_same_command_goes_into_the_table():
+    env = floor_env()
+    robot = env.robots["r"]
+    assert robot.set_safety_floor(None) is None and robot.safety_floor is None
+    assert robot.controllers["arm"].floor is None
+    robot.update_control({"arm": ELBOW_DOWN})
+    env.step(TWO_SECONDS)
+    low = [g for g in (robot.view.group("arm"),)][0]
+    floor = robot.set_safety_floor(0.0, FLOOR_MARGIN)  # only to measure
+    assert floor.lowest(env.data.qpos, "arm")[0] < FLOOR_MARGIN - 0.02
+    assert not robot.floor_report.clipped and low.name == "arm"
+
+
+@pytest.mark.parametrize("mode", ["joint_rel_position", "ee_pose", "ee_delta"])
+def test_floor_holds_every_joint_mode_above_it(mode):
+    """The other controllers of a joint arm are held above the floor the same way."""
+    env = floor_env(mode)
+    robot = env.robots["r"]
+    arm = robot.view.group("arm")
+    floor = robot.safety_floor
+    if mode == "joint_rel_position":
+        command = np.array([0.0, 0.3, 0.0, 0.0, 0.0, 0.0])  # shoulder forward and down
+    elif mode == "ee_delta":
+        command = np.array([0.0, 0.0, -0.05])  # straight down
+    else:
+        pose = arm.get_frame_pose(env.data)
+        command = np.concatenate([pose[:3] * [1.6, 1.0, 0.0] - [0, 0, 0.05], pose[3:]])
+    clipped = False
+    for _ in range(TWO_SECONDS):
+        robot.update_control({"arm": command})
+        env.step(1)
+        clipped |= robot.floor_report.clipped
+        # the control never has a point below the floor; the arm itself overshoots the
+        # control it stops at by a few mm (its servo), and settles on it
+        assert floor.below(env.data.qpos, {"arm": arm.get_ctrl(env.data)}) == []
+        assert floor.lowest(env.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.007
+    assert clipped
+    assert floor.lowest(env.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.001
+
+
+def test_ee_modes_clip_the_tool_frame_target_height():
+    """ee_delta never asks the tool frame below the floor; from below it, no lower."""
+    env = floor_env("ee_delta")
+    robot = env.robots["r"]
+    arm = robot.view.group("arm")
+    controller = robot.controllers["arm"]
+    z = arm.get_frame_pose(env.data)[2]
+    free = controller.target(env.data, [0.0, 0.0, -0.04])  # stays above: untouched
+    controller.floor = None
+    assert np.array_equal(free, controller.target(env.data, [0.0, 0.0, -0.04]))
+    controller.floor = robot.safety_floor
+    twists = []
+    step = controller.kinematics.delta_step
+    controller.kinematics.delta_step = lambda qpos, twist: twists.append(twist) or step(qpos, twist)
+    command = np.array([0.0, 0.0, -(z + 1.0)])  # a metre below the floor
+    controller.target(env.data, command)
+    assert command[2] == -(z + 1.0)  # the caller's command is not written
+    assert z + twists[-1][2] == pytest.approx(FLOOR_MARGIN, abs=1e-12)  # the IK aims at it
+    assert robot.floor_report.links == ["link_6"]  # the tool frame's body
+
+
+def test_mocap_arm_target_is_kept_above_the_floor():
+    """EE (mocap) arms: the commanded tool-frame height is raised to the floor."""
+    env = floor_env(config=stationary_ai_mocap_config(), xml=KIT_MOCAP)
+    robot = env.robots["r"]
+    floor = robot.safety_floor
+    assert set(floor.tools) == {"left_arm", "right_arm"} and not floor.arms
+    arm = robot.view.group("left_arm")
+    pose = arm.get_frame_pose(env.data)
+    low = np.concatenate([pose[:3] * [1, 1, 0] - [0, 0, 0.1], pose[3:]])
+    robot.update_control({"left_arm": low})
+    out = robot.compute_control()
+    assert out["left_arm"][2] == FLOOR_MARGIN and low[2] == pytest.approx(-0.1)
+    assert robot.floor_report.links == ["left/link_6"]
+    high = np.concatenate([pose[:3], pose[3:]])
+    robot.update_control({"left_arm": high})
+    assert np.array_equal(robot.compute_control()["left_arm"], high)
+    assert not robot.floor_report.clipped
+
+
+@pytest.mark.parametrize("table, margin", [(0.0, float("nan")), (0.0, -0.01),
+                                           (float("nan"), 0.0), (0.0, float("inf")),
+                                           (0.0, "1cm")])  # fmt: skip
+def test_bad_floor_is_a_one_line_user_error(table, margin):
+    robot = Robot(mujoco.MjModel.from_xml_path(str(WXAI)), wxai_config())
+    with pytest.raises(UserError) as err:
+        robot.set_safety_floor(table, margin)
+    assert "safety floor" in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(UserError):
+        MujocoEnv(WXAI, robots={"r": wxai_config()}, table_height=table, floor_margin=margin)

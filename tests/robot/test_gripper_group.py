@@ -10,14 +10,30 @@ import pytest
 
 from trossen_arm_mujoco.constants import ASSETS_DIR
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.robot import move_group
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 
 WXAI = Path(ASSETS_DIR) / "wxai/wxai_follower.xml"
+KIT = Path(ASSETS_DIR) / "stationary_ai/trossen_ai_scene_joint.xml"
+FINGERS = ["right_carriage_joint", "left_carriage_joint"]
 
 
-def test_earlier_import_path_is_the_same_class():
-    assert move_group.GripperGroup is GripperGroup
+def test_kit_gripper_control_is_the_actuated_finger():
+    kit = mujoco.MjModel.from_xml_path(str(KIT))
+    data = mujoco.MjData(kit)
+    grip = GripperGroup(kit, "left_gripper", [f"left/{f}" for f in FINGERS], "left/gripper")
+    assert grip.ctrl_dim == 1 and grip.n_joints == 2
+    assert grip.actuated_qpos_idx == 7  # the left carriage carries the actuator
+    np.testing.assert_allclose(grip.ctrl_limits(), ([0.0], [0.044]))
+    grip.set_ctrl(data, [0.02])
+    np.testing.assert_allclose(grip.get_ctrl(data), [0.02])
+    grip.set_ctrl(data, [0.5])
+    np.testing.assert_allclose(grip.get_ctrl(data), [0.044])
+    data.qpos[7] = 0.031
+    np.testing.assert_allclose(grip.get_noop_ctrl(data), [0.031])
+    with pytest.raises(UserError, match="NaN"):
+        grip.set_ctrl(data, [np.nan])
+    with pytest.raises(UserError, match="drives none of"):
+        GripperGroup(kit, "bad", [f"left/{f}" for f in FINGERS], "right/gripper")
 
 
 def test_toy_gripper_open_close_and_distance(toy_model):

@@ -201,7 +201,7 @@ def test_bound_view_ids_and_groups():
 
 def test_view_built_from_a_dict_of_groups(toy):
     from trossen_arm_mujoco.robot import GripperGroup, RobotView
-    from trossen_arm_mujoco.robot.move_group import ArmMoveGroup
+    from trossen_arm_mujoco.robot.arm_groups import ArmMoveGroup
 
     model = toy.model()
     data = mujoco.MjData(model)

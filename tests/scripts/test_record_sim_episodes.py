@@ -513,7 +513,7 @@ def test_onscreen_render_shows_live_viewer_under_xvfb(tmp_path):
 
 
 def test_randomize_flag_stores_the_randomization(tmp_path, capsys):
-    from trossen_arm_mujoco.tasks.randomization import record_from_json
+    from trossen_arm_mujoco.tasks.randomization_record import record_from_json
 
     args = ["--root_dir", str(tmp_path), "--episode_len", "5", "--cam_names", "none"]
     rc, out, _ = _run_cli(["--data_dir", "r", "--randomize", "--num_workers", "2",

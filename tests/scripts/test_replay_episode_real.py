@@ -1,7 +1,9 @@
 """replay_episode_real: validation before motion, sim-twin replay, safe exit, outputs.
 
-Only the sim backend ever runs. Two local guards (the same as tests/real/conftest.py)
-fail a test that opens a non-loopback connection or configures a real arm.
+The sim backend, and the wire backend (the real ``trossen_arm`` driver against the
+simulated kit served on 127.0.0.81 / 127.0.0.82). Two local guards (the same as
+tests/real/conftest.py) fail a test that opens a non-loopback connection or configures a
+real arm.
 """
 
 from __future__ import annotations
@@ -38,7 +40,8 @@ SCRIPT = REPO / "trossen_arm_mujoco" / "scripts" / "replay_episode_real.py"
 
 @pytest.fixture(autouse=True)
 def offline(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Fail on non-loopback connections and on configuring a real arm."""
+    """Fail on non-loopback connections and on configuring a real arm (any address outside
+    127.0.0.0/8; there, only the served kit of ``--backend wire`` answers)."""
 
     def loopback(address: Any) -> bool:
         if isinstance(address, (str, bytes)):
@@ -59,8 +62,12 @@ def offline(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(socket.socket, "connect_ex", guard(socket.socket.connect_ex))
     monkeypatch.setattr(socket, "create_connection", guard(socket.create_connection))
 
+    real = driver_module.TrossenArmDriver.configure
+
     def refuse(self: Any, ip_address: str, *args: Any, **kwargs: Any) -> None:
-        pytest.fail(f"test tried to configure a real arm at {ip_address!r}")
+        if not str(ip_address).startswith("127."):  # loopback: the served kit (--backend wire)
+            pytest.fail(f"test tried to configure a real arm at {ip_address!r}")
+        return real(self, ip_address, *args, **kwargs)
 
     monkeypatch.setattr(driver_module.TrossenArmDriver, "configure", refuse)
 
@@ -658,3 +665,77 @@ def test_real_sigint_and_sigterm_stop_a_slow_replay_mid_command(tmp_path: Path) 
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
+
+
+# --- --backend wire: the real trossen_arm driver against the served kit (loopback) --------
+WIRE = ["--backend", "wire", "--left_ip", "127.0.0.81", "--right_ip", "127.0.0.82"]
+
+
+def test_wire_backend_replays_through_the_real_driver(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("trossen_arm_sim")
+    pytest.importorskip("trossen_arm")
+    write_episode(tmp_path, smooth_actions(20))
+    rc = run(["--data_dir", str(tmp_path), *WIRE])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert err.strip() == ""  # the driver's own log lines go to stdout
+    assert "serving the simulated kit (sim_transfer_cube) on 127.0.0.81 (left)" in out
+    assert "replay completed: 20 steps" in out and "arms are home and asleep" in out
+    summary = json.loads((tmp_path / "replay/episode_0_wire_summary.json").read_text())
+    assert summary["backend"] == "wire" and summary["status"] == "completed"
+    assert summary["served"]["faults"] == [] and summary["recovered"] == []
+    assert summary["served"]["realtime_factor"] > 0.2
+    for pos in summary["final_positions"].values():  # asleep: every joint back at 0
+        np.testing.assert_allclose(pos[:6], 0.0, atol=0.03)
+
+
+def test_wire_fault_mid_run_is_one_line_and_every_arm_goes_home(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The served left arm's joint_0 limit is narrowed to 0.1 rad; the episode swings it to
+    0.3 rad, so the controller faults mid-stream. Replay stops with one line, clears the
+    command-caused error state through the real driver, and takes both arms home."""
+    pytest.importorskip("trossen_arm_sim")
+    pytest.importorskip("trossen_arm")
+    from trossen_arm_mujoco.twin.faults import served_limits
+
+    def narrow(kit: Any) -> None:
+        limits = served_limits()
+        limits[0].position_max = 0.1
+        kit.adapters["left"].set_limits(limits)
+
+    write_episode(tmp_path, smooth_actions(20))
+    rc = replay_episode_real.cli(
+        ["--data_dir", str(tmp_path), *WIRE, "--no_progress"], on_served=narrow
+    )
+    out, err = capsys.readouterr()
+    assert rc == 1, err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: replay stopped at step "), err
+    assert "Joint limit exceeded" in lines[0] and "joint_0: position command" in lines[0]
+    assert "left arm: cleared the controller's error state joint_limit_exceeded" in out
+    assert "arms are home and asleep" in out
+    summary = json.loads((tmp_path / "replay/episode_0_wire_summary.json").read_text())
+    assert summary["status"] == "failed" and 0 < summary["steps_done"] < 20
+    assert summary["arms_home_and_asleep"] and len(summary["recovered"]) == 1
+    assert "JOINT_LIMIT_EXCEEDED" in summary["served"]["faults"][0]
+    for pos in summary["final_positions"].values():
+        np.testing.assert_allclose(pos[:6], 0.0, atol=0.03)
+
+
+@pytest.mark.parametrize(
+    ("ips", "expected"),
+    [
+        (["--left_ip", "192.168.1.5"], "--left_ip '192.168.1.5' is not an IPv4 loopback"),
+        (["--left_ip", "127.0.0.81", "--right_ip", "127.0.0.81"], "are both 127.0.0.81"),
+    ],
+)
+def test_wire_addresses_must_be_loopback_and_distinct(
+    ips: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_episode(tmp_path, smooth_actions(5))
+    rc = run(["--data_dir", str(tmp_path), "--backend", "wire", *ips, "--dry_run"])
+    assert rc == 2 and expected in one_line_error(capsys)

@@ -13,7 +13,14 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = REPO / "trossen_arm_mujoco"
 GUARD = 'if __name__ == "__main__" and not __package__:'
-SCRIPTS = sorted(p for p in (PACKAGE / "scripts").glob("*.py") if p.name != "__init__.py")
+MAIN = 'if __name__ == "__main__":'
+#: The command-line scripts: modules of scripts/ that run as a program. The others there
+#: (``record_args.py``, ``record_report.py``) are parts the scripts import.
+SCRIPTS = sorted(
+    p
+    for p in (PACKAGE / "scripts").glob("*.py")
+    if p.name != "__init__.py" and MAIN in p.read_text().splitlines()
+)
 
 
 def bootstrap(path: Path) -> str | None:
@@ -43,6 +50,13 @@ def _modules_with_bootstrap() -> dict[str, str]:
 def test_every_script_has_the_bootstrap():
     for path in SCRIPTS:
         assert bootstrap(path) is not None, f"{path.name} cannot run as a file"
+
+
+def test_every_subcommand_is_a_script():
+    from trossen_arm_mujoco.cli import SUBCOMMANDS
+
+    names = {f"trossen_arm_mujoco.scripts.{p.stem}" for p in SCRIPTS}
+    assert set(SUBCOMMANDS.values()) <= names
 
 
 def test_one_identical_bootstrap_everywhere():

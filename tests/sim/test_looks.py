@@ -15,9 +15,7 @@ from trossen_arm_mujoco.sim.looks import (
     MENAGERIE_ENV,
     MENAGERIE_MESHES,
     SceneLooks,
-    active_looks,
     menagerie_folder,
-    scene_looks,
 )
 
 ASSETS = Path(ASSETS_DIR)
@@ -58,13 +56,25 @@ def test_shadows_off_turns_every_light_off(xml):
     assert off.nlight == on.nlight and not off.light_castshadow.any()
 
 
-def test_scene_looks_applies_inside_the_block_only():
-    assert active_looks() == SceneLooks()
-    with scene_looks(SceneLooks(shadows=False)):
-        assert not load_model(PUSH).light_castshadow.any()
-        with scene_looks(SceneLooks()):
-            assert load_model(PUSH).light_castshadow.any()
-    assert load_model(PUSH).light_castshadow.any()
+def test_the_look_travels_as_an_argument():
+    """Front door -> sampler -> MujocoEnv -> load_model, like seed and randomize; nothing
+    else (no ambient setting) changes what a scene loads with."""
+    from trossen_arm_mujoco.gym.env import TrossenMujocoEnv
+    from trossen_arm_mujoco.sim.env import MujocoEnv
+    from trossen_arm_mujoco.tasks import registry
+
+    assert load_model(PUSH).light_castshadow.any()  # default: SceneLooks()
+    assert not MujocoEnv(PUSH, looks=SceneLooks(shadows=False)).model.light_castshadow.any()
+    with registry.make_sampler("push", looks=SceneLooks(shadows=False)) as sampler:
+        assert not sampler.env.model.light_castshadow.any()
+    with registry.make_sampler("push") as sampler:  # the one before left nothing behind
+        assert sampler.env.model.light_castshadow.any()
+    env = TrossenMujocoEnv("push", shadows=False)
+    assert not env.scene.model.light_castshadow.any()
+    env.close()
+    with pytest.raises(UserError, match="looks must be a SceneLooks") as err:
+        registry.make_sampler("push", looks={"shadows": False})
+    assert "\n" not in str(err.value)
 
 
 @pytest.mark.parametrize("xml", [PUSH, KIT], ids=["single-arm", "kit"])

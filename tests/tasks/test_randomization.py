@@ -1,5 +1,6 @@
-"""Domain randomization: per kind, same seed same scene (model fields and images), different
-seeds differ, ranges respected, off by default, no drift, records re-applied exactly."""
+"""Domain randomization (``tasks.randomization``): per kind, same seed same scene (model
+fields and images), different seeds differ, ranges respected, off by default, no drift.
+The records it samples: ``test_randomization_record.py``."""
 
 from __future__ import annotations
 
@@ -12,15 +13,9 @@ import pytest
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.tasks import registry
-from trossen_arm_mujoco.tasks.config import RANDOMIZATION_SCHEMA
-from trossen_arm_mujoco.tasks.randomization import (
-    FIELDS,
-    KINDS,
-    apply_randomization,
-    generator_from_seed,
-    record_from_json,
-    record_to_json,
-)
+from trossen_arm_mujoco.tasks.randomization import FIELDS
+from trossen_arm_mujoco.tasks.randomization_record import KINDS
+from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_SCHEMA
 
 #: kinds that change what a camera sees at reset (the others change dynamics only)
 VISUAL = {"lights", "table", "objects", "camera", "joint_noise"}
@@ -196,74 +191,6 @@ def test_ranges_are_respected():
         assert picked == mats
     finally:
         sampler.close()
-
-
-def test_record_reapplied_reproduces_images_exactly():
-    section = {k: {"enabled": True} for k in KINDS}
-    a = registry.make_sampler("sim_transfer_cube", randomize=True, randomization=section,
-                              camera_names=["cam_high"], height=32, width=40)  # fmt: skip
-    b = registry.make_sampler("sim_transfer_cube", camera_names=["cam_high"], height=32, width=40)
-    try:
-        task = a.sample_task(9)
-        record = record_from_json(record_to_json(a.randomization))
-        assert record == a.randomization
-        poses = task.object_poses()
-        images_a = [a.env.render_images()["cam_high"] for _ in range(2)]
-        b.sample_task(0, object_poses=poses, randomization=record)
-        images_b = [b.env.render_images()["cam_high"] for _ in range(2)]
-        for x, y in zip(images_a, images_b, strict=True):
-            np.testing.assert_array_equal(x, y)
-        np.testing.assert_array_equal(a.env.data.qpos, b.env.data.qpos)
-        for f in FIELDS:
-            np.testing.assert_array_equal(getattr(a.env.model, f), getattr(b.env.model, f))
-    finally:
-        a.close()
-        b.close()
-
-
-def test_seed_in_the_record_regenerates_it():
-    sampler = registry.make_sampler("reach", randomize=True)
-    try:
-        sampler.sample_task(4)
-        record = sampler.randomization
-        sampler.env.reset()
-        again = sampler.randomizer.sample(generator_from_seed(record["seed"]), sampler.env.data)
-        assert again == record
-    finally:
-        sampler.close()
-
-
-def test_apply_to_a_bare_model():
-    sampler = registry.make_sampler("reach", randomize=True)
-    try:
-        sampler.sample_task(2)
-        model = mujoco.MjModel.from_xml_path(str(_scene("reach")))
-        data = mujoco.MjData(model)
-        apply_randomization(model, sampler.randomization, data)
-        for f in FIELDS:
-            np.testing.assert_array_equal(getattr(model, f), getattr(sampler.env.model, f))
-    finally:
-        sampler.close()
-
-
-@pytest.mark.parametrize(
-    "record, match",
-    [({"version": 2}, "version"), ([], "version"),
-     ({"version": 1, "weather": {}}, "unknown randomization kind"),
-     ({"version": 1, "lights": {"sun": {}}}, "unknown light 'sun'"),
-     ({"version": 1, "friction": {"table": "high"}}, "friction.table"),
-     ({"version": 1, "camera": {"overview": {"pos": [0, 0, 1]}}}, "missing 'quat'")],
-)  # fmt: skip
-def test_bad_records_are_one_line_errors(record, match):
-    model = mujoco.MjModel.from_xml_path(str(_scene("reach")))
-    with pytest.raises(UserError, match=match) as err:
-        apply_randomization(model, record)
-    assert "\n" not in str(err.value)
-
-
-def test_bad_json_is_a_user_error():
-    with pytest.raises(UserError, match="JSON"):
-        record_from_json("{not json")
 
 
 def test_unknown_table_name_lists_valid_names():

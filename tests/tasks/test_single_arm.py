@@ -51,25 +51,37 @@ def test_reset_moves_the_marker_to_the_goal(sampler):
     np.testing.assert_allclose(task.data.xpos[marker], task.goal)
 
 
-def test_robot_observation_matches_its_bounds(sampler):
+def test_robot_parts_match_their_bounds(sampler):
     task = sampler.sample_task(1)
-    obs, bounds = task.robot_observation(), task.robot_bounds()
-    assert list(obs) == list(bounds) == ["arm_qpos", "arm_qvel", "gripper", "ee_pos"]
-    for key, value in obs.items():
-        low, high = bounds[key]
-        assert value.shape == np.shape(low) == np.shape(high), key
-        assert np.all(low <= value) and np.all(value <= high), key
+    parts = task.robot_parts()
+    assert [p.name for p in parts] == ["arm_qpos", "arm_qvel", "gripper", "ee_pos"]
+    assert all(p.live for p in parts)  # views of data, no copies
+    bounds = {p.name: (p.low, p.high) for p in parts}
+    for part in parts:
+        low, high = bounds[part.name]
+        assert part.read().shape == low.shape == high.shape, part.name
+        assert np.all(low <= part.read()) and np.all(part.read() <= high), part.name
     np.testing.assert_array_equal(bounds["arm_qpos"][0], task.arm.joint_range[:, 0])
     np.testing.assert_array_equal(bounds["arm_qvel"][1], np.full(6, task.max_qvel))
     np.testing.assert_array_equal(bounds["ee_pos"][0], task.ws_low)
-    np.testing.assert_allclose(obs["ee_pos"], task.ee_pos())
+    np.testing.assert_allclose(task.get_observation()["ee_pos"], task.ee_pos())
+    np.testing.assert_array_equal(task.ee_pos(), task.arm.get_frame_position(task.data))
 
 
 def test_bounds_are_copies(sampler):
     task = sampler.make_task()
     task.goal_bounds()[0][:] = 99.0
-    task.robot_bounds()["ee_pos"][1][:] = -99.0
-    assert np.all(task.goal_bounds()[0] < 1.0) and np.all(task.robot_bounds()["ee_pos"][1] > 0)
+    task.observation_bounds()["ee_pos"][1][:] = -99.0
+    assert np.all(task.goal_bounds()[0] < 1.0)
+    assert np.all(task.observation_bounds()["ee_pos"][1] > 0)
+
+
+def test_assigning_the_goal_moves_the_goal_part(sampler):
+    task = sampler.make_task(goal=[0.3, 0.0, 0.2])
+    desired = task.goals[1]
+    task.goal = [0.25, 0.05, 0.15]
+    np.testing.assert_array_equal(desired.read(), [0.25, 0.05, 0.15])
+    np.testing.assert_array_equal(task.desired_goal(), [0.25, 0.05, 0.15])
 
 
 def test_success_and_reward_follow_the_tolerance(sampler):
@@ -149,58 +161,41 @@ def test_push_marker_is_its_goal_body():
         s.close()
 
 
-@pytest.mark.parametrize("name", ["reach", "push", "pick_place"])
-def test_state_parts_are_live_views_of_the_observation(name):
-    """The gym env's shortcut: the pieces follow the simulation and equal get_observation
-    (then the goal and goal delta) at every step; distance() equals the copied goals'."""
-    s = registry.make_sampler(name)
-    try:
-        task = s.sample_task(3)
-        rng = np.random.default_rng(0)
-        parts = task.state_parts(with_goal=True)
-        assert parts is not None
-        assert all(p.base is not None for p in parts[:4])  # the robot state: views, no copies
-        for _ in range(4):
-            q = task.arm.get_qpos(task.data) + rng.uniform(-0.2, 0.2, 6)
-            task.step({"arm": np.clip(q, *task.arm.joint_range.T)})
-            obs = task.get_observation()
-            now = task.state_parts(with_goal=True)
-            for before, got, want in zip(parts, now, obs.values()):
-                np.testing.assert_array_equal(got, want)
-                if before.base is not None:  # a view taken before the steps: still current
-                    np.testing.assert_array_equal(before, want)
-            goal = task.desired_goal()
-            np.testing.assert_array_equal(now[-2], goal)
-            np.testing.assert_array_equal(now[-1], goal - task.achieved_goal())
-            assert task.distance() == float(goal_distance(task.achieved_goal(), goal))
-    finally:
-        s.close()
-
-
-def test_overriding_a_method_turns_its_shortcut_off(sampler):
-    """A subclass overriding what a shortcut stands for is served by its override: no state
-    parts (the gym env then reads get_observation), distance() through achieved_goal()."""
+def test_a_subclass_changes_the_reward_through_reward_at(sampler):
+    """The wxai rewards derive from one goal distance: a subclass overriding reward_at (or
+    get_reward) is what score() gives."""
     from trossen_arm_mujoco.tasks.reach import ReachTask
-    from trossen_arm_mujoco.tasks.task import trusts_shortcut
 
-    class Observed(ReachTask):
-        def get_observation(self):
-            return {**super().get_observation(), "extra": np.zeros(1)}
+    class Halved(ReachTask):
+        def reward_at(self, dist: float) -> float:
+            return 0.5 * super().reward_at(dist)
 
-    class Shifted(ReachTask):
-        def achieved_goal(self):
-            return super().achieved_goal() + 1.0
-
-    class OwnRobot(ReachTask):
-        def robot_observation(self):
-            return super().robot_observation()
+    class Constant(ReachTask):
+        def get_reward(self) -> float:
+            return 7.0
 
     sampler.sample_task(0)
-    for cls in (Observed, Shifted, OwnRobot):
-        task = cls(sampler.env, sampler.config)
-        assert task.state_parts() is None, cls.__name__
-    assert trusts_shortcut(ReachTask, "_achieved_view")
-    assert not trusts_shortcut(Shifted, "_achieved_view")
-    task = Shifted(sampler.env, sampler.config, goal=[0.3, 0.0, 0.2])
-    want = goal_distance(task.ee_pos() + 1.0, task.goal)
-    assert task.distance() == pytest.approx(float(want), abs=1e-12)
+    plain = ReachTask(sampler.env, sampler.config, goal=[0.3, 0.0, 0.2])
+    halved = Halved(sampler.env, sampler.config, goal=[0.3, 0.0, 0.2])
+    assert halved.score()[0] == pytest.approx(0.5 * plain.score()[0])
+    assert halved.score()[1] == plain.score()[1]
+    assert Constant(sampler.env, sampler.config).score()[0] == 7.0
+
+
+def test_a_subclass_observing_more_extends_the_parts(sampler):
+    """A task observing more declares more parts; dict, bounds and goals follow."""
+    from trossen_arm_mujoco.tasks.observation import Part
+    from trossen_arm_mujoco.tasks.reach import ReachTask
+
+    class Clock(ReachTask):
+        def observation_parts(self):
+            data = self.data
+            return [*super().observation_parts(), Part("time", lambda: [data.time], 0, 1e3)]
+
+    sampler.sample_task(0)
+    task = Clock(sampler.env, sampler.config)
+    obs = task.get_observation()
+    assert list(obs)[-2:] == ["ee_pos", "time"] and obs["time"].shape == (1,)
+    assert list(task.observation_bounds()) == list(obs)
+    assert obs["time"][0] == sampler.env.data.time
+    np.testing.assert_array_equal(task.achieved_goal(), obs["ee_pos"])

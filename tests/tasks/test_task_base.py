@@ -123,14 +123,30 @@ def test_description_and_info(name):
         sampler.close()
 
 
-def test_score_is_reward_and_info_from_one_evaluation(reach, monkeypatch):
+def test_score_is_reward_and_info(reach):
     task = reach.sample_task(0)
-    calls = []
-    real = type(task).distance
-    monkeypatch.setattr(type(task), "distance", lambda t: calls.append(1) or real(t))
     reward, info = task.score()
-    assert len(calls) == 1  # one goal distance for both
     assert (reward, info) == (task.get_reward(), task.get_info())
+    assert task.current_reward() == reward  # outside score(): get_reward() again
+
+
+def test_a_success_defined_by_the_reward_evaluates_it_once_per_score(monkeypatch):
+    """The bimanual tasks' success is ``reward >= max_reward``: inside score() it reuses
+    the reward score() has just computed (current_reward), so the contacts are read once."""
+    from trossen_arm_mujoco.tasks.transfer_cube import TransferCube
+
+    sampler = registry.make_sampler("transfer_cube")
+    try:
+        task = sampler.sample_task(0)
+        calls = []
+        real = TransferCube.get_reward
+        monkeypatch.setattr(TransferCube, "get_reward", lambda t: calls.append(1) or real(t))
+        assert task.score() == (0.0, {"is_success": False})
+        assert len(calls) == 1
+        assert task.judge_success() is False and len(calls) == 2  # outside: evaluated
+        assert task._reward_now is None
+    finally:
+        sampler.close()
 
 
 def test_score_goes_through_overridden_reward_and_info():

@@ -143,12 +143,17 @@ def test_randomize_must_be_a_bool(value):
         (0.0, 1.0, (2, 3)),
     ],
 )
-def test_uniform_draws_what_generator_uniform_draws(low, high, size):
-    """The samplers' uniform(): the values and the stream of rng.uniform, bit for bit."""
+def test_uniform_draws_what_the_arithmetic_written_out_drew(low, high, size):
+    """The samplers' uniform() (Generator.uniform) gives, bit for bit, the values and the
+    stream of ``low + (high - low) * rng.random(shape)``, which the samplers computed before:
+    episodes recorded then are drawn again the same."""
     from trossen_arm_mujoco.tasks.sampler import uniform
 
     for seed in range(50):
         a, b = np.random.default_rng(seed), np.random.default_rng(seed)
-        want, got = a.uniform(low, high, size), uniform(b, low, high, size)
+        lo = np.asarray(low, dtype=float)
+        span = np.asarray(high, dtype=float) - lo
+        want = lo + span * a.random(span.shape if size is None else size)
+        got = uniform(b, low, high, size)
         assert np.shape(got) == np.shape(want) and np.array_equal(got, want)
         assert a.random() == b.random()  # the generators moved on alike

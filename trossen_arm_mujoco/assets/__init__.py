@@ -13,6 +13,10 @@ ASSETS_DIR: str = str(Path(__file__).resolve().parent)
 #: Cameras of the Stationary AI kit scenes, in recording order.
 STATIONARY_CAMERAS: tuple[str, ...] = ("cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist")
 
+#: Height (m, world z) of the table top of the Stationary AI kit scenes (the tasks' configs
+#: say so as ``table_height``); custom dm_control tasks keep their arms above it.
+STATIONARY_TABLE_TOP: float = 0.02
+
 
 def asset_path(relative: str | Path) -> Path:
     """Absolute path of a model: as given when absolute, else relative to ``ASSETS_DIR``."""

@@ -35,11 +35,11 @@ from pathlib import Path
 from trossen_arm_mujoco.collect.local_pool import WorkerPool
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
 from trossen_arm_mujoco.collect.progress import Progress
-from trossen_arm_mujoco.collect.resume import RunPlan, format_indices, plan_run
+from trossen_arm_mujoco.collect.resume import RunPlan, plan_run
 from trossen_arm_mujoco.data.dataset_lock import DatasetLock
 from trossen_arm_mujoco.data.io_errors import EpisodeIOError, folder_io_error, io_error
 from trossen_arm_mujoco.data.reader import EpisodeError, episode_path, load_episode
-from trossen_arm_mujoco.data.writer import remove_stale_temp_files
+from trossen_arm_mujoco.data.temp_files import remove_stale_temp_files
 from trossen_arm_mujoco.errors import Terminated, UserError
 from trossen_arm_mujoco.fileio import publish
 
@@ -47,12 +47,9 @@ __all__ = [
     "STAGING",
     "DatasetRecorder",
     "Job",
-    "RunPlan",
     "RunReport",
     "failure_summary",
-    "format_indices",
     "format_size",
-    "plan_run",
     "record_in_worker",
 ]
 

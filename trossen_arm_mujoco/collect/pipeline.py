@@ -39,9 +39,9 @@ from trossen_arm_mujoco.real.validate import (
 )
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
-from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
+from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
-from trossen_arm_mujoco.tasks.randomization import record_to_json
+from trossen_arm_mujoco.tasks.randomization_record import record_to_json
 
 #: Speed limit of each of the 16 action values (URDF: rad/s for the joints, m/s for both
 #: finger values), in the qpos layout.
@@ -150,15 +150,15 @@ class EpisodeRecorder:
         self.ee_sampler = registry.make_sampler(
             self.entry.name, flavour="ee", randomize=settings.randomize
         )
-        with scene_looks(SceneLooks(shadows=settings.shadows, visual=settings.visual)):
-            self.joint_sampler = registry.make_sampler(
-                self.entry.name,
-                flavour="joint",
-                camera_names=settings.cam_names,
-                height=settings.height,
-                width=settings.width,
-                randomize=settings.randomize,
-            )
+        self.joint_sampler = registry.make_sampler(
+            self.entry.name,
+            flavour="joint",
+            camera_names=settings.cam_names,
+            height=settings.height,
+            width=settings.width,
+            randomize=settings.randomize,
+            looks=SceneLooks(shadows=settings.shadows, visual=settings.visual),
+        )
         #: randomization record of the last scripted rollout (None: not randomizing).
         self.last_randomization: dict | None = None
         self.ee_task = None

@@ -4,7 +4,7 @@ Videos and plots (:mod:`.video`) need the ``video`` extra (PyAV, matplotlib), im
 only when a video or plot is made.
 """
 
-from trossen_arm_mujoco.data.io_errors import EpisodeIOError
+from trossen_arm_mujoco.data.io_errors import EpisodeIOError, EpisodeWriteError
 from trossen_arm_mujoco.data.reader import (
     Episode,
     EpisodeError,
@@ -21,12 +21,9 @@ from trossen_arm_mujoco.data.schema import (
     SCHEMA_VERSION,
     EpisodeSchema,
 )
+from trossen_arm_mujoco.data.temp_files import remove_stale_temp_files
 from trossen_arm_mujoco.data.video import plot_joints, write_episode_video
-from trossen_arm_mujoco.data.writer import (
-    EpisodeWriteError,
-    EpisodeWriter,
-    remove_stale_temp_files,
-)
+from trossen_arm_mujoco.data.writer import EpisodeWriter
 
 __all__ = [
     "NUM_JOINTS",

@@ -1,4 +1,8 @@
-"""Write failures the file system causes, as one-line errors, and discarding a file safely.
+"""Errors of writing an episode file, and discarding a file safely.
+
+:class:`EpisodeWriteError`: invalid data handed to the writer, or a refused commit (the
+final file appeared meanwhile, the written file does not read back). :class:`EpisodeIOError`:
+write failures the file system causes, as one-line errors.
 
 A full disk (ENOSPC), a read-only (EROFS) or unwritable (EACCES) folder, or a folder removed
 during a run surface from h5py as ``OSError`` (sometimes ``RuntimeError``) with HDF5's
@@ -16,6 +20,10 @@ from pathlib import Path
 import h5py
 
 from trossen_arm_mujoco.errors import UserError
+
+
+class EpisodeWriteError(UserError):
+    """Invalid data handed to the episode writer, or a refused write."""
 
 
 class EpisodeIOError(UserError):

@@ -1,11 +1,12 @@
 """Streaming, atomic writing of one episode file (layout in :mod:`.schema`).
 
-Each :meth:`EpisodeWriter.append` writes one step straight into preallocated datasets of a
-temporary file next to the final one, so memory stays flat whatever the episode length.
-The temporary file (``.episode_<k>.hdf5.<pid>-<random>.tmp``: unique, so two writers never
-share one) becomes ``episode_<k>.hdf5`` only after all steps are written, flushed, fsynced
-and read back with the reader's validation; on any error it is deleted, so a folder never
-holds a half-written episode.
+Each :meth:`EpisodeWriter.append` checks one step (shapes, finite values, the cameras'
+images) and writes it straight into preallocated datasets of a temporary file next to the
+final one (:mod:`.episode_file`), so memory stays flat whatever the episode length. The
+temporary file (``.episode_<k>.hdf5.<pid>-<random>.tmp``: unique, so two writers never share
+one; :mod:`.temp_files`) becomes ``episode_<k>.hdf5`` only after all steps are written,
+flushed, fsynced and read back with the reader's validation; on any error it is deleted, so a
+folder never holds a half-written episode.
 
 Images are gzip-compressed by default, in background threads
 (:mod:`.chunk_compressor`), so compression stays off the render path. A write the file
@@ -15,19 +16,15 @@ system refuses (disk full, read-only or unwritable folder, folder removed meanwh
 
 from __future__ import annotations
 
-import errno
 import os
-import re
-import secrets
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
-from trossen_arm_mujoco.data.chunk_compressor import ChunkCompressor
-from trossen_arm_mujoco.data.io_errors import IO_ERRORS, discard_file, io_error
+from trossen_arm_mujoco.data.episode_file import EpisodeFile
+from trossen_arm_mujoco.data.io_errors import EpisodeWriteError
 from trossen_arm_mujoco.data.schema import (
     COMPRESSIONS,
     DEFAULT_COMPRESSION,
@@ -35,40 +32,11 @@ from trossen_arm_mujoco.data.schema import (
     GZIP_LEVEL,
     SCHEMA,
     encode_attr,
-    temp_file_name,
 )
 from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
-from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.fileio import publish
 
 #: Attributes that follow from the writer's arguments; callers may not change them.
 _WRITER_ATTRS = frozenset({"sim", "episode_len", "camera_names", "schema_version"})
-
-#: Temporary episode files: ``.<final>.tmp`` (older versions) or ``.<final>.<pid>-<hex>.tmp``.
-_TEMP_RE = re.compile(r"^\.(?P<final>.+\.hdf5)(?:\.(?P<pid>[0-9]+)-[0-9a-f]+)?\.tmp$")
-
-
-def unique_temp_path(path: Path) -> Path:
-    """A temporary sibling of ``path`` that no other writer uses:
-    ``.<name>.<pid>-<random>.tmp`` (hidden, never an episode name)."""
-    base = temp_file_name(path.name)  # ".<name>.tmp"
-    return path.with_name(f"{base[: -len('.tmp')]}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
-
-
-def _process_alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return False  # this process: its own leftovers are stale when it cleans up
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # exists, owned by another user
-        return True
-    return True
-
-
-class EpisodeWriteError(UserError):
-    """Invalid data handed to the episode writer, or a refused write."""
 
 
 def package_version() -> str:
@@ -155,7 +123,6 @@ class EpisodeWriter:
             name: (int(env_state_dim),) if spec.variable else spec.width
             for name, spec in zip(SCHEMA.array_names, SCHEMA.arrays, strict=True)
         }
-        self.temp_path = unique_temp_path(self.path)
         self.verify = verify
         self.episode_len = int(episode_len)
         self.camera_names = list(camera_names)
@@ -163,8 +130,6 @@ class EpisodeWriter:
         self.overwrite = overwrite
         self.num_steps = 0
         self._committed = False
-        self._file: h5py.File | None = None
-        self._compressor: ChunkCompressor | None = None
         if self.episode_len < 1:
             raise EpisodeWriteError(f"episode_len must be at least 1, got {episode_len}")
         if compression not in COMPRESSIONS:
@@ -200,43 +165,20 @@ class EpisodeWriter:
         self._attrs: dict[str, Any] = {}
         self.set_attrs(**defaults)
         self.set_attrs(**dict(attrs or {}))
-        try:
-            if create_folder:
-                self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._file = h5py.File(self.temp_path, "w")
-            self._create_datasets(compression, compress_workers)
-        except IO_ERRORS as exc:
-            self.abort()
-            raise io_error(self.path, exc) from exc
-        except BaseException:
-            self.abort()
-            raise
-
-    def _create_datasets(self, compression: str, workers: int | None) -> None:
-        assert self._file is not None
-        kwargs: dict[str, Any] = {}
-        if compression == "gzip":
-            kwargs = {"compression": "gzip", "compression_opts": self.gzip_level}
-            if self.camera_names:
-                self._compressor = ChunkCompressor(self.gzip_level, workers)
-        elif compression == "lzf":
-            kwargs = {"compression": "lzf"}
-        self._arrays = {}
-        for name, spec in zip(SCHEMA.array_names, SCHEMA.arrays, strict=True):
-            self._arrays[name] = self._file.create_dataset(
-                spec.path, shape=(self.episode_len, *self.widths[name]), dtype=spec.dtype
-            )
-        self._file.require_group(SCHEMA.image_group)
-        self._images = {
-            cam: self._file.create_dataset(
-                SCHEMA.image_path(cam),
-                shape=SCHEMA.image_shape(self.episode_len, self.height, self.width),
-                dtype=SCHEMA.image_dtype,
-                chunks=SCHEMA.image_chunks(self.height, self.width),
-                **kwargs,
-            )
-            for cam in self.camera_names
-        }
+        self._episode = EpisodeFile(
+            self.path,
+            self.episode_len,
+            self.widths,
+            self.camera_names,
+            self.height,
+            self.width,
+            compression,
+            self.gzip_level,
+            compress_workers,
+            create_folder,
+        )
+        #: The temporary file the steps go to until ``close``.
+        self.temp_path = self._episode.temp_path
 
     def __enter__(self) -> EpisodeWriter:
         return self
@@ -250,7 +192,7 @@ class EpisodeWriter:
     @property
     def closed(self) -> bool:
         """True once the episode was committed or aborted."""
-        return self._file is None
+        return self._episode.closed
 
     def set_attrs(self, **attrs: Any) -> None:
         """Set root attributes (validated now, written on :meth:`close`)."""
@@ -285,7 +227,7 @@ class EpisodeWriter:
             env_state: ``env_state_dim`` finite values, object poses xyz (m) + quat wxyz.
             images: ``{camera: uint8 (H, W, 3)}`` for exactly the writer's cameras.
         """
-        if self._file is None:
+        if self.closed:
             raise EpisodeWriteError(f"writer for {self.path} is already closed")
         t = self.num_steps
         if t >= self.episode_len:
@@ -294,22 +236,9 @@ class EpisodeWriter:
             )
         values = {"qpos": qpos, "qvel": qvel, "action": action, "reward": reward}
         values["env_state"] = env_state
-        checked = {name: self._check_array(name, values[name], t) for name in self._arrays}
+        checked = {name: self._check_array(name, values[name], t) for name in self.widths}
         frames = self._check_images(images or {}, t)
-        try:
-            for name, value in checked.items():
-                self._arrays[name][t] = value
-            for cam, frame in frames.items():
-                if self._compressor is not None:
-                    self._compressor.submit(self._images[cam], t, frame)
-                else:
-                    self._images[cam][t] = frame
-        except IO_ERRORS as exc:
-            self.abort()
-            raise io_error(self.path, exc) from exc
-        except BaseException:
-            self.abort()
-            raise
+        self._episode.write_step(t, checked, frames)  # discards the file if it fails
         self.num_steps = t + 1
 
     def _check_array(self, name: str, value: Any, t: int) -> np.ndarray:
@@ -359,7 +288,7 @@ class EpisodeWriter:
                 attribute is missing, or the final file appeared meanwhile (no overwrite).
                 The temporary file is deleted in every failure case.
         """
-        if self._file is None:
+        if self.closed:
             if self._committed:
                 return self.path
             raise EpisodeWriteError(f"writer for {self.path} was aborted")
@@ -375,88 +304,14 @@ class EpisodeWriter:
                     f"{self.path.name}: missing attributes {missing}; pass them in attrs= "
                     "or set_attrs()"
                 )
-            try:
-                if self._compressor is not None:
-                    self._compressor.close()
-                    self._compressor = None
-                for name, value in self._attrs.items():
-                    self._file.attrs[name] = value
-                self._file.flush()
-                self._file.close()
-                self._file = None
-                if self.verify:
-                    self._verify()
-                publish(self.temp_path, self.path, overwrite=self.overwrite)
-            except FileExistsError:
-                raise EpisodeWriteError(
-                    f"{self.path} appeared while writing; refusing to overwrite it"
-                ) from None
-            except IO_ERRORS as exc:
-                raise io_error(self.path, exc) from exc
+            self._episode.commit(self._attrs, self.verify, self.overwrite)
         except BaseException:
             self.abort()
             raise
         self._committed = True
         return self.path
 
-    def _verify(self) -> None:
-        """Read the closed temporary file back as the reader would."""
-        from trossen_arm_mujoco.data.reader import EpisodeError, load_episode
-
-        try:
-            episode = load_episode(self.temp_path)
-        except EpisodeError as exc:
-            if not self.temp_path.exists():  # the folder (or the file) was removed meanwhile
-                missing = FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT))
-                raise io_error(self.path, missing) from None
-            raise EpisodeWriteError(
-                f"{self.path.name}: the written file does not read back ({exc}); episode discarded"
-            ) from None
-        if episode.num_steps != self.episode_len or episode.camera_names != self.camera_names:
-            raise EpisodeWriteError(
-                f"{self.path.name}: the written file reads back as {episode.num_steps} steps "
-                f"of cameras {episode.camera_names}, expected {self.episode_len} of "
-                f"{self.camera_names}; episode discarded"
-            )
-
     def abort(self) -> None:
         """Discard the episode: close and delete the temporary file (idempotent, never
         raises an I/O error: on a read-only file system there is nothing more to do)."""
-        if self._compressor is not None:
-            self._compressor.cancel()
-            self._compressor = None
-        if self._file is not None:
-            discard_file(self._file)
-            self._file = None
-        try:
-            self.temp_path.unlink(missing_ok=True)
-        except OSError:
-            pass
-
-
-def remove_stale_temp_files(folder: str | os.PathLike[str]) -> list[Path]:
-    """Delete temporary episode files left by interrupted or killed runs in ``folder``.
-
-    Call it only while holding the folder's lock (:mod:`.dataset_lock`), so that no other
-    run writes there. A file whose name carries the pid of a process that still runs (a
-    writer outside any locked run) is left alone.
-
-    Returns:
-        The deleted paths (empty when the folder does not exist).
-    """
-    folder = Path(folder).expanduser()
-    if not folder.is_dir():
-        return []
-    removed = []
-    try:
-        for path in sorted(folder.glob(".episode_*.hdf5*.tmp")):
-            match = _TEMP_RE.match(path.name)
-            if match is None:
-                continue
-            if match["pid"] is not None and _process_alive(int(match["pid"])):
-                continue
-            path.unlink(missing_ok=True)
-            removed.append(path)
-    except OSError:  # folder removed meanwhile, or read-only: nothing to clean
-        pass
-    return removed
+        self._episode.discard()

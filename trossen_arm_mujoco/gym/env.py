@@ -2,8 +2,8 @@
 
 The env adapts; it does not score or randomize. The task's sampler builds the world and
 samples episodes from ``self.np_random``; the task scores; ``gym.actions`` turns actions into
-commands (with the safety floor); ``gym.stepping`` advances time; ``gym.spaces`` shapes the
-observations.
+commands (the robot layer keeps the arms above the safety floor, ``gym.safety`` reports it);
+``gym.stepping`` advances time; ``gym.spaces`` shapes the observations.
 
 Keyword arguments (besides the task's config keys, which override its YAML file):
     task: registered task name (``tasks.registry.names()``).
@@ -49,14 +49,15 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.actions import ACTION_MODES, ActionMapper
+from trossen_arm_mujoco.gym.safety import safety_info
 from trossen_arm_mujoco.gym.spaces import OBS_TYPES, ObservationBuilder
 from trossen_arm_mujoco.gym.stepping import STEPPING_MODES, make_stepper
 from trossen_arm_mujoco.sim.cameras import check_can_render
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
-from trossen_arm_mujoco.sim.looks import SceneLooks, scene_looks
+from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.config import merge_overrides
-from trossen_arm_mujoco.tasks.config_schema import Key
+from trossen_arm_mujoco.tasks.config_key import Key
 from trossen_arm_mujoco.tasks.task import Task
 
 RENDER_MODES = ("rgb_array", "human")
@@ -151,15 +152,16 @@ class TrossenMujocoEnv(gymnasium.Env):
             check_can_render()  # fail now, not with a hang at the first image
         self.task_name = task
         self.obs_type, self.action_mode, self.render_mode = obs_type, action_mode, render_mode
-        with scene_looks(looks):
-            self.sampler = sampler_cls(
-                self.config,
-                command_mode=action_mode,
-                camera_names=cameras,
-                height=height,
-                width=width,
-                randomize=randomize,
-            )
+        self.sampler = sampler_cls(
+            self.config,
+            command_mode=action_mode,
+            camera_names=cameras,
+            height=height,
+            width=width,
+            randomize=randomize,
+            looks=looks,
+            floor_margin=self.config["safety_margin"],
+        )
         self.scene = self.sampler.env
         robot = self.scene.robots[sampler_cls.robot_name]
         self.actions = ActionMapper(robot, sampler_cls.arms, action_mode, self.config)
@@ -240,10 +242,9 @@ class TrossenMujocoEnv(gymnasium.Env):
         return self.observations.build(self.task, images)
 
     def _with_safety(self, info: dict[str, Any], clipped: bool) -> dict[str, Any]:
-        """The task's ``info`` with the safety floor's report of this step."""
-        info["safety_clipped"] = bool(clipped)
-        info["safety_links"] = ",".join(self.actions.clipped_links) if clipped else ""
-        return info
+        """The task's ``info`` with the safety floor's report of this step (the robot's:
+        ``gym.safety``; ``clipped`` is unused)."""
+        return safety_info(info, self.actions.robot.floor_report)
 
     def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
         """(reward, terminated, info) of the state just observed: the task's ``score``."""

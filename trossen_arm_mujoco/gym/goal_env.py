@@ -34,12 +34,12 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
                 + ", ".join(goal_tasks)
             )
         super().__init__(task, **kwargs)
-        # a subclass's own compute_reward scores its steps; else one goal_score does
-        self._own_reward = type(self).compute_reward is not TrossenMujocoGoalEnv.compute_reward
 
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray | float:
         """Reward of goal pairs, shapes (..., 3) -> (...); a float for single goals."""
         reward = self.probe.goal_reward(achieved_goal, desired_goal)
+        if type(reward) is float:  # one pair (the step's)
+            return reward
         return float(reward) if np.ndim(reward) == 0 else reward
 
     def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray | bool:
@@ -54,14 +54,12 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
         return False if shape == () else np.zeros(shape, dtype=bool)
 
     def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
+        """Reward and success of the goals just observed, as ``compute_reward`` and
+        ``compute_terminated`` give them for the same goals."""
         info = self._with_safety(self.task.get_info(), clipped)
         achieved, desired = obs["achieved_goal"], obs["desired_goal"]
-        if self._own_reward:
-            success = info["is_success"] = bool(self.probe.goal_success(achieved, desired))
-            reward = float(self.compute_reward(achieved, desired, info))
-        else:  # compute_reward(achieved, desired, info) and the success, from one evaluation
-            reward, success = self.probe.goal_score(achieved, desired)
-            info["is_success"] = success
+        success = info["is_success"] = bool(self.probe.goal_success(achieved, desired))
+        reward = float(self.compute_reward(achieved, desired, info))
         # compute_terminated(achieved, desired, info), from the success just computed
         terminated = success and bool(self.config.get("terminate_on_success", False))
         return reward, terminated, info

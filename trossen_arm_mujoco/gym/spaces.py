@@ -2,18 +2,20 @@
 
 Observation types (``obs_type``):
 
-- ``state``: float32 vector, the task's named state entries concatenated in
-  ``Task.observation_bounds`` order; goal-conditioned tasks in the plain env also append the
-  desired goal (3,) and desired - achieved (3,) (m).
+- ``state``: float32 vector, the values of the task's observation parts concatenated in
+  order; goal-conditioned tasks in the plain env also append the desired goal and desired -
+  achieved (3,) each for the wxai tasks (m).
 - ``pixels``: uint8 image (height, width * n_cameras, 3), the cameras side by side.
 - ``pixels_state``: Dict(pixels=image, state=vector).
 
-Goal envs return Dict(observation=..., achieved_goal=(3,), desired_goal=(3,)) where
-``observation`` is the state vector (``state``), the image (``pixels``), or the state vector
-with an extra ``pixels`` key (``pixels_state``).
+Goal envs return Dict(observation=..., achieved_goal, desired_goal) (goal-sized: (3,) for the
+wxai tasks) where ``observation`` is the state vector (``state``), the image (``pixels``), or
+the state vector with an extra ``pixels`` key (``pixels_state``).
 
-Every Box is finite; state values are clipped into their bounds (see each task's
-``observation_bounds``: joint ranges, velocity caps, the workspace box).
+Everything derives from the task's observation parts (``tasks.observation``): the vector's
+entries and their order, the Box bounds and the goals. Every Box is finite; state values are
+clipped into their bounds (the parts' bounds: joint ranges, velocity caps, the workspace
+box).
 """
 
 from __future__ import annotations
@@ -34,21 +36,15 @@ def _box(low: np.ndarray, high: np.ndarray) -> spaces.Box:
     return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
 
 
-def _check_bounds(bounds: dict[str, tuple]) -> None:
-    """Every entry's bounds finite with low <= high (a one-line UserError naming the entry);
-    checked once, when the space is built."""
-    for key, (low, high) in bounds.items():
-        low, high = np.asarray(low, float), np.asarray(high, float)
-        if not (np.isfinite(low).all() and np.isfinite(high).all()) or (low > high).any():
-            raise UserError(
-                f"observation entry '{key}': bounds must be finite with low <= high, got low "
-                f"{np.round(low, 4).tolist()}, high {np.round(high, 4).tolist()}; check the "
-                "task config (workspace_low/high, max_joint_velocity, max_object_velocity)"
-            )
-
-
 class ObservationBuilder:
-    """Builds the observation space from a (probe) task and converts task states.
+    """Builds the observation space from a (probe) task's observation parts and turns a
+    task's current state into observations.
+
+    Everything comes from the task's parts (``Task.observed``, ``Task.goals``): the state
+    vector is the parts' values concatenated in order (live views read in place, computed
+    parts called once), then, for a goal-conditioned task in the plain env, the desired goal
+    and desired - achieved; the Box bounds are the parts' bounds in the same order. Every
+    task of the family (each episode's) has the same parts as the probe.
 
     Args:
         task: any task of the family (bounds depend on config and model only).
@@ -68,20 +64,17 @@ class ObservationBuilder:
             if not isinstance(size, (int, np.integer)) or isinstance(size, bool) or size < 0:
                 raise UserError(f"observation {name} must be a whole number >= 0, got {size!r}")
         self.with_goal = task.goal_conditioned and not goal_env
-        bounds = dict(task.observation_bounds())
+        observed = task.observed
+        self.keys = list(observed.names)
+        low, high = observed.low_high()  # checked: finite, low <= high (a line naming a part)
         if task.goal_conditioned:
             g_low, g_high = task.goal_bounds()
-            _check_bounds({"goal": (g_low, g_high)})
             self.goal_low, self.goal_high = g_low.astype(np.float32), g_high.astype(np.float32)
             if self.with_goal:
-                bounds["goal"] = (g_low, g_high)
-                bounds["goal_delta"] = (g_low - g_high, g_high - g_low)
-        _check_bounds(bounds)
-        self.keys = list(bounds)
-        self.state_space = _box(
-            np.concatenate([np.asarray(bounds[k][0], float) for k in self.keys]),
-            np.concatenate([np.asarray(bounds[k][1], float) for k in self.keys]),
-        )
+                self.keys += ["goal", "goal_delta"]
+                low = np.concatenate([low, g_low, g_low - g_high])
+                high = np.concatenate([high, g_high, g_high - g_low])
+        self.state_space = _box(low, high)
         self.image_space = spaces.Box(0, 255, (height, width * n_cameras, 3), dtype=np.uint8)
         self.space = self._space()
         self._low, self._high = self.state_space.low, self.state_space.high
@@ -109,27 +102,31 @@ class ObservationBuilder:
         return spaces.Dict(entries)
 
     def state(self, task: Task, goals: tuple[np.ndarray, ...] = ()) -> np.ndarray:
-        """The task's state as the clipped float32 vector of ``state_space``; with ``goals``
-        (achieved, desired (3,) each; goal envs) those follow it in the same vector, clipped
-        into the goal bounds."""
-        parts = task.state_parts(self.with_goal)  # no copies, where the task has the shortcut
-        if parts is None:
-            obs = task.get_observation()
-            if self.with_goal:
-                desired = task.desired_goal()
-                obs["goal"] = desired
-                obs["goal_delta"] = desired - task.achieved_goal()
-            parts = [obs[k] for k in self.keys]
+        """The task's state as the clipped float32 vector of ``state_space``: its parts'
+        values in order (no copies before the one concatenation); with ``goals``
+        (achieved, desired; goal envs) those follow it in the same vector, clipped into the
+        goal bounds."""
+        parts = task.observed.values()
+        if self.with_goal:
+            achieved, desired = task.goals
+            goal = desired.read()
+            parts += (goal, goal - achieved.read())
         low, high = self._low, self._high
         if goals:
-            parts = [*parts, *goals]
+            parts += goals
             low, high = self._low_goals, self._high_goals
-        try:  # the usual case: every entry a 1-D array
+        try:  # the usual case: every value a 1-D array
             vec = np.concatenate(parts, dtype=np.float32)
         except (ValueError, TypeError):
             vec = None
-        if vec is None or vec.shape != low.shape:  # scalars, 0-d or n-d entries
+        if vec is None or vec.shape != low.shape:  # scalars, 0-d or n-d values
             vec = np.concatenate([np.asarray(p, float).reshape(-1) for p in parts])
+            if vec.shape != low.shape:
+                raise UserError(
+                    f"task '{task.name}': its observation parts gave {vec.size} values, "
+                    f"their bounds {low.size}; a computed part returns as many values as "
+                    "its bounds have"
+                )
             vec = vec.astype(np.float32)
         return clip(vec, low, high, out=vec)
 
@@ -147,9 +144,8 @@ class ObservationBuilder:
             return state
         # goal env: the state (if any), then the achieved and the desired goal, as one vector
         # clipped once; the entries are its parts
-        goals = task.goal_views()  # no copies, where the task has the shortcut
-        if goals is None:
-            goals = (task.achieved_goal(), task.desired_goal())
+        achieved, desired = task.goals
+        goals = (achieved.read(), desired.read())
         if self.obs_type == "pixels":
             n = self._n_state
             vec = np.concatenate(goals, dtype=np.float32)
@@ -159,5 +155,6 @@ class ObservationBuilder:
         out: dict[str, np.ndarray] = {"observation": pixels if n == 0 else vec[:n]}
         if self.obs_type == "pixels_state":
             out["pixels"] = pixels
-        out["achieved_goal"], out["desired_goal"] = vec[n : n + 3], vec[n + 3 :]
+        g = n + self.goal_low.size
+        out["achieved_goal"], out["desired_goal"] = vec[n:g], vec[g:]
         return out

@@ -50,6 +50,15 @@ HOME_POSE: tuple[float, ...] = (0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, 0.0)
 #: Sleep (rest) pose (7 values): all joints 0, gripper closed.
 SLEEP_POSE: tuple[float, ...] = (0.0,) * NUM_ARM_VALUES
 
+#: Error states of the arm controller that a command causes (a goal past the joint limits,
+#: a non-finite or malformed input), not the hardware: after one, :meth:`TrossenArmDriver.
+#: recover` may clear the state so that the arm can be taken home. Names of
+#: ``trossen_arm.ErrorState`` members.
+COMMAND_ERRORS: frozenset[str] = frozenset(
+    {"joint_limit_exceeded", "robot_input_infinite", "robot_input_mode_mismatch",
+     "invalid_mode", "invalid_robot_command"}
+)  # fmt: skip
+
 #: Robot model and end-effector preset names understood by :meth:`ArmDriver.configure`.
 DEFAULT_MODEL: str = "wxai_v0"
 DEFAULT_END_EFFECTOR: str = "wxai_v0_follower"
@@ -155,6 +164,31 @@ def import_trossen_arm() -> ModuleType:
     return trossen_arm
 
 
+def route_driver_logs(ta: ModuleType, min_level: int = 3) -> None:
+    """Send the ``trossen_arm`` driver's log messages of ``min_level`` and above (its
+    ``LogLevel``: 3 = warn) to stdout, one line each (``trossen_arm <level>: <message>``),
+    and drop the others.
+
+    By default the driver writes every message, ``info`` included, to stderr over several
+    lines; replay keeps stderr for its one-line error. The backend is process-wide (the
+    driver has one); calling this again replaces it.
+    """
+    setter = getattr(getattr(ta, "TrossenArmDriver", None), "set_logger_backend", None)
+    if setter is None:
+        return
+
+    def backend(level: Any, name: str, message: str) -> None:
+        if int(level) < min_level:
+            return
+        label = getattr(level, "name", str(level))
+        try:
+            print(f"trossen_arm {label} ({name}): {' '.join(str(message).split())}", flush=True)
+        except (OSError, ValueError):  # a closed stdout: nothing to report to
+            pass
+
+    setter(backend)
+
+
 def end_effector_presets(ta: ModuleType) -> list[str]:
     """Names of the ``StandardEndEffector`` presets of the ``trossen_arm`` module ``ta``, sorted.
 
@@ -200,8 +234,9 @@ def resolve_presets(ta: ModuleType, model: str, end_effector: str) -> tuple[Any,
 class TrossenArmDriver:
     """:class:`ArmDriver` over a real arm, through ``trossen_arm.TrossenArmDriver``.
 
-    Constructing it only imports the package (an install hint when it is missing); the
-    network is first used by :meth:`configure`. Defaults configure the **follower**
+    Constructing it only imports the package (an install hint when it is missing) and
+    routes the driver's warnings to stdout (:func:`route_driver_logs`); the network is
+    first used by :meth:`configure`. Defaults configure the **follower**
     end-effector preset (``StandardEndEffector.wxai_v0_follower``), which matches the
     follower arms' fingers, unlike the vendor script's leader preset; in trossen_arm 1.11
     that is the 2026-06-26 hardware, and arms built in 2025 need
@@ -210,6 +245,7 @@ class TrossenArmDriver:
 
     def __init__(self) -> None:
         self._ta = import_trossen_arm()
+        route_driver_logs(self._ta)
         self._driver: Any = None
         self.ip_address: str | None = None
 
@@ -247,6 +283,49 @@ class TrossenArmDriver:
     def get_all_positions(self) -> np.ndarray:
         """Measured positions, float64 ``(7,)`` (rad x6, gripper m)."""
         return np.asarray(self._configured().get_all_positions(), dtype=np.float64)
+
+    def error_state(self) -> tuple[str, str] | None:
+        """The controller's error state: ``(ErrorState member name, one line of
+        information)``, or None when there is none (or the driver is not configured).
+
+        ``trossen_arm`` raises the error from most calls once the controller is in an error
+        state, ``get_error_information`` included; the state is recognized by the text of
+        ``trossen_arm.ERROR_INFORMATION``.
+        """
+        if self._driver is None:
+            return None
+        try:
+            info = str(self._driver.get_error_information())
+        except Exception as exc:  # the driver rethrows the controller's error
+            info = str(exc)
+        table = getattr(self._ta, "ERROR_INFORMATION", {})
+        for state, text in table.items():
+            name = getattr(state, "name", str(state))
+            if name != "none" and text and text in info:
+                return name, " ".join(info.split())
+        return None
+
+    def recover(self) -> str | None:
+        """Clear an error state that a command caused (:data:`COMMAND_ERRORS`) and put the
+        arm back in position mode, so that it can be taken home.
+
+        Returns:
+            None when the controller is not in an error state, else one line saying what
+            was cleared.
+
+        Raises:
+            RuntimeError: the controller is in an error state of the hardware (overheated,
+                CAN failure, ...), which is left alone: see the arm before clearing it.
+        """
+        found = self.error_state()
+        if found is None:
+            return None
+        name, info = found
+        if name not in COMMAND_ERRORS:
+            raise RuntimeError(f"controller error state {name} not cleared: {info}")
+        self._configured().clear_error()  # cleanup + configure(clear_error=True) inside
+        self.set_all_modes_position()
+        return f"cleared the controller's error state {name} ({info})"
 
     def cleanup(self) -> None:
         """Close the connection (idempotent)."""

@@ -11,9 +11,12 @@
    until the step's deadline (``t0 + (k + 1) / fps``, so waits do not drift), then read
    both arms' positions and log commanded (as sent) vs measured;
 4. always, after any exception (of any type, from any call) or a stop signal: stop
-   streaming, move every configured arm home (``driver.HOME_POSE``), then to the sleep
-   pose (all joints 0), then ``cleanup`` (:func:`.shutdown.shutdown`: each arm on its
-   own, each call retried once, every failure reported).
+   streaming; an arm whose controller entered an error state a command caused (e.g. a
+   joint limit exceeded: the driver raises on every call then) is recovered first, where
+   its driver can (``recover()``: clear the state, position mode; reported); then move
+   every configured arm home (``driver.HOME_POSE``), then to the sleep pose (all joints
+   0), then ``cleanup`` (:func:`.shutdown.shutdown`: each arm on its own, each call
+   retried once, every failure reported).
 
 SIGINT, SIGTERM, SIGHUP and SIGQUIT are caught while replay runs (main thread only) and
 only set a stop flag (:mod:`.stop`); the previous handlers are restored afterwards.
@@ -75,7 +78,11 @@ __all__ = [
     "replay",
 ]
 
-BACKENDS: tuple[str, ...] = ("trossen", "sim")
+#: ``trossen``: real arms through ``trossen_arm``; ``sim``: the in-process MuJoCo twin
+#: (``SimArmDriver``, simulated time); ``wire``: the real ``trossen_arm`` driver against the
+#: served kit (``trossen_arm_mujoco.twin``) on loopback addresses, in real time; its caller
+#: starts the served kit.
+BACKENDS: tuple[str, ...] = ("trossen", "sim", "wire")
 
 #: Longest time one streamed command may last (s), i.e. ``1 / MIN_FPS``: the goal time
 #: ``trossen_arm`` gives a whole move by default (``set_all_positions(goal_time=2.0)``),
@@ -114,15 +121,17 @@ def make_drivers(backend: str, clock: Clock | None = None) -> tuple[dict[str, Ar
     """The two drivers of ``backend`` and the clock to wait on.
 
     ``"sim"``: two :class:`SimArmDriver` sharing one :class:`SimClock` (``clock`` if given,
-    which must then be a SimClock). ``"trossen"``: two :class:`TrossenArmDriver` (no
-    network until configure) and a :class:`WallClock` unless ``clock`` is given.
+    which must then be a SimClock). ``"trossen"`` and ``"wire"``: two
+    :class:`TrossenArmDriver` (no network until configure) and a :class:`WallClock` unless
+    ``clock`` is given; for ``"wire"`` the caller serves the kit on the addresses replay
+    configures (``scripts/replay_episode_real.py`` does).
     """
     if backend == "sim":
         clock = SimClock() if clock is None else clock
         if not isinstance(clock, SimClock):
             raise TypeError("the sim backend needs a SimClock")
         return {side: SimArmDriver(clock) for side in ARMS}, clock
-    if backend == "trossen":
+    if backend in ("trossen", "wire"):
         drivers: dict[str, ArmDriver] = {side: TrossenArmDriver() for side in ARMS}
         return drivers, WallClock() if clock is None else clock
     raise unknown_name_error("backend", backend, BACKENDS)
@@ -169,6 +178,8 @@ class ReplayResult:
         shutdown_errors: one line per failed call of the home/sleep/cleanup exit.
         late_signals: stop signals (names) received after streaming had ended, while
             the arms went home; they change nothing (the exit ran to its end).
+        recovered: one line per arm whose controller error state was cleared to take it
+            home (``recover()``), e.g. after a joint limit was exceeded.
     """
 
     log: TrackingLog
@@ -182,6 +193,7 @@ class ReplayResult:
     configured: list[str] = field(default_factory=list)
     shutdown_errors: list[str] = field(default_factory=list)
     late_signals: list[str] = field(default_factory=list)
+    recovered: list[str] = field(default_factory=list)
 
     @property
     def steps_done(self) -> int:
@@ -274,6 +286,31 @@ def _stream(
             bar.update(1)
 
 
+def _recover(
+    drivers: Mapping[str, ArmDriver], states: ArmStates, result: ReplayResult
+) -> list[str]:
+    """Before the safe exit: clear a command-caused controller error state of every
+    configured arm whose driver has ``recover()`` (``TrossenArmDriver``), so that it can
+    go home. Reports each on stdout; returns one line per arm that could not be recovered
+    (its home move then fails and is reported too)."""
+    errors: list[str] = []
+    for side in states.configured:
+        recover = getattr(drivers[side], "recover", None)
+        if recover is None:
+            continue
+        try:
+            done = call(side, "recover", recover)
+        except (DriverError, KeyboardInterrupt) as exc:
+            errors.append(one_line(exc) if isinstance(exc, DriverError) else f"{side} arm: "
+                          f"recover failed: {one_line(exc)}")  # fmt: skip
+            continue
+        if done:
+            line = f"{side} arm: {done}"
+            result.recovered.append(line)
+            _say(f"{line}; taking it home")
+    return errors
+
+
 def replay(
     trajectory: Trajectory,
     drivers: Mapping[str, ArmDriver],
@@ -316,10 +353,12 @@ def replay(
                     if states.configured
                     else f"stopping: {flag.reason}; no arm was configured, none moved"
                 )
+            recover_errors = _recover(drivers, states, result)
             result.final_positions, shutdown_errors = shutdown(
                 drivers, states, clock, config.home_time, config.sleep_time,
                 config.settle_time, limits,
             )  # fmt: skip
+            shutdown_errors = recover_errors + shutdown_errors
     result.configured, result.shutdown_errors = list(states.configured), shutdown_errors
     result.late_signals = list(flag.late)
     at = f"at step {result.steps_done}/{result.steps_total}"

@@ -1,8 +1,12 @@
 """What a robot is: move groups, the robot view, controllers, kinematics and the robot."""
 
+from trossen_arm_mujoco.robot.arm_groups import (
+    ArmMoveGroup,
+    MocapArmGroup,
+    SimplyActuatedMoveGroup,
+)
 from trossen_arm_mujoco.robot.base_group import (
     FreeJointRobotBaseGroup,
-    ImmobileBaseGroup,
     ImmobileRobotBaseGroup,
     MocapRobotBaseGroup,
     RobotBaseGroup,
@@ -15,13 +19,8 @@ from trossen_arm_mujoco.robot.configs import (
     wxai_config,
 )
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
-from trossen_arm_mujoco.robot.move_group import (
-    ArmMoveGroup,
-    MJCFFrameMixin,
-    MocapArmGroup,
-    MoveGroup,
-    SimplyActuatedMoveGroup,
-)
+from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
+from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.parallel_kinematics import BatchIKResult, ParallelKinematics
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.robot.robot_kinematics import IKResult, RobotKinematics
@@ -34,7 +33,6 @@ __all__ = [
     "FreeJointRobotBaseGroup",
     "GripperGroup",
     "IKResult",
-    "ImmobileBaseGroup",
     "ImmobileRobotBaseGroup",
     "MJCFFrameMixin",
     "MocapArmGroup",

@@ -1,7 +1,7 @@
 """Base groups: where a robot stands. Their ``pose`` is the robot frame of its move groups.
 
 - ``ImmobileRobotBaseGroup``: a body fixed to the world in the MJCF (no joint, not mocap
-  above it); its pose cannot be set. ``ImmobileBaseGroup`` is its earlier name.
+  above it); its pose cannot be set.
 - ``MocapRobotBaseGroup``: a mocap body (``mocap="true"``, a child of the worldbody) the
   robot hangs from: fixed during physics, teleported by setting ``pose``.
 - ``FreeJointRobotBaseGroup``: a body on a free joint; ``pose`` reads and writes its 7 qpos.
@@ -115,10 +115,6 @@ class ImmobileRobotBaseGroup(RobotBaseGroup):
             "its pose cannot be set; make the base body a mocap body and use a mocap base "
             "(RobotConfig.with_base_kind('mocap_base'))"
         )
-
-
-#: The earlier name of ``ImmobileRobotBaseGroup``.
-ImmobileBaseGroup = ImmobileRobotBaseGroup
 
 
 class MocapRobotBaseGroup(RobotBaseGroup):

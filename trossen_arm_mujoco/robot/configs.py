@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.arm_groups import ArmMoveGroup, MocapArmGroup
 from trossen_arm_mujoco.robot.base_group import (
     FreeJointRobotBaseGroup,
     ImmobileRobotBaseGroup,
@@ -28,7 +29,7 @@ from trossen_arm_mujoco.robot.layout import (
     KIT_LAYOUT,
     START_ARM_POSE,
 )
-from trossen_arm_mujoco.robot.move_group import ArmMoveGroup, MocapArmGroup, MoveGroup
+from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.robot_view import RobotView
 
 #: MoveGroupSpec kinds of base groups (the robot frame): fixed to the world, on a mocap

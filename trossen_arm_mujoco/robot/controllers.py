@@ -14,26 +14,32 @@ Rate limiting: a controller first works out the control ``target`` its command a
 ``group.velocity_limits * ctrl_dt`` per value (rad or m) and clips it to the control range.
 It keeps no state: what it starts from is read from ``data`` every tick. Mocap arms are not
 rate-limited (their control is a pose).
+
+Safety floor (``robot.safety_floor``): a controller of a robot with a floor holds it as
+``floor``. The Cartesian modes clip their target against it before any IK: ``ee_delta`` and
+``ee_pose`` never ask the tool frame below the floor (``SafetyFloor.tool_height``). Every
+arm's joint control is then held above it by the robot, tick by tick, with each controller's
+own ``limit`` (``SafetyFloor.hold``).
 """
 
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.arm_groups import MocapArmGroup, SimplyActuatedMoveGroup
+from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.kinematics import Kinematics
-from trossen_arm_mujoco.robot.move_group import (
-    GripperGroup,
-    MJCFFrameMixin,
-    MocapArmGroup,
-    MoveGroup,
-    SimplyActuatedMoveGroup,
-)
+from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
+from trossen_arm_mujoco.robot.move_group import MoveGroup
+
+if TYPE_CHECKING:
+    from trossen_arm_mujoco.robot.safety_floor import SafetyFloor
 
 
 class Controller:
@@ -50,6 +56,8 @@ class Controller:
     command_mode: ClassVar[str] = ""
     relative: ClassVar[bool] = False  # command taken against the state once, then its target held
     scale_step: ClassVar[bool] = False  # rate-limit by one factor for all values (IK modes)
+    #: the robot's safety floor (``Robot.set_safety_floor`` hands it over); None: none
+    floor: SafetyFloor | None = None
 
     def __init__(self, group: MoveGroup, model: mujoco.MjModel, ctrl_dt: float | None = None):
         self.group = group
@@ -202,6 +210,12 @@ class EEPoseController(Controller):
         return np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]), np.array([2.0, 2.0, 2.0, 1, 1, 1, 1])
 
     def _target(self, data, cmd):
+        floor = self.floor
+        if floor is not None and cmd[2] < floor.floor_z:  # the tool frame kept above it
+            cmd = cmd.copy()
+            # a mocap arm's control is its tool-frame pose: no lower than it was asked to be
+            was = self.group.get_ctrl(data)[2] if self._kin is None else None
+            cmd[2] = floor.tool_height(data, self.group, cmd[2], was)
         if self._kin is None:
             return cmd
         q, _ = self._kin.solve(data.qpos, cmd[:3], cmd[3:], iterations=30)
@@ -240,6 +254,12 @@ class EEDeltaController(Controller):
         return -lim, lim
 
     def _target(self, data, cmd):
+        floor = self.floor
+        if floor is not None:  # the tool frame's target height kept above the floor
+            z = float(data.site_xpos[self.group.frame_site_id, 2])
+            if z + cmd[2] < floor.floor_z:
+                cmd = cmd.copy()
+                cmd[2] = floor.tool_height(data, self.group, z + cmd[2]) - z
         return self.kinematics.delta_step(data.qpos, cmd)
 
 

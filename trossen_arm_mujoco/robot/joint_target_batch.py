@@ -12,7 +12,7 @@ A caller that has the commands of all those groups as one vector already (the gy
 adapter's joint_position actions) hands them over as ``JointTargets`` (``batch.commands``):
 a dict of views of that vector, checked once, which ``Robot.update_control`` takes as the
 batch's target without splitting and joining it again. ``preview`` says where the controls
-will be after some ticks, without writing them (the gym safety floor checks that); with
+will be after some ticks, without writing them (e.g. where a step ends); with
 ``keep=True`` the next tick reuses that result instead of computing it again (see
 ``preview``).
 """
@@ -27,9 +27,9 @@ import numpy as np
 
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.arm_groups import SimplyActuatedMoveGroup
 from trossen_arm_mujoco.robot.controllers import Controller, JointPosController
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
-from trossen_arm_mujoco.robot.move_group import SimplyActuatedMoveGroup
 from trossen_arm_mujoco.robot.selection import as_slice
 
 _PLAIN_GROUPS = (SimplyActuatedMoveGroup, GripperGroup)

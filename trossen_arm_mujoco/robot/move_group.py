@@ -16,39 +16,39 @@ joint's body); the *leaf frame* is the body of its last joint, or the named site
 pose of the group's ``robot_base_group``; a group without one uses its root frame. Frames
 and Jacobians read ``xpos``/``site_xpos``: valid after ``mj_kinematics``/``mj_forward``.
 
-The gripper lives in ``gripper_group.py``, base groups (the robot frame itself) in
-``base_group.py``.
+Index lookup is in ``joint_indices.py``; a leaf frame named in the MJCF (the tool frame) in
+``mjcf_frame.py``; the actuated arms (joint targets, clipped to the actuators' ranges, or a
+mocap pose) in ``arm_groups.py``; the gripper in ``gripper_group.py``; base groups (the robot
+frame itself) in ``base_group.py``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import mujoco
 import numpy as np
 
-from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.binding import DataBound
-from trossen_arm_mujoco.robot.checks import (
-    check_velocity_limits,
-    finite,
-    model_and_data,
-    vector,
-)
+from trossen_arm_mujoco.robot.checks import check_velocity_limits, finite, model_and_data
 from trossen_arm_mujoco.robot.frames import frame_jacobian, frame_transform, relative
+from trossen_arm_mujoco.robot.joint_indices import HINGE, SLIDE, joint_indices, root_body_id
 from trossen_arm_mujoco.robot.limits import Limits, frozen
 from trossen_arm_mujoco.robot.selection import as_slice
 
-if TYPE_CHECKING:
-    from trossen_arm_mujoco.robot.base_group import RobotBaseGroup
 
-_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
-_BALL, _FREE = int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)
-_POS_DIM = {_FREE: 7, _BALL: 4, _SLIDE: 1, _HINGE: 1}
-_VEL_DIM = {_FREE: 6, _BALL: 3, _SLIDE: 1, _HINGE: 1}
+class RobotFrame(Protocol):
+    """What is read of a move group's robot base (a ``base_group.RobotBaseGroup``, which is
+    itself a move group: named here by what it offers, so this module needs not import it)."""
+
+    body_id: int  # the base body, whose frame is the robot frame
+
+    @property
+    def pose(self) -> np.ndarray:
+        """The robot frame in the world, 4x4 (m)."""
+        ...
 
 
 class MoveGroup(DataBound):
@@ -69,7 +69,7 @@ class MoveGroup(DataBound):
     """
 
     rate_limitable = False  # whether the control is joint positions that velocity limits fit
-    joint_types: tuple[int, ...] = (_HINGE, _SLIDE)  # the joint types a group accepts
+    joint_types: tuple[int, ...] = (HINGE, SLIDE)  # the joint types a group accepts
 
     def __init__(
         self,
@@ -82,44 +82,21 @@ class MoveGroup(DataBound):
         self.model = model
         self.name = name
         self.joint_names = list(joint_names)
-        self.joint_ids = np.array([lookup_id(model, "joint", j) for j in joint_names], dtype=int)
-        posadr: list[int] = []
-        veladr: list[int] = []
-        limits: list[tuple[float, float]] = []
-        for jid, jname in zip(self.joint_ids, self.joint_names):
-            jtype = int(model.jnt_type[jid])
-            if jtype not in self.joint_types:
-                kinds = " or ".join(mujoco.mjtJoint(t).name[6:].lower() for t in self.joint_types)
-                raise UserError(f"joint '{jname}' of move group '{name}' is not a {kinds}")
-            npos, nvel = _POS_DIM[jtype], _VEL_DIM[jtype]
-            posadr += range(int(model.jnt_qposadr[jid]), int(model.jnt_qposadr[jid]) + npos)
-            veladr += range(int(model.jnt_dofadr[jid]), int(model.jnt_dofadr[jid]) + nvel)
-            if npos == 1 and model.jnt_limited[jid]:
-                limits.append(tuple(model.jnt_range[jid]))
-            else:
-                limits += [(-np.inf, np.inf)] * npos
-        self.qpos_idx = np.array(posadr, dtype=int)
-        self.dof_idx = np.array(veladr, dtype=int)
+        self.joint_ids, self.qpos_idx, self.dof_idx, self.joint_range = joint_indices(
+            model, name, self.joint_names, self.joint_types
+        )
         # the same as slices where consecutive (cheaper to read through, every step)
         self._qpos_sel = as_slice(self.qpos_idx)
         self._dof_sel = as_slice(self.dof_idx)
-        self.joint_range = np.array(limits, dtype=float).reshape(-1, 2)  # (pos_dim, 2)
         self.actuator_ids = np.zeros(0, dtype=int)
         self.velocity_limits: np.ndarray | None = None
         self._ctrl_low = self._ctrl_high = frozen(np.zeros(0))  # ctrl_limits, shared
-        if isinstance(root_body, (int, np.integer)):
-            self.root_body_id = int(root_body)
-        elif root_body is not None:
-            self.root_body_id = lookup_id(model, "body", root_body)
-        elif len(self.joint_ids):
-            self.root_body_id = int(model.body_parentid[model.jnt_bodyid[self.joint_ids[0]]])
-        else:
-            self.root_body_id = 0  # the world
+        self.root_body_id = root_body_id(model, root_body, self.joint_ids)
         self.leaf_frame_type = "body"
         self.leaf_frame_id = (
             int(model.jnt_bodyid[self.joint_ids[-1]]) if len(self.joint_ids) else self.root_body_id
         )
-        self.robot_base_group: RobotBaseGroup | None = None
+        self.robot_base_group: RobotFrame | None = None
         self._data: mujoco.MjData | None = None
         if data is not None:
             self.bind(data)
@@ -300,170 +277,3 @@ class MoveGroup(DataBound):
     def get_noop_ctrl(self, data: mujoco.MjData) -> np.ndarray:
         """A control that holds the current state."""
         return np.zeros(0)
-
-
-class MJCFFrameMixin:
-    """A leaf frame named in the MJCF: a site (e.g. the tool frame ``ee_site``) or a body.
-
-    ``leaf_frame_id`` is its id, ``leaf_frame_type`` "site" or "body"; ``get_jacobian()``
-    calls ``mj_jacSite`` or ``mj_jacBody`` accordingly.
-    """
-
-    model: mujoco.MjModel
-    name: str
-    leaf_frame_id: int
-    leaf_frame_type: str
-
-    def _init_frame(self, model: mujoco.MjModel, frame_name: str, frame_type: str = "site") -> None:
-        if frame_type not in ("site", "body"):
-            raise UserError(
-                f"{self.name}: leaf frame type must be 'site' or 'body', got '{frame_type}'"
-            )
-        self.leaf_frame_type = frame_type
-        self.leaf_frame_id = lookup_id(model, frame_type, frame_name)
-        self.frame_name = frame_name
-        self._site = frame_type == "site"
-        # the tool-frame site of the IK controllers (plain attributes: read every step);
-        # -1 / "" for a body frame, which ee_pose / ee_delta control refuses
-        self.frame_site_id = self.leaf_frame_id if self._site else -1
-        self.frame_site_name = frame_name if self._site else ""
-
-    def get_jacobian(self) -> np.ndarray:
-        """(6, nv) Jacobian of the leaf frame (site or body origin), rows [linear; angular],
-        world frame (``mj_jacSite`` / ``mj_jacBody``; valid after ``mj_forward``)."""
-        return self.get_frame_jacobian(self.model, self.data)
-
-    def get_frame_pose(self, data: mujoco.MjData) -> np.ndarray:
-        """World pose of the leaf frame, [x, y, z, qw, qx, qy, qz] (m)."""
-        pose = np.empty(7)
-        if self._site:
-            pose[:3] = data.site_xpos[self.leaf_frame_id]
-            mujoco.mju_mat2Quat(pose[3:], data.site_xmat[self.leaf_frame_id])
-        else:
-            pose[:3] = data.xpos[self.leaf_frame_id]
-            pose[3:] = data.xquat[self.leaf_frame_id]
-        return pose
-
-    def get_frame_position(self, data: mujoco.MjData) -> np.ndarray:
-        """World position of the leaf frame, [x, y, z] (m): ``get_frame_pose(data)[:3]``
-        without working out the orientation."""
-        return self.frame_position_view(data).copy()
-
-    def frame_position_view(self, data: mujoco.MjData) -> np.ndarray:
-        """``get_frame_position`` as a live view of ``data`` (3,) m: it follows the
-        simulation; read it, never write it."""
-        xpos = data.site_xpos if self._site else data.xpos
-        return xpos[self.leaf_frame_id]
-
-    def state_views(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray] | None:
-        """Live views of the joint positions (pos_dim,) and velocities (vel_dim,) in ``data``
-        (they follow the simulation; read them, never write them), or None when the joints
-        are not consecutive in ``qpos``/``qvel`` (use ``get_qpos``/``get_qvel``)."""
-        if isinstance(self._qpos_sel, slice) and isinstance(self._dof_sel, slice):
-            return data.qpos[self._qpos_sel], data.qvel[self._dof_sel]
-        return None
-
-    def get_frame_jacobian(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-        """Jacobian of the leaf frame w.r.t. all dofs, shape (6, nv): rows [linear; angular],
-        world frame. Valid after ``mj_kinematics`` + ``mj_comPos`` for the current qpos."""
-        return frame_jacobian(model, data, self.leaf_frame_type, self.leaf_frame_id)
-
-
-class SimplyActuatedMoveGroup(MoveGroup):
-    """One position actuator per joint: the control is the joint target (rad or m).
-
-    ``joint_ids``, ``actuator_ids``, ``joint_posadr``, ``joint_veladr``: model indices.
-    """
-
-    rate_limitable = True
-
-    def __init__(self, model, name, joint_names, actuator_names: Sequence[str]):
-        super().__init__(model, name, joint_names)
-        if len(actuator_names) != len(joint_names):
-            raise UserError(f"{name}: one actuator per joint is required")
-        self.actuator_ids = np.array(
-            [lookup_id(self.model, "actuator", a) for a in actuator_names], dtype=int
-        )
-        self._ctrl_range = self.model.actuator_ctrlrange[self.actuator_ids].copy()
-        self._ctrl_low, self._ctrl_high = (
-            frozen(self._ctrl_range[:, 0]),
-            frozen(self._ctrl_range[:, 1]),
-        )
-        self._ctrl_sel = as_slice(self.actuator_ids)
-
-    @property
-    def ctrl_dim(self) -> int:
-        return len(self.actuator_ids)
-
-    def get_ctrl(self, data):
-        return data.ctrl[self._ctrl_sel].copy()
-
-    def set_ctrl(self, data, ctrl):
-        c = vector(self.name, ctrl, self.ctrl_dim)
-        data.ctrl[self.actuator_ids] = clip(c, self._ctrl_low, self._ctrl_high)
-
-    def _write_ctrl(self, data, ctrl):
-        data.ctrl[self._ctrl_sel] = ctrl
-
-    def get_noop_ctrl(self, data):
-        return self.get_qpos(data)
-
-
-class ArmMoveGroup(MJCFFrameMixin, SimplyActuatedMoveGroup):
-    """A joint-actuated arm with a tool frame (a site, or a body with ``frame_type="body"``)."""
-
-    def __init__(
-        self, model, name, joint_names, actuator_names, frame_site: str, frame_type: str = "site"
-    ):
-        super().__init__(model, name, joint_names, actuator_names)
-        self._init_frame(self.model, frame_site, frame_type)
-
-
-class MocapArmGroup(MJCFFrameMixin, MoveGroup):
-    """An arm driven by a mocap body welded to its last link.
-
-    The control is the mocap pose [x, y, z, qw, qx, qy, qz] (world frame, m); the weld pulls
-    the arm's tool frame onto it. qpos/qvel are the arm's joints.
-    """
-
-    def __init__(self, model, name, joint_names, mocap_body: str, frame_site: str):
-        super().__init__(model, name, joint_names)
-        body_id = lookup_id(self.model, "body", mocap_body)
-        self.mocap_id = int(self.model.body_mocapid[body_id])
-        if self.mocap_id < 0:
-            raise UserError(f"{name}: body '{mocap_body}' is not a mocap body")
-        self._init_frame(self.model, frame_site)
-        self._ctrl_low = frozen(np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]))
-        self._ctrl_high = frozen(np.array([2.0, 2.0, 2.0, 1, 1, 1, 1]))
-
-    @property
-    def ctrl_dim(self) -> int:
-        return 7
-
-    def get_ctrl(self, data):
-        return np.concatenate([data.mocap_pos[self.mocap_id], data.mocap_quat[self.mocap_id]])
-
-    def set_ctrl(self, data, ctrl):
-        c = vector(self.name, ctrl, 7)
-        norm = np.linalg.norm(c[3:])
-        if norm < 1e-9:
-            raise UserError(f"{self.name}: mocap quaternion has zero length")
-        data.mocap_pos[self.mocap_id] = c[:3]
-        data.mocap_quat[self.mocap_id] = c[3:] / norm
-
-    def get_noop_ctrl(self, data):
-        return self.get_ctrl(data)
-
-
-def __getattr__(name: str):
-    """Earlier import paths of the gripper and base groups (``gripper_group.py``,
-    ``base_group.py``): ``from ...move_group import GripperGroup, ImmobileBaseGroup``."""
-    if name == "GripperGroup":
-        from trossen_arm_mujoco.robot.gripper_group import GripperGroup
-
-        return GripperGroup
-    if name in ("ImmobileBaseGroup", "ImmobileRobotBaseGroup", "RobotBaseGroup"):
-        from trossen_arm_mujoco.robot import base_group
-
-        return getattr(base_group, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -9,6 +9,7 @@ import numpy as np
 
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.robot.arm_groups import MocapArmGroup
 from trossen_arm_mujoco.robot.base_group import ImmobileRobotBaseGroup
 from trossen_arm_mujoco.robot.checks import model_and_data
 from trossen_arm_mujoco.robot.configs import RobotConfig
@@ -20,10 +21,11 @@ from trossen_arm_mujoco.robot.joint_target_batch import (
     batchable,
     split_batchable,
 )
-from trossen_arm_mujoco.robot.move_group import MJCFFrameMixin, MocapArmGroup
+from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
 from trossen_arm_mujoco.robot.parallel_kinematics import ParallelKinematics
 from trossen_arm_mujoco.robot.robot_kinematics import RobotKinematics
 from trossen_arm_mujoco.robot.robot_view import RobotView
+from trossen_arm_mujoco.robot.safety_floor import FloorReport, SafetyFloor, floor_height
 
 
 class Robot:
@@ -38,6 +40,11 @@ class Robot:
     A relative command (``joint_rel_position``, ``ee_delta``) is taken against the joints
     once, when first applied; its joint target is then approached over as many ticks as
     the limits need, unless a newer command replaces it.
+
+    Safety floor (``set_safety_floor``; off on a bare robot, on for every robot a task
+    sampler builds): each tick the arms' controls are held above the table
+    (``robot.safety_floor``), the controllers' targets kept; ``floor_report`` says what it
+    changed since the last command.
 
     Bound to an ``MjData`` (built from one, ``data=``, or ``bind``), ``compute_control()``,
     ``reset()``, ``hold()`` and ``set_world_pose`` work on it; every call also takes an
@@ -86,6 +93,7 @@ class Robot:
         self._batches: dict[tuple[str, ...], JointTargetBatch] = {}
         self._kinematics: RobotKinematics | None = None
         self._parallel: dict[tuple[str, tuple[str, ...]], ParallelKinematics] = {}
+        self._floor: SafetyFloor | None = None
         if bound is not None or data is not None:
             self.bind(bound if data is None else data)
 
@@ -152,12 +160,54 @@ class Robot:
             base.set_transform(data, pose_b)
         mujoco.mj_kinematics(self.model, data)
 
+    # -- the safety floor -----------------------------------------------------------------
+    def set_safety_floor(
+        self, table_height: float | None, margin: float = 0.0
+    ) -> SafetyFloor | None:
+        """Keep the arms above ``table_height + margin`` (m, world z) from now on
+        (``robot.safety_floor``); ``table_height=None`` removes the floor. Returns the floor.
+
+        Every arm with a tool frame is kept above it: a joint-actuated arm with all its
+        collision geoms, tick by tick; a mocap arm by its commanded tool-frame height. A
+        table height that is not a finite number, or a margin that is negative, NaN or
+        infinite, is a one-line UserError.
+        """
+        if table_height is None:
+            floor = None
+        else:
+            floor_z = floor_height(table_height, margin)
+            framed = [g for g in self.view.move_groups.values() if isinstance(g, MJCFFrameMixin)]
+            floor = SafetyFloor(
+                self.model,
+                [g for g in framed if not isinstance(g, MocapArmGroup)],
+                floor_z,
+                tools=[g for g in framed if isinstance(g, MocapArmGroup)],
+            )
+        self._floor = floor
+        for controller in self.controllers.values():
+            controller.floor = floor
+        return floor
+
+    @property
+    def safety_floor(self) -> SafetyFloor | None:
+        """The ``SafetyFloor`` the arms are kept above (None: none)."""
+        return self._floor
+
+    @property
+    def floor_report(self) -> FloorReport:
+        """What the safety floor changed since the last command: ``clipped`` (bool) and
+        ``links`` (the links it held up); empty without a floor."""
+        return self._floor.report if self._floor is not None else FloorReport()
+
     def update_control(self, commands: Mapping[str, np.ndarray]) -> None:
         """Store commands (the action command dict), group id -> vector of that group's
-        ``command_dim`` values; ``compute_control`` applies them.
+        ``command_dim`` values; ``compute_control`` applies them. The safety floor's report
+        starts afresh (``floor_report``).
 
         ``JointTargets`` (``joint_target_batch(names).commands(vector)``) are checked
         already: their vector becomes the batch's target as is."""
+        if self._floor is not None:
+            self._floor.report.clear()
         if type(commands) is JointTargets and self._take_targets(commands):
             return
         for name, cmd in commands.items():
@@ -183,9 +233,14 @@ class Robot:
         self._control(self.view.data if data is None else data, None)
 
     def _control(self, data: mujoco.MjData, out: dict[str, np.ndarray] | None) -> None:
-        """One control tick: write the commanded groups' controls to ``data``; and, when
-        ``out`` is a dict, put them there by group."""
+        """One control tick: write the commanded groups' controls to ``data``, the arms held
+        above the safety floor; and, when ``out`` is a dict, put them there by group."""
         controllers = self.controllers
+        floor = self._floor
+        # with a floor over joint arms: the controls the tick starts from, the groups it moves
+        start = data.ctrl.copy() if floor is not None and floor.arms else None
+        moved: list[str] = []
+        targets: list[tuple[str, np.ndarray, np.ndarray]] = []
         if self._commands:
             batch = self._batch
             if batch is None:
@@ -194,6 +249,8 @@ class Robot:
                 u = batch[0].apply(data)
                 if out is not None:
                     out.update(batch[0].by_group(u))
+                if start is not None:
+                    moved.extend(batch[0].names)
             for name in batch[1]:
                 controller = controllers[name]
                 target = controller._target(data, self._commands[name])  # checked already
@@ -208,6 +265,8 @@ class Robot:
                     controller.group._write_ctrl(data, ctrl)
                     if out is not None:
                         out[name] = ctrl
+                    if start is not None:
+                        moved.append(name)
         if self._targets:
             for name, (target, reached) in list(self._targets.items()):
                 controller = controllers[name]
@@ -215,8 +274,16 @@ class Robot:
                 controller.group._write_ctrl(data, ctrl)
                 if out is not None:
                     out[name] = ctrl
-                if (ctrl == reached).all():
-                    del self._targets[name]  # reached: the control now holds it
+                targets.append((name, ctrl, reached))
+                if start is not None:
+                    moved.append(name)
+        held = floor.hold(data, start, moved) if moved else ()
+        for name in held:
+            if out is not None:
+                out[name] = controllers[name].group.get_ctrl(data)
+        for name, ctrl, reached in targets:
+            if name not in held and (ctrl == reached).all():
+                del self._targets[name]  # reached: the control now holds it
 
     def joint_target_batch(self, names: Sequence[str]) -> JointTargetBatch | None:
         """The ``JointTargetBatch`` rate-limiting the groups ``names`` as one vector, or None
@@ -238,11 +305,13 @@ class Robot:
 
     def _give_ctrl_dt(self, names: Sequence[str]) -> None:
         """The robot's ``ctrl_dt`` to the controllers of ``names`` that have none yet (put
-        into ``controllers`` without one)."""
+        into ``controllers`` without one), and its safety floor to those without it."""
         for name in names:
             controller = self.controllers[name]
             if controller.ctrl_dt is None:
                 controller.ctrl_dt = self.ctrl_dt
+            if controller.floor is not self._floor:  # put into ``controllers`` later
+                controller.floor = self._floor
 
     def _take_targets(self, commands: JointTargets) -> bool:
         """Store ``JointTargets`` as the batch's target, when the batch is still this robot's
@@ -296,6 +365,8 @@ class Robot:
         self._commands.clear()
         self._targets.clear()
         self._batch = None
+        if self._floor is not None:
+            self._floor.report.clear()
         if hold:
             mujoco.mj_kinematics(self.model, data)
             self.hold(data)
@@ -306,6 +377,8 @@ class Robot:
         self._commands.clear()
         self._targets.clear()
         self._batch = None
+        if self._floor is not None:
+            self._floor.report.clear()
         for group in self.view.move_groups.values():
             if isinstance(group, MocapArmGroup):
                 group.set_ctrl(data, group.get_frame_pose(data))

@@ -19,7 +19,8 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.base_group import RobotBaseGroup
 from trossen_arm_mujoco.robot.binding import DataBound
 from trossen_arm_mujoco.robot.checks import model_and_data
-from trossen_arm_mujoco.robot.move_group import MJCFFrameMixin, MoveGroup
+from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
+from trossen_arm_mujoco.robot.move_group import MoveGroup
 
 
 class RobotView(DataBound):

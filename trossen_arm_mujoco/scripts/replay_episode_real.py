@@ -23,6 +23,10 @@ Examples::
     # rehearse on the simulated twin (faster than real time; --realtime: at the arms' pace)
     python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
         --backend sim
+    # the real trossen_arm driver against the simulated kit, served here on 127.0.0.2 and
+    # 127.0.0.3 in real time (needs: pip install 'trossen-arm-mujoco[twin]')
+    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \
+        --backend wire
     # real arms (needs: pip install 'trossen-arm-mujoco[real]'); arms built in 2025
     python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
         --left_ip 192.168.1.5 --right_ip 192.168.1.4 --end_effector wxai_v0_follower_20250509
@@ -42,7 +46,7 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
 import argparse
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -94,13 +98,17 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"command rate in Hz, in [{MIN_FPS:g}, {MAX_FPS:g}]: one command lasts at most "
         f"{1 / MIN_FPS:g} s, the goal time trossen_arm gives a whole move (default 10)",
     )
-    p.add_argument("--left_ip", default="192.168.1.5", help="left arm (default 192.168.1.5)")
-    p.add_argument("--right_ip", default="192.168.1.4", help="right arm (default 192.168.1.4)")
+    p.add_argument("--left_ip", default=None,
+                   help="left arm (default 192.168.1.5; --backend wire: 127.0.0.2)")  # fmt: skip
+    p.add_argument("--right_ip", default=None,
+                   help="right arm (default 192.168.1.4; --backend wire: 127.0.0.3)")  # fmt: skip
     p.add_argument(
         "--backend",
         choices=BACKENDS,
         default="trossen",
-        help="trossen: real arms via trossen_arm; sim: the MuJoCo twin (default trossen)",
+        help="trossen: real arms via trossen_arm; sim: the MuJoCo twin; wire: the real "
+        "trossen_arm driver against the simulated kit served on loopback addresses (started "
+        "here, in real time; needs trossen-arm-mujoco[twin]) (default trossen)",
     )
     p.add_argument(
         "--realtime",
@@ -142,11 +150,14 @@ def main(
     *,
     driver_factory: DriverFactory | None = None,
     clock: Clock | None = None,
+    on_served: Callable[[Any], None] | None = None,
 ) -> int:
     """Validate, then replay; returns the exit status.
 
     ``driver_factory`` (default :func:`make_drivers`) and ``clock`` are for tests and
-    embedding: ``driver_factory(backend, clock) -> (drivers, clock)``.
+    embedding: ``driver_factory(backend, clock) -> (drivers, clock)``. ``on_served`` is
+    called with the served kit (``twin.served_kit.ServedKit``) of ``--backend wire`` once it
+    serves, before any arm is configured (tests change its arms' limits there).
 
     Stop signals are handled from start to end (:mod:`trossen_arm_mujoco.real.stop`):
     before any arm may move one raises :class:`~trossen_arm_mujoco.real.stop.Interrupted`
@@ -155,7 +166,24 @@ def main(
     """
     flag = StopFlag(armed=False)
     with stop_on_signals(flag):
-        return _run(build_parser().parse_args(argv), driver_factory, clock, flag)
+        return _run(build_parser().parse_args(argv), driver_factory, clock, flag, on_served)
+
+
+def _ips(args: argparse.Namespace) -> dict[str, str]:
+    """The arms' addresses: the flags, else the backend's defaults; loopback for wire."""
+    wire = args.backend == "wire"
+    default = {"left": "127.0.0.2", "right": "127.0.0.3"} if wire else {
+        "left": "192.168.1.5", "right": "192.168.1.4"}  # fmt: skip
+    ips = {"left": args.left_ip or default["left"], "right": args.right_ip or default["right"]}
+    if wire:
+        from trossen_arm_mujoco.twin.serving import require_sim_server
+
+        if not args.dry_run:
+            require_sim_server()
+        from trossen_arm_mujoco.twin.served_kit import check_kit_ips
+
+        ips = check_kit_ips(ips, {"left": "--left_ip", "right": "--right_ip"})
+    return ips
 
 
 def _run(
@@ -163,6 +191,7 @@ def _run(
     driver_factory: DriverFactory | None,
     clock: Clock | None,
     flag: StopFlag,
+    on_served: Callable[[Any], None] | None = None,
 ) -> int:
     check_fps(args.fps)
     if not (math.isfinite(args.goal_time_factor) and 0 < args.goal_time_factor <= 20):
@@ -172,6 +201,7 @@ def _run(
     if not (math.isfinite(args.gripper_max) and 0 < args.gripper_max <= top):
         raise UserError(f"--gripper_max must be in (0, {top:g}] m, got {args.gripper_max:g}")
     ee_note = _check_end_effector(args.end_effector, args.backend, args.dry_run)
+    ips = _ips(args)
     folder = resolve_data_dir(args.root_dir, args.data_dir)
     episode = load_episode(episode_path(folder, args.episode_idx))
     dt = recorded_dt(episode)
@@ -200,20 +230,25 @@ def _run(
     factory = driver_factory if driver_factory is not None else make_drivers
     if clock is None and args.backend == "sim" and args.realtime:
         clock = SimClock(realtime=True)
-    drivers, run_clock = factory(args.backend, clock)
     config = ReplayConfig(
         fps=args.fps,
         goal_time_factor=args.goal_time_factor,
-        ips={"left": args.left_ip, "right": args.right_ip},
+        ips=ips,
         model=DEFAULT_MODEL,
-        # the twin models one gripper: it is configured with its default preset
-        end_effector=args.end_effector if args.backend == "trossen" else DEFAULT_END_EFFECTOR,
+        # the in-process twin models one gripper: it is configured with its default preset
+        end_effector=args.end_effector if args.backend != "sim" else DEFAULT_END_EFFECTOR,
         gripper_max=args.gripper_max,
         progress=not args.no_progress,
     )
-    # from here on a signal never raises: it stops streaming, or (once streaming is over,
-    # flag closed) is only noted, so the arms always go home and the results are whole
-    result = replay(trajectory, drivers, run_clock, config, limits, flag=flag)
+    kit = _start_kit(episode, ips, on_served) if args.backend == "wire" else None
+    try:
+        drivers, run_clock = factory(args.backend, clock)
+        # from here on a signal never raises: it stops streaming, or (once streaming is
+        # over, flag closed) is only noted, so the arms always go home and the results
+        # are whole
+        result = replay(trajectory, drivers, run_clock, config, limits, flag=flag)
+    finally:
+        served = _stop_kit(kit)
 
     summary = {
         "episode": str(episode.path),
@@ -235,6 +270,8 @@ def _run(
         "arms_home_and_asleep": bool(result.configured) and result.arms_safe,
         "late_signals": result.late_signals,
         "final_positions": {k: v.tolist() for k, v in result.final_positions.items()},
+        "recovered": result.recovered,
+        **({"served": served} if served is not None else {}),
     }
     stem = f"episode_{args.episode_idx}_{args.backend}"
     try:
@@ -267,6 +304,44 @@ def _run(
         f"to {args.gripper_max:g} m; arms are home and asleep"
     )
     return 0
+
+
+def _start_kit(episode: Episode, ips: dict[str, str], on_served: Callable[[Any], None] | None):
+    """``--backend wire``: serve the simulated kit on ``ips``, set up like the episode's
+    scene (its task, the objects at its recorded start); faults are reported on stdout."""
+    from trossen_arm_mujoco.twin.served_kit import kit_for_episode
+
+    kit = kit_for_episode(episode.attrs, ips, say=_say_line)
+    try:
+        kit.start()
+        print(f"serving the simulated kit ({kit.world.task_name}) on {ips['left']} (left) and "
+              f"{ips['right']} (right) for the real trossen_arm driver", flush=True)  # fmt: skip
+        if on_served is not None:
+            on_served(kit)
+    except BaseException:
+        kit.close()
+        raise
+    return kit
+
+
+def _stop_kit(kit) -> dict[str, Any] | None:
+    """Stop a served kit; what the summary says about it (None without one)."""
+    if kit is None:
+        return None
+    kit.close()
+    return {
+        "task_name": kit.world.task_name,
+        "ips": kit.ips,
+        "realtime_factor": kit.world.realtime_factor,
+        "faults": list(kit.faults),
+    }
+
+
+def _say_line(text: str) -> None:
+    try:
+        print(text, flush=True)
+    except (OSError, ValueError):
+        pass
 
 
 def recorded_dt(episode: Episode) -> float:
@@ -309,7 +384,7 @@ def _check_end_effector(name: str, backend: str, dry_run: bool) -> str | None:
     """
     ta = find_trossen_arm()
     if ta is None:
-        if backend == "trossen" and not dry_run:
+        if backend in ("trossen", "wire") and not dry_run:
             import_trossen_arm()  # raises the install hint
         return f"note: trossen_arm is not installed, so --end_effector {name} is not checked"
     check_end_effector(ta, name)
@@ -323,6 +398,7 @@ def cli(
     *,
     driver_factory: DriverFactory | None = None,
     clock: Clock | None = None,
+    on_served: Callable[[Any], None] | None = None,
 ) -> int:
     """Entry point: like :func:`main`, with user errors as one line and exit status 2.
 
@@ -332,7 +408,7 @@ def cli(
 
     def guarded(args: Sequence[str] | None) -> int:
         try:
-            return main(args, driver_factory=driver_factory, clock=clock)
+            return main(args, driver_factory=driver_factory, clock=clock, on_served=on_served)
         except Interrupted as exc:
             return report_error(f"{exc} before any arm was configured; nothing moved",
                                 exc.exit_code)  # fmt: skip

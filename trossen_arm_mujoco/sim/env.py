@@ -23,7 +23,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.sim.cameras import CameraSet
-from trossen_arm_mujoco.sim.looks import SceneLooks, active_looks, compile_model
+from trossen_arm_mujoco.sim.looks import SceneLooks, checked_looks, compile_model
 from trossen_arm_mujoco.sim.objects import FreeJointObject
 
 if TYPE_CHECKING:
@@ -59,10 +59,12 @@ def _check_file(xml_path: str | Path) -> Path:
 
 def load_model(xml_path: str | Path, looks: SceneLooks | None = None) -> mujoco.MjModel:
     """Compiled model from an MJCF file (no GL), with one-line errors for missing/broken
-    files. ``looks``: shadows and arm meshes (default: the active ``scene_looks``)."""
+    files. ``looks``: shadows and arm meshes (default ``SceneLooks()``: own meshes, shadows
+    on)."""
     path = _check_file(xml_path)
+    looks = checked_looks(looks)
     try:
-        return compile_model(path, looks or active_looks())
+        return compile_model(path, looks)
     except UserError:
         raise
     except Exception as exc:
@@ -71,13 +73,13 @@ def load_model(xml_path: str | Path, looks: SceneLooks | None = None) -> mujoco.
 
 def load_physics(xml_path: str | Path, looks: SceneLooks | None = None) -> Physics:
     """dm_control Physics from an MJCF file, with one-line errors for missing/broken files.
-    ``looks``: shadows and arm meshes (default: the active ``scene_looks``).
+    ``looks``: shadows and arm meshes (default ``SceneLooks()``: own meshes, shadows on).
 
     Imports dm_control here (its import initializes the display of its GL backend), so only
     the dm_control front doors pay for it.
     """
     path = _check_file(xml_path)
-    looks = looks or active_looks()
+    looks = checked_looks(looks)
     from dm_control import mujoco as dm_mujoco
 
     try:
@@ -109,6 +111,11 @@ class MujocoEnv:
         sim_dt: physics timestep (s) to use instead of the scene's ``<option timestep>``
             (e.g. a step that divides a control period of 1/30 s); default: the scene's.
         keyframe: keyframe loaded at reset when the model has it.
+        looks: shadows and arm meshes of the scene loaded from ``xml_path`` (default
+            ``SceneLooks()``; ``sim.looks``); a given ``physics`` or ``model`` keeps its own.
+        table_height: height (m, world z) of the table top: every robot's arms are kept
+            above ``table_height + floor_margin`` (``Robot.set_safety_floor``); None: no floor.
+        floor_margin: the safety floor's height above the table top (m, >= 0).
     """
 
     def __init__(
@@ -126,13 +133,16 @@ class MujocoEnv:
         ctrl_dt: float | None = None,
         sim_dt: float | None = None,
         keyframe: str = "home",
+        looks: SceneLooks | None = None,
+        table_height: float | None = None,
+        floor_margin: float = 0.0,
     ):
         if physics is not None:
             model, data = physics.model.ptr, physics.data.ptr
         elif model is None:
             if xml_path is None:
                 raise UserError("MujocoEnv needs an xml_path or a physics (or a compiled model)")
-            model = load_model(xml_path)
+            model = load_model(xml_path, looks)
         if data is None:
             data = mujoco.MjData(model)
         self.physics = physics
@@ -149,6 +159,9 @@ class MujocoEnv:
             n: Robot(self.model, c, ctrl_dt=self.ctrl_dt, data=self.data)
             for n, c in (robots or {}).items()
         }
+        if table_height is not None:
+            for robot in self.robots.values():
+                robot.set_safety_floor(table_height, floor_margin)
         self.objects = {
             n: FreeJointObject(self.model, j, g) for n, (j, g) in (objects or {}).items()
         }

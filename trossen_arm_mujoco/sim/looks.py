@@ -10,19 +10,18 @@ Shadows: every scene has one shadow-casting key light; ``shadows=False`` turns s
 casting off on every light of the loaded model (``model.light_castshadow``), which makes
 software-rendered pixel observations several times faster.
 
-Front doors choose a look with ``scene_looks(SceneLooks(...))`` around the construction of
-their samplers; ``sim.env.load_model``/``load_physics`` read it (or take ``looks=``).
+The look travels as an argument, like a seed: a front door makes a ``SceneLooks`` and hands
+it to the sampler it builds (``looks=``), which hands it to ``sim.env.MujocoEnv`` and on to
+``sim.env.load_model`` (or, for the dm_control front doors, to ``load_physics``). No argument:
+``SceneLooks()`` (own meshes, shadows on).
 
-    >>> with scene_looks(SceneLooks(shadows=False)):
-    ...     sampler = registry.make_sampler("push", camera_names=["overview"])
+    >>> sampler = registry.make_sampler("push", camera_names=["overview"],
+    ...                                 looks=SceneLooks(shadows=False))
 """
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import os
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -76,24 +75,13 @@ class SceneLooks:
             raise unknown_name_error("visual", str(self.visual), VISUALS)
 
 
-_ACTIVE: contextvars.ContextVar[SceneLooks | None] = contextvars.ContextVar(
-    "trossen_scene_looks", default=None
-)
-
-
-@contextlib.contextmanager
-def scene_looks(looks: SceneLooks) -> Iterator[SceneLooks]:
-    """Models loaded inside this block (``load_model``/``load_physics``) get ``looks``."""
-    token = _ACTIVE.set(looks)
-    try:
-        yield looks
-    finally:
-        _ACTIVE.reset(token)
-
-
-def active_looks() -> SceneLooks:
-    """The looks of the innermost ``scene_looks`` block (default: own meshes, shadows on)."""
-    return _ACTIVE.get() or SceneLooks()
+def checked_looks(looks: SceneLooks | None) -> SceneLooks:
+    """``looks``, or ``SceneLooks()`` for None; a one-line UserError for anything else."""
+    if looks is None:
+        return SceneLooks()
+    if not isinstance(looks, SceneLooks):
+        raise UserError(f"looks must be a SceneLooks (sim.looks), got {type(looks).__name__}")
+    return looks
 
 
 def apply_shadows(model: mujoco.MjModel, shadows: bool) -> None:

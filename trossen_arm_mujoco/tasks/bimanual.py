@@ -23,16 +23,17 @@ import numpy as np
 
 from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.robot.arm_groups import MocapArmGroup
 from trossen_arm_mujoco.robot.configs import (
     RobotConfig,
     stationary_ai_joint_config,
     stationary_ai_mocap_config,
 )
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
-from trossen_arm_mujoco.robot.move_group import MocapArmGroup
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.observation import Part, indexed, joined
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
-from trossen_arm_mujoco.tasks.task import Bounds, Task
+from trossen_arm_mujoco.tasks.task import Task
 
 ROBOT_NAME = "stationary_ai"
 LAYOUT_GROUPS = tuple(KIT_LAYOUT.groups)
@@ -73,12 +74,30 @@ class BimanualTask(Task):
         self.bodies = [env.objects[name] for name in self.objects]
         self._arms = {side: view.group(f"{side}_arm") for side in ("left", "right")}
 
-    # -- state ----------------------------------------------------------------------------
+    # -- observation ------------------------------------------------------------------------
+    def observation_parts(self) -> list[Part]:
+        """``qpos`` (16,) and ``qvel`` (16,) in the kit layout (rad / m, rad/s / m/s),
+        ``env_state`` (7 per object: [xyz m, quat wxyz], in ``objects`` order) and
+        ``env_vel`` (6 per object: linear m/s, angular rad/s); world frame. Live views of
+        ``data`` where the values lie in order in ``qpos`` / ``qvel`` (they do in the kit
+        scenes), computed otherwise."""
+        data, n = self.data, len(self.objects)
+        pose_low = np.tile(np.concatenate([self.ws_low, -np.ones(4)]), n)
+        pose_high = np.tile(np.concatenate([self.ws_high, np.ones(4)]), n)
+        v, w = self.max_qvel, self.max_obj_vel
+        poses = joined([b.pose_view(data) for b in self.bodies])
+        velocities = joined([b.velocity_view(data) for b in self.bodies])
+        return [
+            Part("qpos", indexed(data.qpos, self.layout), self.qpos_low, self.qpos_high),
+            Part("qvel", indexed(data.qvel, self.layout_dofs), -v, v),
+            Part("env_state", poses, pose_low, pose_high),
+            Part("env_vel", velocities, -w, w),
+        ]
+
     def env_state(self) -> np.ndarray:
-        """Poses of the objects, (7 * n_objects,): [xyz m, quat wxyz] each."""
-        if not self.bodies:
-            return np.zeros(0)
-        return np.concatenate([b.get_pose(self.data) for b in self.bodies])
+        """Poses of the objects, (7 * n_objects,): [xyz m, quat wxyz] each (a copy of the
+        ``env_state`` part)."""
+        return np.array(self.observed.read("env_state"), dtype=float)
 
     def object_poses(self) -> dict[str, np.ndarray]:
         """Object name -> pose (7,), e.g. to start a replay from the same scene."""
@@ -92,16 +111,6 @@ class BimanualTask(Task):
             return arm.get_ctrl(self.data)
         return arm.get_frame_pose(self.data)
 
-    def get_observation(self) -> dict[str, np.ndarray]:
-        """qpos (16), qvel (16), env_state (7 per object), env_vel (6 per object)."""
-        vel = [b.get_velocity(self.data) for b in self.bodies]
-        return {
-            "qpos": self.data.qpos[self.layout].copy(),
-            "qvel": self.data.qvel[self.layout_dofs].copy(),
-            "env_state": self.env_state(),
-            "env_vel": np.concatenate(vel) if vel else np.zeros(0),
-        }
-
     def policy_observation(self) -> dict[str, np.ndarray]:
         """``get_observation`` plus ``mocap_pose_left`` / ``mocap_pose_right`` (tool poses)."""
         obs = self.get_observation()
@@ -109,26 +118,9 @@ class BimanualTask(Task):
         obs["mocap_pose_right"] = self.tool_pose("right")
         return obs
 
-    def observation_bounds(self) -> Bounds:
-        n = len(self.objects)
-        pose_low = np.concatenate([self.ws_low, -np.ones(4)])
-        pose_high = np.concatenate([self.ws_high, np.ones(4)])
-        return {
-            "qpos": (self.qpos_low.copy(), self.qpos_high.copy()),
-            "qvel": (np.full(16, -self.max_qvel), np.full(16, self.max_qvel)),
-            "env_state": (np.tile(pose_low, n), np.tile(pose_high, n)),
-            "env_vel": (np.full(6 * n, -self.max_obj_vel), np.full(6 * n, self.max_obj_vel)),
-        }
-
     def judge_success(self) -> bool:
-        return self.get_reward() >= self.max_reward
-
-    _shortcuts = {"_score": ("get_info", "judge_success")}
-
-    def _score(self) -> tuple[float, dict[str, Any]]:
-        """One reward evaluation (contacts read once) for the reward and ``is_success``."""
-        reward = self.get_reward()
-        return float(reward), {"is_success": reward >= self.max_reward}
+        """The reward is ``max_reward`` (one reward evaluation per ``score``)."""
+        return self.current_reward() >= self.max_reward
 
 
 class BimanualSampler(TaskSampler):

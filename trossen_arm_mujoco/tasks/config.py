@@ -1,7 +1,7 @@
 """Task configs: YAML files in ``trossen_arm_mujoco/config/``, overridable by keyword.
 
 A config is a flat dict of plain values (numbers, strings, booleans, lists of numbers), plus
-one nested section, ``randomization`` (domain randomization, see ``RANDOMIZATION_SCHEMA``).
+one nested section, ``randomization`` (domain randomization, see ``randomization_schema``).
 Every value is checked by one layer, ``tasks.config_schema``: the keys a file may have and
 what each accepts (kind, range; NaN and inf never), ``*_low <= *_high`` on every axis, no key
 given twice. An override may only name a key of the task's file, with a valid value (a list
@@ -23,24 +23,16 @@ from typing import Any
 import yaml
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
-from trossen_arm_mujoco.tasks.config_schema import (
-    KEYS,
-    RANDOMIZATION_KEY,
-    RANDOMIZATION_SCHEMA,
-    Source,
-    check_file_config,
-    check_overrides,
+from trossen_arm_mujoco.tasks.config_key import Source
+from trossen_arm_mujoco.tasks.config_schema import check_file_config, check_overrides
+from trossen_arm_mujoco.tasks.randomization_schema import (
     check_randomization,
     default_randomization,
 )
 
 __all__ = [
     "CONFIG_DIR",
-    "KEYS",
-    "RANDOMIZATION_KEY",
-    "RANDOMIZATION_SCHEMA",
     "config_names",
-    "default_randomization",
     "load_task_config",
     "merge_overrides",
     "merge_randomization",
@@ -53,7 +45,7 @@ CONFIG_DIR = Path(__file__).resolve().parent.parent / "config"
 
 def merge_randomization(name: str, base: Mapping[str, Any], section: Any) -> dict[str, Any]:
     """``base`` (a complete section) updated kind by kind from the override ``section`` of
-    task config ``name``, validated (see ``config_schema.check_randomization``)."""
+    task config ``name``, validated (see ``randomization_schema.check_randomization``)."""
     return check_randomization(Source.overrides(name), base, section)
 
 

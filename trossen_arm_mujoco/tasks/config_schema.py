@@ -9,7 +9,8 @@ keys of its own adds a line each there). Every problem is one ``UserError`` line
 file (or the task and the keyword argument), the key and what is valid. (Reading the files,
 keys given twice included, is ``tasks.config``'s.)
 
-The ``randomization`` section has its own table, ``RANDOMIZATION_SCHEMA``.
+How one value is checked (``Key``, ``Source``) is ``config_key``'s; the ``randomization``
+section has its own table and checks, in ``randomization_schema``.
 """
 
 from __future__ import annotations
@@ -17,157 +18,16 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
-from numbers import Integral, Real
+from numbers import Integral
 from typing import Any
 
-import numpy as np
-
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
-
-INF = math.inf
-#: Config key of the domain-randomization section.
-RANDOMIZATION_KEY = "randomization"
-
-
-# -- where values come from --------------------------------------------------------------------
-@dataclass(frozen=True)
-class Source:
-    """Where config values come from, for error messages.
-
-    Attributes:
-        origin: ``config file <path>`` or ``task config '<name>'``.
-        label: what a key is called there: ``key`` or ``keyword argument``.
-    """
-
-    origin: str
-    label: str = "key"
-
-    @classmethod
-    def file(cls, path: Any) -> Source:
-        return cls(f"config file {path}", "key")
-
-    @classmethod
-    def overrides(cls, name: str) -> Source:
-        return cls(f"task config '{name}'", "keyword argument")
-
-    def where(self, key: str) -> str:
-        return f"{self.origin}, {self.label} {key}"
-
-
-def _show(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _real(value: Any) -> bool:
-    """A real number (Python or numpy), not a bool."""
-    return isinstance(value, Real) and not isinstance(value, (bool, np.bool_))
-
-
-def _fmt(x: float) -> str:
-    """``x`` short: ``0.5``, ``1e-05``, ``10000000`` (whole numbers in full)."""
-    return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else f"{x:g}"
-
-
-# -- one key ------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Key:
-    """What one config key accepts.
-
-    Attributes:
-        kind: ``number`` | ``int`` (a whole number) | ``bool`` | ``str`` (non-empty) |
-            ``choice`` (one of ``choices``) | ``vector`` (a list of numbers, ``lengths``).
-        low, high: bounds of a number (or of every entry of a vector); NaN and inf never pass.
-        open_low: ``low`` itself excluded (``> low``).
-        lengths: the lengths a vector may have.
-        choices: the names a ``choice`` may be.
-        unit: shown after the range (m, rad, s, ...).
-    """
-
-    kind: str
-    low: float = -INF
-    high: float = INF
-    open_low: bool = False
-    lengths: tuple[int, ...] = ()
-    choices: tuple[str, ...] = ()
-    unit: str = ""
-
-    def _interval(self) -> str:
-        """``in (0, 1] m``, ``>= 0``, ... ("" when unbounded)."""
-        unit = f" {self.unit}" if self.unit else ""
-        if self.low == -INF and self.high == INF:
-            return ""
-        if self.high == INF:
-            return f"{'>' if self.open_low else '>='} {_fmt(self.low)}{unit}"
-        if self.low == -INF:
-            return f"<= {_fmt(self.high)}{unit}"
-        return f"in {'(' if self.open_low else '['}{_fmt(self.low)}, {_fmt(self.high)}]{unit}"
-
-    def describe(self) -> str:
-        """What is valid, in words: ``a number in (0, 1] m``."""
-        if self.kind == "bool":
-            return "true/false"
-        if self.kind == "str":
-            return "a non-empty string"
-        if self.kind == "choice":
-            return "one of " + ", ".join(self.choices)
-        interval = self._interval()
-        if self.kind in ("int", "number"):
-            noun = "a whole number" if self.kind == "int" else "a number"
-            return f"{noun} {interval}" if interval else f"a finite {noun[2:]}"
-        sizes = " or ".join(str(n) for n in self.lengths) or "some"
-        return f"a list of {sizes} numbers, each {interval or 'finite'}"
-
-    def _in_range(self, value: Any) -> bool:
-        try:
-            x = float(value)
-        except (OverflowError, TypeError, ValueError):
-            return False
-        if not math.isfinite(x):
-            return False
-        above = x > self.low if self.open_low else x >= self.low
-        return above and x <= self.high
-
-    def check(self, where: str, value: Any, length: int | None = None) -> Any:
-        """``value`` converted (int, float, bool, str, list of floats); a one-line UserError
-        ``<where>: expected <what is valid>, got <value>`` when it is not valid. ``length``:
-        the one length a vector must have (an override of a file's vector)."""
-        bad = UserError(f"{where}: expected {self.describe()}, got {_show(value)}")
-        if self.kind == "bool":
-            if isinstance(value, (bool, np.bool_)):
-                return bool(value)
-            raise bad
-        if self.kind in ("str", "choice"):
-            if not isinstance(value, str) or not value.strip():
-                raise bad
-            if self.kind == "choice" and value not in self.choices:
-                raise bad
-            return value
-        if self.kind in ("number", "int"):
-            if not _real(value) or not self._in_range(value):
-                raise bad
-            x = float(value)
-            if self.kind == "int":
-                if not isinstance(value, Integral) and x != int(x):
-                    raise bad
-                return int(x)
-            return x
-        # vector
-        if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, "__len__"):
-            raise bad
-        seq = list(value) if getattr(value, "ndim", 1) == 1 else None
-        lengths = (length,) if length is not None else self.lengths
-        if seq is None or (lengths and len(seq) not in lengths):
-            if length is not None and seq is not None:
-                raise UserError(
-                    f"{where}: expected a list of {length} numbers (as in the task's file), "
-                    f"got {_show(value)}"
-                )
-            raise bad
-        if not all(_real(v) and self._in_range(v) for v in seq):
-            raise bad
-        return [float(v) for v in seq]
+from trossen_arm_mujoco.tasks.config_key import INF, Key, Source, fmt_number, is_real, show
+from trossen_arm_mujoco.tasks.randomization_schema import (
+    RANDOMIZATION_KEY,
+    check_randomization,
+    default_randomization,
+)
 
 
 def _num(low: float = -INF, high: float = INF, unit: str = "", open_low: bool = False) -> Key:
@@ -257,129 +117,14 @@ REQUIRED: dict[str, tuple[str, ...]] = {
 }  # fmt: skip
 
 
-# -- the randomization section ---------------------------------------------------------------
-# Parameters of each randomization kind: name -> (default, form, low bound, high bound).
-# Forms: "bool"; "range" = [low, high] with bound_lo <= low <= high <= bound_hi; "max" = one
-# number in [bound_lo, bound_hi]; "names" = a list of model names (checked by the sampler).
-_Param = tuple[Any, str, float, float]
-RANDOMIZATION_SCHEMA: dict[str, dict[str, _Param]] = {
-    "lights": {  # every light of the scene
-        "enabled": (True, "bool", 0, 0),
-        "direction_deg": (15.0, "max", 0.0, 90.0),  # tilt of the direction, deg
-        "diffuse_scale": ([0.6, 1.4], "range", 0.0, 10.0),  # factor on nominal diffuse
-        "specular_scale": ([0.5, 1.5], "range", 0.0, 10.0),  # factor on nominal specular
-        "ambient": ([0.0, 0.1], "range", 0.0, 1.0),  # added to nominal ambient (grey)
-        "colour_jitter": (0.1, "max", 0.0, 1.0),  # per-channel factor in [1-c, 1+c]
-    },
-    "table": {  # the table's visual geoms: texture (material) choice and tint
-        "enabled": (True, "bool", 0, 0),
-        "geoms": ([], "names", 0, 0),
-        "materials": ([], "names", 0, 0),  # textured materials to choose from; [] = keep
-        "rgb_jitter": (0.15, "max", 0.0, 1.0),  # added to each rgb channel, clipped to [0, 1]
-    },
-    "objects": {  # every geom of the task's free objects
-        "enabled": (True, "bool", 0, 0),
-        "rgb_jitter": (0.2, "max", 0.0, 1.0),
-    },
-    "friction": {  # sliding friction of every named collision geom
-        "enabled": (True, "bool", 0, 0),
-        "scale": ([0.8, 1.2], "range", 0.01, 10.0),
-    },
-    "object_mass": {  # mass and inertia of each free object
-        "enabled": (True, "bool", 0, 0),
-        "scale": ([0.8, 1.2], "range", 0.01, 100.0),
-    },
-    "joint_damping": {  # added to every robot joint's damping, N m s/rad (N s/m fingers)
-        "enabled": (True, "bool", 0, 0),
-        "range": ([0.0, 0.1], "range", 0.0, 100.0),
-    },
-    "camera": {  # every camera of the scene, in its parent body's frame
-        "enabled": (True, "bool", 0, 0),
-        "position": (0.005, "max", 0.0, 0.1),  # m, uniform offset per axis
-        "orientation_deg": (1.0, "max", 0.0, 30.0),  # deg, about a random axis
-    },
-    "joint_noise": {  # initial arm joints (not fingers), rad, uniform
-        "enabled": (True, "bool", 0, 0),
-        "range": (0.02, "max", 0.0, 0.5),
-    },
-}
-
-
-def _check_param(where: str, form: str, lo: float, hi: float, value: Any) -> Any:
-    """One randomization parameter validated and converted; a one-line UserError if not."""
-    if form == "bool":
-        return Key("bool").check(where, value)
-    if form == "names":
-        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
-            raise UserError(f"{where}: expected a list of names, got {_show(value)}")
-        return list(value)
-    numbers = value if form == "range" else [value]
-    ok = (
-        isinstance(numbers, (list, tuple))
-        and len(numbers) == (2 if form == "range" else 1)
-        and all(_real(v) for v in numbers)
-    )
-    if ok:
-        bounds = Key("number", lo, hi)
-        ok = all(bounds._in_range(v) for v in numbers)
-    if ok:
-        numbers = [float(v) for v in numbers]
-        ok = numbers == sorted(numbers)
-    if not ok:
-        want = (
-            f"[low, high] with {lo:g} <= low <= high <= {hi:g}"
-            if form == "range"
-            else (f"a number in [{lo:g}, {hi:g}]")
-        )
-        raise UserError(f"{where}: expected {want}, got {_show(value)}")
-    return numbers if form == "range" else numbers[0]
-
-
-def default_randomization() -> dict[str, Any]:
-    """The randomization section with every kind at its defaults (fresh lists)."""
-    return {
-        kind: {k: (list(d) if isinstance(d, list) else d) for k, (d, *_) in params.items()}
-        for kind, params in RANDOMIZATION_SCHEMA.items()
-    }
-
-
-def check_randomization(source: Source, base: Mapping[str, Any], section: Any) -> dict[str, Any]:
-    """``base`` (a complete section) updated kind by kind from ``section``, validated.
-
-    Raises:
-        UserError: unknown kind or parameter (lists the valid ones), or a value outside its
-            form and bounds (see ``RANDOMIZATION_SCHEMA``); one line each.
-    """
-    where = source.where(RANDOMIZATION_KEY)
-    if section is None:
-        section = {}
-    if not isinstance(section, Mapping):
-        raise UserError(f"{where}: expected a mapping of kinds to settings, got {_show(section)}")
-    out = {kind: dict(params) for kind, params in base.items()}
-    for kind, params in section.items():
-        if kind not in RANDOMIZATION_SCHEMA:
-            raise unknown_name_error("randomization kind", str(kind), RANDOMIZATION_SCHEMA,
-                                     hint=source.origin)  # fmt: skip
-        if not isinstance(params, Mapping):
-            raise UserError(f"{where}.{kind}: expected a mapping of settings, got {_show(params)}")
-        schema = RANDOMIZATION_SCHEMA[kind]
-        for key, value in params.items():
-            if key not in schema:
-                raise unknown_name_error(f"{kind} randomization setting", str(key), schema,
-                                         hint=source.origin)  # fmt: skip
-            _, form, lo, hi = schema[key]
-            out[kind][key] = _check_param(f"{where}.{kind}.{key}", form, lo, hi, value)
-    return out
-
-
 # -- whole configs ----------------------------------------------------------------------------
 def _check_fallback(where: str, default: Any, value: Any) -> Any:
     """A key outside ``KEYS`` (a config built in code): ``value`` of the kind of ``default``."""
     if isinstance(default, bool):
         return Key("bool").check(where, value)
-    if _real(default):
+    if is_real(default):
         return Key("int" if isinstance(default, Integral) else "number").check(where, value)
-    if isinstance(default, (list, tuple)) and all(_real(v) for v in default):
+    if isinstance(default, (list, tuple)) and all(is_real(v) for v in default):
         return Key("vector").check(where, value, length=len(default))
     if isinstance(default, str):
         return Key("str").check(where, value)
@@ -404,8 +149,8 @@ def check_ranges(config: Mapping[str, Any], source: Source, changed: Any = None)
         for axis, (a, b) in enumerate(zip(low, high)):
             if a > b:
                 raise UserError(
-                    f"{where}: expected {lo_key} <= {hi_key} on every axis, got {_fmt(a)} > "
-                    f"{_fmt(b)} on axis {axis} (low {_show(low)}, high {_show(high)})"
+                    f"{where}: expected {lo_key} <= {hi_key} on every axis, got {fmt_number(a)} > "
+                    f"{fmt_number(b)} on axis {axis} (low {show(low)}, high {show(high)})"
                 )
 
 

@@ -31,7 +31,7 @@ class PickPlaceTask(PushTask):
 
     def lifted(self) -> bool:
         """The cube is ``lift_height`` (m) or more above its resting height."""
-        return bool(self.cube_pos()[2] >= self.lifted_z)
+        return bool(self.observed.read("cube_pos")[2] >= self.lifted_z)
 
     def reward_at(self, dist: float) -> float:
         """Push's shaped reward + lift_bonus while the cube is lifted."""

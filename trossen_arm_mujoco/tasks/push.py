@@ -13,9 +13,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
-from trossen_arm_mujoco.tasks.task import Bounds
 
 CUBE = ("cube", ("cube_joint", "cube"))
 MAX_GOAL_TRIES = 100
@@ -32,55 +32,40 @@ class PushTask(SingleArmTask):
 
     name: ClassVar[str] = "push"
     marker_body: ClassVar[str] = "goal"
+    #: the cube's centre is the achieved goal
+    achieved_part: ClassVar[str] = "cube_pos"
 
     def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
         super().__init__(env, config, goal)
         self.cube = env.objects["cube"]
         self.max_obj_vel = float(self.config["max_object_velocity"])
         self.reach_coef = float(self.config["reach_coef"])
-        pose = self.cube.pose_view(env.data)
-        self._cube_pos, self._cube_quat = pose[:3], pose[3:]  # live views
-        self._cube_vel = self.cube.velocity_view(env.data)
+
+    def observation_parts(self) -> list[Part]:
+        """The robot's parts, then ``cube_pos`` (3,) m, ``cube_quat`` (4,) wxyz, ``cube_vel``
+        (6,) [m/s, rad/s] (live views of ``data``) and ``cube_rel`` (3,) m = cube_pos -
+        ee_pos (computed)."""
+        data = self.data
+        ee, pose = self.arm.frame_position_view(data), self.cube.pose_view(data)
+        cube_pos, span = pose[:3], self.ws_high - self.ws_low
+        v = self.max_obj_vel
+        return [
+            *self.robot_parts(),
+            Part("cube_pos", cube_pos, self.ws_low, self.ws_high),
+            Part("cube_quat", pose[3:], -1.0, 1.0),
+            Part("cube_vel", self.cube.velocity_view(data), -v, v),
+            Part("cube_rel", lambda: cube_pos - ee, -span, span),
+        ]
 
     def cube_pos(self) -> np.ndarray:
-        """Cube centre, world frame (3,) m."""
-        return self.cube.get_pose(self.data)[:3]
-
-    def get_observation(self) -> dict[str, np.ndarray]:
-        """Robot state, then cube_pos (3,) m, cube_quat (4,) wxyz, cube_vel (6,) [m/s, rad/s],
-        cube_rel (3,) m = cube_pos - ee_pos."""
-        obs = self.robot_observation()
-        pose = self.cube.get_pose(self.data)
-        obs["cube_pos"] = pose[:3]
-        obs["cube_quat"] = pose[3:]
-        obs["cube_vel"] = self.cube.get_velocity(self.data)
-        obs["cube_rel"] = pose[:3] - obs["ee_pos"]
-        return obs
-
-    def observation_bounds(self) -> Bounds:
-        bounds = self.robot_bounds()
-        span = self.ws_high - self.ws_low
-        bounds["cube_pos"] = (self.ws_low.copy(), self.ws_high.copy())
-        bounds["cube_quat"] = (-np.ones(4), np.ones(4))
-        bounds["cube_vel"] = (np.full(6, -self.max_obj_vel), np.full(6, self.max_obj_vel))
-        bounds["cube_rel"] = (-span, span)
-        return bounds
-
-    def achieved_goal(self) -> np.ndarray:
-        return self.cube_pos()
-
-    _shortcuts = {"_object_parts": ("get_observation",), "_achieved_view": ("achieved_goal",)}
-
-    def _object_parts(self) -> list[np.ndarray]:
-        return [self._cube_pos, self._cube_quat, self._cube_vel, self._cube_pos - self._ee_view]
-
-    def _achieved_view(self) -> np.ndarray:
-        return self._cube_pos
+        """Cube centre, world frame (3,) m (a copy)."""
+        return self.observed.read("cube_pos").copy()
 
     def reward_at(self, dist: float) -> float:
         """-reach_coef * |ee - cube| - distance_coef * |cube - goal| + success_bonus * success
         (``dist`` = |cube - goal|, m)."""
-        reach = float(goal_distance(self.ee_pos(), self.cube_pos()))
+        observed = self.observed
+        reach = goal_distance(observed.read("ee_pos"), observed.read("cube_pos"))
         return (
             -self.reach_coef * reach
             - self.distance_coef * dist

@@ -8,12 +8,9 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-import numpy as np
-
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
-from trossen_arm_mujoco.tasks.task import Bounds
 
 
 class ReachTask(SingleArmTask):
@@ -21,24 +18,9 @@ class ReachTask(SingleArmTask):
 
     name: ClassVar[str] = "reach"
     marker_body: ClassVar[str] = "target"
-
-    def get_observation(self) -> dict[str, np.ndarray]:
-        """Robot state only (see ``SingleArmTask.robot_observation``)."""
-        return self.robot_observation()
-
-    def observation_bounds(self) -> Bounds:
-        return self.robot_bounds()
-
-    def achieved_goal(self) -> np.ndarray:
-        return self.ee_pos()
-
-    _shortcuts = {"_object_parts": ("get_observation",), "_achieved_view": ("achieved_goal",)}
-
-    def _object_parts(self) -> list[np.ndarray]:
-        return []
-
-    def _achieved_view(self) -> np.ndarray:
-        return self._ee_view
+    #: the observation is the robot's parts (``SingleArmTask.robot_parts``); the tool frame
+    #: is the achieved goal
+    achieved_part: ClassVar[str] = "ee_pos"
 
     def reward_at(self, dist: float) -> float:
         """-distance_coef * |ee - target| (m) + success_bonus * success."""

@@ -184,11 +184,14 @@ def make_sampler(
     physics: Any = None,
     seed: Any = None,
     randomize: bool = False,
+    looks: Any = None,
+    floor_margin: float | None = 0.0,
     **overrides: Any,
 ):
     """The sampler of a task (it builds the env), config overridden by keyword; see
     ``TaskSampler`` for the arguments (``randomize=True``: domain randomization as the
-    config's ``randomization`` section says)."""
+    config's ``randomization`` section says; ``looks``: a ``sim.looks.SceneLooks``;
+    ``floor_margin``: the safety floor above the table top, m)."""
     entry = load(name)
     config = entry.load_config(**overrides)
     return entry.sampler_class()(
@@ -201,4 +204,6 @@ def make_sampler(
         physics=physics,
         seed=seed,
         randomize=randomize,
+        looks=looks,
+        floor_margin=floor_margin,
     )

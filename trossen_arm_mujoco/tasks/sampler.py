@@ -11,6 +11,10 @@ randomizes lighting, textures, dynamics and initial joint noise (domain randomiz
 the sampler was made with ``randomize=True``; see ``tasks.randomization``); ``_sample_task(env)``
 places the task's objects and builds the task (None when this draw gives no valid episode);
 the task is reset. The sampler owns the env and closes it (``close()``, or ``with``).
+
+What a sampler hands down when it builds the env, as arguments: the scene's look
+(``looks``, ``sim.looks.SceneLooks``) to the scene loader, and the safety floor
+(``floor_margin`` above the config's ``table_height``) to the robot (``robot.safety_floor``).
 """
 
 from __future__ import annotations
@@ -27,8 +31,9 @@ from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import EEDeltaController
 from trossen_arm_mujoco.robot.robot_view import RobotView
 from trossen_arm_mujoco.sim.env import MujocoEnv
-from trossen_arm_mujoco.tasks.config import RANDOMIZATION_KEY, default_randomization
+from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks.randomization import SceneRandomizer
+from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_KEY, default_randomization
 from trossen_arm_mujoco.tasks.task import Task
 
 #: ``sample_task`` attempts ``next_task`` makes before giving up.
@@ -41,21 +46,15 @@ FLAVOURS: tuple[str, ...] = ("joint", "ee")
 
 
 def uniform(rng: np.random.Generator, low: Any, high: Any, size: Any = None) -> Any:
-    """``rng.uniform(low, high, size)``, value for value and draw for draw (numpy computes
-    ``low + (high - low) * rng.random()`` too), without ``Generator.uniform``'s broadcasting
-    machinery: several times faster for the few values an episode draws.
+    """``rng.uniform(low, high, size)``: floats or array-likes ``low``, ``high`` (broadcast
+    together); a float when both are scalars and ``size`` is None, else an array.
 
-    Args:
-        low, high: floats or array-likes (broadcast together).
-        size: output shape; default the broadcast shape of ``low`` and ``high`` (a float when
-            both are floats).
+    Generator.uniform costs 1-10 us more per call than its arithmetic written out
+    (``low + (high - low) * rng.random(shape)``, which the samplers used before; the same
+    draws, bit for bit): a few calls per episode reset, nothing per step
+    (``benchmarks/numpy_paths.py``).
     """
-    if size is None and isinstance(low, (float, int)) and isinstance(high, (float, int)):
-        return low + (high - low) * rng.random()  # one float: Python's double arithmetic
-    low = np.asarray(low, dtype=float)
-    span = np.asarray(high, dtype=float) - low
-    out = low + span * rng.random(span.shape if size is None else size)
-    return float(out) if out.ndim == 0 else out
+    return rng.uniform(low, high, size)
 
 
 def as_generator(seed: Seed) -> np.random.Generator:
@@ -84,6 +83,13 @@ class TaskSampler:
         seed: int or ``np.random.Generator``: the sampler's generator ``self.rng``.
         randomize: domain randomization of every episode, as the config's ``randomization``
             section says (default off: episodes are exactly those of a sampler without it).
+        looks: how the scene is drawn (shadows, arm meshes; ``sim.looks.SceneLooks``), handed
+            to the scene loader like ``seed`` and ``randomize`` (default ``SceneLooks()``);
+            a given ``physics`` keeps its own.
+        floor_margin: the robot's safety floor (``robot.safety_floor``) lies this far (m,
+            >= 0) above the config's ``table_height``; default 0.0, the table top itself
+            (nothing goes into the table; the gym envs pass the config's ``safety_margin``);
+            None: no floor.
 
     Subclasses set ``task_cls``, ``robot_name``, ``arms`` and implement ``robot_config``,
     ``objects`` and ``_sample_task``.
@@ -108,6 +114,8 @@ class TaskSampler:
         physics: Any = None,
         seed: Seed = None,
         randomize: bool = False,
+        looks: SceneLooks | None = None,
+        floor_margin: float | None = 0.0,
     ):
         self.config = dict(config)
         self.rng = as_generator(seed)
@@ -143,6 +151,9 @@ class TaskSampler:
             width=width,
             ctrl_dt=float(self.config["ctrl_dt"]),
             sim_dt=self.config.get("sim_dt"),
+            looks=looks,
+            table_height=None if floor_margin is None else self.config.get("table_height"),
+            floor_margin=0.0 if floor_margin is None else floor_margin,
         )
         if (
             flavour == "joint"

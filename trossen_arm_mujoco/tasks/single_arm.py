@@ -19,24 +19,28 @@ from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
 from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import TaskSampler, uniform
-from trossen_arm_mujoco.tasks.task import Bounds, Task, trusts_shortcut
+from trossen_arm_mujoco.tasks.task import Task
 
 GOAL_REWARD_TYPES = ("sparse", "dense")
-#: the shortcuts that make up ``SingleArmTask.state_parts`` (and ``distance``)
-STATE_SHORTCUTS = ("_robot_parts", "_object_parts", "_achieved_view", "_desired_view")
 
 
-def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
-    """Euclidean distance over the last axis; shapes (..., 3) -> (...)."""
+def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray | float:
+    """Euclidean distance over the last axis; shapes (..., 3) -> (...); one pair (3,) gives
+    a Python float (every step: no arrays, and what follows is plain float arithmetic)."""
     a, d = np.asarray(achieved), np.asarray(desired)
-    if a.ndim == 1 and d.ndim == 1:  # one pair, every step: Python floats, no arrays
-        return np.float64(math.dist(a.tolist(), d.tolist()))
+    if a.ndim == 1 and d.ndim == 1:
+        return math.dist(a.tolist(), d.tolist())
     return np.linalg.norm(np.subtract(a, d, dtype=float), axis=-1)
 
 
 class SingleArmTask(Task):
     """A wxai task scored by the distance of an achieved goal to a desired goal (m).
+
+    Its observation starts with the robot's parts (``robot_parts``); a task adds its own
+    parts after them and names the part that is its achieved goal (``achieved_part``). The
+    desired goal is ``goal`` (a part named ``"goal"``, bounded by the workspace).
 
     Args:
         env, config: see ``Task``; also reads ``success_tolerance``, ``goal_reward_type``,
@@ -48,6 +52,8 @@ class SingleArmTask(Task):
     goal_conditioned: ClassVar[bool] = True
     #: mocap body showing the goal in the scene.
     marker_body: ClassVar[str] = ""
+    #: the observation part that is the achieved goal (3,) m, world frame.
+    achieved_part: ClassVar[str] = ""
 
     def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
         super().__init__(env, config)
@@ -65,95 +71,56 @@ class SingleArmTask(Task):
         self.distance_coef = float(self.config.get("distance_coef", 0.0))
         self.success_bonus = float(self.config.get("success_bonus", 0.0))
         centre = 0.5 * (self.ws_low + self.ws_high)
-        self.goal = centre if goal is None else np.asarray(goal, dtype=float).reshape(3).copy()
+        self._goal = centre if goal is None else np.asarray(goal, dtype=float).reshape(3).copy()
         self._mocap = int(env.model.body_mocapid[lookup_id(env.model, "body", self.marker_body)])
-        # live views of the robot state (robot_observation order) and of the tool frame, read
-        # by the shortcuts of the gym env's state vector (None: the joints are not consecutive)
-        data = env.data
-        joints = self.arm.state_views(data)
-        self._ee_view = self.arm.frame_position_view(data)
-        self._robot_views = None if joints is None else [
-            *joints, self.gripper.noop_ctrl_view(data), self._ee_view
-        ]  # fmt: skip
-        self._fast_state = self._robot_views is not None and all(
-            trusts_shortcut(type(self), name) for name in STATE_SHORTCUTS
-        )
+
+    @property
+    def goal(self) -> np.ndarray:
+        """Desired goal (3,) m, world frame: the array the ``goal`` part views (assigning
+        copies into it, so the part follows)."""
+        return self._goal
+
+    @goal.setter
+    def goal(self, value: Any) -> None:
+        self._goal[:] = np.asarray(value, dtype=float).reshape(3)
 
     # -- physics hooks --------------------------------------------------------------------
     def initialize_episode(self) -> None:
         """Show the goal: move the marker's mocap body there."""
         self.data.mocap_pos[self._mocap] = self.goal
 
-    # -- robot state ----------------------------------------------------------------------
+    # -- observation ------------------------------------------------------------------------
+    def robot_parts(self) -> list[Part]:
+        """The robot's observation parts, live views of ``data``: ``arm_qpos`` (6,) rad,
+        ``arm_qvel`` (6,) rad/s, ``gripper`` (1,) finger travel m, ``ee_pos`` (3,) m (tool
+        frame, world)."""
+        data = self.data
+        arm, gripper = self.arm, self.gripper
+        joints = arm.state_views(data)
+        if joints is None:  # joints not consecutive in qpos/qvel: read them each time
+            joints = (lambda: arm.get_qpos(data)), (lambda: arm.get_qvel(data))
+        lo, hi = gripper.ctrl_limits()
+        return [
+            Part("arm_qpos", joints[0], arm.joint_range[:, 0], arm.joint_range[:, 1]),
+            Part("arm_qvel", joints[1], -self.max_qvel, self.max_qvel),
+            Part("gripper", gripper.noop_ctrl_view(data), lo, hi),
+            Part("ee_pos", arm.frame_position_view(data), self.ws_low, self.ws_high),
+        ]
+
+    def observation_parts(self) -> list[Part]:
+        """The robot's parts (``robot_parts``); tasks with objects add theirs."""
+        return self.robot_parts()
+
+    def goal_parts(self) -> tuple[Part, Part]:
+        """(the ``achieved_part`` observation part, ``goal``), both in the workspace box."""
+        goal = Part("goal", self._goal, self.ws_low, self.ws_high)
+        return self.observed[self.achieved_part], goal
+
     def ee_pos(self) -> np.ndarray:
-        """Tool-frame (ee_site) position, world frame (3,) m."""
-        return self.arm.get_frame_position(self.data)
-
-    def robot_observation(self) -> dict[str, np.ndarray]:
-        """arm_qpos (6,) rad, arm_qvel (6,) rad/s, gripper (1,) finger travel m, ee_pos (3,)."""
-        return {
-            "arm_qpos": self.arm.get_qpos(self.data),
-            "arm_qvel": self.arm.get_qvel(self.data),
-            "gripper": self.gripper.get_noop_ctrl(self.data),
-            "ee_pos": self.ee_pos(),
-        }
-
-    def robot_bounds(self) -> Bounds:
-        lo, hi = self.gripper.ctrl_limits()
-        return {
-            "arm_qpos": (self.arm.joint_range[:, 0].copy(), self.arm.joint_range[:, 1].copy()),
-            "arm_qvel": (np.full(6, -self.max_qvel), np.full(6, self.max_qvel)),
-            "gripper": (lo, hi),
-            "ee_pos": (self.ws_low.copy(), self.ws_high.copy()),
-        }
-
-    # -- shortcuts of the gym env's state vector (see ``Task.state_parts``) ---------------
-    _shortcuts = {
-        "_score": ("get_reward", "get_info"),
-        "_robot_parts": ("robot_observation", "ee_pos"),
-        "_desired_view": ("desired_goal",),
-        "_goal_score": ("goal_reward", "goal_success"),
-    }
-
-    def _robot_parts(self) -> list[np.ndarray]:
-        """``robot_observation``'s values as live views."""
-        return self._robot_views
-
-    def _object_parts(self) -> list[np.ndarray]:
-        """The values ``get_observation`` adds to ``robot_observation``, in its order (live
-        views where they can be); each task defines it next to its ``get_observation``."""
-        raise NotImplementedError
-
-    def _achieved_view(self) -> np.ndarray:
-        """``achieved_goal`` as a live view; each task defines it next to its
-        ``achieved_goal``."""
-        raise NotImplementedError
-
-    def _desired_view(self) -> np.ndarray:
-        return self.goal
-
-    def state_parts(self, with_goal: bool = False) -> list[np.ndarray] | None:
-        if not self._fast_state:
-            return None
-        parts = [*self._robot_views, *self._object_parts()]
-        if with_goal:
-            desired = self._desired_view()
-            parts += (desired, desired - self._achieved_view())
-        return parts
-
-    def goal_views(self) -> tuple[np.ndarray, np.ndarray] | None:
-        if not self._fast_state:
-            return None
-        return self._achieved_view(), self._desired_view()
+        """Tool-frame (ee_site) position, world frame (3,) m (a copy)."""
+        return self.observed.read("ee_pos").copy()
 
     # -- goals ----------------------------------------------------------------------------
-    def desired_goal(self) -> np.ndarray:
-        return self.goal.copy()
-
-    def goal_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Bounds of achieved and desired goals: the workspace box (m)."""
-        return self.ws_low.copy(), self.ws_high.copy()
-
     def goal_success(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
         """Within ``success_tolerance``; shapes (..., 3) -> bool (...)."""
         return goal_distance(achieved, desired) < self.tolerance
@@ -169,19 +136,15 @@ class SingleArmTask(Task):
             return (dist < self.tolerance) - 1.0  # 0 within the tolerance, else -1
         return -dist
 
-    def _goal_score(self, achieved: np.ndarray, desired: np.ndarray) -> tuple[float, bool]:
-        dist = float(goal_distance(achieved, desired))
-        return float(self.goal_reward_at(dist)), dist < self.tolerance
-
     def judge_success(self) -> bool:
-        return bool(self.goal_success(self.achieved_goal(), self.desired_goal()))
+        return self.distance() < self.tolerance
 
     # -- scoring: the reward and the diagnostics from one goal distance --------------------
     def distance(self) -> float:
-        """Distance (m) of the achieved goal to the desired goal."""
-        if self._fast_state:
-            return float(goal_distance(self._achieved_view(), self._desired_view()))
-        return float(goal_distance(self.achieved_goal(), self.desired_goal()))
+        """Distance (m) of the achieved goal to the desired goal (read from the goal parts,
+        no copies)."""
+        achieved, desired = self.goals
+        return goal_distance(achieved.read(), desired.read())
 
     def reward_at(self, dist: float) -> float:
         """The task's dense reward, the achieved goal being ``dist`` (m) from the desired
@@ -198,10 +161,6 @@ class SingleArmTask(Task):
 
     def get_info(self) -> dict[str, Any]:
         return self.info_at(self.distance())
-
-    def _score(self) -> tuple[float, dict[str, Any]]:
-        dist = self.distance()
-        return float(self.reward_at(dist)), self.info_at(dist)
 
 
 class SingleArmSampler(TaskSampler):

@@ -20,7 +20,7 @@ import numpy as np
 from dm_control.suite import base
 from dm_env import specs
 
-from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
+from trossen_arm_mujoco.assets import STATIONARY_CAMERAS, STATIONARY_TABLE_TOP
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import (
     RobotConfig,
@@ -88,6 +88,7 @@ class StationaryTaskBase(base.Task):
             height=self.image_size[0],
             width=self.image_size[1],
             ctrl_dt=DEFAULT_POLICY_DT,
+            table_height=STATIONARY_TABLE_TOP,
         )
 
     def scene(self, physics) -> MujocoEnv:

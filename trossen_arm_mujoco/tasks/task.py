@@ -14,7 +14,8 @@ calls ``task.reset()``; the caller then alternates ``step(action)`` and the quer
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from functools import cached_property
 from typing import Any, ClassVar
 
 import mujoco
@@ -22,39 +23,11 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.sim.env import MujocoEnv, whole_ratio
+from trossen_arm_mujoco.tasks.observation import ObservationParts, Part, check_part
 
 DEFAULT_POLICY_DT = 0.02
 
 Bounds = dict[str, tuple[np.ndarray, np.ndarray]]
-
-
-_TRUSTED: dict[tuple[type, str], bool] = {}
-
-
-def _owner(cls: type, name: str) -> type | None:
-    """The class of ``cls.__mro__`` that defines ``name`` (None when none does)."""
-    return next((k for k in cls.__mro__ if name in vars(k)), None)
-
-
-def trusts_shortcut(cls: type, shortcut: str) -> bool:
-    """Whether instances of ``cls`` may use the method ``shortcut`` in place of the methods
-    it reproduces.
-
-    The class defining ``shortcut`` names those methods in its own ``_shortcuts``
-    (``{shortcut: (method, ...)}``). The shortcut is trusted while each of them is defined by
-    that class or by a class above it: a subclass overriding one of them (e.g. its own
-    ``get_reward``) is served by its override, never by a shortcut written for the parent.
-    """
-    key = (cls, shortcut)
-    trusted = _TRUSTED.get(key)
-    if trusted is None:
-        owner = _owner(cls, shortcut)
-        covers = None if owner is None else vars(owner).get("_shortcuts", {}).get(shortcut)
-        trusted = covers is not None and all(
-            issubclass(owner, _owner(cls, name) or object) for name in covers
-        )
-        _TRUSTED[key] = trusted
-    return trusted
 
 
 class Task:
@@ -66,13 +39,34 @@ class Task:
             ``max_episode_steps``, ``terminate_on_success``.
 
     Subclasses set ``name``, ``robot_name`` and override the physics hooks
-    (``initialize_episode``, ``before_step``, ``after_step``), ``get_observation`` with
-    ``observation_bounds``, ``get_reward``, ``judge_success`` and ``get_task_description``
-    (and shortcuts named in ``_shortcuts``: ``_score`` where reward and diagnostics share
-    work; see ``trusts_shortcut``).
-    Goal-conditioned tasks also override ``achieved_goal``, ``desired_goal``, ``goal_bounds``
-    and ``goal_reward``.
+    (``initialize_episode``, ``before_step``, ``after_step``), ``observation_parts`` (what
+    the task observes, said once: see ``tasks.observation``), ``get_reward``,
+    ``judge_success`` and ``get_task_description``. Goal-conditioned tasks also override
+    ``goal_parts`` (achieved and desired goal), ``goal_reward`` and ``goal_success``.
+
+    Derived, not overridden: ``get_observation``, ``observation_bounds``, the gym vector
+    (``observed.values()``), ``achieved_goal``, ``desired_goal`` and ``goal_bounds``
+    (a subclass defining one of these is refused when its class is created).
     """
+
+    #: methods that derive from the parts; a subclass declares parts instead
+    _DERIVED: ClassVar[tuple[str, ...]] = (
+        "get_observation",
+        "observation_bounds",
+        "achieved_goal",
+        "desired_goal",
+        "goal_bounds",
+    )
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        for method in cls._DERIVED:
+            if method in vars(cls):
+                raise UserError(
+                    f"task class {cls.__name__} defines {method}(); declare "
+                    "observation_parts() (and goal_parts() for goals) instead: the dict "
+                    "observation, its bounds, the gym vector and the goals derive from them"
+                )
 
     name: ClassVar[str] = ""
     robot_name: ClassVar[str] = ""
@@ -177,74 +171,85 @@ class Task:
         """Per-step diagnostics; always has ``is_success``."""
         return {"is_success": self.judge_success()}
 
-    #: shortcut method -> the methods whose results it reproduces (see ``trusts_shortcut``)
-    _shortcuts: ClassVar[dict[str, tuple[str, ...]]] = {}
+    #: the reward of the state being scored, while ``score`` runs (None otherwise)
+    _reward_now: float | None = None
 
     def score(self) -> tuple[float, dict[str, Any]]:
-        """(reward, info) of the current state: ``float(get_reward())`` and ``get_info()``.
-        The gym env scores each step with it.
+        """(reward, info) of the current state: ``float(get_reward())``, then ``get_info()``.
+        The gym env scores each step with it. While ``get_info`` runs, ``current_reward()``
+        is the reward just computed (the state cannot change in between)."""
+        reward = self._reward_now = float(self.get_reward())
+        try:
+            return reward, self.get_info()
+        finally:
+            self._reward_now = None
 
-        A task class whose reward and diagnostics share work computes both at once in
-        ``_score``, listed in its ``_shortcuts`` with the methods whose results that
-        reproduces; ``score`` uses it only while a subclass overrides none of them, so
-        overriding ``get_reward`` or ``get_info`` keeps working as documented.
-        """
-        if trusts_shortcut(type(self), "_score"):
-            return self._score()
-        return float(self.get_reward()), self.get_info()
+    def current_reward(self) -> float:
+        """``float(get_reward())`` of the current state; inside ``score`` the value it has
+        just computed (e.g. for a success defined by the reward, without a second
+        evaluation)."""
+        reward = self._reward_now
+        return float(self.get_reward()) if reward is None else reward
 
-    def _score(self) -> tuple[float, dict[str, Any]]:
-        raise NotImplementedError
+    # -- observations: declared once, as parts ----------------------------------------------
+    def observation_parts(self) -> Sequence[Part]:
+        """What the task observes, in order: named ``Part`` s whose values are live views of
+        ``data`` where they exist and small callables otherwise, with finite bounds from the
+        config and the model only. Called once per task (see ``observed``)."""
+        raise NotImplementedError(f"task '{self.name}' declares no observation_parts()")
 
-    # -- observations ---------------------------------------------------------------------
+    @cached_property
+    def observed(self) -> ObservationParts:
+        """The task's ``observation_parts()`` (names checked unique; bounds checked finite and
+        ordered when first used): the source of the dict, the bounds and the gym vector."""
+        return ObservationParts(self.observation_parts())
+
     def get_observation(self) -> dict[str, np.ndarray]:
-        """Named state vectors (float64), keys and shapes as in ``observation_bounds``."""
-        raise NotImplementedError
+        """name -> current value of every observation part, float64 copies (1-D)."""
+        return self.observed.as_dict()
 
     def observation_bounds(self) -> Bounds:
-        """name -> (low, high) of every ``get_observation`` entry; finite, from the config and
-        the model only (valid before any episode)."""
-        raise NotImplementedError
-
-    def state_parts(self, with_goal: bool = False) -> list[np.ndarray] | None:
-        """The values of ``get_observation()`` in ``observation_bounds`` order, then, with
-        ``with_goal``, the desired goal and desired - achieved goal (m): the pieces of a flat
-        state vector, read without copies. Entries may be live views of ``data`` (they follow
-        the simulation: use them before the next step). None when the task has no such
-        shortcut; the gym env then builds the vector from ``get_observation``."""
-        return None
+        """name -> (low, high) of every observation part (copies); finite, valid before any
+        episode."""
+        return self.observed.bounds()
 
     # -- goals (goal-conditioned tasks) ---------------------------------------------------
-    def achieved_goal(self) -> np.ndarray:
+    def goal_parts(self) -> tuple[Part, Part]:
+        """(achieved goal, desired goal) as parts (e.g. an observation part and the task's
+        goal array); the goals, their bounds and the goal entries of the gym observations
+        derive from them. Called once per task (see ``goals``)."""
         raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+
+    @cached_property
+    def goals(self) -> tuple[Part, Part]:
+        """``goal_parts()`` (their bounds are checked when first used: ``goal_bounds``)."""
+        achieved, desired = self.goal_parts()
+        return achieved, desired
+
+    def achieved_goal(self) -> np.ndarray:
+        """The achieved goal now (a copy)."""
+        return np.array(self.goals[0].read(), dtype=float).reshape(-1)
 
     def desired_goal(self) -> np.ndarray:
-        raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+        """The desired goal now (a copy)."""
+        return np.array(self.goals[1].read(), dtype=float).reshape(-1)
 
     def goal_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
+        """(low, high) covering both goals (copies; checked finite and ordered, sizes equal):
+        the bounds of achieved and desired goals alike, so either may stand for the other
+        (HER relabelling)."""
+        achieved, desired = self.goals
+        for part in (achieved, desired):
+            check_part(part)
+        if achieved.size != desired.size:
+            raise UserError(
+                f"task '{self.name}': achieved goal '{achieved.name}' has {achieved.size} "
+                f"values, desired goal '{desired.name}' {desired.size}"
+            )
+        return np.minimum(achieved.low, desired.low), np.maximum(achieved.high, desired.high)
 
     def goal_reward(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
         raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
 
     def goal_success(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
         raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
-
-    def goal_score(self, achieved: np.ndarray, desired: np.ndarray) -> tuple[float, bool]:
-        """(reward, success) of one goal pair (3,): ``goal_reward`` and ``goal_success``, from
-        one evaluation where the class has the ``_goal_score`` shortcut (see
-        ``trusts_shortcut``). The goal env scores each step with it."""
-        if trusts_shortcut(type(self), "_goal_score"):
-            return self._goal_score(achieved, desired)
-        return float(self.goal_reward(achieved, desired)), bool(
-            self.goal_success(achieved, desired)
-        )
-
-    def _goal_score(self, achieved: np.ndarray, desired: np.ndarray) -> tuple[float, bool]:
-        raise NotImplementedError
-
-    def goal_views(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """(achieved goal, desired goal) (3,) each, read without copies: they may be live
-        views of ``data`` (use them before the next step). None when the task has no such
-        shortcut; the gym env then calls ``achieved_goal`` and ``desired_goal``."""
-        return None

@@ -14,7 +14,7 @@ import pytest
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.tasks import config as config_module
 from trossen_arm_mujoco.tasks.config import CONFIG_DIR, config_names, load_task_config
-from trossen_arm_mujoco.tasks.config_schema import KEYS, RANGE_PAIRS, REQUIRED, Key
+from trossen_arm_mujoco.tasks.config_schema import KEYS, RANGE_PAIRS, REQUIRED
 
 
 @pytest.fixture
@@ -239,21 +239,6 @@ def test_equal_low_and_high_is_a_fixed_spawn():
 def test_a_valid_override_does_not_blame_the_file_or_other_pairs():
     config = load_task_config("push", goal_low=[0.3, -0.1], goal_high=[0.35, 0.1])
     assert config["goal_low"] == [0.3, -0.1]
-
-
-# --- Key ----------------------------------------------------------------------------------
-@pytest.mark.parametrize(
-    "key, text",
-    [(Key("number", 0.0, 1.0, True, unit="m"), "a number in (0, 1] m"),
-     (Key("number", 0.0), "a number >= 0"),
-     (Key("number"), "a finite number"),
-     (Key("int", 1, 100), "a whole number in [1, 100]"),
-     (Key("vector", -1.0, 1.0, lengths=(2, 3)), "a list of 2 or 3 numbers, each in [-1, 1]"),
-     (Key("choice", choices=("a", "b")), "one of a, b"),
-     (Key("bool"), "true/false")],
-)  # fmt: skip
-def test_key_describes_what_is_valid(key, text):
-    assert key.describe() == text
 
 
 def test_huge_integers_are_out_of_range_not_a_crash():

@@ -1,0 +1,244 @@
+"""The safety floor: a robot's arms kept above the table, in the robot layer.
+
+Protections live in the robot layer, so every front door that drives a robot gets them: the
+gym envs, the dm_control joint and EE envs, record's joint replay, evaluation and the served
+kit. A ``Robot`` holds at most one ``SafetyFloor`` (``Robot.set_safety_floor``; task samplers
+install one on every robot they build, see ``tasks.sampler``) at
+``floor_z = table_height + margin`` (m, world z).
+
+What is kept above it:
+
+- Joint-actuated arms: every collision geom of the arm (links, wrist, fingers; see
+  ``robot.floor_points``) and its tool frame. Every control tick, once the controllers have
+  computed the tick's controls (joint targets, rate-limited), one forward kinematics pass on
+  a private ``MjData`` puts every arm commanded in that tick at its new control (``below``).
+  An arm with a point below the floor gets the exact rule (``offender``): a move breaks the
+  floor when a point ends below the floor and lower than it was (a point already below it,
+  e.g. placed there, may stay or rise). The move is the control's, from the control the
+  tick started from to the new one, both put through forward kinematics (exact: no lag, no
+  slack). It is shortened (the fractions of ``BACKOFF``, down to no move: the control held)
+  until no point breaks the floor. A fraction of the step stays within the speed limits and
+  the control range the controller kept. The controller keeps its target: an arm commanded
+  into the table moves toward it at its speed limits, stops at the floor, and goes on as
+  soon as a command leads away. Ticks of any length hold it (the served kit ticks every
+  2 ms): a held control never sinks.
+- Cartesian targets: ``ee_delta`` and ``ee_pose`` controllers clip the tool frame's target
+  height (``tool_height``) before any IK: to the floor, or, for a tool frame below it, to no
+  lower than it is. Mocap arms (the EE envs) get only this, from their control (no lower
+  than it was asked to be): their control is the tool-frame pose, their links follow the
+  weld, and there are no joint targets to shorten.
+
+Cost: one ``mj_kinematics`` per tick for all the arms of a robot (on its private data);
+an arm with a point below the floor takes 2-5 more.
+
+What the floor changed is in ``report`` (``FloorReport``): the links it held up since the
+robot's last command (``Robot.update_control``, ``reset`` and ``hold`` clear it). The gym
+envs put it into ``info`` (``safety_clipped``, ``safety_links``); the dm_control envs expose it
+as ``env.task.robot(env.physics).floor_report``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+
+import mujoco
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.floor_points import ArmPoints
+from trossen_arm_mujoco.robot.selection import as_slice
+
+#: Rounding (m) below which a point is not lower than it was (a turn about a vertical axis
+#: leaves heights equal up to it).
+TOLERANCE = 1e-9
+#: Fractions of an arm's move tried when the whole move would break the floor.
+BACKOFF = (0.5, 0.25, 0.125, 0.0)
+
+
+def floor_height(table_height: float, margin: float = 0.0) -> float:
+    """``table_height + margin`` (m, world z), checked: a one-line UserError for a height
+    that is not a finite number, or a margin that is negative, NaN or infinite (a NaN floor
+    would compare False: no floor at all)."""
+    for name, value in (("table height", table_height), ("safety margin", margin)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+            raise UserError(f"safety floor: {name} must be a number (m), got {value!r:.40}")
+    if not math.isfinite(table_height):
+        raise UserError(
+            f"safety floor: table height must be a finite number (m), got {table_height}"
+        )
+    if not (math.isfinite(margin) and margin >= 0):
+        raise UserError(f"safety floor: safety margin must be a number >= 0 (m), got {margin}")
+    return float(table_height) + float(margin)
+
+
+class FloorReport:
+    """What the safety floor changed since the robot's last command.
+
+    Attributes:
+        links: names of the links it held up (a tool frame's: the body of the site), in the
+            order first met, each once.
+    """
+
+    __slots__ = ("links",)
+
+    def __init__(self) -> None:
+        self.links: list[str] = []
+
+    @property
+    def clipped(self) -> bool:
+        """Whether the floor changed a control or a target."""
+        return bool(self.links)
+
+    def add(self, link: str) -> None:
+        if link not in self.links:
+            self.links.append(link)
+
+    def clear(self) -> None:
+        if self.links:
+            self.links.clear()
+
+
+class SafetyFloor:
+    """The floor of one robot's arms, and the heights of their points.
+
+    Args:
+        model: compiled model.
+        arms: joint-actuated arm move groups (first joint nearest the base), every collision
+            geom and the tool frame kept above the floor.
+        floor_z: lowest allowed height (m, world z), e.g. ``floor_height(table_height,
+            margin)``.
+        tools: mocap arm groups: their commanded tool-frame pose is kept above the floor.
+
+    Attributes:
+        arms: arm name -> ``ArmPoints``.
+        report: ``FloorReport`` of what the floor changed (cleared by the robot).
+    """
+
+    def __init__(self, model: mujoco.MjModel, arms: Sequence, floor_z: float, tools: Sequence = ()):
+        self.model = model
+        self.floor_z = float(floor_z)
+        if not math.isfinite(self.floor_z):  # NaN would compare False: no floor at all
+            raise UserError(
+                f"safety floor height must be a finite number (m), got {floor_z!r}; "
+                "check table_height and safety_margin"
+            )
+        self.arms = {arm.name: ArmPoints(model, arm) for arm in arms}
+        # the arms' actuators (joint targets), for the ones that have them
+        self._ctrl_sel = {
+            arm.name: as_slice(arm.actuator_ids) for arm in arms if hasattr(arm, "actuator_ids")
+        }
+        self.tools = {tool.name: tool for tool in tools}
+        self.report = FloorReport()
+        self._data = mujoco.MjData(model)
+
+    # -- heights --------------------------------------------------------------------------
+    def heights(self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None) -> np.ndarray:
+        """World z (m) of the lowest reach of every point of ``arm`` (its collision geoms and
+        tool frame), (N,), at ``qpos_full`` (nq,) with the arm's joints replaced by ``q``
+        (rad): forward kinematics on the private ``MjData``."""
+        pts = self.arms[arm]
+        data = self._data
+        data.qpos[:] = qpos_full
+        if q is not None:
+            data.qpos[pts.qpos_sel] = q
+        mujoco.mj_kinematics(self.model, data)
+        return pts.heights(data)
+
+    def lowest(
+        self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None
+    ) -> tuple[float, int]:
+        """(lowest world z (m) of ``arm``'s collision geoms and tool frame, body id of that
+        point) at ``qpos_full`` (nq,) with the arm's joints replaced by ``q`` (rad)."""
+        z = self.heights(qpos_full, arm, q)
+        i = int(z.argmin())
+        return float(z[i]), int(self.arms[arm].owner[i])
+
+    def offender(self, arm: str, z_new: np.ndarray, z_was: np.ndarray) -> int:
+        """Body id of the point that breaks the floor going from heights ``z_was`` to
+        ``z_new`` (both (N,), m), or -1: a point may not end below the floor unless it ends
+        no lower than it was (one already below may stay or rise; ``TOLERANCE``)."""
+        bad = (z_new < self.floor_z) & (z_new < z_was - TOLERANCE)
+        if not bad.any():
+            return -1
+        return int(self.arms[arm].owner[int(np.where(bad, z_new, np.inf).argmin())])
+
+    def below(self, qpos_full: np.ndarray, targets: Mapping[str, np.ndarray]) -> list[str]:
+        """The arms of ``targets`` (arm -> joints (rad)) with a point that can move up or
+        down below the floor when every arm is at its target, at ``qpos_full`` (nq,) for
+        the rest: one forward kinematics pass on the private ``MjData`` for all of them."""
+        data = self._data
+        data.qpos[:] = qpos_full
+        arms = self.arms
+        for arm, q in targets.items():
+            data.qpos[arms[arm].qpos_sel] = q
+        mujoco.mj_kinematics(self.model, data)
+        below = []
+        for arm in targets:
+            z = arms[arm].moving_heights(data)
+            if z[z.argmin()] < self.floor_z:  # z.min(), at a fraction of its cost
+                below.append(arm)
+        return below
+
+    def link_name(self, body: int) -> str:
+        return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
+
+    # -- the rule -------------------------------------------------------------------------
+    def safe_fraction(
+        self, qpos_full: np.ndarray, arm: str, q_from: np.ndarray, q_to: np.ndarray
+    ) -> tuple[float, str]:
+        """(Largest fraction of ``arm``'s move from joints ``q_from`` to ``q_to`` (rad), among
+        1 and ``BACKOFF``, that breaks the floor nowhere (``offender``); name of the link
+        that breaks it on the whole move, "" when none), at ``qpos_full`` (nq,) for the
+        rest."""
+        z_was = self.heights(qpos_full, arm, q_from)
+        body = self.offender(arm, self.heights(qpos_full, arm, q_to), z_was)
+        if body < 0:
+            return 1.0, ""
+        for fraction in BACKOFF[:-1]:
+            q = q_from + fraction * (q_to - q_from)
+            if self.offender(arm, self.heights(qpos_full, arm, q), z_was) < 0:
+                return fraction, self.link_name(body)
+        return 0.0, self.link_name(body)
+
+    def hold(self, data: mujoco.MjData, start_ctrl: np.ndarray, names: Iterable[str]) -> list[str]:
+        """After a control tick's controls are written: the arms among ``names`` (the groups
+        commanded in the tick) whose new control breaks the floor get a shorter step, from
+        ``start_ctrl`` ((nu,), ``data.ctrl`` before the tick) toward their new control (see
+        the module docstring), written to ``data.ctrl``. Returns the names of the arms held
+        up (their links are added to ``report``)."""
+        sel = self._ctrl_sel
+        ends = {name: data.ctrl[sel[name]] for name in names if name in sel}
+        if not ends:
+            return []
+        held = []
+        for name in self.below(data.qpos, ends):
+            start, end = start_ctrl[sel[name]], ends[name]
+            fraction, link = self.safe_fraction(data.qpos, name, start, end)
+            if not link:
+                continue
+            # within the step the controller took: its speed limits and control range hold
+            data.ctrl[sel[name]] = start + fraction * (end - start)
+            self.report.add(link)
+            held.append(name)
+        return held
+
+    def tool_height(
+        self, data: mujoco.MjData, group, z_target: float, z_was: float | None = None
+    ) -> float:
+        """The height (m, world z) the tool frame of ``group`` may be asked to reach instead
+        of ``z_target``: ``z_target`` when it is on or above the floor; else the floor, or
+        ``z_was`` when that is lower (a tool frame below the floor may stay or rise).
+        ``z_was``: where the tool frame was asked to be (a mocap arm: its control), default
+        where it is (``data``'s site pose). A change is reported with the tool frame's link.
+        """
+        floor_z = self.floor_z
+        if z_target >= floor_z:
+            return z_target
+        site = group.frame_site_id
+        if z_was is None:
+            z_was = float(data.site_xpos[site, 2])
+        z = max(z_target, min(floor_z, z_was))
+        if z != z_target:
+            self.report.add(self.link_name(int(self.model.site_bodyid[site])))
+        return z

@@ -1,0 +1,304 @@
+"""Serve the simulated kit over the arm controller's wire protocol (also ``trossen-mujoco serve``).
+
+    trossen-mujoco serve                       # left arm on 127.0.0.2, right arm on 127.0.0.3
+    trossen-mujoco serve --record demo --cam_names cam_high --image_size 240x320
+
+One kit world (both arms and the task's objects, placed as ``record --seed S`` places its
+episode 0) steps in real time; each arm answers the ``trossen_arm`` driver (and anything
+built on it, e.g. Trossen's LeRobot plugin) on its own loopback address, as a real arm
+controller does on the network: ``configure``, modes, position / velocity / effort commands,
+joint limits, faults (a command past the joint limits or speed limits puts that arm in the
+controller's error state; ``configure(..., clear_error=True)`` clears it). Addresses must be
+in 127.0.0.0/8: the served kit never listens beyond this machine.
+
+``--record DIR`` writes what the clients do as episodes of this project's schema: one per
+client session (the first ``configure`` to the last ``cleanup``), or per ``--episode_len``
+frames; cameras rendered at ``--fps``, the task's reward per step, one line per episode with
+its success. Ctrl-C or SIGTERM stops serving (the episode under way is written) and exits 0.
+
+``--role leader --replay EPISODE.hdf5`` serves two leader arms replaying a recorded episode
+instead (default addresses 127.0.0.4 and 127.0.0.5), for ``teleop``.
+"""
+
+from __future__ import annotations
+
+if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
+    import sys
+    from pathlib import Path
+
+    sys.path[0] = str(
+        next(p for p in Path(__file__).resolve().parents if not (p / "__init__.py").is_file())
+    )
+    import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from trossen_arm_mujoco.constants import ROOT_DIR
+from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION
+from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
+
+#: Default addresses of served leader arms (``--role leader``).
+LEADER_IPS: dict[str, str] = {"left": "127.0.0.4", "right": "127.0.0.5"}
+#: Largest run seed (as ``record``).
+MAX_SEED = 2**63 - 1
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line flags."""
+    p = ArgumentParser(
+        prog="trossen-mujoco serve",
+        description="Serve the simulated Stationary AI kit over the arm controller's wire "
+        "protocol on loopback addresses, so that trossen_arm clients drive it like the real "
+        "kit; optionally record what they do.",
+    )
+    p.add_argument("--task_name", default="sim_transfer_cube",
+                   help="kit task whose objects and reward the world holds "
+                   "(default sim_transfer_cube)")  # fmt: skip
+    p.add_argument("--left_ip", default=None,
+                   help="left arm's address in 127.0.0.0/8 (default 127.0.0.2; leaders "
+                   "127.0.0.4)")  # fmt: skip
+    p.add_argument("--right_ip", default=None,
+                   help="right arm's address in 127.0.0.0/8 (default 127.0.0.3; leaders "
+                   "127.0.0.5)")  # fmt: skip
+    p.add_argument("--seed", type=int, default=0,
+                   help="run seed: the scene of episode k is record --seed S's episode k "
+                   "(default 0)")  # fmt: skip
+    p.add_argument("--viewer", action="store_true", help="show a live viewer (needs a display)")
+    p.add_argument("--record", default=None, metavar="DIR",
+                   help="record the clients' sessions into this dataset folder (relative to "
+                   "--root_dir unless absolute); episodes continue after its last one")  # fmt: skip
+    p.add_argument("--root_dir", default=ROOT_DIR, help=f"datasets root (default {ROOT_DIR})")
+    p.add_argument("--cam_names", default=None,
+                   help="with --record: comma-separated cameras, or 'none' (default: the "
+                   "task's 4)")  # fmt: skip
+    p.add_argument("--image_size", default="480x640",
+                   help="with --record: HEIGHTxWIDTH (default 480x640)")  # fmt: skip
+    p.add_argument("--fps", type=float, default=None,
+                   help="recording rate in frames per simulated second; 500/n, e.g. 50 or 25 "
+                   "(default: the task's, 50)")  # fmt: skip
+    p.add_argument("--episode_len", type=int, default=None,
+                   help="with --record: at most this many frames per episode; a longer "
+                   "session is split (default: one episode per session)")  # fmt: skip
+    p.add_argument("--compression", default=DEFAULT_COMPRESSION, choices=COMPRESSIONS,
+                   help=f"image compression (default {DEFAULT_COMPRESSION})")  # fmt: skip
+    p.add_argument("--wait", action="store_true",
+                   help="with --record: wait for another run writing to DIR instead of "
+                   "refusing")  # fmt: skip
+    p.add_argument("--role", default="follower", choices=("follower", "leader"),
+                   help="follower: the kit world (default); leader: two leader arms "
+                   "replaying --replay")  # fmt: skip
+    p.add_argument(
+        "--replay",
+        default=None,
+        metavar="EPISODE",
+        help="with --role leader: the episode file the leaders replay",
+    )
+    p.add_argument(
+        "--speed", type=float, default=1.0, help="with --role leader: replay speed (default 1)"
+    )
+    p.add_argument("--verbose", action="store_true", help="log every protocol request")
+    return p
+
+
+def _say(text: str) -> None:
+    try:
+        print(text, flush=True)
+    except (OSError, ValueError):  # a closed stdout must not stop serving
+        pass
+
+
+def _ips(args: argparse.Namespace, defaults: dict[str, str]) -> dict[str, str]:
+    from trossen_arm_mujoco.twin.served_kit import check_kit_ips
+
+    given = {"left": args.left_ip or defaults["left"], "right": args.right_ip or defaults["right"]}
+    return check_kit_ips(given, {"left": "--left_ip", "right": "--right_ip"})
+
+
+def _signal_name(exc: KeyboardInterrupt) -> str:
+    signum = getattr(exc, "signum", signal.SIGINT)
+    return signal.Signals(signum).name
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Parse, serve until a stop signal; returns the exit status (0 after a deliberate
+    stop, 1 when an episode could not be written)."""
+    args = build_parser().parse_args(argv)
+    from trossen_arm_mujoco.twin.serving import require_sim_server
+
+    require_sim_server()
+    logging.basicConfig(format="%(name)s: %(message)s")
+    level = logging.INFO if args.verbose else logging.WARNING
+    for name in ("trossen_arm_sim", "trossen_arm_mujoco.twin"):
+        logging.getLogger(name).setLevel(level)
+    if args.role == "leader":
+        return _serve_leaders(args)
+    if args.replay is not None:
+        raise UserError("--replay needs --role leader")
+    from trossen_arm_mujoco.twin.served_kit import DEFAULT_IPS
+
+    ips = _ips(args, DEFAULT_IPS)
+    if not 0 <= args.seed <= MAX_SEED:
+        raise UserError(f"--seed must be in 0 .. 2**63-1, got {args.seed}")
+    if args.episode_len is not None and args.episode_len < 1:
+        raise UserError(f"--episode_len must be at least 1, got {args.episode_len}")
+    if args.record is None:
+        for flag in ("cam_names", "episode_len", "wait"):
+            if getattr(args, flag):
+                raise UserError(f"--{flag} needs --record DIR")
+        return _serve(args, ips, None)
+    from trossen_arm_mujoco.data.dataset_lock import DatasetLock
+    from trossen_arm_mujoco.scripts.record_args import camera_names as _cameras
+    from trossen_arm_mujoco.scripts.record_args import dataset_folder as _dataset_folder
+    from trossen_arm_mujoco.scripts.record_args import image_size as _image_size
+
+    cams = _cameras(args.cam_names, _task(args.task_name))
+    size = _image_size(args.image_size)
+    folder = _dataset_folder(args.root_dir, args.record)
+    with DatasetLock(folder, wait=args.wait):
+        return _serve(args, ips, (folder, cams, size))
+
+
+def _task(name: str) -> str:
+    from trossen_arm_mujoco.tasks.registry import canonical
+
+    return canonical(name)
+
+
+def _serve(args: argparse.Namespace, ips: dict[str, str], record) -> int:
+    from trossen_arm_mujoco.twin.kit_world import KitWorld
+    from trossen_arm_mujoco.twin.served_kit import ServedKit
+
+    first = 0
+    if record is not None:
+        first = _first_index(record[0])
+    world = KitWorld(args.task_name, base_seed=args.seed, episode_index=first, fps=args.fps)
+    recorder = None
+    try:
+        if record is not None:
+            from trossen_arm_mujoco.twin.session_recorder import RecordOptions, SessionRecorder
+
+            folder, cams, (h, w) = record
+            options = RecordOptions(folder, cams, h, w, args.compression, args.episode_len)
+            recorder = SessionRecorder(world, options, first, _say)
+        kit = ServedKit(world, ips, _say, recorder)
+        try:
+            kit.start()
+        except BaseException:
+            kit.stop()
+            raise
+        started = time.monotonic()
+        try:
+            _say(
+                f"serving {world.task_name} (seed {args.seed}, episode {first}): left arm on "
+                f"{ips['left']}, right arm on {ips['right']} (TCP 50001, UDP 50000)"
+                + (f"; recording into {record[0]}" if record else "")
+                + "; Ctrl-C stops"
+            )
+            how = _wait(world, args.viewer)
+        except KeyboardInterrupt as exc:
+            how = _signal_name(exc)
+        finally:
+            stats = kit.stop()
+        rtf = world.realtime_factor
+        line = (f"stopped ({how}) after {time.monotonic() - started:.1f} s at real-time "
+                f"factor {rtf:.2f}")  # fmt: skip
+        if stats is not None:
+            line += (f"; {len(stats.written)} episode(s) written to {record[0]}, "
+                     f"{stats.successes} successful")  # fmt: skip
+            if stats.frames and record[1]:
+                line += f"; frames rendered at {stats.frames_per_s:.1f} per s"
+        _say(line)
+        if stats is not None and stats.errors:
+            raise UserError(f"{len(stats.errors)} episode(s) not written: {stats.errors[0]}")
+        return 0
+    finally:
+        world.close()
+
+
+def _first_index(folder: Path) -> int:
+    """Index after the folder's last episode (nothing is overwritten); stale temporary files
+    of killed runs are removed first (the caller holds the lock)."""
+    from trossen_arm_mujoco.data.reader import list_episodes
+    from trossen_arm_mujoco.data.temp_files import remove_stale_temp_files
+    from trossen_arm_mujoco.twin.episode_spool import remove_stale_spools
+
+    remove_stale_temp_files(folder)
+    remove_stale_spools(folder)
+    found = list_episodes(folder, missing_ok=True)
+    return found[-1][0] + 1 if found else 0
+
+
+def _wait(world, viewer_wanted: bool) -> str:
+    """Until a stop signal (raised as KeyboardInterrupt) or the viewer window closes."""
+    viewer = None
+    if viewer_wanted:
+        from trossen_arm_mujoco.viewer import LiveViewer
+
+        viewer = LiveViewer.open(world.model, world.data)
+    try:
+        while True:
+            if viewer is None:
+                time.sleep(0.5)
+                continue
+            with world.lock:
+                running = viewer.update()
+            if not running:
+                return "viewer closed"
+            time.sleep(1 / 30)
+    finally:
+        if viewer is not None:
+            viewer.close()
+
+
+def _serve_leaders(args: argparse.Namespace) -> int:
+    """``--role leader``: two leader arms replaying ``--replay`` (``twin.leaders``)."""
+    if args.record is not None:
+        raise UserError("--record needs --role follower")
+    if args.replay is None:
+        raise UserError("--role leader needs --replay EPISODE.hdf5 (the motion the leaders make)")
+    ips = _ips(args, LEADER_IPS)
+    try:
+        from trossen_arm_mujoco.twin.leaders import serve_leaders
+    except ImportError as exc:
+        raise UserError(f"--role leader is not available in this installation ({exc})") from None
+    stop, failure = threading.Event(), []
+
+    def run() -> None:
+        try:
+            serve_leaders(args.replay, ips["left"], ips["right"], stop, speed=args.speed)
+        except BaseException as exc:  # reported below, in the main thread
+            failure.append(exc)
+
+    worker = threading.Thread(target=run, name="leaders", daemon=True)
+    worker.start()
+    how = "replay ended"
+    try:
+        while worker.is_alive():
+            worker.join(0.2)
+    except KeyboardInterrupt as exc:
+        how = _signal_name(exc)
+    finally:
+        stop.set()
+        worker.join()
+    if failure:
+        exc = failure[0]
+        raise UserError(str(exc)) if isinstance(exc, UserError) else exc
+    _say(f"leaders stopped ({how})")
+    return 0
+
+
+def cli(argv: Sequence[str] | None = None) -> int:
+    """Entry point: user errors as one line and exit status 2; a stop signal ends serving
+    with exit status 0."""
+    return run_cli(main, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(cli())

@@ -1,0 +1,376 @@
+"""Simulated leader arms: a recorded episode played back over the arm controller's protocol.
+
+A pair of leader arms (left, right), each served on its own loopback address by a
+:class:`~trossen_arm_mujoco.twin.leader_server.LeaderArmServer`, reports the joint positions
+of a recorded episode as if a person were moving them: any client that speaks the arm
+controller's protocol (the unmodified ``trossen_arm`` driver, ``trossen-mujoco teleop``,
+LeRobot's leader teleoperator) reads them with ``get_all_positions()``, 7 values per arm
+(6 joints in rad, then the gripper in m: one finger's travel, 0 closed .. 0.044 open).
+
+What is played (``source``):
+    ``"action"`` (default): the episode's actions, i.e. what the operator's hands commanded.
+    In an ALOHA-style recording the action *is* the leader arm's reading, and its gripper
+    value is the hand's command (closed on a grasp), not the follower finger's measured
+    travel, which a grasped object blocks half open; a follower commanded with the blocked
+    travel would barely squeeze. ``"qpos"``: the recorded follower joint positions instead
+    (the measured fingers included). Per arm the 7 values are the real kit's layout
+    (``REAL_KIT_LAYOUT``: joints 0..5, then the ``left_carriage_joint`` finger), clipped to
+    the arm's joint ranges.
+
+When it is played (deterministic for ``teleop``):
+    The arms hold the episode's first pose until a client has put **both** arms in
+    ``external_effort`` mode (what a leader teleoperator does right after connecting:
+    gravity-compensated, free to move by hand), then for ``lead_in`` seconds more; the
+    episode then plays over wall-clock time at ``speed`` (1.0 = as recorded) and, at its
+    end, the arms hold the last pose (:attr:`LeaderPair.finished` is set; a new replay needs
+    a new pair, e.g. restarting ``serve``). :meth:`LeaderPair.trigger` starts the replay at
+    once, without waiting for a client. ``teleop`` connects to the leaders right before its
+    first episode, so that episode starts within a few milliseconds of the replay's trigger
+    and ``lead_in`` later the arms move.
+
+Commands are ignored:
+    Whatever a client sends (external efforts, positions in position mode, velocities) never
+    moves a played arm, as a person's hand would overpower a leader's motors. The modes are
+    only watched for the trigger.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from trossen_arm_mujoco.data.reader import load_episode
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.real.validate import ArmLimits
+from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.twin.leader_server import LeaderArmServer
+from trossen_arm_mujoco.twin.serving import check_loopback, require_sim_server
+
+#: What a replay can play: the episode's actions or its measured joint positions.
+SOURCES: tuple[str, ...] = ("action", "qpos")
+#: Seconds the arms hold the first pose after both are in external_effort mode.
+LEAD_IN_S: float = 1.0
+#: Replay speeds accepted (1.0 = as recorded).
+SPEED_RANGE: tuple[float, float] = (0.05, 10.0)
+#: Joint mode value of ``external_effort`` in the controller's protocol.
+EXTERNAL_EFFORT_MODE: int = 3
+#: Default loopback addresses of the served leader pair (left, right).
+DEFAULT_LEADER_IPS: tuple[str, str] = ("127.0.0.4", "127.0.0.5")
+
+
+@dataclass(frozen=True)
+class LeaderTrajectory:
+    """The joint positions two leader arms play.
+
+    Attributes:
+        positions: float64 ``(T, 2, 7)``: per step, ``[left, right]`` arm values (rad x6,
+            gripper m), within the arm's joint ranges.
+        dt: step period of the episode (s).
+        path: the episode file.
+        source: ``"action"`` or ``"qpos"``.
+    """
+
+    positions: np.ndarray
+    dt: float
+    path: Path
+    source: str = "action"
+
+    @property
+    def num_steps(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last step at speed 1."""
+        return (self.num_steps - 1) * self.dt
+
+    def sample(self, arm: int, seconds: float) -> tuple[np.ndarray, np.ndarray]:
+        """Position (rad x6, m) and velocity (rad/s x6, m/s) of arm ``arm`` (0 left, 1 right)
+        ``seconds`` into the episode (linear between steps; held before 0 and after the
+        end, with zero velocity)."""
+        p = self.positions[:, arm]
+        if self.num_steps == 1 or seconds <= 0.0:
+            return p[0].copy(), np.zeros(7)
+        if seconds >= self.duration:
+            return p[-1].copy(), np.zeros(7)
+        x = seconds / self.dt
+        i = min(int(x), self.num_steps - 2)
+        frac = x - i
+        slope = p[i + 1] - p[i]
+        return p[i] + frac * slope, slope / self.dt
+
+
+def load_leader_trajectory(
+    path: str | os.PathLike[str], source: str = "action"
+) -> LeaderTrajectory:
+    """Read an episode file (this package's or a vendor recording) as a leader trajectory.
+
+    Raises:
+        UserError: unknown ``source``; the file is missing or invalid (one line).
+    """
+    if source not in SOURCES:
+        raise unknown_name_error("replay source", source, SOURCES)
+    episode = load_episode(path)
+    values = REAL_KIT_LAYOUT.from_vendor(episode.action if source == "action" else episode.qpos)
+    limits = ArmLimits.from_mjcf()
+    arms = np.stack([values[:, REAL_KIT_LAYOUT.arm(s).start : REAL_KIT_LAYOUT.arm(s).start + 7]
+                     for s in SIDES], axis=1)  # fmt: skip
+    arms = np.clip(arms, limits.driver_lower, limits.driver_upper)
+    return LeaderTrajectory(arms, float(episode.dt), Path(path), source)
+
+
+class ReplayClock:
+    """When the replay runs, shared by both arms.
+
+    The replay time (s into the episode) is 0 until :meth:`client_ready` has been called
+    for every side (or :meth:`trigger`), then after ``lead_in`` s runs at ``speed`` up to
+    ``duration`` and stays there. :attr:`started` and :attr:`finished` are set as those
+    moments pass (checked whenever the time is read, and by :meth:`poll`).
+    """
+
+    def __init__(
+        self,
+        duration: float,
+        speed: float = 1.0,
+        lead_in: float = LEAD_IN_S,
+        sides: tuple[str, ...] = SIDES,
+        now: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.duration = float(duration)
+        self.speed = float(speed)
+        self.lead_in = float(lead_in)
+        self.sides = tuple(sides)
+        self.now = now
+        self.ready: set[str] = set()
+        #: Monotonic time (s) at which the replay leaves the first pose (None: not yet).
+        self.start_time: float | None = None
+        self.triggered = threading.Event()
+        self.started = threading.Event()
+        self.finished = threading.Event()
+        self._lock = threading.Lock()
+
+    def client_ready(self, side: str) -> None:
+        """A client put arm ``side`` in external_effort mode."""
+        if self.start_time is not None or side in self.ready:
+            return
+        with self._lock:
+            self.ready.add(side)
+            if self.ready.issuperset(self.sides):
+                self._trigger_locked()
+
+    def trigger(self) -> None:
+        """Start now (the replay leaves the first pose ``lead_in`` s from now)."""
+        with self._lock:
+            self._trigger_locked()
+
+    def _trigger_locked(self) -> None:
+        if self.start_time is None:
+            self.start_time = self.now() + self.lead_in
+            self.triggered.set()
+
+    def replay_time(self) -> float:
+        """Seconds into the episode now (0 .. duration)."""
+        start = self.start_time
+        if start is None:
+            return 0.0
+        elapsed = (self.now() - start) * self.speed
+        if elapsed < 0.0:
+            return 0.0
+        self.started.set()
+        if elapsed >= self.duration:
+            self.finished.set()
+            return self.duration
+        return elapsed
+
+    def poll(self) -> None:
+        """Update :attr:`started` / :attr:`finished` (no client needs to be reading)."""
+        self.replay_time()
+
+
+class PlayedLeaderArm:
+    """One leader arm that plays its part of a :class:`LeaderTrajectory`: the object a
+    :class:`LeaderArmServer` serves (``num_joints``, ``joint_limits``,
+    ``apply_joint_commands``, ``read_joint_outputs``)."""
+
+    num_joints = 7
+
+    def __init__(
+        self, trajectory: LeaderTrajectory, side: str, clock: ReplayClock, limits: ArmLimits
+    ) -> None:
+        from trossen_arm_sim.protocol import JointOutput
+
+        self._output = JointOutput
+        self.trajectory = trajectory
+        self.side = side
+        self.arm = SIDES.index(side)
+        self.clock = clock
+        self._limits = [
+            (float(lo), float(hi))
+            for lo, hi in zip(limits.driver_lower, limits.driver_upper, strict=True)
+        ]
+        #: Modes of the last robot input (protocol values; None before any).
+        self.modes: list[int] | None = None
+        #: Robot inputs received.
+        self.inputs = 0
+
+    @property
+    def joint_limits(self) -> list[tuple[float, float]]:
+        """``(low, high)`` per joint: rad x6, then the gripper (m)."""
+        return list(self._limits)
+
+    def apply_joint_commands(self, modes: list, positions: list) -> None:
+        """Watch the modes (external_effort on every joint triggers the replay); the
+        commands themselves never move a played arm."""
+        self.inputs += 1
+        self.modes = [int(m) for m in modes]
+        if self.modes and all(m == EXTERNAL_EFFORT_MODE for m in self.modes):
+            self.clock.client_ready(self.side)
+
+    def read_joint_outputs(self) -> list:
+        """The played position and velocity of each joint now (efforts 0)."""
+        position, velocity = self.trajectory.sample(self.arm, self.clock.replay_time())
+        return [
+            self._output(position=float(p), velocity=float(v) * self.clock.speed)
+            for p, v in zip(position, velocity, strict=True)
+        ]
+
+
+class LeaderPair:
+    """Two played leader arms, each behind its own server on a loopback address.
+
+    Args:
+        trajectory: what to play.
+        left_ip, right_ip: distinct IPv4 loopback addresses.
+        speed: replay speed (1.0 = as recorded).
+        lead_in: seconds the first pose is held after the trigger (see the module doc).
+
+    Use as a context manager, or :meth:`start` / :meth:`stop`.
+    """
+
+    def __init__(
+        self,
+        trajectory: LeaderTrajectory,
+        left_ip: str = DEFAULT_LEADER_IPS[0],
+        right_ip: str = DEFAULT_LEADER_IPS[1],
+        speed: float = 1.0,
+        lead_in: float = LEAD_IN_S,
+    ) -> None:
+        require_sim_server()
+        ips = {
+            "left": check_loopback(left_ip, "left leader address"),
+            "right": check_loopback(right_ip, "right leader address"),
+        }
+        if ips["left"] == ips["right"]:
+            raise UserError(
+                f"the left and right leader arms need two addresses, got {left_ip} twice"
+            )
+        check_speed(speed)
+        if not (math.isfinite(lead_in) and lead_in >= 0):
+            raise UserError(f"lead_in must be a non-negative number of seconds, got {lead_in!r}")
+        self.trajectory = trajectory
+        self.ips = ips
+        self.clock = ReplayClock(trajectory.duration, speed, lead_in)
+        limits = ArmLimits.from_mjcf()
+        self.arms = {s: PlayedLeaderArm(trajectory, s, self.clock, limits) for s in SIDES}
+        self.servers = {s: LeaderArmServer(self.arms[s], ips[s], f"{s} leader arm") for s in SIDES}
+
+    @property
+    def started(self) -> threading.Event:
+        """Set once the arms have left the first pose."""
+        return self.clock.started
+
+    @property
+    def finished(self) -> threading.Event:
+        """Set once the replay reached the episode's end (the arms hold its last pose)."""
+        return self.clock.finished
+
+    def trigger(self) -> None:
+        """Start the replay now, without waiting for a client."""
+        self.clock.trigger()
+
+    def start(self) -> None:
+        """Serve both arms (both or neither: a failure stops the first)."""
+        try:
+            for server in self.servers.values():
+                server.start()
+        except BaseException:
+            self.stop()
+            raise
+
+    def stop(self) -> None:
+        """Stop both servers (idempotent); clients see the connection drop."""
+        for server in self.servers.values():
+            server.stop()
+
+    def __enter__(self) -> LeaderPair:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+def check_speed(speed: float) -> float:
+    """``speed`` when it is a replay speed in :data:`SPEED_RANGE`; else a ``UserError``."""
+    lo, hi = SPEED_RANGE
+    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not lo <= speed <= hi:
+        raise UserError(f"replay speed must be a number in [{lo:g}, {hi:g}], got {speed!r}")
+    return float(speed)
+
+
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def serve_leaders(
+    episode_path: str,
+    left_ip: str,
+    right_ip: str,
+    stop_event: threading.Event,
+    speed: float = 1.0,
+    *,
+    lead_in: float = LEAD_IN_S,
+    source: str = "action",
+    say: Callable[[str], None] | None = _say,
+    on_ready: Callable[[LeaderPair], None] | None = None,
+) -> None:
+    """Serve a pair of leader arms replaying ``episode_path`` until ``stop_event`` is set.
+
+    The arms hold the episode's first pose until a client puts both in external_effort mode,
+    then ``lead_in`` s later play the episode at ``speed`` and hold its last pose (see the
+    module docstring). ``say`` gets one line when serving starts, when the replay starts and
+    when it has finished (default: stderr; None: silent). ``on_ready`` is called with the
+    running :class:`LeaderPair` (its ``started`` / ``finished`` events, ``trigger()``).
+
+    Raises:
+        UserError: a non-loopback or repeated address, a bad speed, an unreadable episode,
+            an address already served (one line each).
+    """
+    trajectory = load_leader_trajectory(episode_path, source)
+    speak = say or (lambda line: None)
+    with LeaderPair(trajectory, left_ip, right_ip, speed, lead_in) as pair:
+        speak(
+            f"serving leader arms replaying {trajectory.path} ({trajectory.num_steps} steps, "
+            f"{trajectory.duration / pair.clock.speed:.1f} s at speed {pair.clock.speed:g}, "
+            f"{source}) on left {pair.ips['left']}, right {pair.ips['right']}; the replay "
+            f"starts {lead_in:g} s after a client puts both arms in external_effort mode"
+        )
+        if on_ready is not None:
+            on_ready(pair)
+        said_start = said_end = False
+        while not stop_event.wait(0.05):
+            pair.clock.poll()
+            if not said_start and pair.started.is_set():
+                said_start = True
+                speak("leader replay started")
+            if not said_end and pair.finished.is_set():
+                said_end = True
+                speak("leader replay finished; holding the last pose")

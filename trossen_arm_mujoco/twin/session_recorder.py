@@ -1,0 +1,272 @@
+"""What the clients of a served kit do, recorded as episodes of this project's schema.
+
+One episode per client session: it begins at the first frame after a client connects to
+either arm while none was connected (``configure``), and ends when the last one disconnects
+(``cleanup``), or after ``episode_len`` frames (then the next one begins at once, the
+objects moved to the next episode's sampled poses and the arms left where they are). After
+a session ends the world is reset to the next episode (:meth:`KitWorld.reset`), so the next
+session starts from ``record``'s scene of the next index. Every frame of an episode is
+a step of the file: qpos, qvel and env_state at its start, the arms' commanded targets as
+the 16-value action, the task's reward after it, and the cameras rendered from its start.
+
+The stepping thread only copies the frame's state into a queue; a worker thread renders
+the cameras (from its own ``MjData`` set to that state), spools the steps
+(:mod:`.episode_spool`) and publishes each finished episode with the project's writer
+(atomic, never overwriting: indices continue after the folder's last episode). So slow
+rendering delays the files, never the arms; a backlog is reported, and :meth:`stop` writes
+everything still queued. Each episode is reported in one line (steps, why it ended, reward,
+success); episodes that end with no step are not written.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+
+from trossen_arm_mujoco.data.reader import episode_path
+from trossen_arm_mujoco.data.schema import DEFAULT_COMPRESSION
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.twin.episode_spool import EpisodeSpool
+from trossen_arm_mujoco.twin.frame import Frame
+from trossen_arm_mujoco.twin.kit_world import KitWorld
+
+#: How much lower the recorder thread's priority is than the stepping thread's (nice steps).
+RENDER_NICENESS: int = 10
+
+#: A backlog of frames longer than this (s of simulated time) is reported once.
+BACKLOG_WARN_S: float = 5.0
+
+
+def _lower_priority() -> None:
+    """Lower this thread's scheduling priority by :data:`RENDER_NICENESS` (Linux: a thread
+    has its own nice value, and threads it starts, such as the software renderer's, inherit
+    it); a no-op where that is not possible."""
+    try:
+        tid = threading.get_native_id()
+        os.setpriority(os.PRIO_PROCESS, tid, os.getpriority(os.PRIO_PROCESS, tid) + RENDER_NICENESS)
+    except (AttributeError, OSError):
+        pass
+
+
+@dataclass(frozen=True)
+class RecordOptions:
+    """Where and what to record.
+
+    Attributes:
+        folder: the dataset folder (exists; the caller holds its lock).
+        camera_names, height, width: cameras rendered into every step (pixels).
+        compression: image compression of the files (``data.schema.COMPRESSIONS``).
+        episode_len: most frames per episode (None: one episode per session).
+    """
+
+    folder: Path
+    camera_names: Sequence[str] = ()
+    height: int = 480
+    width: int = 640
+    compression: str = DEFAULT_COMPRESSION
+    episode_len: int | None = None
+
+
+@dataclass
+class _Episode:
+    index: int
+    seed: int
+    attrs: dict[str, Any]
+    spool: EpisodeSpool | None = None
+    reason: str = ""
+
+
+@dataclass
+class RecordStats:
+    """Totals of a run: episodes written, frames rendered, rendering rate, failures."""
+
+    written: list[Path] = field(default_factory=list)
+    successes: int = 0
+    frames: int = 0
+    render_s: float = 0.0
+    errors: list[str] = field(default_factory=list)
+
+    @property
+    def frames_per_s(self) -> float:
+        """Frames rendered and spooled per second of worker time."""
+        return self.frames / self.render_s if self.render_s > 0 else float("nan")
+
+
+class SessionRecorder:
+    """Records the sessions of ``world``'s clients; see the module doc.
+
+    Args:
+        world: the served world (its frame hooks are taken).
+        options: where and what.
+        first_index: index of the first episode (the world must be in that episode).
+        say: prints one line (episode reports, warnings).
+    """
+
+    def __init__(
+        self,
+        world: KitWorld,
+        options: RecordOptions,
+        first_index: int,
+        say: Callable[[str], None] = print,
+    ) -> None:
+        self.world, self.options, self.say = world, options, say
+        self.index = int(first_index)
+        self.stats = RecordStats()
+        self._want = False  # a client session is open (set by the server threads)
+        self._episode: _Episode | None = None  # being recorded (stepping thread)
+        self._steps = 0
+        self._queue: queue.Queue = queue.Queue()
+        self._warned = False
+        world.before_frame, world.on_frame = self._before_frame, self._on_frame
+        self._worker = threading.Thread(target=self._work, name="kit-recorder", daemon=True)
+        self._worker.start()
+
+    # -- sessions (any thread) -----------------------------------------------------------
+    def session_started(self) -> None:
+        """A client connected while none was: record from the next frame."""
+        self._want = True
+
+    def session_ended(self) -> None:
+        """The last client disconnected: end the episode at the next frame."""
+        self._want = False
+
+    # -- stepping thread (world lock held) ------------------------------------------------
+    def _before_frame(self) -> None:
+        if self._episode is None and self._want:
+            self._begin()
+        elif self._episode is not None and not self._want:
+            self._end("session ended")
+            self.world.reset(self.index)  # the next session starts from a fresh scene
+
+    def _begin(self) -> None:
+        w = self.world
+        poses = w.object_poses()
+        attrs: dict[str, Any] = {
+            "task_name": w.task_name, "seed": int(w.seed), "base_seed": w.base_seed,
+            "attempt": self.index, "dt": w.frame_dt, "source": "serve",
+            "initial_env_state": w.env_state(), "object_names": list(poses),
+            **({"box_pose": poses["box"]} if "box" in poses else {}),
+        }  # fmt: skip
+        self._episode = _Episode(self.index, int(w.seed), attrs)
+        self._steps = 0
+        self._queue.put(("begin", self._episode))
+
+    def _end(self, reason: str) -> None:
+        assert self._episode is not None
+        self._episode.reason = reason
+        self._episode.attrs["realtime_factor"] = float(self.world.realtime_factor)
+        self._queue.put(("end", self._episode))
+        self._episode = None
+        self.index += 1
+
+    def _on_frame(self, frame: Frame) -> None:
+        if self._episode is None:
+            return
+        self._queue.put(("frame", frame))
+        self._steps += 1
+        backlog = self._queue.qsize() * self.world.frame_dt
+        if backlog > BACKLOG_WARN_S and not self._warned:
+            self._warned = True
+            self.say(f"warning: rendering lags {backlog:.0f} s behind the arms; frames are "
+                     "queued and all written (smaller --image_size or fewer --cam_names keep "
+                     "up)")  # fmt: skip
+        if self.options.episode_len is not None and self._steps >= self.options.episode_len:
+            self._end(f"{self._steps} steps (--episode_len)")
+            self.world.reset(self.index, keep_arms=True)  # next objects, arms untouched
+
+    # -- worker thread ----------------------------------------------------------------------
+    def _work(self) -> None:
+        _lower_priority()  # the arms' stepping thread comes first; the GL threads inherit it
+        o = self.options
+        cameras, rdata = None, None
+        if o.camera_names:
+            from trossen_arm_mujoco.sim.cameras import CameraSet
+
+            cameras = CameraSet(self.world.model, o.camera_names, o.height, o.width)
+            rdata = mujoco.MjData(self.world.model)
+        episode: _Episode | None = None
+        try:
+            while True:
+                kind, item = self._queue.get()
+                if kind == "stop":
+                    return
+                try:
+                    if kind == "begin":
+                        episode = item
+                        episode.spool = EpisodeSpool(o.folder, o.camera_names, o.height, o.width)
+                    elif kind == "frame" and episode is not None and episode.spool is not None:
+                        start = time.perf_counter()
+                        images = self._render(cameras, rdata, item)
+                        episode.spool.append(item, images)
+                        self.stats.frames += 1
+                        self.stats.render_s += time.perf_counter() - start
+                    elif kind == "end" and episode is not None:
+                        self._publish(episode)
+                        episode = None
+                except Exception as exc:  # a failed write: say so, keep serving
+                    self._fail(episode, exc)
+                    episode = None
+        finally:
+            if episode is not None and episode.spool is not None:
+                episode.spool.discard()
+            if cameras is not None:
+                cameras.close()
+
+    def _render(self, cameras, rdata, frame: Frame) -> dict:
+        if cameras is None:
+            return {}
+        rdata.qpos[:] = frame.qpos_full
+        rdata.mocap_pos[:], rdata.mocap_quat[:] = frame.mocap_pos, frame.mocap_quat
+        mujoco.mj_forward(self.world.model, rdata)
+        return cameras.render_all(rdata)
+
+    def _publish(self, episode: _Episode) -> None:
+        spool = episode.spool
+        assert spool is not None
+        n = len(spool)
+        if n == 0:
+            spool.discard()
+            return
+        rewards = spool.rewards
+        final, best = float(rewards[-1]), float(rewards.max())
+        top = float(getattr(self.world.task, "max_reward", 1.0))
+        success = final >= top
+        attrs = {**episode.attrs, "success": success, "final_reward": final,
+                 "max_reward": best, "end_reason": episode.reason}  # fmt: skip
+        path = spool.publish(episode_path(self.options.folder, episode.index), attrs,
+                             self.options.compression)  # fmt: skip
+        self.stats.written.append(path)
+        self.stats.successes += int(success)
+        dt = self.world.frame_dt
+        self.say(
+            f"{path.name}: {n} steps ({n * dt:.2f} s), {episode.reason}; reward final "
+            f"{final:g}, max {best:g} of {top:g}: {'success' if success else 'no success'}"
+        )
+
+    def _fail(self, episode: _Episode | None, exc: Exception) -> None:
+        if episode is not None and episode.spool is not None:
+            episode.spool.discard()
+        name = f"episode_{episode.index}.hdf5" if episode is not None else "an episode"
+        text = str(exc) if isinstance(exc, (UserError, OSError)) else repr(exc)
+        line = f"{name} was not written: {' '.join(text.split())}"
+        self.stats.errors.append(line)
+        self.say(f"error: {line}")
+
+    # -- end --------------------------------------------------------------------------------
+    def stop(self) -> RecordStats:
+        """End the episode being recorded (call after the world stopped stepping), write
+        everything queued, end the worker. Returns the run's totals."""
+        if self._episode is not None:
+            self._end("serve stopped")
+        self._queue.put(("stop", None))
+        self._worker.join()
+        self.world.before_frame = self.world.on_frame = None
+        return self.stats
