@@ -4,7 +4,8 @@
         python benchmarks/train_eval.py --episodes 50 --steps 6000 --eval_episodes 50
 
 1. ``trossen-mujoco record`` of ``--episodes`` scripted transfer episodes (``--seed``), no
-   camera by default (``--cam_names cam_high --image_size 96x128`` for the image recipe);
+   camera by default (``--cam_names cam_high --image_size 96x128 --no_env_state`` for the
+   image recipe);
 2. ``trossen-mujoco export`` in the real kit's 14-value layout (state, velocity,
    environment_state = the cube's pose, action);
 3. LeRobot's own ``lerobot-train`` with ACT (the settings below; CPU unless ``--device``);

@@ -80,7 +80,7 @@ def test_a_target_far_ahead_of_the_setpoint_is_a_fault() -> None:
     fault = lag_fault(0, 1.1 * allowed, limits[0])
     assert fault is not None and fault.state == JOINT_LIMIT_EXCEEDED
     assert fault.reason.startswith("joint_0: the target runs")
-    assert lag_fault(6, 0.013, limits[6]) is None and lag_fault(6, 0.016, limits[6]) is not None
+    assert lag_fault(6, 0.018, limits[6]) is None and lag_fault(6, 0.021, limits[6]) is not None
 
 
 def test_non_finite_inputs_and_efforts() -> None:
