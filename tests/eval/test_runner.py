@@ -4,6 +4,8 @@ module:function policies, videos."""
 from __future__ import annotations
 
 import importlib.util
+import json
+import subprocess
 import sys
 import textwrap
 import uuid
@@ -137,8 +139,18 @@ def test_videos_writes_the_first_rollouts(hold_policy, tmp_path):
 
 
 def test_ray_engine_gives_the_same_episodes_as_local(scripted_info, tmp_path):
+    """``eval --engine ray`` in its own process (a Ray started again in a process that already
+    ran one, as earlier test modules do, can hang in its GCS start)."""
     pytest.importorskip("ray")
-    settings = EvalSettings(**{**SCRIPTED.__dict__, "output_dir": str(tmp_path)})
-    on_ray = evaluate(settings, 2, engine="ray")
+    out = tmp_path / "ray"
+    run = subprocess.run(
+        [sys.executable, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", "scripted",
+         "--task_name", SCRIPTED.task, "--num_episodes", str(SCRIPTED.num_episodes),
+         "--seed", str(SCRIPTED.seed), "--num_workers", "2", "--engine", "ray",
+         "--output_dir", str(out)],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    on_ray = json.loads((out / "eval_info.json").read_text())
     assert _rows(on_ray) == _rows(scripted_info)
     assert on_ray["run"]["engine"] == "ray" and on_ray["aggregated"]["pc_success"] == 100.0
