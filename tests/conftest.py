@@ -242,3 +242,65 @@ def fs_faults():
     import types
 
     return types.SimpleNamespace(tmpfs=tmpfs, immutable=immutable)
+
+
+# -- a private X display for live-viewer tests ---------------------------------------------
+class XScreen:
+    """An Xvfb display of its own (``display``, e.g. ":121"); ``colours(path)`` takes a
+    screenshot of its root window into ``path`` and returns how many colours it has (a
+    blank screen has a handful, a rendered scene hundreds)."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        import shutil
+        import time
+
+        if not (shutil.which("Xvfb") and shutil.which("import")):
+            pytest.skip("Xvfb and ImageMagick 'import' needed (apt-get install xvfb imagemagick)")
+        free = [
+            n for n in range(120, 160)
+            if not Path(f"/tmp/.X11-unix/X{n}").exists() and not Path(f"/tmp/.X{n}-lock").exists()
+        ]  # fmt: skip
+        if not free:
+            pytest.skip("no free X display number")
+        self.display = f":{free[0]}"
+        self._log = tmp_path / "xvfb.log"
+        with open(self._log, "wb") as log:
+            self._proc = subprocess.Popen(
+                ["Xvfb", self.display, "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+                stdout=log,
+                stderr=log,
+            )
+        deadline = time.monotonic() + 15
+        while not Path(f"/tmp/.X11-unix/X{free[0]}").exists():
+            if self._proc.poll() is not None or time.monotonic() > deadline:
+                self.close()
+                pytest.fail(f"Xvfb did not start: {self._log.read_text()[-300:]}")
+            time.sleep(0.1)
+
+    def colours(self, path: Path) -> int:
+        import numpy as np
+        from PIL import Image
+
+        subprocess.run(
+            ["import", "-display", self.display, "-window", "root", str(path)],
+            capture_output=True,
+            timeout=30,
+        )
+        if not path.exists():
+            return 0
+        img = np.asarray(Image.open(path).convert("RGB"))
+        return len(np.unique(img.reshape(-1, 3), axis=0))
+
+    def close(self) -> None:
+        self._proc.terminate()
+        self._proc.wait(timeout=10)
+
+
+@pytest.fixture
+def xscreen(tmp_path: Path) -> Iterator[XScreen]:
+    """A private Xvfb display (``XScreen``) for the test; skips without Xvfb and ImageMagick."""
+    screen = XScreen(tmp_path)
+    try:
+        yield screen
+    finally:
+        screen.close()

@@ -442,74 +442,41 @@ def test_trossen_mujoco_record_dispatch_and_progress_off_a_terminal(tmp_path):
     assert len(progress) <= wall / 5 + 1, proc.stderr  # 600 steps recorded
 
 
-def _xvfb_display():
-    import shutil
-
-    if not (shutil.which("Xvfb") and shutil.which("import")):
-        pytest.skip("Xvfb and ImageMagick 'import' are needed (apt-get install xvfb imagemagick)")
-    for num in range(120, 140):
-        if not Path(f"/tmp/.X11-unix/X{num}").exists() and not Path(f"/tmp/.X{num}-lock").exists():
-            return num
-    pytest.skip("no free X display number")
-
-
-def test_onscreen_render_shows_live_viewer_under_xvfb(tmp_path):
-    import numpy as np
-    from PIL import Image
-
-    num = _xvfb_display()
-    xvfb = subprocess.Popen(
-        ["Xvfb", f":{num}", "-screen", "0", "1280x1024x24"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+def test_onscreen_render_shows_live_viewer_under_xvfb(tmp_path, xscreen):
+    env = {**os.environ, "DISPLAY": xscreen.display, "MUJOCO_GL": "egl"}
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "trossen_arm_mujoco/scripts/record_sim_episodes.py",
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            "--episode_len",
+            "150",
+            "--cam_names",
+            "cam_high,cam_left_wrist",
+            "--image_size",
+            "120x160",
+            "--onscreen_render",
+        ],
+        cwd=REPO,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
-    try:
-        time.sleep(1.5)
-        env = {**os.environ, "DISPLAY": f":{num}", "MUJOCO_GL": "egl"}
-        proc = subprocess.Popen(
-            [
-                sys.executable,
-                "trossen_arm_mujoco/scripts/record_sim_episodes.py",
-                "--data_dir",
-                "d",
-                "--root_dir",
-                str(tmp_path),
-                "--episode_len",
-                "150",
-                "--cam_names",
-                "cam_high,cam_left_wrist",
-                "--image_size",
-                "120x160",
-                "--onscreen_render",
-            ],
-            cwd=REPO,
-            env=env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        shot = tmp_path / "screen.png"
-        deadline = time.time() + 120
-        colours = 0
-        while time.time() < deadline and proc.poll() is None:
-            time.sleep(2.0)
-            subprocess.run(
-                ["import", "-display", f":{num}", "-window", "root", str(shot)],
-                capture_output=True,
-                timeout=30,
-            )
-            if shot.exists():
-                img = np.asarray(Image.open(shot).convert("RGB"))
-                colours = len(np.unique(img.reshape(-1, 3), axis=0))
-                if colours > 200:
-                    break
-        out, err = proc.communicate(timeout=180)
-        assert proc.returncode == 1, err  # 150 steps: the episode fails
-        assert "live view off" not in err
-        assert colours > 200, f"screenshot looks blank ({colours} colours)"
-    finally:
-        xvfb.terminate()
-        xvfb.wait(timeout=10)
+    deadline = time.time() + 120
+    colours = 0
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(2.0)
+        colours = xscreen.colours(tmp_path / "screen.png")
+        if colours > 200:
+            break
+    out, err = proc.communicate(timeout=180)
+    assert proc.returncode == 1, err  # 150 steps: the episode fails
+    assert "live view off" not in err
+    assert colours > 200, f"screenshot looks blank ({colours} colours)"
 
 
 def test_randomize_flag_stores_the_randomization(tmp_path, capsys):

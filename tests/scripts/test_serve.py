@@ -31,13 +31,13 @@ GOALS = {
 class Served:
     """A ``serve`` subprocess; :meth:`stop` sends a signal and returns (rc, stdout, stderr)."""
 
-    def __init__(self, *flags: str) -> None:
+    def __init__(self, *flags: str, env: dict[str, str] | None = None) -> None:
         self.proc = subprocess.Popen(
             [sys.executable, str(SCRIPT), "--left_ip", LEFT, "--right_ip", RIGHT, *flags],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
-            env={**os.environ, "PYTHONUNBUFFERED": "1", "MUJOCO_GL": "egl"},
+            env={**os.environ, "PYTHONUNBUFFERED": "1", "MUJOCO_GL": "egl", **(env or {})},
         )
         self.first_line = self.proc.stdout.readline()
         if not self.first_line.startswith("serving "):
@@ -60,8 +60,8 @@ def served() -> Iterator[Any]:
     pytest.importorskip("trossen_arm_sim")
     made: list[Served] = []
 
-    def start(*flags: str) -> Served:
-        made.append(Served(*flags))
+    def start(*flags: str, env: dict[str, str] | None = None) -> Served:
+        made.append(Served(*flags, env=env))
         return made[-1]
 
     yield start
@@ -114,6 +114,22 @@ def test_sigterm_exits_0(served) -> None:
     rc, out, err = served().stop(signal.SIGTERM)
     assert rc == 0 and "stopped (SIGTERM)" in out
     assert "Traceback" not in err
+
+
+def test_viewer_shows_the_kit_while_the_driver_moves_it(served, xscreen, tmp_path) -> None:
+    s = served("--viewer", env={"DISPLAY": xscreen.display})
+    measured = drive_both_arms()  # the world steps while the viewer syncs
+    np.testing.assert_allclose(measured[LEFT][:6], GOALS[LEFT][:6], atol=0.02)
+    colours = 0
+    for _ in range(10):
+        colours = xscreen.colours(tmp_path / "screen.png")
+        if colours > 200:
+            break
+        time.sleep(1.0)
+    rc, out, err = s.stop(signal.SIGTERM)
+    assert rc == 0, err
+    assert "live view off" not in out + err and "Traceback" not in err
+    assert colours > 200, f"screenshot looks blank ({colours} colours)"
 
 
 def test_record_one_session_into_one_episode(served, tmp_path: Path) -> None:

@@ -241,7 +241,8 @@ def _wait(world, viewer_wanted: bool) -> str:
     if viewer_wanted:
         from trossen_arm_mujoco.viewer import LiveViewer
 
-        viewer = LiveViewer.open(world.model, world.data)
+        with world.lock:  # the viewer reads the data while it starts: not mid-step
+            viewer = LiveViewer.open(world.model, world.data)
     try:
         while True:
             if viewer is None:
