@@ -285,3 +285,26 @@ def test_stdin_control_keys():
     control = StdinControl(io.StringIO("E\n"))
     time.sleep(0.1)
     assert control.poll() == "end"
+
+
+def test_viewer_shows_the_followers_under_xvfb(source, tmp_path, xscreen):
+    with leaders(source, "127.0.0.77", "127.0.0.78"):
+        proc = subprocess.Popen(
+            teleop_args(tmp_path, "127.0.0.77", "127.0.0.78", "--episode_len", "400", "--viewer"),
+            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            cwd=REPO, env={**env(), "DISPLAY": xscreen.display},
+        )  # fmt: skip
+        colours = 0
+        try:
+            deadline = time.monotonic() + 60
+            while proc.poll() is None and time.monotonic() < deadline and colours <= 200:
+                time.sleep(1.0)
+                colours = xscreen.colours(tmp_path / "screen.png")
+            out, err = proc.communicate(timeout=120)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    assert proc.returncode == 0, err
+    assert "live view off" not in out + err and "Traceback" not in err
+    assert colours > 200, f"screenshot looks blank ({colours} colours)"
+    assert load_episode(tmp_path / "tele" / "episode_0.hdf5").num_steps == 400
