@@ -15,6 +15,8 @@ tests/real/test_wire_recover.py               127.0.0.51 .. 127.0.0.59
 tests/scripts/test_serve.py                   127.0.0.61 .. 127.0.0.69
 tests/scripts/test_teleop.py                  127.0.0.71 .. 127.0.0.79
 tests/scripts/test_replay_episode_real.py     127.0.0.81 .. 127.0.0.89
+tests/twin/test_leader_staging.py             127.0.0.91 .. 127.0.0.99
+tests/test_examples.py                        127.0.0.101 .. 127.0.0.109
 ============================================  ===========================
 
 (tests/twin/test_kit_world.py, test_session_recorder.py and test_faults.py serve nothing.)

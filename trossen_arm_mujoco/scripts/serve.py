@@ -17,7 +17,9 @@ frames; cameras rendered at ``--fps``, the task's reward per step, one line per 
 its success. Ctrl-C or SIGTERM stops serving (the episode under way is written) and exits 0.
 
 ``--role leader --replay EPISODE.hdf5`` serves two leader arms replaying a recorded episode
-instead (default addresses 127.0.0.4 and 127.0.0.5), for ``teleop``.
+instead (default addresses 127.0.0.4 and 127.0.0.5), for ``teleop`` (or LeRobot's
+``lerobot-teleoperate`` with Trossen's leader plugin: ``--lead_in 8`` keeps them still until
+its followers have connected).
 """
 
 from __future__ import annotations
@@ -103,6 +105,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--speed", type=float, default=1.0, help="with --role leader: replay speed (default 1)"
     )
+    p.add_argument(
+        "--lead_in",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="with --role leader: seconds the leaders stay still after a client puts both in "
+        "external_effort mode, before they move (default 1; lerobot-teleoperate connects its "
+        "followers after the leaders: give it 8)",
+    )
     p.add_argument("--verbose", action="store_true", help="log every protocol request")
     return p
 
@@ -141,6 +152,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _serve_leaders(args)
     if args.replay is not None:
         raise UserError("--replay needs --role leader")
+    if args.lead_in is not None:
+        raise UserError("--lead_in needs --role leader")
     from trossen_arm_mujoco.twin.served_kit import DEFAULT_IPS
 
     ips = _ips(args, DEFAULT_IPS)
@@ -266,14 +279,15 @@ def _serve_leaders(args: argparse.Namespace) -> int:
         raise UserError("--role leader needs --replay EPISODE.hdf5 (the motion the leaders make)")
     ips = _ips(args, LEADER_IPS)
     try:
-        from trossen_arm_mujoco.twin.leaders import serve_leaders
+        from trossen_arm_mujoco.twin.leaders import LEAD_IN_S, serve_leaders
     except ImportError as exc:
         raise UserError(f"--role leader is not available in this installation ({exc})") from None
     stop, failure = threading.Event(), []
 
     def run() -> None:
         try:
-            serve_leaders(args.replay, ips["left"], ips["right"], stop, speed=args.speed)
+            serve_leaders(args.replay, ips["left"], ips["right"], stop, speed=args.speed,
+                          lead_in=LEAD_IN_S if args.lead_in is None else args.lead_in)  # fmt: skip
         except BaseException as exc:  # reported below, in the main thread
             failure.append(exc)
 

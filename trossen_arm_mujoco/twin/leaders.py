@@ -28,10 +28,22 @@ When it is played (deterministic for ``teleop``):
     first episode, so that episode starts within a few milliseconds of the replay's trigger
     and ``lead_in`` later the arms move.
 
-Commands are ignored:
-    Whatever a client sends (external efforts, positions in position mode, velocities) never
-    moves a played arm, as a person's hand would overpower a leader's motors. The modes are
-    only watched for the trigger.
+Staging before the replay (Trossen's LeRobot leader teleoperator):
+    Until the replay is triggered, position-mode commands move a played arm as its motors
+    would: it reports the commanded positions (the driver's interpolated trajectory), so
+    ``set_all_positions(staged, 2.0)`` leaves it at the staged pose, and there it stays
+    (its rest pose) through ``external_effort`` mode and the lead-in. When the replay starts
+    the arms first move from their rest poses to the episode's first pose (a smooth
+    approach, both arms together, at most half of each joint's speed limit: about 1.5 s for
+    an open gripper), then play the episode. A follower that copies the leaders from their
+    rest pose on never sees a jump. An arm no client put in position mode (``teleop``,
+    ``trossen_arm_mujoco.twin.leader_arms``) rests at the episode's first pose and has no
+    approach, as before.
+
+Other commands are ignored:
+    After the trigger, and in any other mode, whatever a client sends (external efforts,
+    positions, velocities) never moves a played arm, as a person's hand would overpower a
+    leader's motors. The modes are watched for the trigger.
 """
 
 from __future__ import annotations
@@ -60,8 +72,12 @@ SOURCES: tuple[str, ...] = ("action", "qpos")
 LEAD_IN_S: float = 1.0
 #: Replay speeds accepted (1.0 = as recorded).
 SPEED_RANGE: tuple[float, float] = (0.05, 10.0)
-#: Joint mode value of ``external_effort`` in the controller's protocol.
+#: Joint mode values of ``position`` and ``external_effort`` in the controller's protocol.
+POSITION_MODE: int = 1
 EXTERNAL_EFFORT_MODE: int = 3
+#: Peak speed of the approach from a rest pose to the episode's first pose, as a fraction
+#: of each joint's speed limit.
+APPROACH_SPEED_FRACTION: float = 0.5
 #: Default loopback addresses of the served leader pair (left, right).
 DEFAULT_LEADER_IPS: tuple[str, str] = ("127.0.0.4", "127.0.0.5")
 
@@ -131,9 +147,12 @@ class ReplayClock:
     """When the replay runs, shared by both arms.
 
     The replay time (s into the episode) is 0 until :meth:`client_ready` has been called
-    for every side (or :meth:`trigger`), then after ``lead_in`` s runs at ``speed`` up to
-    ``duration`` and stays there. :attr:`started` and :attr:`finished` are set as those
-    moments pass (checked whenever the time is read, and by :meth:`poll`).
+    for every side (or :meth:`trigger`), then after ``lead_in`` s (and the approach, if
+    any) runs at ``speed`` up to ``duration`` and stays there. :attr:`started` and
+    :attr:`finished` are set as those moments pass (checked whenever the time is read, and
+    by :meth:`poll`). ``approach``, when given, is called once at the trigger and returns
+    the seconds the arms take from their rest poses to the episode's first pose
+    (:attr:`approach_s`), spent right after the lead-in at wall-clock speed.
     """
 
     def __init__(
@@ -143,8 +162,12 @@ class ReplayClock:
         lead_in: float = LEAD_IN_S,
         sides: tuple[str, ...] = SIDES,
         now: Callable[[], float] = time.monotonic,
+        approach: Callable[[], float] | None = None,
     ) -> None:
         self.duration = float(duration)
+        self.approach = approach
+        #: Seconds of the approach (set at the trigger).
+        self.approach_s = 0.0
         self.speed = float(speed)
         self.lead_in = float(lead_in)
         self.sides = tuple(sides)
@@ -173,22 +196,34 @@ class ReplayClock:
 
     def _trigger_locked(self) -> None:
         if self.start_time is None:
+            if self.approach is not None:
+                self.approach_s = max(0.0, float(self.approach()))
             self.start_time = self.now() + self.lead_in
             self.triggered.set()
 
-    def replay_time(self) -> float:
-        """Seconds into the episode now (0 .. duration)."""
+    def phase(self) -> tuple[str, float]:
+        """Where the replay is now: ``("rest", 0.0)`` before it starts, ``("approach",
+        fraction)`` (0 .. 1) while the arms move to the episode's first pose, ``("play",
+        seconds)`` (0 .. duration) once the episode plays."""
         start = self.start_time
         if start is None:
-            return 0.0
-        elapsed = (self.now() - start) * self.speed
-        if elapsed < 0.0:
-            return 0.0
+            return "rest", 0.0
+        wall = self.now() - start
+        if wall < 0.0:
+            return "rest", 0.0
         self.started.set()
+        if wall < self.approach_s:
+            return "approach", wall / self.approach_s
+        elapsed = (wall - self.approach_s) * self.speed
         if elapsed >= self.duration:
             self.finished.set()
-            return self.duration
-        return elapsed
+            return "play", self.duration
+        return "play", elapsed
+
+    def replay_time(self) -> float:
+        """Seconds into the episode now (0 .. duration)."""
+        kind, value = self.phase()
+        return value if kind == "play" else 0.0
 
     def poll(self) -> None:
         """Update :attr:`started` / :attr:`finished` (no client needs to be reading)."""
@@ -216,6 +251,10 @@ class PlayedLeaderArm:
             (float(lo), float(hi))
             for lo, hi in zip(limits.driver_lower, limits.driver_upper, strict=True)
         ]
+        self._speed = np.asarray(limits.velocity, dtype=float)
+        #: Where a client's position commands put the arm before the replay (None: none did;
+        #: it rests at the episode's first pose).
+        self.rest: np.ndarray | None = None
         #: Modes of the last robot input (protocol values; None before any).
         self.modes: list[int] | None = None
         #: Robot inputs received.
@@ -227,18 +266,50 @@ class PlayedLeaderArm:
         return list(self._limits)
 
     def apply_joint_commands(self, modes: list, positions: list) -> None:
-        """Watch the modes (external_effort on every joint triggers the replay); the
-        commands themselves never move a played arm."""
+        """Watch the modes (external_effort on every joint triggers the replay); before the
+        trigger, position commands move the arm (its rest pose); nothing else moves it."""
         self.inputs += 1
         self.modes = [int(m) for m in modes]
         if self.modes and all(m == EXTERNAL_EFFORT_MODE for m in self.modes):
             self.clock.client_ready(self.side)
+        elif (
+            self.clock.start_time is None
+            and len(self.modes) == self.num_joints
+            and all(m == POSITION_MODE for m in self.modes)
+        ):
+            values = np.asarray(positions, dtype=float)
+            if values.shape == (self.num_joints,) and np.all(np.isfinite(values)):
+                low, high = np.asarray(self._limits).T
+                self.rest = np.clip(values, low, high)
+
+    def approach_time(self) -> float:
+        """Seconds a smooth move (peak speed 1.5x the mean) from the rest pose to the
+        episode's first pose takes at :data:`APPROACH_SPEED_FRACTION` of the speed limits;
+        0 without a rest pose."""
+        rest = self.rest
+        if rest is None:
+            return 0.0
+        distance = np.abs(self.trajectory.positions[0, self.arm] - rest)
+        return float(np.max(1.5 * distance / (APPROACH_SPEED_FRACTION * self._speed)))
+
+    def now(self) -> tuple[np.ndarray, np.ndarray]:
+        """Position (rad x6, m) and velocity of each joint now (see the module doc)."""
+        kind, value = self.clock.phase()
+        rest = self.rest
+        if kind == "play" or rest is None:
+            position, velocity = self.trajectory.sample(self.arm, value if kind == "play" else 0.0)
+            return position, velocity * self.clock.speed
+        if kind == "rest":
+            return rest.copy(), np.zeros(self.num_joints)
+        delta = self.trajectory.positions[0, self.arm] - rest  # approach: smoothstep
+        s, ds = value * value * (3.0 - 2.0 * value), 6.0 * value * (1.0 - value)
+        return rest + s * delta, ds * delta / self.clock.approach_s
 
     def read_joint_outputs(self) -> list:
         """The played position and velocity of each joint now (efforts 0)."""
-        position, velocity = self.trajectory.sample(self.arm, self.clock.replay_time())
+        position, velocity = self.now()
         return [
-            self._output(position=float(p), velocity=float(v) * self.clock.speed)
+            self._output(position=float(p), velocity=float(v))
             for p, v in zip(position, velocity, strict=True)
         ]
 
@@ -277,14 +348,18 @@ class LeaderPair:
             raise UserError(f"lead_in must be a non-negative number of seconds, got {lead_in!r}")
         self.trajectory = trajectory
         self.ips = ips
-        self.clock = ReplayClock(trajectory.duration, speed, lead_in)
+        self.clock = ReplayClock(trajectory.duration, speed, lead_in, approach=self._approach)
         limits = ArmLimits.from_mjcf()
         self.arms = {s: PlayedLeaderArm(trajectory, s, self.clock, limits) for s in SIDES}
         self.servers = {s: LeaderArmServer(self.arms[s], ips[s], f"{s} leader arm") for s in SIDES}
 
+    def _approach(self) -> float:
+        """Seconds both arms take from their rest poses to the episode's first pose."""
+        return max(arm.approach_time() for arm in self.arms.values())
+
     @property
     def started(self) -> threading.Event:
-        """Set once the arms have left the first pose."""
+        """Set once the arms have left their rest pose (the approach, or the episode)."""
         return self.clock.started
 
     @property
