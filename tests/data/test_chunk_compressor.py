@@ -98,3 +98,17 @@ def test_write_failure_surfaces_on_the_caller_thread(tmp_path, monkeypatch):
 def test_level_must_be_1_to_9(level):
     with pytest.raises(ValueError, match="1..9"):
         ChunkCompressor(level)
+
+
+def test_level_1_uses_isal_with_zlib_streams_of_zlib_level_1_size():
+    pytest.importorskip("isal", reason="isal is a dependency: pip install isal")
+    from isal import isal_zlib
+
+    assert chunk_compressor.deflate_function(1) is isal_zlib.compress
+    assert chunk_compressor.deflate_function(6) is zlib.compress
+    y, x = np.mgrid[0:96, 0:128]
+    scene = np.stack([(x // 8 * 30) % 256, (y // 6 * 20) % 256, (x + y) % 7 * 30], -1)
+    frame = scene.astype(np.uint8)
+    data, mask = chunk_compressor._compress(frame, 1)
+    assert mask == 0 and zlib.decompress(data) == frame.tobytes()  # a zlib stream
+    assert len(data) <= 1.1 * len(zlib.compress(frame, 1))  # no bigger than zlib's level 1
