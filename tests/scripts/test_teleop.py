@@ -33,7 +33,8 @@ from trossen_arm_mujoco.scripts.teleop import cli as teleop_cli
 pytest.importorskip("trossen_arm")
 pytest.importorskip("trossen_arm_sim")
 
-from trossen_arm_mujoco.twin.leaders import LeaderPair, load_leader_trajectory  # noqa: E402
+from trossen_arm_mujoco.twin.leader_trajectory import load_leader_trajectory  # noqa: E402
+from trossen_arm_mujoco.twin.leaders import LeaderPair  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 SEED = 7

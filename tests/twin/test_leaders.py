@@ -15,10 +15,9 @@ from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
 from trossen_arm_mujoco.twin.leader_server import LeaderArmServer
+from trossen_arm_mujoco.twin.leader_trajectory import load_leader_trajectory
 from trossen_arm_mujoco.twin.leaders import (
     LeaderPair,
-    ReplayClock,
-    load_leader_trajectory,
     serve_leaders,
 )
 from trossen_arm_mujoco.twin.serving import check_loopback
@@ -77,22 +76,6 @@ def test_trajectory_is_the_kit_layout_per_arm(episode):
         assert not vel.any()
     with pytest.raises(UserError, match="unknown replay source 'ctrl'"):
         load_leader_trajectory(path, source="ctrl")
-
-
-def test_replay_clock_waits_for_both_arms_then_the_lead_in():
-    now = [100.0]
-    clock = ReplayClock(duration=2.0, speed=2.0, lead_in=0.5, now=lambda: now[0])
-    clock.client_ready("left")
-    now[0] += 10.0
-    assert clock.replay_time() == 0.0 and not clock.triggered.is_set()  # right missing
-    clock.client_ready("right")
-    assert clock.triggered.is_set() and clock.start_time == pytest.approx(110.5)
-    now[0] += 0.25
-    assert clock.replay_time() == 0.0 and not clock.started.is_set()  # lead-in
-    now[0] += 0.75  # 0.5 s after the lead-in, at speed 2
-    assert clock.replay_time() == pytest.approx(1.0) and clock.started.is_set()
-    now[0] += 5.0
-    assert clock.replay_time() == 2.0 and clock.finished.is_set()  # held at the end
 
 
 def test_served_pair_plays_through_the_unmodified_driver(episode):

@@ -279,7 +279,8 @@ def _serve_leaders(args: argparse.Namespace) -> int:
         raise UserError("--role leader needs --replay EPISODE.hdf5 (the motion the leaders make)")
     ips = _ips(args, LEADER_IPS)
     try:
-        from trossen_arm_mujoco.twin.leaders import LEAD_IN_S, serve_leaders
+        from trossen_arm_mujoco.twin.leaders import serve_leaders
+        from trossen_arm_mujoco.twin.replay_clock import LEAD_IN_S
     except ImportError as exc:
         raise UserError(f"--role leader is not available in this installation ({exc})") from None
     stop, failure = threading.Event(), []

@@ -25,6 +25,8 @@ The served kit (``trossen-mujoco serve``, ``replay-real --backend wire``):
 Teleoperation:
 
 - :mod:`.leader_server`: the protocol server of one simulated leader arm;
+- :mod:`.leader_trajectory`: what served leaders play: an episode's joint values per arm;
+- :mod:`.replay_clock`: when their replay runs (trigger, lead-in, approach, speed);
 - :mod:`.leaders`: a pair of leader arms replaying a recorded episode (``serve_leaders``);
 - :mod:`.leader_arms`: leader arms (real or served) read through the ``trossen_arm`` driver;
 - :mod:`.teleop`: leader arms drive the simulated followers, recording episodes

@@ -49,29 +49,20 @@ Other commands are ignored:
 from __future__ import annotations
 
 import math
-import os
 import sys
 import threading
-import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from trossen_arm_mujoco.data.reader import load_episode
-from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.real.validate import ArmLimits
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.layout import SIDES
 from trossen_arm_mujoco.twin.leader_server import LeaderArmServer
+from trossen_arm_mujoco.twin.leader_trajectory import LeaderTrajectory, load_leader_trajectory
+from trossen_arm_mujoco.twin.replay_clock import LEAD_IN_S, ReplayClock, check_speed
 from trossen_arm_mujoco.twin.serving import check_loopback, require_sim_server
 
-#: What a replay can play: the episode's actions or its measured joint positions.
-SOURCES: tuple[str, ...] = ("action", "qpos")
-#: Seconds the arms hold the first pose after both are in external_effort mode.
-LEAD_IN_S: float = 1.0
-#: Replay speeds accepted (1.0 = as recorded).
-SPEED_RANGE: tuple[float, float] = (0.05, 10.0)
 #: Joint mode values of ``position`` and ``external_effort`` in the controller's protocol.
 POSITION_MODE: int = 1
 EXTERNAL_EFFORT_MODE: int = 3
@@ -80,154 +71,6 @@ EXTERNAL_EFFORT_MODE: int = 3
 APPROACH_SPEED_FRACTION: float = 0.5
 #: Default loopback addresses of the served leader pair (left, right).
 DEFAULT_LEADER_IPS: tuple[str, str] = ("127.0.0.4", "127.0.0.5")
-
-
-@dataclass(frozen=True)
-class LeaderTrajectory:
-    """The joint positions two leader arms play.
-
-    Attributes:
-        positions: float64 ``(T, 2, 7)``: per step, ``[left, right]`` arm values (rad x6,
-            gripper m), within the arm's joint ranges.
-        dt: step period of the episode (s).
-        path: the episode file.
-        source: ``"action"`` or ``"qpos"``.
-    """
-
-    positions: np.ndarray
-    dt: float
-    path: Path
-    source: str = "action"
-
-    @property
-    def num_steps(self) -> int:
-        return int(self.positions.shape[0])
-
-    @property
-    def duration(self) -> float:
-        """Seconds from the first to the last step at speed 1."""
-        return (self.num_steps - 1) * self.dt
-
-    def sample(self, arm: int, seconds: float) -> tuple[np.ndarray, np.ndarray]:
-        """Position (rad x6, m) and velocity (rad/s x6, m/s) of arm ``arm`` (0 left, 1 right)
-        ``seconds`` into the episode (linear between steps; held before 0 and after the
-        end, with zero velocity)."""
-        p = self.positions[:, arm]
-        if self.num_steps == 1 or seconds <= 0.0:
-            return p[0].copy(), np.zeros(7)
-        if seconds >= self.duration:
-            return p[-1].copy(), np.zeros(7)
-        x = seconds / self.dt
-        i = min(int(x), self.num_steps - 2)
-        frac = x - i
-        slope = p[i + 1] - p[i]
-        return p[i] + frac * slope, slope / self.dt
-
-
-def load_leader_trajectory(
-    path: str | os.PathLike[str], source: str = "action"
-) -> LeaderTrajectory:
-    """Read an episode file (this package's or a vendor recording) as a leader trajectory.
-
-    Raises:
-        UserError: unknown ``source``; the file is missing or invalid (one line).
-    """
-    if source not in SOURCES:
-        raise unknown_name_error("replay source", source, SOURCES)
-    episode = load_episode(path)
-    values = REAL_KIT_LAYOUT.from_vendor(episode.action if source == "action" else episode.qpos)
-    limits = ArmLimits.from_mjcf()
-    arms = np.stack([values[:, REAL_KIT_LAYOUT.arm(s).start : REAL_KIT_LAYOUT.arm(s).start + 7]
-                     for s in SIDES], axis=1)  # fmt: skip
-    arms = np.clip(arms, limits.driver_lower, limits.driver_upper)
-    return LeaderTrajectory(arms, float(episode.dt), Path(path), source)
-
-
-class ReplayClock:
-    """When the replay runs, shared by both arms.
-
-    The replay time (s into the episode) is 0 until :meth:`client_ready` has been called
-    for every side (or :meth:`trigger`), then after ``lead_in`` s (and the approach, if
-    any) runs at ``speed`` up to ``duration`` and stays there. :attr:`started` and
-    :attr:`finished` are set as those moments pass (checked whenever the time is read, and
-    by :meth:`poll`). ``approach``, when given, is called once at the trigger and returns
-    the seconds the arms take from their rest poses to the episode's first pose
-    (:attr:`approach_s`), spent right after the lead-in at wall-clock speed.
-    """
-
-    def __init__(
-        self,
-        duration: float,
-        speed: float = 1.0,
-        lead_in: float = LEAD_IN_S,
-        sides: tuple[str, ...] = SIDES,
-        now: Callable[[], float] = time.monotonic,
-        approach: Callable[[], float] | None = None,
-    ) -> None:
-        self.duration = float(duration)
-        self.approach = approach
-        #: Seconds of the approach (set at the trigger).
-        self.approach_s = 0.0
-        self.speed = float(speed)
-        self.lead_in = float(lead_in)
-        self.sides = tuple(sides)
-        self.now = now
-        self.ready: set[str] = set()
-        #: Monotonic time (s) at which the replay leaves the first pose (None: not yet).
-        self.start_time: float | None = None
-        self.triggered = threading.Event()
-        self.started = threading.Event()
-        self.finished = threading.Event()
-        self._lock = threading.Lock()
-
-    def client_ready(self, side: str) -> None:
-        """A client put arm ``side`` in external_effort mode."""
-        if self.start_time is not None or side in self.ready:
-            return
-        with self._lock:
-            self.ready.add(side)
-            if self.ready.issuperset(self.sides):
-                self._trigger_locked()
-
-    def trigger(self) -> None:
-        """Start now (the replay leaves the first pose ``lead_in`` s from now)."""
-        with self._lock:
-            self._trigger_locked()
-
-    def _trigger_locked(self) -> None:
-        if self.start_time is None:
-            if self.approach is not None:
-                self.approach_s = max(0.0, float(self.approach()))
-            self.start_time = self.now() + self.lead_in
-            self.triggered.set()
-
-    def phase(self) -> tuple[str, float]:
-        """Where the replay is now: ``("rest", 0.0)`` before it starts, ``("approach",
-        fraction)`` (0 .. 1) while the arms move to the episode's first pose, ``("play",
-        seconds)`` (0 .. duration) once the episode plays."""
-        start = self.start_time
-        if start is None:
-            return "rest", 0.0
-        wall = self.now() - start
-        if wall < 0.0:
-            return "rest", 0.0
-        self.started.set()
-        if wall < self.approach_s:
-            return "approach", wall / self.approach_s
-        elapsed = (wall - self.approach_s) * self.speed
-        if elapsed >= self.duration:
-            self.finished.set()
-            return "play", self.duration
-        return "play", elapsed
-
-    def replay_time(self) -> float:
-        """Seconds into the episode now (0 .. duration)."""
-        kind, value = self.phase()
-        return value if kind == "play" else 0.0
-
-    def poll(self) -> None:
-        """Update :attr:`started` / :attr:`finished` (no client needs to be reading)."""
-        self.replay_time()
 
 
 class PlayedLeaderArm:
@@ -391,14 +234,6 @@ class LeaderPair:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
-
-
-def check_speed(speed: float) -> float:
-    """``speed`` when it is a replay speed in :data:`SPEED_RANGE`; else a ``UserError``."""
-    lo, hi = SPEED_RANGE
-    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not lo <= speed <= hi:
-        raise UserError(f"replay speed must be a number in [{lo:g}, {hi:g}], got {speed!r}")
-    return float(speed)
 
 
 def _say(line: str) -> None:
