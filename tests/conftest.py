@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ipaddress
 import os
+import signal
 import socket
 import subprocess
 from collections.abc import Iterator
@@ -94,6 +95,14 @@ class NetworkGuard:
         mp.setattr(socket.socket, "connect_ex", connect_ex)
         mp.setattr(socket.socket, "sendto", sendto)
         mp.setattr(socket, "create_connection", create_connection)
+
+
+def pytest_configure(config) -> None:
+    """A run started in the background by a non-interactive shell (``cmd &``, ``nohup``)
+    inherits SIGINT ignored, and so would every command the tests start; the tests send
+    SIGINT on purpose (Ctrl-C handling), so it gets Python's usual handler back."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session", autouse=True)
