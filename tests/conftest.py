@@ -290,11 +290,14 @@ class XScreen:
         import numpy as np
         from PIL import Image
 
-        subprocess.run(
-            ["import", "-display", self.display, "-window", "root", str(path)],
-            capture_output=True,
-            timeout=30,
-        )
+        try:
+            subprocess.run(
+                ["import", "-display", self.display, "-window", "root", str(path)],
+                capture_output=True,
+                timeout=60,
+            )
+        except subprocess.TimeoutExpired:  # a busy X server: no screenshot this time
+            return 0
         if not path.exists():
             return 0
         # packed into one integer per pixel: a 1-D sort of about 60 ms, where np.unique over

@@ -289,23 +289,27 @@ def test_stdin_control_keys():
 
 
 def test_viewer_shows_the_followers_under_xvfb(source, tmp_path, xscreen):
+    """The viewer shows the scene while served leaders drive the followers; the operator's
+    ``e`` then ends the episode (kept), so a slow screenshot on a busy machine cannot run
+    past the episode."""
     with leaders(source, "127.0.0.77", "127.0.0.78"):
         proc = subprocess.Popen(
-            teleop_args(tmp_path, "127.0.0.77", "127.0.0.78", "--episode_len", "400", "--viewer"),
-            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            teleop_args(tmp_path, "127.0.0.77", "127.0.0.78", "--episode_len", "6000", "--viewer"),
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
             cwd=REPO, env={**env(), "DISPLAY": xscreen.display},
         )  # fmt: skip
         colours = 0
         try:
-            deadline = time.monotonic() + 60
+            deadline = time.monotonic() + 180
             while proc.poll() is None and time.monotonic() < deadline and colours <= 200:
                 time.sleep(1.0)
                 colours = xscreen.colours(tmp_path / "screen.png")
-            out, err = proc.communicate(timeout=120)
+            out, err = proc.communicate("e\n", timeout=180)  # end the episode, keep it
         finally:
             if proc.poll() is None:
                 proc.kill()
     assert proc.returncode == 0, err
     assert "live view off" not in out + err and "Traceback" not in err
     assert colours > 200, f"screenshot looks blank ({colours} colours)"
-    assert load_episode(tmp_path / "tele" / "episode_0.hdf5").num_steps == 400
+    episode = load_episode(tmp_path / "tele" / "episode_0.hdf5")
+    assert episode.attrs["ended_by"] == "operator" and 0 < episode.num_steps < 6000
