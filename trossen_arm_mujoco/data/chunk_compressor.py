@@ -50,9 +50,10 @@ def deflate_function(level: int):
     return isal_zlib.compress if level == 1 and isal_zlib is not None else zlib.compress
 
 
-def _compress(frame: np.ndarray, level: int) -> tuple[bytes, int]:
-    """(chunk bytes, filter mask) of one frame."""
-    data = deflate_function(level)(frame, level)
+def _compress(frame: np.ndarray, level: int, deflate=None) -> tuple[bytes, int]:
+    """(chunk bytes, filter mask) of one frame; ``deflate``: ``deflate_function(level)``,
+    looked up once by the caller (default: looked up here)."""
+    data = (deflate or deflate_function(level))(frame, level)
     if len(data) >= frame.nbytes:  # incompressible: store raw, as the deflate filter does
         return frame.tobytes(), _SKIP_DEFLATE
     return data, 0
@@ -80,6 +81,7 @@ class ChunkCompressor:
         if not 1 <= int(level) <= 9:
             raise ValueError(f"zlib level must be 1..9, got {level}")
         self.level = int(level)
+        self._deflate = deflate_function(self.level)  # chosen once, not per frame
         self.workers = default_workers() if workers is None else max(1, int(workers))
         self.max_pending = max_pending or 4 * self.workers + 4
         self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="chunk-gzip")
@@ -93,7 +95,8 @@ class ChunkCompressor:
             OSError / RuntimeError from h5py when a chunk cannot be written.
         """
         frame = np.array(frame, dtype=np.uint8, order="C", copy=True)
-        self._pending.append((dataset, index, self._pool.submit(_compress, frame, self.level)))
+        future = self._pool.submit(_compress, frame, self.level, self._deflate)
+        self._pending.append((dataset, index, future))
         self._write_ready(block=len(self._pending) > self.max_pending)
 
     def _write_ready(self, block: bool) -> None:
