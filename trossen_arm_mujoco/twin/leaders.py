@@ -94,6 +94,7 @@ class PlayedLeaderArm:
             (float(lo), float(hi))
             for lo, hi in zip(limits.driver_lower, limits.driver_upper, strict=True)
         ]
+        self._low, self._high = np.asarray(self._limits).T  # for clipping a rest pose
         self._speed = np.asarray(limits.velocity, dtype=float)
         #: Where a client's position commands put the arm before the replay (None: none did;
         #: it rests at the episode's first pose).
@@ -122,8 +123,7 @@ class PlayedLeaderArm:
         ):
             values = np.asarray(positions, dtype=float)
             if values.shape == (self.num_joints,) and np.all(np.isfinite(values)):
-                low, high = np.asarray(self._limits).T
-                self.rest = np.clip(values, low, high)
+                self.rest = np.clip(values, self._low, self._high)
 
     def approach_time(self) -> float:
         """Seconds a smooth move (peak speed 1.5x the mean) from the rest pose to the
