@@ -272,6 +272,7 @@ class XScreen:
         if not free:
             pytest.skip("no free X display number")
         self.display = f":{free[0]}"
+        self.tries: list[str] = []  # each screenshot's outcome, for report()
         self._log = tmp_path / "xvfb.log"
         with open(self._log, "wb") as log:
             self._proc = subprocess.Popen(
@@ -286,24 +287,42 @@ class XScreen:
                 pytest.fail(f"Xvfb did not start: {self._log.read_text()[-300:]}")
             time.sleep(0.1)
 
-    def colours(self, path: Path) -> int:
+    def colours(self, path: Path, timeout: float = 20.0) -> int:
+        import time
+
         import numpy as np
         from PIL import Image
 
+        path.unlink(missing_ok=True)
+        start = time.monotonic()
         try:
-            subprocess.run(
+            done = subprocess.run(
                 ["import", "-display", self.display, "-window", "root", str(path)],
                 capture_output=True,
-                timeout=60,
+                text=True,
+                timeout=timeout,
             )
         except subprocess.TimeoutExpired:  # a busy X server: no screenshot this time
+            self.tries.append(f"timed out after {timeout:g} s")
             return 0
-        if not path.exists():
+        if done.returncode != 0 or not path.exists():
+            self.tries.append(f"import exit {done.returncode}: {done.stderr.strip()[-200:]!r}")
             return 0
         # packed into one integer per pixel: a 1-D sort of about 60 ms, where np.unique over
         # rows (axis=0) takes seconds and holds the GIL, starving servers in this process
         img = np.asarray(Image.open(path).convert("RGB")).astype(np.uint32)
-        return len(np.unique((img[..., 0] << 16) | (img[..., 1] << 8) | img[..., 2]))
+        n = len(np.unique((img[..., 0] << 16) | (img[..., 1] << 8) | img[..., 2]))
+        self.tries.append(f"{n} colours in {time.monotonic() - start:.1f} s")
+        return n
+
+    def report(self) -> str:
+        """The last screenshots' outcomes and the X server's state, for a failure message."""
+        state = "running" if self._proc.poll() is None else f"exited {self._proc.returncode}"
+        log = self._log.read_text(errors="replace").strip()[-300:] if self._log.exists() else ""
+        return (
+            f"{len(self.tries)} screenshot(s), last: {'; '.join(self.tries[-4:])}; "
+            f"Xvfb {state}; its log: {log!r}"
+        )
 
     def close(self) -> None:
         self._proc.terminate()

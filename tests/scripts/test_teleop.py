@@ -294,13 +294,13 @@ def test_viewer_shows_the_followers_under_xvfb(source, tmp_path, xscreen):
     past the episode."""
     with leaders(source, "127.0.0.77", "127.0.0.78"):
         proc = subprocess.Popen(
-            teleop_args(tmp_path, "127.0.0.77", "127.0.0.78", "--episode_len", "6000", "--viewer"),
+            teleop_args(tmp_path, "127.0.0.77", "127.0.0.78", "--episode_len", "15000", "--viewer"),
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
             cwd=REPO, env={**env(), "DISPLAY": xscreen.display},
         )  # fmt: skip
         colours = 0
         try:
-            deadline = time.monotonic() + 180
+            deadline = time.monotonic() + 240  # the episode lasts 300 s at most
             while proc.poll() is None and time.monotonic() < deadline and colours <= 200:
                 time.sleep(1.0)
                 colours = xscreen.colours(tmp_path / "screen.png")
@@ -310,6 +310,6 @@ def test_viewer_shows_the_followers_under_xvfb(source, tmp_path, xscreen):
                 proc.kill()
     assert proc.returncode == 0, err
     assert "live view off" not in out + err and "Traceback" not in err
-    assert colours > 200, f"screenshot looks blank ({colours} colours)"
+    assert colours > 200, f"no screenshot shows the scene: {xscreen.report()}; teleop: {err[-600:]}"
     episode = load_episode(tmp_path / "tele" / "episode_0.hdf5")
-    assert episode.attrs["ended_by"] == "operator" and 0 < episode.num_steps < 6000
+    assert episode.attrs["ended_by"] == "operator" and 0 < episode.num_steps < 15000
