@@ -254,17 +254,41 @@ def fs_faults():
 
 
 # -- a private X display for live-viewer tests ---------------------------------------------
+def xwd_colours(data: bytes) -> int:
+    """Distinct pixel colours of an XWD image (``xwd``'s output, ZPixmap, 24 or 32 bits per
+    pixel): a blank screen has one, a rendered scene hundreds. ValueError if it is not one."""
+    import numpy as np
+
+    if len(data) < 100:
+        raise ValueError(f"{len(data)} bytes, shorter than an XWD header")
+    head = np.frombuffer(data[:100], dtype=">u4")
+    header_size, _, pixmap_format, _, width, height = (int(v) for v in head[:6])
+    byte_order, bits_per_pixel, bytes_per_line = int(head[7]), int(head[11]), int(head[12])
+    masks, ncolors = int(head[14] | head[15] | head[16]), int(head[19])
+    if pixmap_format != 2 or bits_per_pixel not in (24, 32):
+        raise ValueError(f"format {pixmap_format}, {bits_per_pixel} bits per pixel")
+    offset = header_size + 12 * ncolors
+    rows = np.frombuffer(data, dtype=np.uint8, count=height * bytes_per_line, offset=offset)
+    step = bits_per_pixel // 8
+    pixels = rows.reshape(height, bytes_per_line)[:, : width * step].reshape(-1, step)
+    weights = 256 ** np.arange(step, dtype=np.uint64)  # LSB first
+    if byte_order == 1:  # MSB first
+        weights = weights[::-1]
+    values = (pixels.astype(np.uint64) * weights).sum(axis=1) & np.uint64(masks)
+    return len(np.unique(values))
+
+
 class XScreen:
     """An Xvfb display of its own (``display``, e.g. ":121"); ``colours(path)`` takes a
     screenshot of its root window into ``path`` and returns how many colours it has (a
-    blank screen has a handful, a rendered scene hundreds)."""
+    blank screen has one, a rendered scene hundreds)."""
 
     def __init__(self, tmp_path: Path) -> None:
         import shutil
         import time
 
-        if not (shutil.which("Xvfb") and shutil.which("import")):
-            pytest.skip("Xvfb and ImageMagick 'import' needed (apt-get install xvfb imagemagick)")
+        if not (shutil.which("Xvfb") and shutil.which("xwd")):
+            pytest.skip("Xvfb and xwd needed (apt-get install xvfb x11-apps)")
         free = [
             n for n in range(120, 160)
             if not Path(f"/tmp/.X11-unix/X{n}").exists() and not Path(f"/tmp/.X{n}-lock").exists()
@@ -288,16 +312,16 @@ class XScreen:
             time.sleep(0.1)
 
     def colours(self, path: Path, timeout: float = 20.0) -> int:
+        """Screenshot the root window into ``path`` (XWD) with ``xwd``, which reads it in one
+        request (ImageMagick's ``import`` grabs the whole X server meanwhile) and count its
+        colours; 0 when no screenshot could be taken (why: ``report()``)."""
         import time
-
-        import numpy as np
-        from PIL import Image
 
         path.unlink(missing_ok=True)
         start = time.monotonic()
         try:
             done = subprocess.run(
-                ["import", "-display", self.display, "-window", "root", str(path)],
+                ["xwd", "-root", "-silent", "-display", self.display, "-out", str(path)],
                 capture_output=True,
                 text=True,
                 timeout=timeout,
@@ -306,18 +330,38 @@ class XScreen:
             self.tries.append(f"timed out after {timeout:g} s")
             return 0
         if done.returncode != 0 or not path.exists():
-            self.tries.append(f"import exit {done.returncode}: {done.stderr.strip()[-200:]!r}")
+            self.tries.append(f"xwd exit {done.returncode}: {done.stderr.strip()[-200:]!r}")
             return 0
-        # packed into one integer per pixel: a 1-D sort of about 60 ms, where np.unique over
-        # rows (axis=0) takes seconds and holds the GIL, starving servers in this process
-        img = np.asarray(Image.open(path).convert("RGB")).astype(np.uint32)
-        n = len(np.unique((img[..., 0] << 16) | (img[..., 1] << 8) | img[..., 2]))
+        try:
+            n = xwd_colours(path.read_bytes())
+        except ValueError as exc:
+            self.tries.append(f"unreadable screenshot: {exc}")
+            return 0
         self.tries.append(f"{n} colours in {time.monotonic() - start:.1f} s")
         return n
 
+    @staticmethod
+    def threads_state(pid: int) -> str:
+        """Each thread of process ``pid`` as name:state:kernel wait channel:user+system CPU
+        ticks (from /proc; for failure messages of tests that wait on another process)."""
+        out = []
+        for task in sorted(Path(f"/proc/{pid}/task").glob("*")):
+            try:
+                fields = (task / "stat").read_text().rsplit(")", 1)[1].split()
+                wchan = (task / "wchan").read_text().strip() or "-"
+                name = (task / "comm").read_text().strip()
+            except OSError:
+                continue
+            out.append(f"{name}:{fields[0]}:{wchan}:{fields[11]}+{fields[12]}")
+        return " ".join(out) or "no /proc entry"
+
     def report(self) -> str:
         """The last screenshots' outcomes and the X server's state, for a failure message."""
-        state = "running" if self._proc.poll() is None else f"exited {self._proc.returncode}"
+        state = (
+            f"running ({self.threads_state(self._proc.pid)})"
+            if self._proc.poll() is None
+            else f"exited {self._proc.returncode}"
+        )
         log = self._log.read_text(errors="replace").strip()[-300:] if self._log.exists() else ""
         return (
             f"{len(self.tries)} screenshot(s), last: {'; '.join(self.tries[-4:])}; "

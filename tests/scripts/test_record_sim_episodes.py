@@ -470,7 +470,7 @@ def test_onscreen_render_shows_live_viewer_under_xvfb(tmp_path, xscreen):
     colours = 0
     while time.time() < deadline and proc.poll() is None:
         time.sleep(2.0)
-        colours = xscreen.colours(tmp_path / "screen.png")
+        colours = xscreen.colours(tmp_path / "screen.xwd")
         if colours > 200:
             break
     out, err = proc.communicate(timeout=180)

@@ -122,7 +122,7 @@ def test_viewer_shows_the_kit_while_the_driver_moves_it(served, xscreen, tmp_pat
     np.testing.assert_allclose(measured[LEFT][:6], GOALS[LEFT][:6], atol=0.02)
     colours = 0
     for _ in range(10):
-        colours = xscreen.colours(tmp_path / "screen.png")
+        colours = xscreen.colours(tmp_path / "screen.xwd")
         if colours > 200:
             break
         time.sleep(1.0)

@@ -296,20 +296,31 @@ def test_viewer_shows_the_followers_under_xvfb(source, tmp_path, xscreen):
         proc = subprocess.Popen(
             teleop_args(tmp_path, "127.0.0.77", "127.0.0.78", "--episode_len", "15000", "--viewer"),
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            cwd=REPO, env={**env(), "DISPLAY": xscreen.display},
+            cwd=REPO, env={**env(), "DISPLAY": xscreen.display, "PYTHONFAULTHANDLER": "1"},
         )  # fmt: skip
         colours = 0
         try:
-            deadline = time.monotonic() + 240  # the episode lasts 300 s at most
+            deadline = time.monotonic() + 200  # the episode lasts 300 s at most
             while proc.poll() is None and time.monotonic() < deadline and colours <= 200:
                 time.sleep(1.0)
-                colours = xscreen.colours(tmp_path / "screen.png")
-            out, err = proc.communicate("e\n", timeout=180)  # end the episode, keep it
+                colours = xscreen.colours(tmp_path / "screen.xwd")
+            stuck = ""
+            if colours <= 200 and proc.poll() is None:  # where is it stuck? its threads' stacks
+                threads = xscreen.threads_state(proc.pid)
+                stuck = f"teleop threads (name:state:wchan:user+sys ticks) {threads}; "
+                proc.send_signal(signal.SIGABRT)
+            try:
+                out, err = proc.communicate("e\n", timeout=60)  # end the episode, keep it
+            except subprocess.TimeoutExpired:
+                pytest.fail(f"teleop ignored SIGABRT: {stuck}{xscreen.report()}")
         finally:
             if proc.poll() is None:
                 proc.kill()
+                proc.wait(timeout=30)
+    assert colours > 200, (
+        f"no screenshot shows the scene: {xscreen.report()}; {stuck}teleop: {err[-3000:]}"
+    )
     assert proc.returncode == 0, err
     assert "live view off" not in out + err and "Traceback" not in err
-    assert colours > 200, f"no screenshot shows the scene: {xscreen.report()}; teleop: {err[-600:]}"
     episode = load_episode(tmp_path / "tele" / "episode_0.hdf5")
     assert episode.attrs["ended_by"] == "operator" and 0 < episode.num_steps < 15000
