@@ -9,7 +9,6 @@ from __future__ import annotations
 import contextlib
 import os
 import select
-import shutil
 import subprocess
 import sys
 import time
@@ -273,96 +272,29 @@ def test_live_loop_runs_in_real_time_for_the_given_seconds(monkeypatch):
 
 
 # ----------------------------------------------------------------------------- live viewer
-def _free_display() -> int:
-    for n in range(99, 140):
-        if not os.path.exists(f"/tmp/.X{n}-lock") and not os.path.exists(f"/tmp/.X11-unix/X{n}"):
-            return n
-    pytest.skip("no free X display number between :99 and :139")
-
-
-def _screenshot(display: str, out: Path) -> None:
-    """Root-window screenshot as PNG: xwd piped to ImageMagick's convert, else ``import``."""
-    env = dict(os.environ, DISPLAY=display)
-    problems = []
-    if shutil.which("xwd") and shutil.which("convert"):
-        try:
-            xwd = subprocess.run(
-                ["xwd", "-root", "-silent", "-display", display],
-                capture_output=True,
-                timeout=30,
-                check=True,
-            )
-            subprocess.run(
-                ["convert", "xwd:-", f"png:{out}"],
-                input=xwd.stdout,
-                capture_output=True,
-                timeout=30,
-                check=True,
-                env=env,
-            )
-        except (subprocess.SubprocessError, OSError) as exc:
-            problems.append(f"xwd | convert: {exc}")
-        if out.is_file():
-            return
-    if shutil.which("import"):
-        subprocess.run(
-            ["import", "-display", display, "-window", "root", str(out)],
-            capture_output=True,
-            timeout=30,
-            check=True,
-            env=env,
-        )
-        return
-    raise AssertionError(f"no screenshot taken: {'; '.join(problems)}")
-
-
 def _readline(proc: subprocess.Popen, timeout: float) -> str:
     """The next stdout line of ``proc``, or "" after ``timeout`` s without one."""
     ready, _, _ = select.select([proc.stdout], [], [], timeout)
     return proc.stdout.readline() if ready else ""
 
 
-def _looks_like_the_scene(shot: Path) -> None:
-    from PIL import Image
-
-    with Image.open(shot) as img:
-        pixels = np.asarray(img.convert("RGB")).reshape(-1, 3).astype(int)
-    colours = len(np.unique(pixels, axis=0))
+def _looks_like_the_scene(rgb: np.ndarray, xscreen) -> None:
+    """The screenshot (H, W, 3) shows the scene: many colours, arm links and the table."""
+    colours = len(xscreen.colours_of(rgb))
+    pixels = rgb.reshape(-1, 3).astype(int)
     brightest = pixels.max(axis=1)
     robot = np.count_nonzero((brightest > 8) & (brightest < 70))  # dark grey arm links
     table = np.count_nonzero((pixels[:, 0] > 150) & (pixels[:, 0] > pixels[:, 2] + 40))  # maple
-    assert colours > 200, f"screenshot {shot} looks blank ({colours} colours)"
-    assert robot > 2000, f"no robot pixels in {shot} ({robot})"
-    assert table > 2000, f"no table pixels in {shot} ({table})"
+    assert colours > 200, f"the screenshot looks blank ({colours} colours): {xscreen.report()}"
+    assert robot > 2000, f"no robot pixels in the screenshot ({robot})"
+    assert table > 2000, f"no table pixels in the screenshot ({table})"
 
 
 @pytest.mark.parametrize(("script", "seconds"), [("ee_sim_env.py", "6"), ("sim_env.py", "4.5")])
-def test_live_viewer_under_xvfb(script, seconds, tmp_path):
-    missing = [] if shutil.which("Xvfb") else ["Xvfb"]
-    if not (shutil.which("xwd") and shutil.which("convert")) and not shutil.which("import"):
-        missing.append("xwd + convert, or import")
-    if missing:
-        pytest.skip(
-            f"live viewer check needs {' and '.join(missing)} "
-            "(apt-get install xvfb x11-apps imagemagick)"
-        )
-    pytest.importorskip("PIL.Image", reason="Pillow reads the screenshot")
-    n = _free_display()
-    display = f":{n}"
-    xvfb_log = tmp_path / "xvfb.log"
-    with open(xvfb_log, "wb") as log:
-        xvfb = subprocess.Popen(
-            ["Xvfb", display, "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
-            stdout=log,
-            stderr=log,
-        )
+def test_live_viewer_under_xvfb(script, seconds, tmp_path, xscreen):
+    display = xscreen.display
     demo_proc = None
     try:
-        deadline = time.monotonic() + 20
-        while not os.path.exists(f"/tmp/.X11-unix/X{n}"):
-            if xvfb.poll() is not None or time.monotonic() > deadline:
-                pytest.skip(f"Xvfb did not start: {xvfb_log.read_text()[-300:]}")
-            time.sleep(0.1)
         env = dict(os.environ, DISPLAY=display, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
         fallback_dir = tmp_path / "fallback"
         demo_proc = subprocess.Popen(
@@ -386,20 +318,14 @@ def test_live_viewer_under_xvfb(script, seconds, tmp_path):
             out, err = demo_proc.communicate(timeout=30)
             pytest.fail(f"the live viewer did not start under Xvfb:\n{first_line}{out}{err}")
         time.sleep(2.5)  # the viewer shows a few seconds of the motion
-        shot = tmp_path / "live_viewer.png"
-        _screenshot(display, shot)
+        rgb = xscreen.screenshot(tmp_path / "live_viewer.xwd")
         out, err = demo_proc.communicate(timeout=60)
         assert demo_proc.returncode == 0, err
         assert "Traceback" not in err and "X Error" not in err, err
         assert not fallback_dir.exists()  # no headless fallback happened
-        _looks_like_the_scene(shot)
+        assert rgb is not None, f"no screenshot taken: {xscreen.report()}"
+        _looks_like_the_scene(rgb, xscreen)
     finally:
         if demo_proc is not None and demo_proc.poll() is None:
             demo_proc.kill()
             demo_proc.wait(10)
-        xvfb.terminate()
-        try:
-            xvfb.wait(10)
-        except subprocess.TimeoutExpired:
-            xvfb.kill()
-            xvfb.wait(10)
