@@ -150,17 +150,20 @@ def test_the_floor_checks_where_the_joint_targets_end_the_tick(make_env, monkeyp
     u = env.unwrapped
     floor = _floor(env)
     checked = []
-    below = floor.below
+    kinematics = mujoco.mj_kinematics
 
-    def spy(qpos, targets):
-        checked.append(np.array(targets["arm"]))
-        return below(qpos, targets)
+    def spy(model, data):  # the arm's joints in the floor's forward kinematics
+        if data is floor._data:
+            checked.append(data.qpos[floor.arms["arm"].qpos_sel].copy())
+        return kinematics(model, data)
 
-    monkeypatch.setattr(floor, "below", spy)
+    monkeypatch.setattr(mujoco, "mj_kinematics", spy)
     arm = u.task.arm
     far = arm.get_qpos(u.scene.data) + np.array([1.0, -1.0, 1.0, -2.0, 2.0, -2.0])
     for _ in range(3):
+        before = len(checked)
         env.step(_joint_action(env, far))
+        assert len(checked) == before + 1  # one pass per tick (one tick per Reach step)
         assert np.array_equal(checked[-1], arm.get_ctrl(u.scene.data))
     assert not np.allclose(checked[-1], np.clip(far, *arm.ctrl_limits()))  # not the target
 

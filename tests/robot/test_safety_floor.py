@@ -96,13 +96,13 @@ def _record(task: str, floor: bool, episode_len: int) -> tuple[np.ndarray, ...]:
         if not floor:
             robot.set_safety_floor(None)
         elif robot.safety_floor.arms:
-            below = robot.safety_floor.below
+            hold = robot.safety_floor.hold
 
-            def counted(qpos, targets, below=below):
+            def counted(data, start, names, hold=hold):
                 asked[0] += 1
-                return below(qpos, targets)
+                return hold(data, start, names)
 
-            robot.safety_floor.below = counted
+            robot.safety_floor.hold = counted
     try:
         actions, poses = recorder.scripted_rollout(np.random.default_rng(11))
         rewards = np.empty(len(actions))

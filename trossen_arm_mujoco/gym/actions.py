@@ -118,6 +118,7 @@ class ActionMapper:
         self._batch_names = tuple(
             name for arm, gripper in self.arms for name in (arm.name, gripper.name)
         )
+        self._batch = None  # the robot's JointTargetBatch over them (joint_position)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Action bounds: -1 and +1, float32 (dim,)."""
@@ -147,7 +148,12 @@ class ActionMapper:
         a = clip(a, self._minus_one, self._one)  # arrays: faster than scalars
         scaled = self._mid + self._half * a  # onto the control ranges (ee_delta arm: as is)
         if self.mode == "joint_position":
-            batch = self.robot.joint_target_batch(self._batch_names)
+            # the robot's batch over these groups, looked up again only when the robot has
+            # built another (a controller or its limits changed); a batch gone stale in
+            # between is refused by the robot, which then takes the commands one by one
+            batch = self._batch
+            if batch is None or self.robot.kept_batch(self._batch_names) is not batch:
+                batch = self._batch = self.robot.joint_target_batch(self._batch_names)
             if batch is not None and batch.size == self.dim:
                 return JointTargets(batch, scaled), False  # finite and of its size already
         commands: dict[str, np.ndarray] = {}

@@ -137,7 +137,15 @@ class ArmPoints:
 
     def moving_heights(self, data: mujoco.MjData) -> np.ndarray:
         """``heights`` of the points an arm joint can move up or down, (M,)."""
-        return self.moving_matrix.dot(self._load(data))
+        return self.moving_heights_at(data.xmat, data.xpos)
+
+    def moving_heights_at(self, xmat: np.ndarray, xpos: np.ndarray) -> np.ndarray:
+        """``moving_heights`` from the body poses ``xmat`` (nbody, 9) and ``xpos``
+        (nbody, 3) of an ``MjData`` (views taken once by a caller that reads them often)."""
+        per_body, sel = self._per_body, self.body_sel
+        per_body[:, :3] = xmat[sel, 6:9]
+        per_body[:, 3] = xpos[sel, 2]
+        return self.moving_matrix.dot(self.vector)
 
 
 def _joint_reach(

@@ -239,7 +239,7 @@ class Robot:
         floor = self._floor
         # with a floor over joint arms: the controls the tick starts from, the groups it moves
         start = data.ctrl.copy() if floor is not None and floor.arms else None
-        moved: list[str] = []
+        moved: tuple[str, ...] | list[str] = ()  # the groups whose controls the tick moved
         targets: list[tuple[str, np.ndarray, np.ndarray]] = []
         if self._commands:
             batch = self._batch
@@ -249,8 +249,9 @@ class Robot:
                 u = batch[0].apply(data)
                 if out is not None:
                     out.update(batch[0].by_group(u))
-                if start is not None:
-                    moved.extend(batch[0].names)
+                moved = batch[0].names
+            if batch[1]:
+                moved = list(moved)
             for name in batch[1]:
                 controller = controllers[name]
                 target = controller._target(data, self._commands[name])  # checked already
@@ -265,9 +266,9 @@ class Robot:
                     controller.group._write_ctrl(data, ctrl)
                     if out is not None:
                         out[name] = ctrl
-                    if start is not None:
-                        moved.append(name)
+                    moved.append(name)
         if self._targets:
+            moved = list(moved)
             for name, (target, reached) in list(self._targets.items()):
                 controller = controllers[name]
                 ctrl = controller.limit(data, target)
@@ -275,9 +276,8 @@ class Robot:
                 if out is not None:
                     out[name] = ctrl
                 targets.append((name, ctrl, reached))
-                if start is not None:
-                    moved.append(name)
-        held = floor.hold(data, start, moved) if moved else ()
+                moved.append(name)
+        held = floor.hold(data, start, moved) if moved and start is not None else ()
         for name in held:
             if out is not None:
                 out[name] = controllers[name].group.get_ctrl(data)
@@ -302,6 +302,12 @@ class Robot:
             return None
         batch = self._batches[names] = JointTargetBatch(self.controllers, names)
         return batch
+
+    def kept_batch(self, names: tuple[str, ...]) -> JointTargetBatch | None:
+        """The batch ``joint_target_batch(names)`` last built for the tuple ``names``, or
+        None: no check (a caller holding a batch compares it with this one to see whether
+        the robot has built another; ``update_control`` still checks what it is given)."""
+        return self._batches.get(names)
 
     def _give_ctrl_dt(self, names: Sequence[str]) -> None:
         """The robot's ``ctrl_dt`` to the controllers of ``names`` that have none yet (put

@@ -131,6 +131,10 @@ class SafetyFloor:
         self.tools = {tool.name: tool for tool in tools}
         self.report = FloorReport()
         self._data = mujoco.MjData(model)
+        # views of the private data, taken once (each attribute read of MjData makes one)
+        self._qpos, self._xmat, self._xpos = self._data.qpos, self._data.xmat, self._data.xpos
+        # per tuple of commanded group names: (arm, its points, its actuators) of the arms
+        self._checked: dict[tuple[str, ...], tuple] = {}
 
     # -- heights --------------------------------------------------------------------------
     def heights(self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None) -> np.ndarray:
@@ -167,16 +171,16 @@ class SafetyFloor:
         """The arms of ``targets`` (arm -> joints (rad)) with a point that can move up or
         down below the floor when every arm is at its target, at ``qpos_full`` (nq,) for
         the rest: one forward kinematics pass on the private ``MjData`` for all of them."""
-        data = self._data
-        data.qpos[:] = qpos_full
-        arms = self.arms
+        qpos, arms = self._qpos, self.arms
+        qpos[:] = qpos_full
         for arm, q in targets.items():
-            data.qpos[arms[arm].qpos_sel] = q
-        mujoco.mj_kinematics(self.model, data)
+            qpos[arms[arm].qpos_sel] = q
+        mujoco.mj_kinematics(self.model, self._data)
+        xmat, xpos, floor_z = self._xmat, self._xpos, self.floor_z
         below = []
         for arm in targets:
-            z = arms[arm].moving_heights(data)
-            if z[z.argmin()] < self.floor_z:  # z.min(), at a fraction of its cost
+            z = arms[arm].moving_heights_at(xmat, xpos)
+            if z[z.argmin()] < floor_z:  # z.min(), at a fraction of its cost
                 below.append(arm)
         return below
 
@@ -201,24 +205,43 @@ class SafetyFloor:
                 return fraction, self.link_name(body)
         return 0.0, self.link_name(body)
 
-    def hold(self, data: mujoco.MjData, start_ctrl: np.ndarray, names: Iterable[str]) -> list[str]:
+    def hold(
+        self, data: mujoco.MjData, start_ctrl: np.ndarray, names: Sequence[str]
+    ) -> list[str]:
         """After a control tick's controls are written: the arms among ``names`` (the groups
-        commanded in the tick) whose new control breaks the floor get a shorter step, from
-        ``start_ctrl`` ((nu,), ``data.ctrl`` before the tick) toward their new control (see
-        the module docstring), written to ``data.ctrl``. Returns the names of the arms held
-        up (their links are added to ``report``)."""
-        sel = self._ctrl_sel
-        ends = {name: data.ctrl[sel[name]] for name in names if name in sel}
-        if not ends:
+        commanded in the tick, a tuple or list) whose new control breaks the floor get a
+        shorter step, from ``start_ctrl`` ((nu,), ``data.ctrl`` before the tick) toward their
+        new control (see the module docstring), written to ``data.ctrl``. Returns the names
+        of the arms held up (their links are added to ``report``)."""
+        key = names if type(names) is tuple else tuple(names)
+        arms = self._checked.get(key)
+        if arms is None:
+            sel = self._ctrl_sel
+            arms = self._checked[key] = tuple(
+                (name, self.arms[name], sel[name]) for name in dict.fromkeys(key) if name in sel
+            )
+        if not arms:
             return []
+        # every commanded arm at its new control: one forward kinematics pass (``below``)
+        qpos, ctrl = self._qpos, data.ctrl
+        qpos[:] = data.qpos
+        for _, pts, sel in arms:
+            qpos[pts.qpos_sel] = ctrl[sel]
+        mujoco.mj_kinematics(self.model, self._data)
+        xmat, xpos, floor_z = self._xmat, self._xpos, self.floor_z
+        below = []
+        for arm in arms:
+            z = arm[1].moving_heights_at(xmat, xpos)
+            if z[z.argmin()] < floor_z:  # z.min(), at a fraction of its cost
+                below.append(arm)
         held = []
-        for name in self.below(data.qpos, ends):
-            start, end = start_ctrl[sel[name]], ends[name]
+        for name, _, sel in below:  # the rule on each (its own kinematics passes)
+            start, end = start_ctrl[sel], ctrl[sel].copy()
             fraction, link = self.safe_fraction(data.qpos, name, start, end)
             if not link:
                 continue
             # within the step the controller took: its speed limits and control range hold
-            data.ctrl[sel[name]] = start + fraction * (end - start)
+            ctrl[sel] = start + fraction * (end - start)
             self.report.add(link)
             held.append(name)
         return held

@@ -140,11 +140,26 @@ class SingleArmTask(Task):
         return self.distance() < self.tolerance
 
     # -- scoring: the reward and the diagnostics from one goal distance --------------------
+    #: the distance of the state being scored, while ``score`` runs (None otherwise)
+    _distance_now: float | None = None
+
     def distance(self) -> float:
         """Distance (m) of the achieved goal to the desired goal (read from the goal parts,
-        no copies)."""
+        no copies); inside ``score``, the one distance of the state scored."""
+        dist = self._distance_now
+        if dist is not None:
+            return dist
         achieved, desired = self.goals
         return goal_distance(achieved.read(), desired.read())
+
+    def score(self) -> tuple[float, dict[str, Any]]:
+        """``Task.score`` with the goal distance computed once: ``get_reward``,
+        ``get_info`` (and anything they call) see the same ``distance()``."""
+        self._distance_now = self.distance()
+        try:
+            return super().score()
+        finally:
+            self._distance_now = None
 
     def reward_at(self, dist: float) -> float:
         """The task's dense reward, the achieved goal being ``dist`` (m) from the desired

@@ -117,7 +117,7 @@ class Task:
 
     def apply_action(self, action: Mapping[str, np.ndarray]) -> None:
         """First half of a step: validate and hand over the commands (no physics)."""
-        if type(action) is not dict and not isinstance(action, Mapping):
+        if not isinstance(action, dict) and not isinstance(action, Mapping):
             raise UserError(
                 f"task '{self.name}': action must be a dict move group -> command, "
                 f"got {type(action).__name__}"
