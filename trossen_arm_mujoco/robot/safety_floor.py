@@ -40,7 +40,7 @@ as ``env.task.robot(env.physics).floor_report``.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import mujoco
 import numpy as np
@@ -205,9 +205,7 @@ class SafetyFloor:
                 return fraction, self.link_name(body)
         return 0.0, self.link_name(body)
 
-    def hold(
-        self, data: mujoco.MjData, start_ctrl: np.ndarray, names: Sequence[str]
-    ) -> list[str]:
+    def hold(self, data: mujoco.MjData, start_ctrl: np.ndarray, names: Sequence[str]) -> list[str]:
         """After a control tick's controls are written: the arms among ``names`` (the groups
         commanded in the tick, a tuple or list) whose new control breaks the floor get a
         shorter step, from ``start_ctrl`` ((nu,), ``data.ctrl`` before the tick) toward their
