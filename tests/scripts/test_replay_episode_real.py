@@ -739,3 +739,43 @@ def test_wire_addresses_must_be_loopback_and_distinct(
     write_episode(tmp_path, smooth_actions(5))
     rc = run(["--data_dir", str(tmp_path), "--backend", "wire", *ips, "--dry_run"])
     assert rc == 2 and expected in one_line_error(capsys)
+
+
+def test_wire_connection_dropped_mid_run_is_one_line_and_the_other_arm_goes_home(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The served left arm's controller goes away mid-replay (its server stops once the
+    commanded joint_0 has swung 0.1 rad of the episode's 0.3: no more answers, as when a
+    cable is pulled). Replay stops with one line naming the arm and giving it up, the right
+    arm still goes home and to sleep, the summary says so."""
+    pytest.importorskip("trossen_arm_sim")
+    pytest.importorskip("trossen_arm")
+
+    def drop_left_mid_replay(kit: Any) -> None:
+        adapter, server = kit.adapters["left"], kit.servers["left"]
+        handle, dropped = adapter.handle_input, threading.Event()
+
+        def watched(modes, values, now):  # the driver streams inputs at about 1 kHz
+            if values[0][0] > START_ARM_POSE[0] + 0.1 and not dropped.is_set():
+                dropped.set()
+                threading.Thread(target=server.stop, daemon=True).start()
+            return handle(modes, values, now)
+
+        adapter.handle_input = watched
+
+    write_episode(tmp_path, smooth_actions(40))
+    rc = replay_episode_real.cli(
+        ["--data_dir", str(tmp_path), *WIRE, "--no_progress"], on_served=drop_left_mid_replay
+    )
+    out, err = capsys.readouterr()
+    assert rc == 1, err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    assert "left" in lines[0]
+    assert "left arm: given up (its controller does not answer)" in lines[0]
+    assert lines[0].count("set_all_positions") == 1  # nothing more sent to the lost arm
+    summary = json.loads((tmp_path / "replay/episode_0_wire_summary.json").read_text())
+    assert summary["status"] == "failed" and 0 < summary["steps_done"] < 40
+    assert list(summary["final_positions"]) == ["right"]  # asleep: every joint back at 0
+    np.testing.assert_allclose(summary["final_positions"]["right"][:6], 0.0, atol=0.03)

@@ -17,7 +17,10 @@ that a failure of one arm never keeps the other from its safe pose:
    cleaned up.
 
 Each of these calls is tried twice: a call that fails once and then succeeds still
-reaches the safe pose (and is reported); every failure is collected, never raised.
+reaches the safe pose (and is reported); every failure is collected, never raised. An arm
+whose home move cannot be sent (both tries failed: its controller no longer answers, e.g.
+the connection dropped) is given up: no more moves or reads are sent to it, only its
+cleanup, and one line says it was left where it stopped.
 ``Exception`` and ``KeyboardInterrupt`` are caught; other ``BaseException``\\ s (a
 ``SystemExit``, a test framework's failure) are not.
 """
@@ -147,6 +150,7 @@ def shutdown(
     """
     errors: list[str] = []
     sides = list(states.configured)
+    lost: list[str] = []  # arms given up: their home move could not be sent
     for side in sides:
         if side not in states.position_mode:
             _attempt(errors, side, "set_all_modes_position", drivers[side].set_all_modes_position)
@@ -154,6 +158,8 @@ def shutdown(
         goal = np.asarray(pose, dtype=np.float64)
         goal_times = []
         for side in sides:
+            if side in lost:
+                continue
             drv = drivers[side]
             try:
                 ok, start = _attempt(errors, side, "get_all_positions", read_positions, side, drv)
@@ -163,12 +169,20 @@ def shutdown(
                                    goal_time, False)  # fmt: skip
                 if sent:
                     goal_times.append(goal_time)
+                elif name == "home":
+                    lost.append(side)
+                    errors.append(
+                        f"{side} arm: given up (its controller does not answer): not homed, "
+                        "not asleep, left where it stopped"
+                    )
             except (Exception, KeyboardInterrupt) as exc:  # a bug here must not stop the exit
                 errors.append(f"{side} arm: {name} move failed: {one_line(exc)}")
         if goal_times:
             _wait(errors, clock, max(goal_times) + settle_time)
     final: dict[str, np.ndarray] = {}
     for side in sides:
+        if side in lost:
+            continue
         ok, pos = _attempt(errors, side, "get_all_positions", read_positions, side, drivers[side])
         if ok:
             final[side] = pos
