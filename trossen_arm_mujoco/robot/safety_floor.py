@@ -171,18 +171,24 @@ class SafetyFloor:
         """The arms of ``targets`` (arm -> joints (rad)) with a point that can move up or
         down below the floor when every arm is at its target, at ``qpos_full`` (nq,) for
         the rest: one forward kinematics pass on the private ``MjData`` for all of them."""
-        qpos, arms = self._qpos, self.arms
+        arms = self.arms
+        return self._below(qpos_full, [(arm, arms[arm], q) for arm, q in targets.items()])
+
+    def _below(self, qpos_full: np.ndarray, entries: Sequence[tuple]) -> list:
+        """``below`` for ``entries`` ``(key, ArmPoints, joints (rad))``: the keys of those
+        with a point below the floor."""
+        qpos = self._qpos
         qpos[:] = qpos_full
-        for arm, q in targets.items():
-            qpos[arms[arm].qpos_sel] = q
+        for _, pts, q in entries:
+            qpos[pts.qpos_sel] = q
         mujoco.mj_kinematics(self.model, self._data)
         xmat, xpos, floor_z = self._xmat, self._xpos, self.floor_z
-        below = []
-        for arm in targets:
-            z = arms[arm].moving_heights_at(xmat, xpos)
+        out = []
+        for key, pts, _ in entries:
+            z = pts.moving_heights_at(xmat, xpos)
             if z[z.argmin()] < floor_z:  # z.min(), at a fraction of its cost
-                below.append(arm)
-        return below
+                out.append(key)
+        return out
 
     def link_name(self, body: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
@@ -220,18 +226,8 @@ class SafetyFloor:
             )
         if not arms:
             return []
-        # every commanded arm at its new control: one forward kinematics pass (``below``)
-        qpos, ctrl = self._qpos, data.ctrl
-        qpos[:] = data.qpos
-        for _, pts, sel in arms:
-            qpos[pts.qpos_sel] = ctrl[sel]
-        mujoco.mj_kinematics(self.model, self._data)
-        xmat, xpos, floor_z = self._xmat, self._xpos, self.floor_z
-        below = []
-        for arm in arms:
-            z = arm[1].moving_heights_at(xmat, xpos)
-            if z[z.argmin()] < floor_z:  # z.min(), at a fraction of its cost
-                below.append(arm)
+        ctrl = data.ctrl
+        below = self._below(data.qpos, [(arm, arm[1], ctrl[arm[2]]) for arm in arms])
         held = []
         for name, _, sel in below:  # the rule on each (its own kinematics passes)
             start, end = start_ctrl[sel], ctrl[sel].copy()
