@@ -691,6 +691,24 @@ def test_wire_backend_replays_through_the_real_driver(
         np.testing.assert_allclose(pos[:6], 0.0, atol=0.03)
 
 
+def wire_failure(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], steps: int, on_served: Any
+) -> tuple[str, str]:
+    """Replay ``steps`` smooth steps through the wire backend with ``on_served`` applied to
+    the served kit; the run must fail (exit 1) with one error line and no traceback.
+    Returns (stdout, the error line)."""
+    write_episode(tmp_path, smooth_actions(steps))
+    rc = replay_episode_real.cli(
+        ["--data_dir", str(tmp_path), *WIRE, "--no_progress"], on_served=on_served
+    )
+    out, err = capsys.readouterr()
+    assert rc == 1, err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    return out, lines[0]
+
+
 def test_wire_fault_mid_run_is_one_line_and_every_arm_goes_home(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -706,16 +724,9 @@ def test_wire_fault_mid_run_is_one_line_and_every_arm_goes_home(
         limits[0].position_max = 0.1
         kit.adapters["left"].set_limits(limits)
 
-    write_episode(tmp_path, smooth_actions(20))
-    rc = replay_episode_real.cli(
-        ["--data_dir", str(tmp_path), *WIRE, "--no_progress"], on_served=narrow
-    )
-    out, err = capsys.readouterr()
-    assert rc == 1, err
-    assert "Traceback" not in err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: replay stopped at step "), err
-    assert "Joint limit exceeded" in lines[0] and "joint_0: position command" in lines[0]
+    out, line = wire_failure(tmp_path, capsys, 20, narrow)
+    assert line.startswith("error: replay stopped at step ")
+    assert "Joint limit exceeded" in line and "joint_0: position command" in line
     assert "left arm: cleared the controller's error state joint_limit_exceeded" in out
     assert "arms are home and asleep" in out
     summary = json.loads((tmp_path / "replay/episode_0_wire_summary.json").read_text())
@@ -763,18 +774,10 @@ def test_wire_connection_dropped_mid_run_is_one_line_and_the_other_arm_goes_home
 
         adapter.handle_input = watched
 
-    write_episode(tmp_path, smooth_actions(40))
-    rc = replay_episode_real.cli(
-        ["--data_dir", str(tmp_path), *WIRE, "--no_progress"], on_served=drop_left_mid_replay
-    )
-    out, err = capsys.readouterr()
-    assert rc == 1, err
-    assert "Traceback" not in err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), err
-    assert "left" in lines[0]
-    assert "left arm: given up (its controller does not answer)" in lines[0]
-    assert lines[0].count("set_all_positions") == 1  # nothing more sent to the lost arm
+    _, line = wire_failure(tmp_path, capsys, 40, drop_left_mid_replay)
+    assert line.startswith("error: replay stopped at step ") and "left arm" in line
+    assert "left arm: given up (its controller does not answer)" in line
+    assert line.count("set_all_positions") == 1  # nothing more sent to the lost arm
     summary = json.loads((tmp_path / "replay/episode_0_wire_summary.json").read_text())
     assert summary["status"] == "failed" and 0 < summary["steps_done"] < 40
     assert list(summary["final_positions"]) == ["right"]  # asleep: every joint back at 0
