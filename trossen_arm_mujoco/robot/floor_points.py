@@ -124,16 +124,17 @@ class ArmPoints:
         # the rows of the points that can move up or down (fixed ones never break the floor)
         self.moving_matrix = self.matrix[~self.fixed_height]
 
-    def _load(self, data: mujoco.MjData) -> np.ndarray:
-        """``vector`` filled from ``data``'s body poses."""
+    def _load(self, xmat: np.ndarray, xpos: np.ndarray) -> np.ndarray:
+        """``vector`` filled from the body poses ``xmat`` (nbody, 9) and ``xpos`` (nbody, 3)
+        of an ``MjData``."""
         per_body, sel = self._per_body, self.body_sel
-        per_body[:, :3] = data.xmat[sel, 6:9]
-        per_body[:, 3] = data.xpos[sel, 2]
+        per_body[:, :3] = xmat[sel, 6:9]
+        per_body[:, 3] = xpos[sel, 2]
         return self.vector
 
     def heights(self, data: mujoco.MjData) -> np.ndarray:
         """World z (m) of every point's lowest reach at ``data``'s body poses, (N,)."""
-        return self.matrix.dot(self._load(data))
+        return self.matrix.dot(self._load(data.xmat, data.xpos))
 
     def moving_heights(self, data: mujoco.MjData) -> np.ndarray:
         """``heights`` of the points an arm joint can move up or down, (M,)."""
@@ -142,10 +143,7 @@ class ArmPoints:
     def moving_heights_at(self, xmat: np.ndarray, xpos: np.ndarray) -> np.ndarray:
         """``moving_heights`` from the body poses ``xmat`` (nbody, 9) and ``xpos``
         (nbody, 3) of an ``MjData`` (views taken once by a caller that reads them often)."""
-        per_body, sel = self._per_body, self.body_sel
-        per_body[:, :3] = xmat[sel, 6:9]
-        per_body[:, 3] = xpos[sel, 2]
-        return self.moving_matrix.dot(self.vector)
+        return self.moving_matrix.dot(self._load(xmat, xpos))
 
 
 def _joint_reach(
