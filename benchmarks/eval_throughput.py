@@ -23,6 +23,16 @@ controllers, physics, the reward, the observation with its images).
 Env and floor alternate ``--repeats`` times (so both see the same machine load); the best
 of each is kept. Prints steps/s, ms per step and the ratio env/raw (1.0 = no overhead), then
 total steps/s, speedup and efficiency per worker count.
+
+4. a policy (``--policy``: a LeRobot checkpoint folder, run in LeRobot's Python >= 3.12, or
+   ``scripted``; replaces 1-3): ``eval.runner.evaluate`` over ``--episodes`` episodes of
+   ``--episode_length`` steps at each worker count, with its thread split (each worker's
+   torch and BLAS get max(1, cores // workers) threads). Prints episodes/s in the steady
+   state (from the arrival of the first result of every worker to the last: spawning the
+   workers and loading the policy excluded) and over the whole call, and the steady ratio
+   against the first count (goal: 2 workers >= 1.7x one)::
+
+       python benchmarks/eval_throughput.py --policy .../pretrained_model --workers 1,2
 """
 
 from __future__ import annotations
@@ -177,6 +187,43 @@ def scaling(args, workers: int) -> float:
     return best
 
 
+def policy_rates(args, workers: int) -> tuple[float, float]:
+    """(steady, whole-call) episodes/s of ``evaluate`` with ``workers`` local workers."""
+    from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_features
+    from trossen_arm_mujoco.eval.runner import EvalSettings, evaluate
+
+    found = {} if args.policy == "scripted" else checkpoint_features(args.policy)
+    settings = EvalSettings(
+        policy=args.policy, task=args.task, num_episodes=args.episodes,
+        cam_names=found.get("cam_names", ()), image_size=found.get("image_size", (480, 640)),
+        episode_length=args.episode_length, layout=found.get("layout", "kit14"),
+        output_dir=os.devnull,
+    )  # fmt: skip
+    arrivals: list[float] = []
+    t0 = time.perf_counter()
+    evaluate(settings, workers, on_episode=lambda _: arrivals.append(time.perf_counter()))
+    whole = args.episodes / (time.perf_counter() - t0)
+    first = min(workers, args.episodes) - 1  # every worker has finished one episode
+    steady = (len(arrivals) - 1 - first) / max(arrivals[-1] - arrivals[first], 1e-9)
+    return steady, whole
+
+
+def policy_table(args, counts: list[int]) -> None:
+    from trossen_arm_mujoco.eval.runner import available_cpus, threads_per_worker
+
+    cpus = available_cpus()
+    print(f"policy throughput: {args.policy}, {args.task}, {args.episodes} episodes of "
+          f"{args.episode_length} steps; {cpus} usable CPUs, load average "
+          f"{os.getloadavg()[0]:.1f} (other processes share these cores)")  # fmt: skip
+    print(f"  {'workers':>7}  {'threads':>7}  {'episodes/s':>10}  {'(whole)':>8}  {'ratio':>6}")
+    base = None
+    for n in counts:
+        steady, whole = policy_rates(args, n)
+        base = base or steady
+        print(f"  {n:>7}  {threads_per_worker(n, cpus):>7}  {steady:>10.3f}  {whole:>8.3f}  "
+              f"{steady / base:>6.2f}", flush=True)  # fmt: skip
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--task", default="sim_transfer_cube", help="bimanual task")
@@ -185,6 +232,13 @@ def main(argv=None) -> None:
     p.add_argument("--steps", type=int, default=300, help="env steps per timed run")
     p.add_argument("--repeats", type=int, default=3, help="timed runs of each (best kept)")
     p.add_argument("--workers", default="1,2", help="worker counts of the scaling table")
+    p.add_argument(
+        "--policy",
+        default=None,
+        help="time this policy's evaluation instead (checkpoint or 'scripted')",
+    )
+    p.add_argument("--episodes", type=int, default=8, help="episodes per --policy run")
+    p.add_argument("--episode_length", type=int, default=100, help="steps per episode")
     args = p.parse_args(argv)
     from trossen_arm_mujoco.eval.env import parse_cameras, parse_image_size
 
@@ -193,6 +247,10 @@ def main(argv=None) -> None:
     counts = [int(n) for n in args.workers.split(",") if n.strip()]
     if args.steps < 1 or args.repeats < 1 or not counts or min(counts) < 1:
         p.error("--steps, --repeats and every --workers count must be at least 1")
+    if args.policy is not None:
+        if args.episodes < 2 * max(counts) or args.episode_length < 1:
+            p.error("--episodes must be at least twice the largest --workers count")
+        return policy_table(args, counts)
 
     actions = replay_actions(args.steps)
     env = make_env(args)

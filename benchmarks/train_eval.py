@@ -1,49 +1,93 @@
-"""The whole loop, measured: record -> export -> lerobot-train (ACT) -> trossen-mujoco eval.
+"""The whole loop, measured over several training runs: record -> export -> lerobot-train (ACT)
+-> trossen-mujoco eval.
 
     TROSSEN_LEROBOT_PYTHON=~/.cache/trossen-arm-mujoco/lerobot-venv/bin/python \\
-        python benchmarks/train_eval.py --episodes 50 --steps 6000 --eval_episodes 50
+        python benchmarks/train_eval.py --episodes 50 --steps 5000 --train_seeds 3
 
-1. ``trossen-mujoco record`` of ``--episodes`` scripted transfer episodes (``--seed``), no
-   camera by default (``--cam_names cam_high --image_size 96x128 --no_env_state`` for the
-   image recipe);
-2. ``trossen-mujoco export`` in the real kit's 14-value layout (state, velocity,
-   environment_state = the cube's pose, action);
-3. LeRobot's own ``lerobot-train`` with ACT (the settings below; CPU unless ``--device``);
-4. ``trossen-mujoco eval`` of the last checkpoint over ``--eval_episodes`` evaluation seeds
-   (a stream of its own: never a training episode).
+1. ``record``: ``trossen-mujoco record`` of ``--episodes`` scripted episodes of ``--task``
+   (``--seed``), no camera by default (``--cam_names cam_high --image_size 96x128
+   --no_env_state`` for the image recipe);
+2. ``export``: ``trossen-mujoco export`` in the real kit's 14-value layout (state, velocity,
+   environment_state = the object poses, action);
+3. ``train``: LeRobot's own ``lerobot-train`` with ACT (the settings below), once per training
+   seed (``--train_seeds K``: seeds ``--train_seed``, ``--train_seed`` + 1, ...; same data),
+   ``--train_jobs`` of them at a time (CPU unless ``--device``);
+4. ``eval``: ``trossen-mujoco eval`` of each run's last checkpoint over ``--eval_episodes``
+   evaluation seeds (a stream of its own: never a training episode).
 
-Prints one line per phase with its wall and CPU time, and the success rate with its 95 %
-Wilson interval and the stage rates; writes ``summary.json`` in ``--work_dir``. LeRobot runs
-in ``TROSSEN_LEROBOT_PYTHON`` (Python >= 3.12; ``bash .ci/run`` builds one).
+``--phase`` runs any subset (``record,export`` here, ``train`` on a GPU machine, ``eval`` back
+here): each phase reads what the earlier ones left in ``--work_dir``. A phase whose output is
+already complete is skipped with a line. Prints one line per phase and run with its wall and
+CPU time, then each run's success with its 95 % Wilson interval, the mean and the worst run;
+merges everything into ``summary.json`` in ``--work_dir``. LeRobot runs in
+``TROSSEN_LEROBOT_PYTHON`` (Python >= 3.12; ``bash .ci/run`` builds one); the train phase needs
+nothing else, so it runs on a machine with LeRobot and torch but without this project's
+simulator (see ``tools/offline_wheelhouse.sh``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
-import resource
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-
-def _cpu() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
+PHASES = ("record", "export", "train", "eval")
 
 
-def _run(name: str, args: list[str], log: Path, env: dict) -> dict:
-    start, cpu = time.perf_counter(), _cpu()
-    with open(log, "w") as out:
-        proc = subprocess.run(args, stdout=out, stderr=subprocess.STDOUT, env=env)
-    took = {"wall_s": time.perf_counter() - start, "cpu_s": _cpu() - cpu}
-    print(f"{name}: {took['wall_s']:.0f} s wall, {took['cpu_s']:.0f} s CPU (log {log})",
-          flush=True)  # fmt: skip
-    if proc.returncode != 0:
-        sys.exit(f"{name} failed (exit {proc.returncode}); see {log}")
-    return took
+def _fail(message: str) -> None:
+    sys.exit(f"error: {message}")
+
+
+def _wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """95 % Wilson interval of a rate, in percent."""
+    if n <= 0:
+        return 0.0, 0.0
+    p, denom = successes / n, 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return 100.0 * max(0.0, centre - half), 100.0 * min(1.0, centre + half)
+
+
+class Job:
+    """A child process whose own wall and CPU time (``os.wait4``'s rusage) are kept."""
+
+    def __init__(self, name: str, args: list[str], log: Path, env: dict):
+        self.name, self.log, self.start = name, log, time.perf_counter()
+        self._out = open(log, "w")
+        self.proc = subprocess.Popen(args, stdout=self._out, stderr=subprocess.STDOUT, env=env)
+
+    def wait(self) -> dict:
+        """Wait for the child; its ``{"wall_s", "cpu_s"}``; exits with a line if it failed."""
+        _, status, usage = os.wait4(self.proc.pid, 0)
+        self.proc.returncode = os.waitstatus_to_exitcode(status)
+        self._out.close()
+        took = {
+            "wall_s": round(time.perf_counter() - self.start, 1),
+            "cpu_s": round(usage.ru_utime + usage.ru_stime, 1),
+        }
+        print(f"{self.name}: {took['wall_s']:.0f} s wall, {took['cpu_s']:.0f} s CPU "
+              f"(log {self.log})", flush=True)  # fmt: skip
+        if self.proc.returncode != 0:
+            _fail(f"{self.name} failed (exit {self.proc.returncode}); see {self.log}")
+        return took
+
+
+def _run_jobs(jobs: list[tuple[str, list[str], Path]], env: dict, at_once: int) -> list[dict]:
+    """Run the jobs, ``at_once`` at a time; their timings in order."""
+    results: dict[int, dict] = {}
+    pending, running = list(enumerate(jobs)), []
+    while pending or running:
+        while pending and len(running) < max(1, at_once):
+            i, (name, args, log) = pending.pop(0)
+            running.append((i, Job(name, args, log, env)))
+        i, job = running.pop(0)
+        results[i] = job.wait()
+    return [results[i] for i in range(len(jobs))]
 
 
 def _inputs_flag(args: argparse.Namespace, dataset: Path) -> list[str]:
@@ -60,26 +104,134 @@ def _inputs_flag(args: argparse.Namespace, dataset: Path) -> list[str]:
             h, w, c = ft["shape"]  # LeRobot stores video features (H, W, C); policies see CHW
             inputs[key] = {"type": "VISUAL", "shape": [c, h, w]}
     if not any(k.startswith("observation.images.") for k in inputs):
-        sys.exit("--no_env_state needs a camera: pass --cam_names (e.g. cam_high)")
+        _fail("--no_env_state needs a camera: pass --cam_names (e.g. cam_high)")
     return ["--policy.input_features=" + json.dumps(inputs)]
 
 
-def main() -> None:
+def _train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
+                seed: int) -> list[str]:  # fmt: skip
+    n_action = args.n_action_steps or args.chunk_size
+    extra = []
+    if args.temporal_ensemble_coeff is not None:
+        extra = [f"--policy.temporal_ensemble_coeff={args.temporal_ensemble_coeff}"]
+        n_action = 1
+    if args.video_backend:
+        extra.append(f"--dataset.video_backend={args.video_backend}")
+    return [
+        python, "-m", "lerobot.scripts.lerobot_train",
+        "--dataset.repo_id=local/sim_dataset", f"--dataset.root={dataset}",
+        "--policy.type=act", f"--policy.device={args.device}", "--policy.push_to_hub=false",
+        "--policy.pretrained_backbone_weights=null", f"--policy.use_vae={args.use_vae}",
+        f"--policy.dim_model={args.dim_model}", f"--policy.chunk_size={args.chunk_size}",
+        f"--policy.dim_feedforward={args.dim_feedforward}",
+        f"--policy.n_encoder_layers={args.n_encoder_layers}",
+        f"--policy.n_decoder_layers={args.n_decoder_layers}",
+        "--policy.normalization_mapping=" + json.dumps({
+            "VISUAL": "MEAN_STD", "STATE": "MEAN_STD", "ACTION": "MEAN_STD",
+            "ENV": args.normalize_env,
+        }),
+        f"--policy.n_action_steps={n_action}", f"--policy.optimizer_lr={args.lr}",
+        f"--steps={args.steps}", f"--batch_size={args.batch_size}",
+        f"--num_workers={args.num_workers}", f"--seed={seed}",
+        f"--save_freq={min(args.save_freq, args.steps)}", "--log_freq=200",
+        "--wandb.enable=false", f"--output_dir={out}",
+    ] + extra + _inputs_flag(args, dataset) + list(args.train_arg)  # fmt: skip
+
+
+def _losses(log: Path) -> list[float]:
+    """The ``loss:`` values lerobot-train logged, in order."""
+    return [
+        float(part.split(":")[1])
+        for line in log.read_text().splitlines()
+        for part in line.split()
+        if part.startswith("loss:")
+    ]
+
+
+def _checkpoint(train: Path) -> Path:
+    return train / "checkpoints" / "last" / "pretrained_model"
+
+
+def _report(runs: dict[str, dict]) -> dict:
+    """Each run's success and interval, the mean and the worst (printed and returned)."""
+    rates, total, n = [], 0, 0
+    for seed, run in sorted(runs.items(), key=lambda kv: int(kv[0])):
+        res = run.get("result")
+        if not res:
+            continue
+        lo, hi = res["pc_success_ci95"]
+        print(f"training seed {seed}: success {res['pc_success']:.1f}% (95% CI {lo:.1f}-"
+              f"{hi:.1f}) over {res['n_episodes']} episodes; stages {res['stages']}; "
+              f"train {run.get('train', {}).get('cpu_s', float('nan')):.0f} s CPU")  # fmt: skip
+        rates.append(res["pc_success"])
+        total += round(res["pc_success"] * res["n_episodes"] / 100.0)
+        n += res["n_episodes"]
+    if not rates:
+        return {}
+    spread = {
+        "runs": len(rates),
+        "mean_pc_success": sum(rates) / len(rates),
+        "worst_pc_success": min(rates),
+        "best_pc_success": max(rates),
+        "pooled_pc_success_ci95": list(_wilson(total, n)),
+    }
+    lo, hi = spread["pooled_pc_success_ci95"]
+    print(f"over {len(rates)} training runs: mean {spread['mean_pc_success']:.1f}%, worst "
+          f"{spread['worst_pc_success']:.1f}%, best {spread['best_pc_success']:.1f}% "
+          f"(all {n} episodes pooled: 95% CI {lo:.1f}-{hi:.1f})")  # fmt: skip
+    return spread
+
+
+def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work_dir", default="train_eval_out")
+    p.add_argument("--phase", default=",".join(PHASES),
+                   help="comma list of phases to run, any subset of record,export,train,eval "
+                   "(default: all)")  # fmt: skip
+    p.add_argument("--task", default="sim_transfer_cube")
     p.add_argument("--episodes", type=int, default=50)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="recording seed")
+    p.add_argument(
+        "--inject_noise", action="store_true", help="record with the scripted plan's waypoint noise"
+    )
     p.add_argument("--cam_names", default="none")
     p.add_argument("--image_size", default="96x128")
     p.add_argument("--fps", type=int, default=50, help="export (and eval) rate")
-    p.add_argument("--steps", type=int, default=6000)
+    p.add_argument(
+        "--train_seeds",
+        type=int,
+        default=1,
+        help="training runs on the same data, seeds --train_seed, +1, ...",
+    )
+    p.add_argument("--train_seed", type=int, default=1000, help="first training seed")
+    p.add_argument("--train_jobs", type=int, default=1,
+                   help="training runs at a time (several fit one GPU)")  # fmt: skip
+    p.add_argument("--steps", type=int, default=5000)
     p.add_argument("--batch_size", type=int, default=16)
+    p.add_argument("--num_workers", type=int, default=0, help="lerobot-train's data loaders")
+    p.add_argument("--video_backend", default="",
+                   help="lerobot-train's --dataset.video_backend (pyav where torchcodec "
+                   "has no FFmpeg; default: LeRobot's)")  # fmt: skip
     p.add_argument("--save_freq", type=int, default=1000, help="checkpoint every N steps")
     p.add_argument("--lr", type=float, default=1e-4)
     p.add_argument("--dim_model", type=int, default=256)
-    p.add_argument("--chunk_size", type=int, default=50)
-    p.add_argument("--use_vae", default="false")
     p.add_argument("--dim_feedforward", type=int, default=1024)
+    p.add_argument("--n_encoder_layers", type=int, default=4)
+    p.add_argument("--n_decoder_layers", type=int, default=1)
+    p.add_argument("--chunk_size", type=int, default=50)
+    p.add_argument(
+        "--n_action_steps",
+        type=int,
+        default=0,
+        help="actions executed per chunk (default: --chunk_size)",
+    )
+    p.add_argument(
+        "--temporal_ensemble_coeff",
+        type=float,
+        default=None,
+        help="ACT's temporal ensembling (then one action per inference)",
+    )
+    p.add_argument("--use_vae", default="false")
     p.add_argument(
         "--normalize_env",
         default="MEAN_STD",
@@ -94,68 +246,113 @@ def main() -> None:
         "observation.environment_state (the object poses), so it must find the cube in the "
         "images (the image recipe)",
     )
+    p.add_argument("--train_arg", action="append", default=[],
+                   help="one more lerobot-train flag, e.g. --train_arg=--policy.dropout=0.1 "
+                   "(repeatable)")  # fmt: skip
     p.add_argument("--device", default="cpu")
     p.add_argument("--eval_episodes", type=int, default=50)
     p.add_argument("--eval_workers", type=int, default=2)
     p.add_argument("--eval_seed", type=int, default=0)
-    args = p.parse_args()
+    p.add_argument(
+        "--eval_episode_length",
+        type=int,
+        default=0,
+        help="eval episode length in steps (default: the task's)",
+    )
+    return p
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = build_parser().parse_args(argv)
+    phases = [x.strip() for x in args.phase.split(",") if x.strip()]
+    unknown = sorted(set(phases) - set(PHASES))
+    if unknown or not phases:
+        _fail(f"--phase {args.phase!r}: unknown {unknown}; choose from {','.join(PHASES)}")
+    if args.train_seeds < 1 or args.train_jobs < 1:
+        _fail("--train_seeds and --train_jobs must be at least 1")
     python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
     if not python:
-        sys.exit("set TROSSEN_LEROBOT_PYTHON to a Python >= 3.12 with LeRobot (bash .ci/run)")
+        _fail("set TROSSEN_LEROBOT_PYTHON to a Python >= 3.12 with LeRobot (bash .ci/run)")
     work = Path(args.work_dir).resolve()
     work.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, "MUJOCO_GL": "egl", "HF_HUB_OFFLINE": "1", "WANDB_MODE": "disabled"}
     cli = [python, "-m", "trossen_arm_mujoco.cli"]
-    summary: dict = {"settings": vars(args)}
-    data, dataset, train = work / "episodes", work / "dataset", work / "train"
-    if not (data / f"episode_{args.episodes - 1}.hdf5").exists():
-        summary["record"] = _run("record", cli + [
-            "record", "--data_dir", str(data), "--num_episodes", str(args.episodes),
-            "--seed", str(args.seed), "--cam_names", args.cam_names,
-            "--image_size", args.image_size, "--num_workers", "2", "--skip_failed",
-        ], work / "record.log", env)  # fmt: skip
-    if not (dataset / "meta/info.json").exists():
-        summary["export"] = _run("export", cli + [
-            "export", "--data_dir", str(data), "--output", str(dataset),
-            "--repo_id", "local/transfer_cube", "--fps", str(args.fps), "--vcodec", "h264",
-        ], work / "export.log", env)  # fmt: skip
-    summary["train"] = _run("lerobot-train", [
-        python, "-m", "lerobot.scripts.lerobot_train",
-        "--dataset.repo_id=local/transfer_cube", f"--dataset.root={dataset}",
-        "--policy.type=act", f"--policy.device={args.device}", "--policy.push_to_hub=false",
-        "--policy.pretrained_backbone_weights=null", f"--policy.use_vae={args.use_vae}",
-        f"--policy.dim_model={args.dim_model}", f"--policy.chunk_size={args.chunk_size}",
-        f"--policy.dim_feedforward={args.dim_feedforward}",
-        "--policy.normalization_mapping=" + json.dumps({
-            "VISUAL": "MEAN_STD", "STATE": "MEAN_STD", "ACTION": "MEAN_STD",
-            "ENV": args.normalize_env,
-        }),
-        f"--policy.n_action_steps={args.chunk_size}", f"--policy.optimizer_lr={args.lr}",
-        f"--steps={args.steps}", f"--batch_size={args.batch_size}", "--num_workers=0",
-        f"--save_freq={min(args.save_freq, args.steps)}", "--log_freq=200", "--wandb.enable=false",
-        f"--output_dir={train}",
-    ] + _inputs_flag(args, dataset), work / "train.log", env)  # fmt: skip
-    losses = [
-        float(part.split(":")[1])
-        for line in (work / "train.log").read_text().splitlines()
-        for part in line.split()
-        if part.startswith("loss:")
-    ]
-    summary["loss_curve"] = losses
-    ckpt = train / "checkpoints" / "last" / "pretrained_model"
-    summary["eval"] = _run("eval", cli + [
-        "eval", "--policy", str(ckpt), "--num_episodes", str(args.eval_episodes),
-        "--num_workers", str(args.eval_workers), "--seed", str(args.eval_seed),
-        "--fps", str(args.fps), "--output_dir", str(work / "eval"), "--overwrite",
-    ], work / "eval.log", env)  # fmt: skip
-    info = json.loads((work / "eval" / "eval_info.json").read_text())["aggregated"]
-    summary["result"] = info
-    (work / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    lo, hi = info["pc_success_ci95"]
-    print(f"loss {losses[0] if losses else float('nan'):.3f} -> "
-          f"{losses[-1] if losses else float('nan'):.3f} over {args.steps} steps")  # fmt: skip
-    print(f"success {info['pc_success']:.1f}% (95% CI {lo:.1f}-{hi:.1f}) over "
-          f"{info['n_episodes']} episodes; stages {info['stages']}")  # fmt: skip
+    summary_path = work / "summary.json"
+    summary: dict = json.loads(summary_path.read_text()) if summary_path.exists() else {}
+    summary.setdefault("settings", {})[",".join(phases)] = vars(args)
+    runs: dict[str, dict] = summary.setdefault("runs", {})
+    data, dataset = work / "episodes", work / "dataset"
+    seeds = [args.train_seed + k for k in range(args.train_seeds)]
+
+    def save() -> None:
+        tmp = summary_path.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps(summary, indent=2) + "\n")
+        tmp.replace(summary_path)
+
+    if "record" in phases:
+        if (data / f"episode_{args.episodes - 1}.hdf5").exists():
+            print(f"record: {data} already holds {args.episodes} episodes")
+        else:
+            summary["record"] = _run_jobs([("record", cli + [
+                "record", "--task_name", args.task, "--data_dir", str(data),
+                "--num_episodes", str(args.episodes), "--seed", str(args.seed),
+                "--cam_names", args.cam_names, "--image_size", args.image_size,
+                "--num_workers", "2", "--skip_failed",
+            ] + (["--inject_noise"] if args.inject_noise else []),
+                work / "record.log")], env, 1)[0]  # fmt: skip
+    if "export" in phases:
+        if (dataset / "meta/info.json").exists():
+            print(f"export: {dataset} already exported")
+        else:
+            summary["export"] = _run_jobs([("export", cli + [
+                "export", "--data_dir", str(data), "--output", str(dataset),
+                "--repo_id", "local/sim_dataset", "--fps", str(args.fps), "--vcodec", "h264",
+            ], work / "export.log")], env, 1)[0]  # fmt: skip
+    save()
+    if "train" in phases:
+        if not (dataset / "meta/info.json").exists():
+            _fail(f"no dataset in {dataset}: run --phase record,export first")
+        jobs = []
+        for seed in seeds:
+            out = work / "train" / f"seed_{seed}"
+            if _checkpoint(out).is_dir():
+                print(f"train seed {seed}: {out} already holds a checkpoint")
+                continue
+            if out.exists():
+                _fail(f"{out} holds an unfinished run: remove it to train seed {seed} again")
+            out.parent.mkdir(parents=True, exist_ok=True)
+            log = work / f"train_seed_{seed}.log"
+            jobs.append((seed, (f"lerobot-train seed {seed}",
+                                _train_args(args, python, dataset, out, seed), log)))  # fmt: skip
+        timings = _run_jobs([job for _, job in jobs], env, args.train_jobs)
+        for (seed, (_, _, log)), took in zip(jobs, timings):
+            runs[str(seed)] = {
+                "train": {**took, "steps": args.steps, "device": args.device,
+                          "jobs_at_once": min(args.train_jobs, len(jobs))},
+                "loss_curve": _losses(log),
+            }  # fmt: skip
+            save()
+    if "eval" in phases:
+        for seed in seeds:
+            ckpt = _checkpoint(work / "train" / f"seed_{seed}")
+            if not ckpt.is_dir():
+                _fail(f"no checkpoint at {ckpt}: run --phase train first")
+            out = work / "eval" / f"seed_{seed}"
+            length = ["--episode_length", str(args.eval_episode_length)]
+            took = _run_jobs([(f"eval seed {seed}", cli + [
+                "eval", "--policy", str(ckpt), "--task_name", args.task,
+                "--num_episodes", str(args.eval_episodes),
+                "--num_workers", str(args.eval_workers), "--seed", str(args.eval_seed),
+                "--fps", str(args.fps), "--output_dir", str(out), "--overwrite",
+            ] + (length if args.eval_episode_length else []),
+                work / f"eval_seed_{seed}.log")], env, 1)[0]  # fmt: skip
+            run = runs.setdefault(str(seed), {})
+            run["eval"] = took
+            run["result"] = json.loads((out / "eval_info.json").read_text())["aggregated"]
+            save()
+        summary["spread"] = _report({s: runs[s] for s in map(str, seeds) if s in runs})
+        save()
+    print(f"summary: {summary_path}")
 
 
 if __name__ == "__main__":

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "step_overhead.py"
 
@@ -50,3 +53,35 @@ def test_numpy_paths_compares_the_variants_and_checks_the_draws():
     rows = [line for line in done.stdout.splitlines() if line.startswith("| two floats")]
     assert rows and all(line.rstrip(" |").endswith("yes") for line in rows)  # same draws
     assert "umath.clip" in done.stdout and "| 58 " in done.stdout
+
+
+def test_train_step_profile_splits_an_act_step_into_its_parts(tmp_path):
+    """Needs LeRobot (``TROSSEN_LEROBOT_PYTHON``, set by ``.ci/run``); a tiny model and data."""
+    lerobot_python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
+    if not lerobot_python or not Path(lerobot_python).is_file():
+        pytest.skip("TROSSEN_LEROBOT_PYTHON is not set to a Python with LeRobot (.ci/run sets it)")
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    cli = [sys.executable, "-m", "trossen_arm_mujoco.cli"]
+    data, dataset = tmp_path / "episodes", tmp_path / "dataset"
+    for args in (
+        ["record", "--data_dir", str(data), "--num_episodes", "1", "--episode_len", "440",
+         "--cam_names", "none", "--seed", "0"],
+        ["export", "--data_dir", str(data), "--output", str(dataset), "--repo_id", "local/tiny"],
+    ):  # fmt: skip
+        done = subprocess.run([*cli, *args], capture_output=True, text=True, env=env, timeout=300)
+        assert done.returncode == 0, done.stderr
+    script = SCRIPT.parent / "train_step_profile.py"
+    args = ["--steps", "2", "--warmup", "1", "--batch_size", "4", "--dim_model", "32",
+            "--dim_feedforward", "64", "--n_encoder_layers", "1", "--chunk_size", "5",
+            "--threads", "1", "--json", str(tmp_path / "profile.json")]  # fmt: skip
+    done = subprocess.run(
+        [lerobot_python, str(script), str(dataset), *args],
+        capture_output=True, text=True, env=env, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    rows = [line.split("|") for line in done.stdout.splitlines() if line.startswith("| ")]
+    parts = [r[1].strip() for r in rows[1:]]
+    assert parts == ["data", "preprocess", "forward", "backward", "optimizer", "step"], rows
+    assert float(rows[-1][2]) > 0 and rows[-1][4].strip() == "100.0%"
+    result = json.loads((tmp_path / "profile.json").read_text())
+    assert all(len(result["times_s"][p]) == 2 for p in parts[:-1])

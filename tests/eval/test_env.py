@@ -294,3 +294,34 @@ def test_parse_cameras():
     assert parse_cameras("none") == () and parse_cameras("None") == ()
     assert parse_cameras("cam_high, cam_low,") == ("cam_high", "cam_low")
     assert parse_cameras(["cam_low"]) == ("cam_low",)
+
+
+# -- reset options --------------------------------------------------------------------------
+def test_reset_object_poses_place_the_named_objects_and_others_keep_the_seeds(make_env):
+    env = make_env("sim_insertion")
+    sampled = env.reset(seed=3)[0]["environment_state"].copy()  # peg (7), socket (7)
+    peg = np.array([0.05, -0.02, 0.02, 0.0, 0.0, 0.0, 2.0])  # quaternion normalised
+    placed = env.reset(seed=3, options={"object_poses": {"peg": peg}})[0]["environment_state"]
+    np.testing.assert_allclose(placed[:7], [0.05, -0.02, 0.02, 0.0, 0.0, 0.0, 1.0], atol=1e-7)
+    np.testing.assert_array_equal(placed[7:], sampled[7:])
+    again = env.reset(seed=3, options={"object_poses": None})[0]["environment_state"]
+    np.testing.assert_array_equal(again, sampled)
+
+
+@pytest.mark.parametrize(
+    "options,match",
+    [
+        ([1, 2], "reset options must be a dict"),
+        ({"object_pose": {}}, "unknown reset option"),
+        ({"object_poses": [0.0] * 7}, "object_poses must map object names"),
+        ({"object_poses": {"cube": [0.0] * 7}}, "unknown object 'cube'; valid objects: box"),
+        ({"object_poses": {"box": [0.0] * 6}}, r"object_poses\['box'\] must be 7 finite"),
+        ({"object_poses": {"box": [0, 0, 0, float("nan"), 1, 0, 0]}}, "7 finite"),
+        ({"object_poses": {"box": [0.0] * 7}}, "non-zero quaternion"),
+        ({"object_poses": {"box": "up"}}, "7 finite"),
+    ],
+)
+def test_bad_reset_options_are_user_errors(make_env, options, match):
+    env = make_env()
+    with pytest.raises(UserError, match=match):
+        env.reset(seed=0, options=options)

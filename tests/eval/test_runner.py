@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -154,3 +155,69 @@ def test_ray_engine_gives_the_same_episodes_as_local(scripted_info, tmp_path):
     on_ray = json.loads((out / "eval_info.json").read_text())
     assert _rows(on_ray) == _rows(scripted_info)
     assert on_ray["run"]["engine"] == "ray" and on_ray["aggregated"]["pc_success"] == 100.0
+
+
+THREADS_MODULE = """
+import os
+from pathlib import Path
+
+import numpy as np
+
+from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
+
+POSE = REAL_KIT_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
+
+
+def act(observation):
+    import torch
+
+    seen = f"{os.getpid()} {os.environ.get('OMP_NUM_THREADS')} {torch.get_num_threads()}"
+    with open(Path(os.environ["THREADS_LOG"]) / f"{os.getpid()}.txt", "w") as f:
+        f.write(seen)
+    return POSE.copy()
+"""
+
+
+def test_threads_per_worker_shares_the_cores():
+    from trossen_arm_mujoco.eval.runner import available_cpus, threads_per_worker
+
+    assert threads_per_worker(1, 16) == 16
+    assert threads_per_worker(2, 16) == 8
+    assert threads_per_worker(3, 16) == 5
+    assert threads_per_worker(2, 2) == 1
+    assert threads_per_worker(1000, 2) == 1
+    assert threads_per_worker(1) == available_cpus() >= 1
+
+
+def test_thread_env_is_restored(monkeypatch):
+    from trossen_arm_mujoco.eval.runner import THREAD_VARS, thread_env
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "7")
+    monkeypatch.delenv("MKL_NUM_THREADS", raising=False)
+    with thread_env(3):
+        assert all(os.environ[k] == "3" for k in THREAD_VARS)
+    assert os.environ["OMP_NUM_THREADS"] == "7" and "MKL_NUM_THREADS" not in os.environ
+
+
+def test_each_worker_gets_its_share_of_the_cores(tmp_path, monkeypatch):
+    """Two workers: each worker's OpenMP variable and torch use max(1, C // 2) threads (not
+    torch's default of every core)."""
+    pytest.importorskip("torch")
+    from trossen_arm_mujoco.eval.runner import available_cpus
+
+    name = f"threads_{uuid.uuid4().hex[:8]}"
+    folder, log = tmp_path / "policies", tmp_path / "log"
+    folder.mkdir()
+    log.mkdir()
+    (folder / f"{name}.py").write_text(textwrap.dedent(THREADS_MODULE), encoding="utf-8")
+    monkeypatch.syspath_prepend(str(folder))
+    monkeypatch.setenv("PYTHONPATH", str(folder))
+    monkeypatch.setenv("THREADS_LOG", str(log))
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    settings = EvalSettings(policy=f"{name}:act", num_episodes=2, episode_length=1,
+                            output_dir=str(tmp_path / "out"))  # fmt: skip
+    evaluate(settings, 2)
+    want = str(max(1, available_cpus() // 2))
+    seen = [p.read_text().split() for p in log.iterdir()]
+    assert seen and all(s[1:] == [want, want] for s in seen), seen
+    assert "OMP_NUM_THREADS" not in os.environ  # the parent's environment is restored

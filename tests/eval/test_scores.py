@@ -172,3 +172,14 @@ def test_write_eval_info_failure_leaves_no_temp_and_keeps_the_old_file(tmp_path)
         write_eval_info(out, {"task": object()})  # not JSON serialisable
     assert json.loads(out.read_text(encoding="utf-8")) == {"task": "old"}
     assert [p.name for p in tmp_path.iterdir()] == ["eval_info.json"]
+
+
+def test_the_rollout_analysis_stays_out_of_eval_info():
+    """``EpisodeScore.analysis`` goes to rollouts.json: eval_info.json's per-episode keys are
+    lerobot-eval's, and two scores differing only in it compare equal."""
+    (a,) = _episodes("sim_transfer_cube", [(10.0, 4.0)])
+    b = EpisodeScore(**{**a.__dict__, "analysis": {"stage_steps": {"touched": 3}}})
+    assert a == b
+    row = eval_info("sim_transfer_cube", [b], 1.0)["per_episode"][0]
+    assert set(row) == {"episode_ix", "seed", "sum_reward", "max_reward", "success", "steps",
+                        "stages"}  # fmt: skip

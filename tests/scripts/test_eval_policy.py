@@ -57,7 +57,7 @@ def test_scripted_run_writes_eval_info(tmp_path, capsys):
     assert "stages: touched 100%, lifted 100%, transferred 100%" in lines[0]
     assert lines[1] == f"wrote {out_dir / 'eval_info.json'}"
     assert "error" not in err
-    assert sorted(p.name for p in out_dir.iterdir()) == ["eval_info.json"]
+    assert sorted(p.name for p in out_dir.iterdir()) == ["eval_info.json", "rollouts.json"]
 
 
 BAD_INPUTS = {

@@ -5,17 +5,26 @@ Episode ``i`` of a run with base seed S is ``env.reset(seed=S + i)``, the seeds
 ``eval.env.episode_generator``, none of them is a recording episode). Each worker builds
 its env and policy once; episodes come back in order; the first ``videos`` rollouts are
 written as mp4 (``videos/eval_episode_<i>.mp4``). The scores go to ``eval_info.json``
-(``eval.scores``).
+(``eval.scores``); what happened in each rollout (stage times, the grippers) rides on each
+score as ``EpisodeScore.analysis`` (``eval.rollout_analysis``).
+
+Threads: with N local workers on C usable cores (``available_cpus``), each worker's torch and
+its OpenMP / MKL / OpenBLAS pools get ``max(1, C // N)`` threads (``threads_per_worker``):
+the variables are in the worker's environment before it imports numpy or torch, and
+``torch.set_num_threads`` runs before the policy is built. Without the limit every worker's
+torch would use every core, and two workers ran slower than one.
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
+import sys
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,10 +33,68 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv
+from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
 from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
 
 #: Where the rollout videos go, in the output folder.
 VIDEO_DIR = "videos"
+#: Environment variables sizing the thread pools of numpy's BLAS, OpenMP (torch) and MKL.
+THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+               "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")  # fmt: skip
+
+
+class PolicyCallError(RuntimeError):
+    """The policy itself raised (not a user error of the command line): the message says
+    which policy, episode and step; the policy's own exception is the cause."""
+
+
+def available_cpus() -> int:
+    """Cores this process may run on (its CPU affinity where the OS tells, else the count)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def threads_per_worker(workers: int, cpus: int | None = None) -> int:
+    """Threads each of ``workers`` processes gets on ``cpus`` cores: ``max(1, cpus // workers)``."""
+    return max(1, (available_cpus() if cpus is None else cpus) // max(1, workers))
+
+
+@contextmanager
+def thread_env(threads: int) -> Iterator[None]:
+    """``THREAD_VARS`` set to ``threads`` in this process's environment for the block (the
+    processes it starts inherit them), restored afterwards."""
+    saved = {k: os.environ.get(k) for k in THREAD_VARS}
+    os.environ.update({k: str(threads) for k in THREAD_VARS})
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+def limit_threads(threads: int, policy: str) -> None:
+    """Size this process's pools to ``threads``: ``THREAD_VARS`` (for libraries loaded later)
+    and torch's intra- and inter-op threads when torch is loaded or the policy is a
+    checkpoint (torch is not imported for the scripted policy)."""
+    from trossen_arm_mujoco.eval.policies import is_function_spec
+
+    os.environ.update({k: str(threads) for k in THREAD_VARS})
+    if "torch" not in sys.modules and (policy == "scripted" or is_function_spec(policy)):
+        return
+    try:
+        import torch
+    except ImportError:
+        return
+    torch.set_num_threads(threads)
+    try:
+        torch.set_num_interop_threads(threads)
+    except RuntimeError:  # only once, before any inter-op work: already fixed
+        pass
 
 
 @dataclass(frozen=True)
@@ -61,13 +128,17 @@ class EvalSettings:
 
 
 class EpisodeRunner:
-    """One env and one policy, built once; runs episodes by index."""
+    """One env and one policy, built once; runs episodes by index. ``threads``: this process's
+    thread pools (``limit_threads``), sized before the policy is built (None: unchanged)."""
 
-    def __init__(self, settings: EvalSettings):
+    def __init__(self, settings: EvalSettings, threads: int | None = None):
         from trossen_arm_mujoco.eval.policies import make_policy
 
+        if threads is not None:
+            limit_threads(threads, settings.policy)
         self.settings = settings
         self.env = settings.make_env()
+        self.recorder = RolloutRecorder(self.env.task, self.env.fps)
         try:
             self.policy = make_policy(settings.policy, self.env, settings.device)
         except BaseException:
@@ -79,13 +150,16 @@ class EpisodeRunner:
         s, env = self.settings, self.env
         seed = s.seed + index
         obs, info = env.reset(seed=seed)
-        self.policy.reset(env, seed)
+        self._call_policy(index, "reset", self.policy.reset, env, seed)
+        self.recorder.reset()
         frames = [] if index < s.videos else None
         if frames is not None:
             frames.append(env.render())
         rewards, success = [], False
-        for _ in range(env._max_episode_steps):
-            obs, reward, terminated, truncated, info = env.step(self.policy.act(obs))
+        for t in range(env._max_episode_steps):
+            action = self._call_policy(index, f"step {t}", self.policy.act, obs)
+            obs, reward, terminated, truncated, info = env.step(action)
+            self.recorder.record(env, reward)
             rewards.append(reward)
             success = success or bool(info["is_success"])
             if frames is not None:
@@ -101,6 +175,7 @@ class EpisodeRunner:
             success=success,
             steps=len(rewards),
             stages=stages_reached(env.task, best),
+            analysis=self.recorder.summary(success),
         )
         video = None
         if frames:
@@ -111,6 +186,19 @@ class EpisodeRunner:
             even = [np.pad(f, ((0, h % 2), (0, w % 2), (0, 0)), mode="edge") for f in frames]
             video = str(write_frames_video(even, path, env.fps, h + h % 2, w + w % 2))
         return score, video
+
+    def _call_policy(self, index: int, when: str, fn: Callable[..., Any], *args: Any) -> Any:
+        """``fn(*args)``; an exception of the policy's own (not a UserError) becomes a
+        ``PolicyCallError`` naming the policy, the episode and ``when``."""
+        try:
+            return fn(*args)
+        except UserError:
+            raise
+        except Exception as exc:
+            raise PolicyCallError(
+                f"the policy {self.settings.policy} raised {type(exc).__name__} at episode "
+                f"{index} {when}: {exc}"
+            ) from exc
 
     def close(self) -> None:
         self.policy.close()
@@ -124,11 +212,11 @@ _RUNNER: EpisodeRunner | None = None
 _INIT_ERROR: UserError | None = None
 
 
-def _init_worker(settings: EvalSettings) -> None:
+def _init_worker(settings: EvalSettings, threads: int) -> None:
     global _RUNNER, _INIT_ERROR
     os.environ.setdefault("MUJOCO_GL", "egl")
     try:
-        _RUNNER = EpisodeRunner(settings)
+        _RUNNER = EpisodeRunner(settings, threads)
     except UserError as exc:
         _INIT_ERROR = exc
 
@@ -151,8 +239,13 @@ def _local(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore,
             runner.close()
         return
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
-                             initargs=(settings,)) as pool:  # fmt: skip
+    threads = threads_per_worker(workers)
+    with (
+        thread_env(threads),
+        ProcessPoolExecutor(
+            workers, mp_context=ctx, initializer=_init_worker, initargs=(settings, threads)
+        ) as pool,
+    ):
         try:
             yield from pool.map(_run_in_worker, indices)
         except BrokenProcessPool:
@@ -166,7 +259,8 @@ def _ray(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore, s
 
     with ray_session(num_cpus=max(workers, 1)) as ray:
         actor_cls = ray.remote(num_cpus=1)(EpisodeRunner)
-        actors = [actor_cls.remote(settings) for _ in range(max(1, workers))]
+        threads = threads_per_worker(workers)
+        actors = [actor_cls.remote(settings, threads) for _ in range(max(1, workers))]
         refs = [actors[i % len(actors)].run.remote(i) for i in range(settings.num_episodes)]
         for ref in refs:
             yield ray.get(ref)

@@ -56,6 +56,9 @@ class EpisodeScore:
     success: bool
     steps: int
     stages: dict[str, bool] = field(default_factory=dict)
+    #: What happened in the rollout (``eval.rollout_analysis``; ``rollouts.json``, not
+    #: ``eval_info.json``); None when not recorded.
+    analysis: dict[str, Any] | None = field(default=None, compare=False)
 
 
 def stages_reached(task: str, max_reward: float) -> dict[str, bool]:
@@ -101,6 +104,7 @@ def eval_info(
     per_episode = []
     for e in episodes:
         row = asdict(e)
+        row.pop("analysis", None)  # rollouts.json's; eval_info.json keeps lerobot-eval's keys
         per_episode.append(row)
     return {
         "task": task,

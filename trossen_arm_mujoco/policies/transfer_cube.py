@@ -10,8 +10,9 @@ quat, right gripper]``. On the first call it builds left and right waypoint list
 The plan (world frame, steps of 0.02 s, for a 600-step episode):
 the right gripper turns to point down, descends onto the cube and grasps its upper half,
 lifts it to the meet point; the left gripper, pointing toward the right arm, comes in below
-the right fingertips and grasps the cube's lower half; the right gripper opens and moves
-away; the left arm holds the cube in the air.
+the right fingertips and grasps the cube's lower half; both grippers hold the cube together
+for ``HANDOVER_HOLD`` steps (0.6 s); the right gripper opens and moves away; the left arm
+holds the cube in the air.
 """
 
 from __future__ import annotations
@@ -38,6 +39,15 @@ GRIPPER_STEPS = steps_for(GRIPPER_OPEN - GRIPPER_GRASP, GRIPPER_PLAN_SPEED)
 #: Noise scales (m): free-space waypoints, and waypoints that touch the cube.
 NOISE_FREE = 0.01
 NOISE_CONTACT = 0.002
+#: Step at which the left fingers start closing on the cube (closed GRIPPER_STEPS later).
+LEFT_CLOSE = 314
+#: Steps both grippers hold the cube together before the right one opens (0.6 s): a policy
+#: trained on the plan whose left arm arrives late still finds the cube held. With no hold
+#: (the right opened 0.12 s after the left closed), learned policies dropped the cube at the
+#: hand-over (README, "The whole loop").
+HANDOVER_HOLD = 30
+#: Step at which the right fingers start opening.
+RIGHT_RELEASE = LEFT_CLOSE + GRIPPER_STEPS + HANDOVER_HOLD
 
 
 class PickAndTransferPolicy(BimanualWaypointPolicy):
@@ -49,7 +59,8 @@ class PickAndTransferPolicy(BimanualWaypointPolicy):
         rng: ``np.random.Generator`` or int seed for the noise.
     """
 
-    #: Steps (0.02 s) the plan needs: the left arm holds the lifted cube alone from step 436.
+    #: Steps (0.02 s) the plan needs: the right fingers are off the cube from step 396 and
+    #: back toward their start from 434; the left arm holds the cube alone.
     minimum_episode_len: int = 440
 
     def plan(self, obs: dict) -> tuple[list[Waypoint], list[Waypoint]]:
@@ -98,20 +109,20 @@ class PickAndTransferPolicy(BimanualWaypointPolicy):
             waypoint(130 + g, grasp, right_grasp_q, c),
             waypoint(170, grasp, right_grasp_q, c),
             waypoint(250, right_meet, right_down, c),
-            waypoint(346, right_meet, right_down, c),
-            waypoint(346 + g, right_meet, right_down, o),
-            waypoint(410, right_away, right_down, o),
-            waypoint(490, right0[:3], right0[3:], o),
+            waypoint(RIGHT_RELEASE, right_meet, right_down, c),
+            waypoint(RIGHT_RELEASE + g, right_meet, right_down, o),
+            waypoint(RIGHT_RELEASE + 64, right_away, right_down, o),
+            waypoint(RIGHT_RELEASE + 144, right0[:3], right0[3:], o),
             waypoint(600, right0[:3], right0[3:], o),
         ]
         left = [
             waypoint(0, left0[:3], left_quat, o),
             waypoint(200, left0[:3], left_quat, o),
             waypoint(270, left_pre, left_quat, o),
-            waypoint(314, left_grasp, left_quat, o),
-            waypoint(314 + g, left_grasp, left_quat, c),
-            waypoint(376, left_grasp, left_quat, c),
-            waypoint(436, left_hold, left_quat, c),
+            waypoint(LEFT_CLOSE, left_grasp, left_quat, o),
+            waypoint(LEFT_CLOSE + g, left_grasp, left_quat, c),
+            waypoint(RIGHT_RELEASE + g + 4, left_grasp, left_quat, c),
+            waypoint(RIGHT_RELEASE + g + 64, left_hold, left_quat, c),
             waypoint(600, left_hold, left_quat, c),
         ]
         return left, right

@@ -9,8 +9,11 @@
 (ACT, diffusion, ...: its saved processors are used; the cameras, image size and layout
 default to the ones it was trained on). Episode ``i`` is ``env.reset(seed=S + i)``, as
 ``lerobot-eval --seed S``; no evaluation episode is a recording episode. Writes
-``--output_dir/eval_info.json`` (``trossen_arm_mujoco.eval.scores``) and the mp4 of the
-first ``--videos`` rollouts.
+``--output_dir/eval_info.json`` (``trossen_arm_mujoco.eval.scores``), ``rollouts.json`` (stage
+times and what the grippers did, per episode: ``trossen_arm_mujoco.eval.rollout_analysis``)
+and the mp4 of the first ``--videos`` rollouts. An ``--output_dir`` that cannot be written is
+refused before the first episode; a ``module:function`` policy that raises is one ``error:``
+line naming the policy, episode and step, then the policy's traceback (exit status 1).
 """
 
 from __future__ import annotations
@@ -25,15 +28,21 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
     import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
 
 import argparse
-import os
 import sys
-import warnings
+import traceback
 from collections.abc import Sequence
 from pathlib import Path
 
 from tqdm import tqdm
 
-from trossen_arm_mujoco.errors import ArgumentParser, UserError, interrupt_note, run_cli
+from trossen_arm_mujoco.errors import (
+    ArgumentParser,
+    UserError,
+    interrupt_note,
+    note,
+    report_error,
+    run_cli,
+)
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 
 #: Largest number of episodes one run takes.
@@ -88,7 +97,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _settings(args: argparse.Namespace):
     from trossen_arm_mujoco.eval.env import parse_cameras, parse_image_size
     from trossen_arm_mujoco.eval.policies import is_function_spec
-    from trossen_arm_mujoco.eval.runner import EvalSettings
+    from trossen_arm_mujoco.eval.runner import EvalSettings, available_cpus
+    from trossen_arm_mujoco.fileio import check_writable_dir
     from trossen_arm_mujoco.tasks import registry
 
     task = registry.canonical(args.task_name)
@@ -100,10 +110,10 @@ def _settings(args: argparse.Namespace):
         raise UserError(f"--videos must be in [0, --num_episodes], got {args.videos}")
     if args.num_workers < 1:
         raise UserError(f"--num_workers must be at least 1, got {args.num_workers}")
-    cpus = os.cpu_count() or 1
+    cpus = available_cpus()
     workers = min(args.num_workers, args.num_episodes)
     if workers > cpus:
-        warnings.warn(f"--num_workers {workers} > {cpus} CPUs; using {cpus}", stacklevel=1)
+        note(f"--num_workers {args.num_workers} > {cpus} CPUs; using {cpus}")
         workers = cpus
     inferred: dict = {}
     if args.policy not in ("scripted",) and not is_function_spec(args.policy):
@@ -124,6 +134,7 @@ def _settings(args: argparse.Namespace):
     if (out / "eval_info.json").exists() and not args.overwrite:
         raise UserError(f"{out / 'eval_info.json'} exists; choose another --output_dir or pass "
                         "--overwrite")  # fmt: skip
+    check_writable_dir(out, "--output_dir")  # before any episode, not after the last one
     settings = EvalSettings(
         policy=args.policy,
         task=task,
@@ -153,7 +164,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Evaluate; returns the exit status."""
     args = build_parser().parse_args(argv)
     from trossen_arm_mujoco.eval.policies import is_function_spec
-    from trossen_arm_mujoco.eval.runner import VIDEO_DIR, evaluate
+    from trossen_arm_mujoco.eval.rollout_analysis import (
+        ROLLOUTS_FILE,
+        failure_line,
+        rollouts_report,
+        write_rollouts,
+    )
+    from trossen_arm_mujoco.eval.runner import VIDEO_DIR, PolicyCallError, evaluate
     from trossen_arm_mujoco.eval.scores import write_eval_info
 
     settings, workers = _settings(args)
@@ -168,8 +185,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         env.close()
     bar = tqdm(total=settings.num_episodes, desc="eval", unit="episode", file=sys.stderr)
     wins = [0]
+    scores = []
 
     def tick(score) -> None:
+        scores.append(score)
         wins[0] += score.success
         bar.update(1)
         bar.set_postfix(success=f"{wins[0]}/{bar.n}")
@@ -187,9 +206,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with interrupt_note(kept):
             info = evaluate(settings, workers, args.engine, on_episode=tick)
+    except PolicyCallError as exc:  # the user's code raised: say where, then its traceback
+        bar.close()
+        report_error(exc, 1)
+        cause = exc.__cause__ if exc.__cause__ is not None else exc
+        traceback.print_exception(type(cause), cause, cause.__traceback__, file=sys.stderr)
+        return 1
     finally:
         bar.close()
     path = write_eval_info(Path(settings.output_dir) / "eval_info.json", info)
+    report = rollouts_report(settings.task, scores, env.fps)
+    rollouts = write_rollouts(Path(settings.output_dir) / ROLLOUTS_FILE, report)
     agg = info["aggregated"]
     lo, hi = agg["pc_success_ci95"]
     stages = ", ".join(f"{k} {v:.0f}%" for k, v in agg["stages"].items())
@@ -200,6 +227,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     print(f"wrote {path}" + (f" and {len(info['video_paths'])} video(s)" if info["video_paths"]
                              else ""))  # fmt: skip
+    print(f"{failure_line(report)}; wrote {rollouts}")
     return 0
 
 

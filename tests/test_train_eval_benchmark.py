@@ -1,0 +1,82 @@
+"""``benchmarks/train_eval.py`` on a tiny run: the phases one at a time (record,export here,
+then train, then eval, as on two machines), two training seeds at once, and the spread.
+
+Needs LeRobot (``TROSSEN_LEROBOT_PYTHON``, set by ``.ci/run``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "train_eval.py"
+TINY = [
+    "--steps", "2", "--save_freq", "2", "--batch_size", "2", "--dim_model", "32",
+    "--dim_feedforward", "64", "--n_encoder_layers", "1", "--chunk_size", "5",
+]  # fmt: skip
+
+
+def _python() -> str:
+    python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
+    if not python or not Path(python).is_file():
+        pytest.skip("TROSSEN_LEROBOT_PYTHON is not set to a Python with LeRobot (.ci/run sets it)")
+    return python
+
+
+def _bench(work: Path, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(SCRIPT), "--work_dir", str(work), *args],
+        capture_output=True, text=True, timeout=600,
+        env={**os.environ, "TROSSEN_LEROBOT_PYTHON": _python()},
+    )  # fmt: skip
+
+
+def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
+    work = tmp_path / "loop"
+    made = _bench(work, "--phase", "record,export", "--episodes", "2")
+    assert made.returncode == 0, made.stdout + made.stderr
+    assert (work / "dataset" / "meta" / "info.json").is_file()
+    assert not (work / "train").exists()  # only the phases asked for ran
+
+    seeds = ["--train_seeds", "2", "--train_seed", "5"]
+    trained = _bench(work, "--phase", "train", *seeds, "--train_jobs", "2", *TINY)
+    assert trained.returncode == 0, trained.stdout + trained.stderr
+    for seed in (5, 6):
+        assert (work / "train" / f"seed_{seed}" / "checkpoints" / "last" / "pretrained_model"
+                / "model.safetensors").is_file()  # fmt: skip
+        config = json.loads((work / "train" / f"seed_{seed}" / "checkpoints" / "last"
+                             / "pretrained_model" / "train_config.json").read_text())  # fmt: skip
+        assert config["seed"] == seed
+    again = _bench(work, "--phase", "train", *seeds, *TINY)
+    assert again.returncode == 0 and "already holds a checkpoint" in again.stdout
+
+    scored = _bench(work, "--phase", "eval", *seeds, "--eval_episodes", "2",
+                    "--eval_episode_length", "10", "--eval_workers", "1")  # fmt: skip
+    assert scored.returncode == 0, scored.stdout + scored.stderr
+    summary = json.loads((work / "summary.json").read_text())
+    assert set(summary["runs"]) == {"5", "6"}
+    for run in summary["runs"].values():
+        assert run["train"]["cpu_s"] > 0 and run["train"]["steps"] == 2
+        assert run["result"]["n_episodes"] == 2
+    spread = summary["spread"]
+    rates = [r["result"]["pc_success"] for r in summary["runs"].values()]
+    assert spread["runs"] == 2
+    assert spread["worst_pc_success"] == min(rates)
+    assert spread["mean_pc_success"] == pytest.approx(sum(rates) / 2)
+    assert "over 2 training runs: mean" in scored.stdout
+    assert "record" in summary and "export" in summary  # earlier phases kept in the summary
+
+
+def test_bad_phases_and_missing_inputs_are_one_line(tmp_path):
+    bad = _bench(tmp_path / "w", "--phase", "record,fly")
+    assert bad.returncode != 0 and "error: --phase" in bad.stderr
+    assert "Traceback" not in bad.stderr
+    early = _bench(tmp_path / "w", "--phase", "train")
+    assert early.returncode != 0 and "run --phase record,export first" in early.stderr
+    noeval = _bench(tmp_path / "w", "--phase", "eval")
+    assert noeval.returncode != 0 and "run --phase train first" in noeval.stderr

@@ -1,0 +1,194 @@
+"""What happened in each evaluation rollout: when each stage was reached and what the grippers
+were doing, written as ``rollouts.json`` next to ``eval_info.json``.
+
+A :class:`RolloutRecorder` is fed the env after every step of an episode (``EpisodeRunner``
+does it); it reads the sim through the running task (``env.episode``): the task's reward,
+the task's own contact checks (``TransferCubeReward.touching``) and the grippers' finger
+opening (``GripperGroup.inter_finger_dist``, m: 0 closed, about 0.088 fully open). Steps are
+0-based action indices: step ``k`` is the state after the policy's ``k``-th action, at
+``(k + 1) / fps`` s after the reset.
+
+Per episode (``RolloutRecorder.summary``)::
+
+    stage_steps {stage: first step it was reached | null}, stage_times_s {stage: s | null},
+    stopped {reached: furthest stage | null, missed: the next stage} (failed episodes only),
+    transfer:  release {step, time_s, left_gap_m, right_gap_m, left_touching} | null: the
+               step at which the right fingers began opening after the cube was lifted
+    insertion: end {left_gap_m, right_gap_m}: the finger openings at the last step
+
+Aggregated (``rollouts_report``): failed episodes counted by the furthest stage they reached
+(``"none"`` for none), and the median left-gap at release of failed and successful episodes.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore
+from trossen_arm_mujoco.fileio import atomic_path
+
+#: The file written next to ``eval_info.json``.
+ROLLOUTS_FILE = "rollouts.json"
+#: Opening (m) by which the right fingers must widen beyond their narrowest since the lift
+#: for a release to count (contact jitter on a held cube stays well below it).
+RELEASE_OPENING = 0.002
+#: The stage after which a release is looked for (transfer: the cube off the table).
+LIFT_STAGE = "lifted"
+
+
+class RolloutRecorder:
+    """Per-step record of one episode of ``task`` at ``fps`` steps/s (see the module doc)."""
+
+    def __init__(self, task: str, fps: float):
+        self.task = task
+        self.fps = float(fps)
+        self.stages = STAGES.get(task, {})
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the last episode (call after ``env.reset``)."""
+        self.rewards: list[float] = []
+        self.gaps: list[tuple[float, float]] = []  # (left, right) finger opening, m
+        self.left_touch: list[bool] = []
+
+    def record(self, env: Any, reward: float) -> None:
+        """Read the state after one ``env.step`` (``env``: a ``KitPolicyEnv``; ``reward``: the
+        step's reward)."""
+        task = env.episode
+        view = task.robot.view
+        self.rewards.append(float(reward))
+        self.gaps.append(
+            (view.group("left_gripper").inter_finger_dist,
+             view.group("right_gripper").inter_finger_dist)
+        )  # fmt: skip
+        touching = getattr(task.reward_fn, "touching", None)  # the transfer's contact check
+        self.left_touch.append(bool(touching(task.data)[1]) if touching is not None else False)
+
+    def _time(self, step: int | None) -> float | None:
+        return None if step is None else round((step + 1) / self.fps, 6)
+
+    def stage_steps(self) -> dict[str, int | None]:
+        """Stage -> the first step whose reward reached its level, or None."""
+        r = np.asarray(self.rewards)
+        out: dict[str, int | None] = {}
+        for name, level in self.stages.items():
+            hits = np.flatnonzero(r >= level)
+            out[name] = int(hits[0]) if hits.size else None
+        return out
+
+    def release_step(self, lift_step: int | None) -> int | None:
+        """The step at which the right fingers began opening after ``lift_step``: the start of
+        the first widening by more than ``RELEASE_OPENING`` beyond their narrowest since the
+        lift; None when there is none."""
+        if lift_step is None:
+            return None
+        right = np.asarray([g[1] for g in self.gaps])
+        narrowest = right[lift_step]
+        for k in range(lift_step, len(right)):
+            narrowest = min(narrowest, right[k])
+            if right[k] > narrowest + RELEASE_OPENING:
+                start = k
+                while start > lift_step and right[start - 1] < right[start] - 1e-6:
+                    start -= 1
+                return start
+        return None
+
+    def summary(self, success: bool) -> dict[str, Any]:
+        """This episode's analysis (a JSON-ready dict, see the module doc)."""
+        steps = self.stage_steps()
+        out: dict[str, Any] = {
+            "stage_steps": steps,
+            "stage_times_s": {k: self._time(v) for k, v in steps.items()},
+            "stopped": None if success else stopped_at(self.task, steps),
+        }
+        if LIFT_STAGE in steps:
+            k = self.release_step(steps[LIFT_STAGE])
+            out["release"] = None if k is None else {
+                "step": k,
+                "time_s": self._time(k),
+                "left_gap_m": round(self.gaps[k][0], 6),
+                "right_gap_m": round(self.gaps[k][1], 6),
+                "left_touching": self.left_touch[k],
+            }  # fmt: skip
+        else:
+            left, right = self.gaps[-1] if self.gaps else (None, None)
+            out["end"] = {
+                "left_gap_m": None if left is None else round(left, 6),
+                "right_gap_m": None if right is None else round(right, 6),
+            }
+        return out
+
+
+def stopped_at(task: str, stage_steps: dict[str, int | None]) -> dict[str, str | None]:
+    """Where a failed episode stopped: ``reached`` its furthest stage (None: none) and
+    ``missed`` the next one (None when it reached them all)."""
+    reached, missed = None, None
+    for name in STAGES.get(task, {}):
+        if stage_steps.get(name) is not None:
+            reached = name
+        else:
+            missed = name
+            break
+    return {"reached": reached, "missed": missed}
+
+
+def _median(values: list[float]) -> float | None:
+    return round(float(statistics.median(values)), 6) if values else None
+
+
+def rollouts_report(task: str, scores: Sequence[EpisodeScore], fps: float) -> dict[str, Any]:
+    """The content of ``rollouts.json``: each episode's analysis (``EpisodeScore.analysis``)
+    and the aggregate (failed episodes by the furthest stage reached; the median left-finger
+    gap at release, m, of failed and successful episodes)."""
+    failed: dict[str, int] = {}
+    gaps: dict[str, list[float]] = {"failed": [], "succeeded": []}
+    episodes = []
+    for s in scores:
+        a = s.analysis or {}
+        episodes.append({"episode_ix": s.episode_ix, "seed": s.seed, "success": s.success, **a})
+        if not s.success:
+            reached = (a.get("stopped") or {}).get("reached") or "none"
+            failed[reached] = failed.get(reached, 0) + 1
+        release = a.get("release")
+        if release:
+            gaps["succeeded" if s.success else "failed"].append(release["left_gap_m"])
+    order = ["none", *STAGES.get(task, {})]
+    aggregated: dict[str, Any] = {
+        "n_episodes": len(scores),
+        "n_failed": sum(failed.values()),
+        "failed_by_stage_reached": {k: failed[k] for k in order if k in failed},
+    }
+    if LIFT_STAGE in STAGES.get(task, {}):
+        aggregated["median_left_gap_at_release_m"] = {k: _median(v) for k, v in gaps.items()}
+    return {"task": task, "fps": float(fps), "aggregated": aggregated, "episodes": episodes}
+
+
+def failure_line(report: dict[str, Any]) -> str:
+    """One line summarizing ``report``'s failures, e.g. ``failed: 2 (reached none 1, lifted
+    1)``, with the median left gaps at release when there are any."""
+    agg = report["aggregated"]
+    if not agg["n_failed"]:
+        text = "failed: 0"
+    else:
+        by = ", ".join(f"{k} {n}" for k, n in agg["failed_by_stage_reached"].items())
+        text = f"failed: {agg['n_failed']} (furthest stage reached: {by})"
+    medians = agg.get("median_left_gap_at_release_m") or {}
+    shown = [f"{k} {v * 1e3:.1f} mm" for k, v in medians.items() if v is not None]
+    if shown:
+        text += "; median left gap at release: " + ", ".join(shown)
+    return text
+
+
+def write_rollouts(path: Path, report: dict[str, Any]) -> Path:
+    """Write ``report`` as JSON to ``path`` atomically."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    return path
