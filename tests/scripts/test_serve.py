@@ -175,9 +175,12 @@ def test_mistakes_are_one_line_exit_2(
     argv: list[str], expected: str, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     pytest.importorskip("trossen_arm_sim")
+    handlers = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)]
     rc = serve.cli([*argv, "--root_dir", str(tmp_path)])
     err = capsys.readouterr().err
     assert rc == 2 and "Traceback" not in err
+    # nothing was served: this process's signal handlers are as they were
+    assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)] == handlers
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and expected in lines[0], err
 

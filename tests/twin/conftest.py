@@ -17,9 +17,11 @@ tests/scripts/test_teleop.py                  127.0.0.71 .. 127.0.0.79
 tests/scripts/test_replay_episode_real.py     127.0.0.81 .. 127.0.0.89
 tests/twin/test_leader_staging.py             127.0.0.91 .. 127.0.0.99
 tests/test_examples.py                        127.0.0.101 .. 127.0.0.109
+tests/scripts/test_serve_signals.py           127.0.0.111 .. 127.0.0.119
 ============================================  ===========================
 
-(tests/twin/test_kit_world.py, test_session_recorder.py and test_faults.py serve nothing.)
+(tests/twin/test_kit_world.py, test_session_recorder.py, test_episode_spool.py,
+test_stop_signals.py and test_faults.py serve nothing.)
 """
 
 from __future__ import annotations

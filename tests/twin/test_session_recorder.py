@@ -3,6 +3,8 @@ sessions are announced as the servers would, the world is stepped without pacing
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +13,7 @@ import pytest
 from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.twin.episode_spool import recover_spools
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 from trossen_arm_mujoco.twin.session_recorder import RecordOptions, SessionRecorder
 
@@ -91,3 +94,19 @@ def test_an_existing_file_is_never_overwritten(tmp_path: Path) -> None:
     assert (tmp_path / "episode_0.hdf5").read_bytes() == b"not mine"
     assert stats.errors and "refusing to overwrite" in stats.errors[0]
     assert lines[-1].startswith("error: episode_0.hdf5 was not written")
+    # the steps are not lost: the spool is kept, and the next run publishes it
+    [kept] = stats.kept
+    assert f"steps are kept in {kept}" in lines[-1] and kept.exists()
+    left = kept.with_name(f".serve_spool.{_dead_pid()}-00.tmp")  # as after this run ended
+    kept.rename(left)
+    [result] = recover_spools(tmp_path, lambda: 1, lines.append)
+    assert result.episode == tmp_path / "episode_1.hdf5" and not left.exists()
+    episode = load_episode(result.episode)
+    assert episode.num_steps == 5 and episode.attrs["source"] == "serve"
+    assert episode.attrs["end_reason"].startswith("recovered")
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid

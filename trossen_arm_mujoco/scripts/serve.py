@@ -14,7 +14,11 @@ in 127.0.0.0/8: the served kit never listens beyond this machine.
 ``--record DIR`` writes what the clients do as episodes of this project's schema: one per
 client session (the first ``configure`` to the last ``cleanup``), or per ``--episode_len``
 frames; cameras rendered at ``--fps``, the task's reward per step, one line per episode with
-its success. Ctrl-C or SIGTERM stops serving (the episode under way is written) and exits 0.
+its success. Ctrl-C, SIGTERM or SIGHUP stops serving: the episode under way is written and
+serve exits 0, however many more signals arrive meanwhile (they are reported, never cut the
+writing short). Every recorded step is on disk as it is recorded: an episode that a killed
+serve (SIGKILL, a crash) could not write is left in a hidden ``.serve_spool.<pid>-<id>.tmp``
+file, which the next ``serve --record`` into the folder publishes as its next episode.
 
 ``--role leader --replay EPISODE.hdf5`` serves two leader arms replaying a recorded episode
 instead (default addresses 127.0.0.4 and 127.0.0.5), for ``teleop`` (or LeRobot's
@@ -35,7 +39,6 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
 
 import argparse
 import logging
-import signal
 import sys
 import threading
 import time
@@ -45,6 +48,7 @@ from pathlib import Path
 from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION
 from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
+from trossen_arm_mujoco.twin.stop_signals import StopSignals
 
 #: Default addresses of served leader arms (``--role leader``).
 LEADER_IPS: dict[str, str] = {"left": "127.0.0.4", "right": "127.0.0.5"}
@@ -132,14 +136,23 @@ def _ips(args: argparse.Namespace, defaults: dict[str, str]) -> dict[str, str]:
     return check_kit_ips(given, {"left": "--left_ip", "right": "--right_ip"})
 
 
-def _signal_name(exc: KeyboardInterrupt) -> str:
-    signum = getattr(exc, "signum", signal.SIGINT)
-    return signal.Signals(signum).name
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse, serve until a stop signal; returns the exit status (0 after a deliberate
-    stop, 1 when an episode could not be written)."""
+    stop). The stop signals' handlers are put back before it returns."""
+    return _main(argv, StopSignals())
+
+
+def _main(argv: Sequence[str] | None, stops: StopSignals, keep: bool = False) -> int:
+    """:func:`main`; with ``keep`` the stop handlers are left installed (the caller,
+    :func:`cli`, puts them back unless serving began: ``stops.keep``)."""
+    try:
+        return _parse_and_serve(argv, stops)
+    finally:
+        if not keep:
+            stops.restore()
+
+
+def _parse_and_serve(argv: Sequence[str] | None, stops: StopSignals) -> int:
     args = build_parser().parse_args(argv)
     from trossen_arm_mujoco.twin.serving import require_sim_server
 
@@ -149,7 +162,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name in ("trossen_arm_sim", "trossen_arm_mujoco.twin"):
         logging.getLogger(name).setLevel(level)
     if args.role == "leader":
-        return _serve_leaders(args)
+        return _serve_leaders(args, stops)
     if args.replay is not None:
         raise UserError("--replay needs --role leader")
     if args.lead_in is not None:
@@ -165,7 +178,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         for flag in ("cam_names", "episode_len", "wait"):
             if getattr(args, flag):
                 raise UserError(f"--{flag} needs --record DIR")
-        return _serve(args, ips, None)
+        stops.install()
+        return _serve(args, ips, None, stops)
     from trossen_arm_mujoco.data.dataset_lock import DatasetLock
     from trossen_arm_mujoco.scripts.record_args import camera_names as _cameras
     from trossen_arm_mujoco.scripts.record_args import dataset_folder as _dataset_folder
@@ -174,8 +188,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     cams = _cameras(args.cam_names, _task(args.task_name))
     size = _image_size(args.image_size)
     folder = _dataset_folder(args.root_dir, args.record)
-    with DatasetLock(folder, wait=args.wait):
-        return _serve(args, ips, (folder, cams, size))
+    stops.install()  # a stop signal is now a request: the shutdown runs to its end
+    lock = DatasetLock(folder, wait=args.wait)
+    try:
+        with stops.interruptible():  # only an exception ends a wait for the lock (--wait)
+            lock.acquire()
+    except KeyboardInterrupt:
+        lock.release()
+        _say(f"stopped ({stops.reason}) before serving began; nothing was recorded")
+        return 0
+    try:
+        return _serve(args, ips, (folder, cams, size), stops)
+    finally:
+        lock.release()
 
 
 def _task(name: str) -> str:
@@ -184,16 +209,20 @@ def _task(name: str) -> str:
     return canonical(name)
 
 
-def _serve(args: argparse.Namespace, ips: dict[str, str], record) -> int:
+def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSignals) -> int:
     from trossen_arm_mujoco.twin.kit_world import KitWorld
     from trossen_arm_mujoco.twin.served_kit import ServedKit
 
     first = 0
     if record is not None:
         first = _first_index(record[0])
+    if stops.requested:
+        return _stopped_early(stops)
     world = KitWorld(args.task_name, base_seed=args.seed, episode_index=first, fps=args.fps)
     recorder = None
     try:
+        if stops.requested:
+            return _stopped_early(stops)
         if record is not None:
             from trossen_arm_mujoco.twin.session_recorder import RecordOptions, SessionRecorder
 
@@ -206,6 +235,7 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record) -> int:
         except BaseException:
             kit.stop()
             raise
+        stops.keep = True  # serving: once it ends, the process ends
         started = time.monotonic()
         try:
             _say(
@@ -214,11 +244,9 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record) -> int:
                 + (f"; recording into {record[0]}" if record else "")
                 + "; Ctrl-C stops"
             )
-            how = _wait(world, args.viewer)
-        except KeyboardInterrupt as exc:
-            how = _signal_name(exc)
+            how = _wait(world, args.viewer, stops)
         finally:
-            stats = kit.stop()
+            stats = kit.stop(lambda: _report_repeats(stops, recorder))
         rtf = world.realtime_factor
         line = (f"stopped ({how}) after {time.monotonic() - started:.1f} s at real-time "
                 f"factor {rtf:.2f}")  # fmt: skip
@@ -235,21 +263,42 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record) -> int:
         world.close()
 
 
+def _stopped_early(stops: StopSignals) -> int:
+    _say(f"stopped ({stops.reason}) before serving began")
+    return 0
+
+
+def _report_repeats(stops: StopSignals, recorder) -> None:
+    """While the shutdown runs (main thread): one line for signals received after the first."""
+    names = stops.new_repeats()
+    if not names:
+        return
+    what = "still stopping"
+    if recorder is not None:
+        what += f": writing the recording ({recorder.backlog} frames queued)"
+    _say(f"{', '.join(names)} received: {what}; nothing is cut short, serve exits when done")
+
+
 def _first_index(folder: Path) -> int:
-    """Index after the folder's last episode (nothing is overwritten); stale temporary files
-    of killed runs are removed first (the caller holds the lock)."""
+    """Index after the folder's last episode (nothing is overwritten). First (the caller
+    holds the lock), the temporary episode files killed runs left are removed, and the
+    episodes they left in spools are published (or, when that fails, kept with a line
+    saying how to recover them)."""
     from trossen_arm_mujoco.data.reader import list_episodes
     from trossen_arm_mujoco.data.temp_files import remove_stale_temp_files
-    from trossen_arm_mujoco.twin.episode_spool import remove_stale_spools
+    from trossen_arm_mujoco.twin.episode_spool import recover_spools
+
+    def next_index() -> int:
+        found = list_episodes(folder, missing_ok=True)
+        return found[-1][0] + 1 if found else 0
 
     remove_stale_temp_files(folder)
-    remove_stale_spools(folder)
-    found = list_episodes(folder, missing_ok=True)
-    return found[-1][0] + 1 if found else 0
+    recover_spools(folder, next_index, _say)
+    return next_index()
 
 
-def _wait(world, viewer_wanted: bool) -> str:
-    """Until a stop signal (raised as KeyboardInterrupt) or the viewer window closes."""
+def _wait(world, viewer_wanted: bool, stops: StopSignals) -> str:
+    """Until a stop signal (returns its name) or the viewer window closes."""
     viewer = None
     if viewer_wanted:
         from trossen_arm_mujoco.viewer import LiveViewer
@@ -257,21 +306,22 @@ def _wait(world, viewer_wanted: bool) -> str:
         with world.lock:  # the viewer reads the data while it starts: not mid-step
             viewer = LiveViewer.open(world.model, world.data)
     try:
-        while True:
+        while not stops.requested:
             if viewer is None:
-                time.sleep(0.5)
+                stops.wait(0.5)
                 continue
             with world.lock:
                 running = viewer.update()
             if not running:
                 return "viewer closed"
             time.sleep(1 / 30)
+        return stops.reason
     finally:
         if viewer is not None:
             viewer.close()
 
 
-def _serve_leaders(args: argparse.Namespace) -> int:
+def _serve_leaders(args: argparse.Namespace, stops: StopSignals) -> int:
     """``--role leader``: two leader arms replaying ``--replay`` (``twin.leaders``)."""
     if args.record is not None:
         raise UserError("--record needs --role follower")
@@ -284,6 +334,7 @@ def _serve_leaders(args: argparse.Namespace) -> int:
     except ImportError as exc:
         raise UserError(f"--role leader is not available in this installation ({exc})") from None
     stop, failure = threading.Event(), []
+    stops.install()
 
     def run() -> None:
         try:
@@ -294,15 +345,18 @@ def _serve_leaders(args: argparse.Namespace) -> int:
 
     worker = threading.Thread(target=run, name="leaders", daemon=True)
     worker.start()
+    stops.keep = True  # serving: once it ends, the process ends
     how = "replay ended"
     try:
-        while worker.is_alive():
+        while worker.is_alive() and not stops.requested:
             worker.join(0.2)
-    except KeyboardInterrupt as exc:
-        how = _signal_name(exc)
+        if stops.requested:
+            how = stops.reason
     finally:
         stop.set()
-        worker.join()
+        while worker.is_alive():
+            worker.join(0.2)
+            _report_repeats(stops, None)
     if failure:
         exc = failure[0]
         raise UserError(str(exc)) if isinstance(exc, UserError) else exc
@@ -311,9 +365,20 @@ def _serve_leaders(args: argparse.Namespace) -> int:
 
 
 def cli(argv: Sequence[str] | None = None) -> int:
-    """Entry point: user errors as one line and exit status 2; a stop signal ends serving
-    with exit status 0."""
-    return run_cli(main, argv)
+    """Entry point of the process (``trossen-mujoco serve``): user errors as one line and
+    exit status 2; any number of stop signals end serving with exit status 0. Once serving
+    began (or a stop was requested), the stop signals are ignored when it returns: the
+    process is about to exit, and a late signal must not turn a clean stop into exit status
+    143 or a traceback."""
+    stops = StopSignals().install()  # first: run_cli puts it back after main
+
+    try:
+        return run_cli(lambda args: _main(args, stops, keep=True), argv)
+    finally:
+        if stops.keep or stops.requested:
+            stops.ignore()
+        else:
+            stops.restore()
 
 
 if __name__ == "__main__":

@@ -19,8 +19,11 @@ The served kit (``trossen-mujoco serve``, ``replay-real --backend wire``):
   stopped together;
 - :mod:`.frame`: one frame of the served world, as a recorder stores it;
 - :mod:`.session_recorder`: client sessions recorded as episodes;
-- :mod:`.episode_spool`: an episode's steps kept until it ends, then published as an
-  episode file (served sessions and teleoperation).
+- :mod:`.episode_spool`: an episode's steps kept on disk until it ends, then published as
+  an episode file (served sessions and teleoperation); a dead process's spool is
+  published by the next run;
+- :mod:`.stop_signals`: stop signals as requests, so that any number of them end serving
+  cleanly.
 
 Teleoperation:
 

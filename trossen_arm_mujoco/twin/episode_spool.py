@@ -1,52 +1,65 @@
-"""The steps of one episode, kept until it ends, then published as an episode file.
+"""The steps of one episode, kept on disk until it ends, then published as an episode file.
 
 A served or teleoperated episode lasts until its clients leave or its operator ends it, so
 its length is known only at its end, while
 :class:`~trossen_arm_mujoco.data.writer.EpisodeWriter` (the one writer of episode files:
 schema, atomic publish, read-back check) wants it up front. An :class:`EpisodeSpool`
-therefore keeps the steps meanwhile: the numbers in memory (a few hundred bytes a step), the
-camera frames in a temporary HDF5 file in the dataset folder (uncompressed, growing a frame
-at a time), so memory stays flat whatever the length. That file is named
-``.serve_spool.<pid>-<random>.tmp`` (spools left by a killed run are removed by
-:func:`remove_stale_spools`, under the dataset lock), or, with ``anonymous=True``, has no
-name at all (an unnamed temporary file, gone when the process ends however it ends).
-:meth:`EpisodeSpool.publish` then streams every step through an ``EpisodeWriter`` and
-deletes the spool; :meth:`EpisodeSpool.discard` deletes it unpublished.
+therefore keeps the steps meanwhile, in a temporary file in the dataset folder, so memory
+stays flat whatever the length, and a process that dies keeps its episode:
+
+- The file is append-only: a header (what every step holds, and the episode's attributes
+  as far as they are known when it begins), then one fixed-size record per step (qpos,
+  qvel, action, reward, env_state as float64, then each camera's uint8 frame), each written
+  with plain ``os.write`` calls. A step is in the operating system's cache as soon as
+  :meth:`EpisodeSpool.append_step` returns, so a process killed at any instant (SIGKILL,
+  a crash) leaves every whole step readable; a torn last record is ignored.
+- A serve spool is named ``.serve_spool.<pid>-<random>.tmp``. A spool whose process no
+  longer runs is an episode that was never published: :func:`recover_spools` (called by the
+  next ``serve --record`` into that folder, under the dataset lock) publishes it as the
+  folder's next episode, validated by the writer, and only then deletes it. With
+  ``anonymous=True`` (teleop) the file has no name at all (gone when the process ends).
+
+:meth:`EpisodeSpool.publish` streams every step through an ``EpisodeWriter`` and deletes
+the spool once the episode file exists; when the write fails, a named spool is kept (its
+path says where the steps are) and an anonymous one is deleted.
+:meth:`EpisodeSpool.discard` deletes it unpublished.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import secrets
+import struct
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
 from trossen_arm_mujoco.data.writer import EpisodeWriter
+from trossen_arm_mujoco.errors import describe_os_error
 from trossen_arm_mujoco.twin.frame import Frame
+
+#: First bytes of a spool file (format version 1), then the header's length (uint64 LE).
+MAGIC = b"TAMSPOOL1\n"
+_LENGTH = struct.Struct("<Q")
+#: Numeric parts of a step, in record order.
+NUMERIC = ("qpos", "qvel", "action", "reward", "env_state")
+#: Attribute of a published episode naming the spool it came from (recovery skips a spool
+#: whose episode was published just before its process died).
+RECORDING_ID_ATTR = "recording_id"
 
 _SPOOL_RE = re.compile(r"^\.serve_spool\.(?P<pid>[0-9]+)-[0-9a-f]+\.tmp$")
 
 
-def remove_stale_spools(folder: Path) -> list[Path]:
-    """Delete spool files of processes that no longer run (call it holding the folder's
-    lock); returns the deleted paths."""
-    removed = []
-    try:
-        for path in folder.glob(".serve_spool.*.tmp"):
-            match = _SPOOL_RE.match(path.name)
-            if match is None or _alive(int(match["pid"])):
-                continue
-            path.unlink(missing_ok=True)
-            removed.append(path)
-    except OSError:
-        pass
-    return removed
+def spool_pid(path: Path) -> int | None:
+    """The pid in a serve spool's name (None: not a spool's name)."""
+    match = _SPOOL_RE.match(path.name)
+    return int(match["pid"]) if match else None
 
 
 def _alive(pid: int) -> bool:
@@ -56,42 +69,60 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except OSError:
+    except OSError:  # exists, another user's
         return True
     return True
+
+
+def stale_spools(folder: Path) -> list[Path]:
+    """Serve spools in ``folder`` whose process no longer runs, oldest first."""
+    try:
+        paths = [p for p in Path(folder).glob(".serve_spool.*.tmp")
+                 if (pid := spool_pid(p)) is not None and not _alive(pid)]  # fmt: skip
+        return sorted(paths, key=lambda p: (p.stat().st_mtime, p.name))
+    except OSError:  # folder gone or unreadable: nothing to recover here
+        return []
 
 
 class EpisodeSpool:
     """Steps of one episode until it ends; see the module doc.
 
     Args:
-        folder: the dataset folder (the image spool goes there, hidden).
-        camera_names, height, width: the frames every step carries (none: no spool file).
-        anonymous: keep the frames in an unnamed temporary file (no ``path``) rather than
-            a named one.
+        folder: the dataset folder (the spool goes there, hidden).
+        camera_names, height, width: the frames every step carries.
+        anonymous: an unnamed temporary file (no ``path``; teleop), not a named one.
+        meta: what a later run needs to publish the episode if this process dies: JSON-able
+            values (numpy arrays and scalars are converted), e.g. ``{"attrs": {...},
+            "compression": "gzip"}``.
     """
 
-    def __init__(self, folder: Path, camera_names: Sequence[str], height: int, width: int,
-                 anonymous: bool = False) -> None:  # fmt: skip
+    def __init__(
+        self,
+        folder: Path,
+        camera_names: Sequence[str],
+        height: int,
+        width: int,
+        anonymous: bool = False,
+        meta: Mapping[str, Any] | None = None,
+    ) -> None:
         self.folder, self.camera_names = Path(folder), list(camera_names)
         self.height, self.width = int(height), int(width)
-        self.rows: dict[str, list[Any]] = {k: [] for k in ("qpos", "qvel", "action", "reward",
-                                                           "env_state")}  # fmt: skip
+        self.meta: dict[str, Any] = dict(meta or {})
+        self.rows: dict[str, list[Any]] = {k: [] for k in NUMERIC}
         self.path: Path | None = None
-        self._file: h5py.File | None = None
-        self._unnamed: Any = None  # the unnamed temporary file behind ``_file``
-        if self.camera_names and anonymous:
+        self._fd: int | None = None  # None: no file (anonymous, no cameras) or closed
+        self._unnamed: Any = None  # the unnamed temporary file behind ``_fd``
+        self._layout: _Layout | None = None  # set by the first step
+        self._offset = 0  # where the records begin
+        self._open = True
+        if anonymous and self.camera_names:
             self._unnamed = tempfile.TemporaryFile(dir=self.folder, prefix=".spool.")
-            self._file = h5py.File(self._unnamed, "w")
-        elif self.camera_names:
-            name = f".serve_spool.{os.getpid()}-{secrets.token_hex(4)}.tmp"
-            self.path = self.folder / name
-            self._file = h5py.File(self.path, "w")
-        if self._file is not None:
-            shape, frame = (0, self.height, self.width, 3), (self.height, self.width, 3)
-            for cam in self.camera_names:
-                self._file.create_dataset(cam, shape=shape, maxshape=(None, *frame),
-                                          chunks=(1, *frame), dtype=np.uint8)  # fmt: skip
+            self._fd = self._unnamed.fileno()
+        elif not anonymous:
+            path = self.folder / f".serve_spool.{os.getpid()}-{secrets.token_hex(4)}.tmp"
+            flags = os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+            self._fd = os.open(path, flags, 0o644)
+            self.path = path
 
     def __len__(self) -> int:
         return len(self.rows["reward"])
@@ -115,56 +146,333 @@ class EpisodeSpool:
                     reward: float, env_state: np.ndarray,
                     images: Mapping[str, np.ndarray]) -> None:  # fmt: skip
         """One step: observation (``qpos``, ``qvel``, ``env_state``) before the action,
-        the action, the reward after it, and the camera images (all copied)."""
-        t = len(self)
-        if self._file is not None:
-            for cam in self.camera_names:
-                data = self._file[cam]
-                data.resize(t + 1, axis=0)
-                data[t] = images[cam]
-        rows = self.rows
-        rows["qpos"].append(np.array(qpos))
-        rows["qvel"].append(np.array(qvel))
-        rows["action"].append(np.array(action))
-        rows["reward"].append(float(reward))
-        rows["env_state"].append(np.array(env_state))
+        the action, the reward after it, and the camera images (all copied, on disk when
+        this returns)."""
+        if not self._open:
+            raise ValueError("the spool was already published or discarded")
+        values = {"qpos": np.array(qpos, dtype=np.float64).reshape(-1),
+                  "qvel": np.array(qvel, dtype=np.float64).reshape(-1),
+                  "action": np.array(action, dtype=np.float64).reshape(-1),
+                  "reward": np.array([reward], dtype=np.float64),
+                  "env_state": np.array(env_state, dtype=np.float64).reshape(-1)}  # fmt: skip
+        if self._layout is None:
+            widths = {k: int(v.size) for k, v in values.items()}
+            self._layout = _Layout(widths, self.camera_names, self.height, self.width)
+            header = _header(self._layout, self.meta)
+            self._write(header)
+            self._offset = len(header)
+        layout = self._layout
+        numbers = np.concatenate([values[k] for k in NUMERIC])
+        if numbers.size != layout.numbers:
+            raise ValueError(f"step {len(self)} has {numbers.size} values, the first had "
+                             f"{layout.numbers}")  # fmt: skip
+        frames = []
+        for cam in self.camera_names:
+            image = np.ascontiguousarray(images[cam], dtype=np.uint8)
+            if image.shape != (self.height, self.width, 3):
+                raise ValueError(f"step {len(self)}: image '{cam}' is {image.shape}, expected "
+                                 f"{(self.height, self.width, 3)}")  # fmt: skip
+            frames.append(image)
+        self._write(numbers.tobytes())
+        for image in frames:
+            self._write(memoryview(image).cast("B"))
+        for k in NUMERIC:
+            self.rows[k].append(float(values[k][0]) if k == "reward" else values[k])
+
+    def _write(self, data: bytes | memoryview) -> None:
+        if self._fd is None:  # numbers only, kept in memory
+            return
+        view = memoryview(data)
+        while view:
+            view = view[os.write(self._fd, view) :]
+
+    def _images(self, t: int) -> dict[str, np.ndarray]:
+        assert self._layout is not None and self._fd is not None
+        return _read_images(self._fd, self._layout, t, self._offset)
 
     def publish(self, path: Path, attrs: Mapping[str, Any], compression: str) -> Path:
         """Write the episode to ``path`` through ``EpisodeWriter`` (never overwriting; the
-        file appears only complete), then delete the spool. Raises what the writer raises
-        (the spool is deleted either way)."""
+        file appears only complete and read back), then delete the spool. Raises what the
+        writer raises: then a named spool is kept (closed; :attr:`path` holds the steps for
+        :func:`recover_spools`), an anonymous one deleted."""
+        if not self._open:
+            raise ValueError("the spool was already published or discarded")
         try:
-            n = len(self)
-            env_dim = len(self.rows["env_state"][0]) if n else 7
-            with EpisodeWriter(
-                path, episode_len=n, camera_names=self.camera_names, height=self.height,
-                width=self.width, compression=compression, attrs=attrs,
-                env_state_dim=env_dim, create_folder=False,
-            ) as writer:  # fmt: skip
-                for t in range(n):
-                    images = {cam: self._file[cam][t] for cam in self.camera_names} if (
-                        self._file is not None) else {}  # fmt: skip
-                    writer.append(
-                        qpos=self.rows["qpos"][t], qvel=self.rows["qvel"][t],
-                        action=self.rows["action"][t], reward=self.rows["reward"][t],
-                        env_state=self.rows["env_state"][t], images=images,
-                    )  # fmt: skip
-            return writer.path
-        finally:
-            self.discard()
+            out = _write_episode(path, self.rows, self._images, self.camera_names,
+                                 self.height, self.width, attrs, compression)  # fmt: skip
+        except BaseException:
+            if self.path is None:
+                self.discard()
+            else:
+                self.close()
+            raise
+        self.discard()
+        return out
+
+    def close(self) -> None:
+        """Close the file and keep it (a named spool stays for :func:`recover_spools`);
+        idempotent, never raises."""
+        fd, self._fd, self._open = self._fd, None, False
+        if self._unnamed is not None:
+            try:
+                self._unnamed.close()  # closes ``fd`` too; the unnamed file is gone
+            except Exception:
+                pass
+            self._unnamed = None
+        elif fd is not None:
+            try:
+                os.close(fd)
+            except OSError:
+                pass
 
     def discard(self) -> None:
         """Delete the spool (idempotent, never raises)."""
-        for handle in (self._file, self._unnamed):  # the HDF5 file, then what it was on
-            if handle is not None:
-                try:
-                    handle.close()
-                except Exception:
-                    pass
-        self._file = self._unnamed = None
+        self.close()
         if self.path is not None:
             try:
                 self.path.unlink(missing_ok=True)
             except OSError:
                 pass
             self.path = None
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """What one record holds: numeric widths, then each camera's frame."""
+
+    widths: Mapping[str, int]
+    camera_names: Sequence[str]
+    height: int
+    width: int
+
+    @property
+    def numbers(self) -> int:
+        return sum(self.widths[k] for k in NUMERIC)
+
+    @property
+    def frame_bytes(self) -> int:
+        return self.height * self.width * 3
+
+    @property
+    def record_bytes(self) -> int:
+        return 8 * self.numbers + len(self.camera_names) * self.frame_bytes
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _header(layout: _Layout, meta: Mapping[str, Any]) -> bytes:
+    body = json.dumps({
+        "widths": dict(layout.widths), "camera_names": list(layout.camera_names),
+        "height": layout.height, "width": layout.width, "meta": _jsonable(meta),
+    }).encode()  # fmt: skip
+    return MAGIC + _LENGTH.pack(len(body)) + body
+
+
+def _read_images(fd: int, layout: _Layout, t: int, offset: int) -> dict[str, np.ndarray]:
+    """Camera frames of step ``t`` (the records start at ``offset``)."""
+    start = offset + t * layout.record_bytes + 8 * layout.numbers
+    out = {}
+    for i, cam in enumerate(layout.camera_names):
+        raw = os.pread(fd, layout.frame_bytes, start + i * layout.frame_bytes)
+        if len(raw) != layout.frame_bytes:
+            raise OSError(f"the spool ends inside step {t}")
+        out[cam] = np.frombuffer(raw, dtype=np.uint8).reshape(layout.height, layout.width, 3)
+    return out
+
+
+def _write_episode(path: Path, rows: Mapping[str, Sequence[Any]],
+                   images: Callable[[int], dict[str, np.ndarray]],
+                   camera_names: Sequence[str], height: int, width: int,
+                   attrs: Mapping[str, Any], compression: str) -> Path:  # fmt: skip
+    n = len(rows["reward"])
+    env_dim = len(rows["env_state"][0]) if n else 7
+    with EpisodeWriter(
+        path, episode_len=n, camera_names=camera_names, height=height, width=width,
+        compression=compression, attrs=attrs, env_state_dim=env_dim, create_folder=False,
+    ) as writer:  # fmt: skip
+        for t in range(n):
+            writer.append(
+                qpos=rows["qpos"][t], qvel=rows["qvel"][t], action=rows["action"][t],
+                reward=rows["reward"][t], env_state=rows["env_state"][t],
+                images=images(t) if camera_names else {},
+            )  # fmt: skip
+    return writer.path
+
+
+# -- recovery ----------------------------------------------------------------------------
+
+
+@dataclass
+class SpoolContents:
+    """What a spool left by a dead process holds (:func:`read_spool`)."""
+
+    path: Path
+    meta: dict[str, Any]
+    rows: dict[str, list[np.ndarray | float]]
+    layout: _Layout | None
+    offset: int
+    torn_bytes: int  # bytes of an unfinished last record, ignored
+
+    @property
+    def steps(self) -> int:
+        return len(self.rows["reward"])
+
+
+class SpoolFormatError(ValueError):
+    """A file named like a spool that is not one of this version, or whose header is
+    damaged: no episode can be made of it."""
+
+
+def read_spool(path: Path) -> SpoolContents:
+    """The whole steps of a spool file (numbers; frames are read when published).
+
+    Raises:
+        SpoolFormatError: not a spool of this format (or its header is damaged).
+        OSError: unreadable.
+    """
+    rows: dict[str, list[Any]] = {k: [] for k in NUMERIC}
+    with open(path, "rb") as f:
+        head = f.read(len(MAGIC) + _LENGTH.size)
+        if not head:  # created, no step yet
+            return SpoolContents(Path(path), {}, rows, None, 0, 0)
+        if head.startswith(b"\x89HDF"):
+            raise SpoolFormatError(
+                "a spool of an older version, holding camera frames only (the states and "
+                "actions were in its process's memory)"
+            )
+        if len(head) < len(MAGIC) + _LENGTH.size or not head.startswith(MAGIC):
+            raise SpoolFormatError("not a spool file of this version (unknown header)")
+        length = _LENGTH.unpack(head[len(MAGIC) :])[0]
+        raw = f.read(length)
+        if len(raw) < length:  # killed while writing the header: no step was written
+            return SpoolContents(Path(path), {}, rows, None, 0, len(raw))
+        try:
+            header = json.loads(raw)
+            layout = _Layout({k: int(header["widths"][k]) for k in NUMERIC},
+                             [str(c) for c in header["camera_names"]], int(header["height"]),
+                             int(header["width"]))  # fmt: skip
+        except (ValueError, KeyError, TypeError) as exc:
+            raise SpoolFormatError(f"damaged header ({exc})") from None
+        offset = len(head) + length
+        size = os.fstat(f.fileno()).st_size
+        whole, torn = divmod(max(0, size - offset), layout.record_bytes)
+        for t in range(whole):
+            f.seek(offset + t * layout.record_bytes)
+            values = np.frombuffer(f.read(8 * layout.numbers), dtype=np.float64)
+            start = 0
+            for k in NUMERIC:
+                part = values[start : start + layout.widths[k]].copy()
+                start += layout.widths[k]
+                rows[k].append(float(part[0]) if k == "reward" else part)
+    meta = header.get("meta") if isinstance(header.get("meta"), dict) else {}
+    return SpoolContents(Path(path), meta, rows, layout, offset, torn)
+
+
+@dataclass
+class Recovery:
+    """What :func:`recover_spools` did with one spool."""
+
+    spool: Path
+    episode: Path | None = None  # the episode file it became
+    steps: int = 0
+    problem: str = ""  # why it was kept (empty: published, or held nothing)
+
+
+def recover_spools(folder: Path, next_index: Callable[[], int],
+                   say: Callable[[str], None] = print) -> list[Recovery]:  # fmt: skip
+    """Publish the episodes that spools of dead processes in ``folder`` hold (call it holding
+    the folder's lock): each as the folder's next episode (``next_index()``), through the
+    writer (validated); the spool is deleted only then. A spool that holds no step, or
+    whose episode was already published (same ``recording_id``), is deleted; one that
+    cannot be published is kept, with one line through ``say`` saying why and how to
+    recover it. Returns one :class:`Recovery` per spool found."""
+    from trossen_arm_mujoco.data.reader import episode_path
+
+    done = []
+    for path in stale_spools(folder):
+        result = Recovery(path)
+        done.append(result)
+        try:
+            contents = read_spool(path)
+            result.steps = contents.steps
+            if contents.steps == 0 or _already_published(folder, contents.meta):
+                path.unlink(missing_ok=True)
+                continue
+            index = next_index()
+            result.episode = _publish_contents(contents, episode_path(folder, index))
+        except Exception as exc:  # kept: say where its data is and what to do
+            result.episode = None
+            text = describe_os_error(exc) if isinstance(exc, OSError) else str(exc)
+            result.problem = " ".join(text.split())
+            if isinstance(exc, SpoolFormatError):
+                todo = "it cannot become an episode; move it out of the folder to give it up"
+            else:
+                todo = ("fix that and run serve --record into this folder again to recover "
+                        "it (or move it out of the folder to give it up)")  # fmt: skip
+            say(f"warning: {path} was left by a serve that stopped before writing its "
+                f"episode and is kept, not recovered: {result.problem}; {todo}")  # fmt: skip
+            continue
+        try:
+            path.unlink(missing_ok=True)
+        except OSError:
+            pass
+        say(f"{result.episode.name}: recovered {contents.steps} steps "
+            f"({contents.steps * float(contents.meta.get('attrs', {}).get('dt', 0.02)):.2f} s) "
+            f"that a stopped serve left in {path.name}")  # fmt: skip
+    return done
+
+
+def _already_published(folder: Path, meta: Mapping[str, Any]) -> bool:
+    """Whether an episode of ``folder`` carries the spool's ``recording_id``."""
+    from trossen_arm_mujoco.data.reader import episode_path
+
+    attrs = meta.get("attrs") if isinstance(meta.get("attrs"), dict) else {}
+    rid, index = attrs.get(RECORDING_ID_ATTR), meta.get("index")
+    if not rid or not isinstance(index, int):
+        return False
+    candidate = episode_path(folder, index)
+    if not candidate.is_file():
+        return False
+    try:
+        import h5py
+
+        with h5py.File(candidate, "r") as f:
+            found = f.attrs.get(RECORDING_ID_ATTR)
+    except (OSError, ValueError):
+        return False
+    if isinstance(found, bytes):
+        found = found.decode()
+    return found == rid
+
+
+def _publish_contents(contents: SpoolContents, path: Path) -> Path:
+    layout = contents.layout
+    assert layout is not None
+    meta = contents.meta
+    attrs: dict[str, Any] = dict(meta.get("attrs") or {})
+    rewards = np.asarray(contents.rows["reward"], dtype=np.float64)
+    top = float(meta.get("task_max_reward", 1.0))
+    final, best = float(rewards[-1]), float(rewards.max())
+    attrs.update(success=bool(final >= top), final_reward=final, max_reward=best,
+                 end_reason="recovered: serve stopped before writing it",
+                 recovered_from=contents.path.name)  # fmt: skip
+    attrs.setdefault("task_name", "unknown")
+    attrs.setdefault("seed", 0)
+    compression = str(meta.get("compression", "gzip"))
+    fd = os.open(contents.path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+    try:
+        return _write_episode(
+            path, contents.rows,
+            lambda t: _read_images(fd, layout, t, contents.offset),
+            layout.camera_names, layout.height, layout.width, attrs, compression,
+        )  # fmt: skip
+    finally:
+        os.close(fd)

@@ -149,14 +149,16 @@ class ServedKit:
         self._started = True
         return self
 
-    def stop(self) -> RecordStats | None:
+    def stop(self, progress: Callable[[], None] | None = None) -> RecordStats | None:
         """Disconnect the clients, stop serving and stepping, finish the recording (its
-        queued frames are written); idempotent. Returns the recording's totals, if any."""
+        queued frames are written, however long that takes; ``progress`` is called every
+        fraction of a second meanwhile); idempotent. Returns the recording's totals, if
+        any."""
         self.world.stop()
         for server in self.servers.values():
             server.stop()
         if self.recorder is not None and self.record_stats is None:
-            self.record_stats = self.recorder.stop()
+            self.record_stats = self.recorder.stop(progress)
         self._started = False
         return self.record_stats
 

@@ -16,12 +16,19 @@ the cameras (from its own ``MjData`` set to that state), spools the steps
 rendering delays the files, never the arms; a backlog is reported, and :meth:`stop` writes
 everything still queued. Each episode is reported in one line (steps, why it ended, reward,
 success); episodes that end with no step are not written.
+
+Nothing recorded is lost to a failure or a stop: every step is on disk in the episode's
+spool as soon as the worker has it, and a spool that could not be published (a failed
+write, a worker that ended early, a process that was killed) is kept, with a line saying
+where; the next ``serve --record`` into the folder publishes it
+(:func:`~.episode_spool.recover_spools`).
 """
 
 from __future__ import annotations
 
 import os
 import queue
+import secrets
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -34,7 +41,7 @@ import mujoco
 from trossen_arm_mujoco.data.reader import episode_path
 from trossen_arm_mujoco.data.schema import DEFAULT_COMPRESSION
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.twin.episode_spool import EpisodeSpool
+from trossen_arm_mujoco.twin.episode_spool import RECORDING_ID_ATTR, EpisodeSpool
 from trossen_arm_mujoco.twin.frame import Frame
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 
@@ -43,6 +50,8 @@ RENDER_NICENESS: int = 10
 
 #: A backlog of frames longer than this (s of simulated time) is reported once.
 BACKLOG_WARN_S: float = 5.0
+#: While :meth:`SessionRecorder.stop` waits for the worker, ``progress`` is called this often (s).
+PROGRESS_S: float = 0.2
 
 
 def _lower_priority() -> None:
@@ -79,20 +88,23 @@ class RecordOptions:
 class _Episode:
     index: int
     seed: int
-    attrs: dict[str, Any]
+    attrs: dict[str, Any]  # set when it begins, never changed (the worker reads it)
     spool: EpisodeSpool | None = None
     reason: str = ""
+    end_attrs: dict[str, Any] = field(default_factory=dict)  # set when it ends
 
 
 @dataclass
 class RecordStats:
-    """Totals of a run: episodes written, frames rendered, rendering rate, failures."""
+    """Totals of a run: episodes written, frames rendered, rendering rate, failures, and
+    the spools of episodes that could not be written (kept for the next run)."""
 
     written: list[Path] = field(default_factory=list)
     successes: int = 0
     frames: int = 0
     render_s: float = 0.0
     errors: list[str] = field(default_factory=list)
+    kept: list[Path] = field(default_factory=list)  # spools kept for the next run
 
     @property
     def frames_per_s(self) -> float:
@@ -154,6 +166,7 @@ class SessionRecorder:
             "attempt": self.index, "dt": w.frame_dt, "source": "serve",
             "initial_env_state": w.env_state(), "object_names": list(poses),
             **({"box_pose": poses["box"]} if "box" in poses else {}),
+            RECORDING_ID_ATTR: secrets.token_hex(8),
         }  # fmt: skip
         self._episode = _Episode(self.index, int(w.seed), attrs)
         self._steps = 0
@@ -162,7 +175,7 @@ class SessionRecorder:
     def _end(self, reason: str) -> None:
         assert self._episode is not None
         self._episode.reason = reason
-        self._episode.attrs["realtime_factor"] = float(self.world.realtime_factor)
+        self._episode.end_attrs = {"realtime_factor": float(self.world.realtime_factor)}
         self._queue.put(("end", self._episode))
         self._episode = None
         self.index += 1
@@ -201,7 +214,7 @@ class SessionRecorder:
                 try:
                     if kind == "begin":
                         episode = item
-                        episode.spool = EpisodeSpool(o.folder, o.camera_names, o.height, o.width)
+                        episode.spool = self._spool(episode)
                     elif kind == "frame" and episode is not None and episode.spool is not None:
                         start = time.perf_counter()
                         images = self._render(cameras, rdata, item)
@@ -215,10 +228,21 @@ class SessionRecorder:
                     self._fail(episode, exc)
                     episode = None
         finally:
-            if episode is not None and episode.spool is not None:
-                episode.spool.discard()
+            if episode is not None:  # the worker ends early: keep what it has
+                self._keep(episode, "the recorder stopped before the episode ended")
             if cameras is not None:
                 cameras.close()
+
+    def _spool(self, episode: _Episode) -> EpisodeSpool:
+        """A named spool holding what a later run needs to publish it (:mod:`.episode_spool`)."""
+        o = self.options
+        meta = {"index": episode.index, "attrs": episode.attrs, "compression": o.compression,
+                "task_max_reward": self._top}  # fmt: skip
+        return EpisodeSpool(o.folder, o.camera_names, o.height, o.width, meta=meta)
+
+    @property
+    def _top(self) -> float:
+        return float(getattr(self.world.task, "max_reward", 1.0))
 
     def _render(self, cameras, rdata, frame: Frame) -> dict:
         if cameras is None:
@@ -237,9 +261,9 @@ class SessionRecorder:
             return
         rewards = spool.rewards
         final, best = float(rewards[-1]), float(rewards.max())
-        top = float(getattr(self.world.task, "max_reward", 1.0))
+        top = self._top
         success = final >= top
-        attrs = {**episode.attrs, "success": success, "final_reward": final,
+        attrs = {**episode.attrs, **episode.end_attrs, "success": success, "final_reward": final,
                  "max_reward": best, "end_reason": episode.reason}  # fmt: skip
         path = spool.publish(episode_path(self.options.folder, episode.index), attrs,
                              self.options.compression)  # fmt: skip
@@ -252,21 +276,50 @@ class SessionRecorder:
         )
 
     def _fail(self, episode: _Episode | None, exc: Exception) -> None:
-        if episode is not None and episode.spool is not None:
-            episode.spool.discard()
-        name = f"episode_{episode.index}.hdf5" if episode is not None else "an episode"
         text = str(exc) if isinstance(exc, (UserError, OSError)) else repr(exc)
-        line = f"{name} was not written: {' '.join(text.split())}"
+        if episode is None:
+            line = f"an episode was not written: {' '.join(text.split())}"
+            self.stats.errors.append(line)
+            self.say(f"error: {line}")
+            return
+        self._keep(episode, " ".join(text.split()))
+
+    def _keep(self, episode: _Episode, why: str) -> None:
+        """``episode`` cannot be published now: keep its spool (closed) when it holds steps
+        and say where, else delete it; counted as an error."""
+        spool = episode.spool
+        name = f"episode_{episode.index}.hdf5"
+        line = f"{name} was not written: {why}"
+        if spool is not None and len(spool) and spool.path is not None:
+            spool.close()
+            self.stats.kept.append(spool.path)
+            line += (f"; its {len(spool)} steps are kept in {spool.path}: the next serve "
+                     "--record into this folder publishes them")  # fmt: skip
+        elif spool is not None:
+            spool.discard()
+        episode.spool = None
         self.stats.errors.append(line)
         self.say(f"error: {line}")
 
     # -- end --------------------------------------------------------------------------------
-    def stop(self) -> RecordStats:
+    @property
+    def backlog(self) -> int:
+        """Frames (and session events) queued for the worker."""
+        return self._queue.qsize()
+
+    def stop(self, progress: Callable[[], None] | None = None) -> RecordStats:
         """End the episode being recorded (call after the world stopped stepping), write
-        everything queued, end the worker. Returns the run's totals."""
+        everything queued, end the worker; returns the run's totals. It waits for the worker
+        however long the queue takes (the recording is never cut short), calling
+        ``progress`` every :data:`PROGRESS_S` meanwhile (e.g. to report signals);
+        idempotent."""
         if self._episode is not None:
             self._end("serve stopped")
-        self._queue.put(("stop", None))
-        self._worker.join()
+        if self._worker.is_alive():
+            self._queue.put(("stop", None))
+        while self._worker.is_alive():
+            self._worker.join(PROGRESS_S)
+            if progress is not None and self._worker.is_alive():
+                progress()
         self.world.before_frame = self.world.on_frame = None
         return self.stats
