@@ -1,6 +1,8 @@
-"""Every command-line tool over a table of bad inputs: exit 2, one ``error:`` line on stderr,
-no traceback, no temp file left. Each case runs ``python -m trossen_arm_mujoco.cli`` in a
-fresh process, in an empty folder that also holds an existing episode and a plain file."""
+"""Every command-line tool over a table of bad inputs: exit 2, one ``error:`` line on stderr
+(naming the flag at fault, where ``EXPECTED`` says), no traceback, no temp file left. Each
+case runs ``python -m trossen_arm_mujoco.cli`` in a fresh process, in an empty folder that
+also holds an existing episode, a plain file, a symlink loop, a dangling link and a dataset
+folder whose ``episode_0.hdf5`` is a folder."""
 
 from __future__ import annotations
 
@@ -36,7 +38,31 @@ CASES: list[list[str]] = [
     ["eval", "--policy", "scripted", "--cam_names", "no_cam", "--num_episodes", "1"],
     ["eval", "--policy", "scripted", "--image_size", "axb", "--num_episodes", "1"],
     ["no-such-subcommand"],
+    # outputs that cannot be written: refused before any work (tests/test_output_checks.py)
+    ["record", "--data_dir", "{file}", "--num_episodes", "1"],
+    ["record", "--data_dir", "{loop}", "--num_episodes", "1"],
+    ["record", "--data_dir", "{dangling}", "--num_episodes", "1"],
+    ["record", "--root_dir", "{file}/sub", "--data_dir", "d", "--num_episodes", "1"],
+    ["record", "--data_dir", "{tmp}/eps_dir", "--num_episodes", "1", "--cam_names", "none"],
+    ["export", "--data_dir", "{dir}", "--output", "{file}/sub", "--repo_id", "a/b"],
+    ["export", "--data_dir", "{dir}", "--output", "{loop}", "--repo_id", "a/b"],
+    ["visualize", "--data_dir", "{dir}", "--output_dir", "{file}/sub"],
+    ["visualize", "--data_dir", "{dir}", "--output_dir", "{dangling}"],
 ]
+
+#: Per case (by its first words), text its error line must hold: the flag at fault, and
+#: what is wrong with it.
+EXPECTED: dict[tuple[str, ...], tuple[str, ...]] = {
+    ("record", "--data_dir", "{file}"): ("--data_dir", "is a file"),
+    ("record", "--data_dir", "{loop}"): ("--data_dir", "symlink loop"),
+    ("record", "--data_dir", "{dangling}"): ("--data_dir", "link to a missing path"),
+    ("record", "--root_dir", "{file}/sub"): ("--root_dir", "a file is in the way"),
+    ("record", "--data_dir", "{tmp}/eps_dir"): ("--data_dir", "is a folder, not an episode"),
+    ("export", "--data_dir", "{dir}", "--output", "{file}/sub"): ("--output", "in the way"),
+    ("export", "--data_dir", "{dir}", "--output", "{loop}"): ("--output", "symlink loop"),
+    ("visualize", "--data_dir", "{dir}", "--output_dir", "{file}/sub"): ("--output_dir",),
+    ("visualize", "--data_dir", "{dir}", "--output_dir", "{dangling}"): ("--output_dir",),
+}
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +78,12 @@ def place(tmp_path_factory) -> dict[str, str]:
                      env_state=[0.0] * 7, images={})  # fmt: skip
     plain = tmp / "plain.txt"
     plain.write_text("not a folder\n")
-    return {"tmp": str(tmp), "dir": str(folder), "ep": str(ep), "file": str(plain)}
+    (tmp / "loop").symlink_to(tmp / "loop2")
+    (tmp / "loop2").symlink_to(tmp / "loop")
+    (tmp / "dangling").symlink_to(tmp / "gone")
+    (tmp / "eps_dir" / "episode_0.hdf5").mkdir(parents=True)  # a folder named like an episode
+    return {"tmp": str(tmp), "dir": str(folder), "ep": str(ep), "file": str(plain),
+            "loop": str(tmp / "loop"), "dangling": str(tmp / "dangling")}  # fmt: skip
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: " ".join(c)[:60])
@@ -68,7 +99,20 @@ def test_bad_input_is_one_line(case, place, tmp_path):
     assert "Traceback" not in proc.stderr, proc.stderr[-2000:]
     errors = [line for line in lines if line.startswith("error: ")]
     assert len(errors) == 1, proc.stderr
-    assert all(line.startswith(("error: ", "warning: ")) or "%|" in line for line in lines), lines
+    assert all(
+        line.startswith(("error: ", "warning: ", "note: ")) or "%|" in line for line in lines
+    ), lines
+    for words, parts in EXPECTED.items():
+        if tuple(case[: len(words)]) == words:
+            assert all(part in errors[0] for part in parts), (parts, errors[0])
+            assert "overwrite=True" not in errors[0]  # the Python API's words, not a flag
+            if "--root_dir" not in parts:
+                assert "--root_dir" not in errors[0], errors[0]
     after = set(Path(place["tmp"]).rglob("*"))
     left = [p for p in after - before if p.name.endswith(".tmp") or ".tmp" in p.name]
     assert not left, left
+
+
+def test_every_expectation_names_a_case():
+    for words in EXPECTED:
+        assert any(tuple(case[: len(words)]) == words for case in CASES), words

@@ -6,6 +6,8 @@ line and exit status 2; Ctrl-C (SIGINT) and SIGTERM both unwind the command as a
 the other signals that would end the process), so every cleanup written for Ctrl-C also
 runs for them, and end with one ``interrupted (...)`` line and exit status 130 or 143
 (128 + the signal). A command says what an interruption kept with :func:`interrupt_note`.
+Python warnings raised meanwhile print as one ``note: ...`` line each (:func:`plain_warnings`,
+:func:`note`).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
@@ -33,7 +36,33 @@ class UserError(Exception):
 
     Command-line entry points print the message on one line, without a traceback,
     and exit with status 2.
+
+    A library function called both from Python and from a command can say how to fix the
+    mistake in both words: ``hint`` for Python callers (``"pass overwrite=True"``),
+    ``cli_hint`` for the command-line user (``"pass --overwrite"``). ``str(exc)`` is
+    ``"<message> (<hint>)"``; :func:`run_cli` prints :attr:`cli_message`,
+    ``"<message> (<cli_hint>)"``. Both survive pickling (worker processes).
+
+    Args:
+        message: what is wrong (and, without ``hint``, what to do).
+        hint: what a Python caller should do.
+        cli_hint: what a command-line user should do instead (default: ``hint``).
     """
+
+    def __init__(
+        self, message: object = "", *, hint: str | None = None, cli_hint: str | None = None
+    ) -> None:
+        super().__init__(f"{message} ({hint})" if hint else message)
+        self.what = str(message)
+        self.hint = hint
+        self.cli_hint = cli_hint
+
+    @property
+    def cli_message(self) -> str:
+        """The message for a command-line user: the ``cli_hint`` in place of the ``hint``."""
+        if getattr(self, "cli_hint", None) is None:
+            return str(self)
+        return f"{self.what} ({self.cli_hint})"
 
 
 class Terminated(KeyboardInterrupt):
@@ -146,6 +175,48 @@ def report_error(message: object, status: int = EXIT_USER_ERROR) -> int:
     return status
 
 
+def note(message: object) -> None:
+    """Print ``note: <message>`` to stderr as one line (several lines joined with "; "):
+    something the user should know that is neither an error nor a reason to stop."""
+    print(f"note: {_one_line(message)}", file=sys.stderr, flush=True)
+
+
+def show_warning_as_note(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: Any = None,
+    line: str | None = None,
+) -> None:
+    """A ``warnings.showwarning``: one ``note: <message>`` line on stderr, no source line.
+
+    :func:`plain_warnings` installs it while a command runs; a worker process a command
+    starts (spawned, so without it) can set ``warnings.showwarning`` to it too."""
+    text = _one_line(message)
+    if category is not UserWarning and not text.startswith(category.__name__):
+        text = f"{text} ({category.__name__})"
+    try:
+        print(f"note: {text}", file=sys.stderr if file is None else file, flush=True)
+    except (OSError, ValueError):  # stderr closed: a warning must never end the command
+        pass
+
+
+@contextmanager
+def plain_warnings() -> Iterator[None]:
+    """Show the Python warnings (``warnings.warn``, the package's and the libraries') raised
+    in the block as one plain ``note: <message>`` line each on stderr, without the file and
+    source line Python prints; :func:`run_cli` does this for every command. The filters
+    (which warnings are shown, and how often) are unchanged."""
+    previous = warnings.showwarning
+    warnings.showwarning = show_warning_as_note
+    try:
+        yield
+    finally:
+        if warnings.showwarning is show_warning_as_note:
+            warnings.showwarning = previous
+
+
 def _one_line(message: object) -> str:
     text = str(message)
     if "\n" in text:
@@ -250,9 +321,10 @@ def run_cli(
     _received.clear()
     try:
         try:
-            rc = main(argv)
+            with plain_warnings():
+                rc = main(argv)
         except UserError as exc:
-            message = str(exc)
+            message = exc.cli_message
             _restore_handlers(previous)
             return report_error(message)
         return int(rc or 0)

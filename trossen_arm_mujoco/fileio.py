@@ -12,20 +12,31 @@ On any error, Ctrl-C and SIGTERM included, the temporary file is removed.
   finish together (a rename and its cleanup), then deliver them.
 - :func:`folder_lock` and :func:`remove_stale_temps`: one writer per output folder, and the
   temporary files of a killed (SIGKILL) run removed by the next.
+- :func:`check_writable_dir`: before a command starts its work, check that it can write
+  in its output folder (one line naming the flag when not); :func:`folder_problem` says
+  why a path cannot be a folder (a file, a symlink loop, a link to a missing path).
 """
 
 from __future__ import annotations
 
+import errno
 import os
 import re
+import secrets
 import shutil
 import signal
+import stat
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from trossen_arm_mujoco.errors import TERMINATING_SIGNALS
+from trossen_arm_mujoco.errors import (
+    TERMINATING_SIGNALS,
+    UserError,
+    describe_os_error,
+    os_error_hint,
+)
 
 PathLike = str | os.PathLike[str]
 
@@ -240,3 +251,115 @@ def remove_stale_temps(folder: PathLike, final_name: str | re.Pattern[str]) -> l
                 continue
         removed.append(path)
     return removed
+
+
+#: Prefix of the hidden file :func:`check_writable_dir` creates and removes.
+PROBE_PREFIX = ".write_test."
+
+
+def folder_problem(path: PathLike) -> tuple[Path, str] | None:
+    """Why ``path`` cannot be (or become) a folder, looking at it and its parents from the
+    top: ``(the path at fault, "is a file, not a folder")``, ``"is a symlink loop"`` or
+    ``"is a link to a missing path (<target>)"``; None when every existing part is a folder
+    (missing parts are fine: they can be created). Follows symlinks that work."""
+    path = Path(os.path.abspath(Path(path).expanduser()))
+    for part in [*reversed(path.parents), path]:
+        try:
+            info = os.lstat(part)
+        except FileNotFoundError:
+            return None  # this part and those below it are missing: they can be created
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                return part, "is a symlink loop"
+            return None  # not this function's to judge: the write probe says what fails
+        if stat.S_ISLNK(info.st_mode):
+            try:
+                info = os.stat(part)
+            except OSError as exc:
+                if exc.errno == errno.ELOOP:
+                    return part, "is a symlink loop"
+                if exc.errno in (errno.ENOENT, errno.ENOTDIR):
+                    return part, f"is a link to a missing path ({os.readlink(part)})"
+                return None
+        if stat.S_ISREG(info.st_mode):
+            return part, "is a file, not a folder"
+        if not stat.S_ISDIR(info.st_mode):
+            return part, "is not a folder"
+    return None
+
+
+def _problem_text(path: Path, at: Path, what: str, flag: str) -> str:
+    """``<why>; <what to do>`` for :func:`folder_problem`'s answer."""
+    itself = at == Path(os.path.abspath(path))
+    if what.startswith("is a file"):
+        if itself:
+            return "it is a file; give a folder (a missing one is created), or move the file away"
+        return f"a file is in the way ({at}); move it away or choose another {flag}"
+    where = "it" if itself else str(at)
+    if what.startswith("is a symlink loop"):
+        return f"{where} {what}; fix or remove the link, or choose another {flag}"
+    if what.startswith("is a link to a missing path"):
+        return (
+            f"{where} {what}; create the folder it points to, fix the link, or choose "
+            f"another {flag}"
+        )
+    return f"{where} {what}; choose another {flag}"
+
+
+def check_folder_path(path: PathLike, flag: str) -> None:
+    """Raise a one-line UserError naming ``flag`` when ``path`` cannot be a folder
+    (:func:`folder_problem`: a part of it is a file, a symlink loop or a link to a missing
+    path); nothing is created or written (:func:`check_writable_dir` does both checks)."""
+    path = Path(path).expanduser()
+    problem = folder_problem(path)
+    if problem is not None:
+        raise UserError(f"cannot write to {flag} {path}: {_problem_text(path, *problem, flag)}")
+
+
+def check_writable_dir(path: PathLike, flag: str) -> Path:
+    """Check, before any work, that a command can write files in the folder ``path``.
+
+    For real: the folder and its missing parents are created (as the command would create
+    them), a hidden file of this process's own (``.write_test.<pid>-<random>``) is created
+    and removed in it, and the folders this check created are removed again, so that
+    nothing is left behind; the command creates its folder itself when it starts.
+
+    Args:
+        path: the output folder (``~`` expanded; relative to the current folder).
+        flag: the command-line flag that chose it (``"--output"``), named in the error.
+
+    Returns:
+        ``path`` as a Path (``~`` expanded).
+
+    Raises:
+        UserError: one line, ``cannot write to <flag> <path>: <why>; <what to do>``: a
+            part of the path is a file, a symlink loop or a link to a missing path, or
+            the file system refuses (read-only, permissions, full, no such folder).
+    """
+    path = Path(path).expanduser()
+    check_folder_path(path, flag)
+    created: list[Path] = []
+    try:
+        for folder in [*reversed(path.parents), path]:
+            if not folder.is_dir():
+                folder.mkdir()
+                created.append(folder)
+        probe = path / f"{PROBE_PREFIX}{os.getpid()}-{secrets.token_hex(4)}"
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        try:
+            os.write(fd, b"\0")
+        finally:
+            os.close(fd)
+            with deferred_signals():
+                probe.unlink(missing_ok=True)
+    except OSError as exc:
+        raise UserError(
+            f"cannot write to {flag} {path}: {describe_os_error(exc)}; {os_error_hint(exc, flag)}"
+        ) from None
+    finally:
+        for folder in reversed(created):
+            try:
+                folder.rmdir()
+            except OSError:
+                pass
+    return path

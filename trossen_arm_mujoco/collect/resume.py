@@ -18,11 +18,14 @@ attempts run from the first one no file used.
 
 from __future__ import annotations
 
+import os
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from trossen_arm_mujoco.data.reader import EpisodeError, list_episodes, load_episode
+from trossen_arm_mujoco.data.schema import EPISODE_FILE_RE
 from trossen_arm_mujoco.errors import UserError
 
 if TYPE_CHECKING:
@@ -138,6 +141,51 @@ def _check_readable(folder: Path, found: list[tuple[int, Path]]) -> list:
     return episodes
 
 
+def _entry_problem(path: Path) -> str | None:
+    """Why ``path`` (named like an episode) cannot be read or replaced as one, or None."""
+    try:
+        info = os.lstat(path)
+    except OSError:
+        return None
+    if stat.S_ISLNK(info.st_mode):
+        try:
+            info = os.stat(path)
+        except OSError:
+            return f"is a link to a missing path ({os.readlink(path)})"
+    if stat.S_ISDIR(info.st_mode):
+        return "is a folder, not an episode file"
+    if not stat.S_ISREG(info.st_mode):
+        return "is not a regular file"
+    return None
+
+
+def check_episode_names(folder: Path, num_episodes: int) -> None:
+    """Refuse, before any episode is recorded, a folder whose ``episode_<k>.hdf5`` (``k`` below
+    ``num_episodes``) is not a file: a folder, a broken link, a device. Such an entry is
+    neither read nor replaced (not even with ``--overwrite``), so recording ``k`` would fail.
+
+    Raises:
+        UserError: naming the entry, what it is, and ``--data_dir``.
+    """
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return  # no folder (yet): nothing in the way
+    bad = []
+    matches = (EPISODE_FILE_RE.match(name) for name in names)
+    for k, name in sorted((int(m.group(1)), m.group(0)) for m in matches if m):
+        problem = _entry_problem(folder / name) if k < num_episodes else None
+        if problem is not None:
+            bad.append(f"{name} {problem}")
+    if bad:
+        raise UserError(
+            f"{'; '.join(bad[:3])}{'; ...' if len(bad) > 3 else ''} (in {folder}); move "
+            f"{'it' if len(bad) == 1 else 'them'} out of --data_dir (or delete "
+            f"{'it' if len(bad) == 1 else 'them'}) and rerun: record replaces episode files "
+            "only, never folders, even with --overwrite"
+        )
+
+
 def plan_run(
     folder: Path,
     num_episodes: int,
@@ -151,9 +199,11 @@ def plan_run(
     with ``settings`` when given) first.
 
     Raises:
-        UserError: an unreadable episode file, or one recorded with other settings.
+        UserError: an unreadable episode file, one recorded with other settings, or an
+            episode name below ``num_episodes`` that is not a file (a folder).
     """
     folder = Path(folder)
+    check_episode_names(folder, num_episodes)
     if overwrite:
         return RunPlan(list(range(num_episodes)), list(range(num_episodes)), 0, overwrite=True)
     episodes = _check_readable(folder, list_episodes(folder, missing_ok=True))

@@ -91,7 +91,8 @@ class EpisodeWriter:
         gzip_level: zlib level 1..9 of ``"gzip"`` (default ``GZIP_LEVEL``).
 
     Raises:
-        EpisodeWriteError: invalid arguments or an existing file (no overwrite).
+        EpisodeWriteError: invalid arguments, an existing file (no overwrite) or a folder
+            at ``path`` (never replaced); its ``cli_message`` says what to do in a command.
         EpisodeIOError: the file system refused a write, here or in :meth:`append` /
             :meth:`close`; the temporary file is removed.
     """
@@ -148,10 +149,18 @@ class EpisodeWriter:
             raise EpisodeWriteError(f"duplicate camera names: {self.camera_names}")
         if self.camera_names and (self.height < 1 or self.width < 1):
             raise EpisodeWriteError(f"image size must be positive, got {height}x{width}")
+        if self.path.is_dir():  # overwrite or not: a folder is never replaced
+            raise EpisodeWriteError(
+                f"{self.path} is a folder, not an episode file; refusing to replace it",
+                hint="move it out of the folder or choose another episode index",
+                cli_hint="move it out of the dataset folder (or delete it) and rerun",
+            )
         if self.path.exists() and not overwrite:
             raise EpisodeWriteError(
-                f"{self.path} already exists; refusing to overwrite it (pass overwrite=True "
-                "or choose another episode index)"
+                f"{self.path} already exists; refusing to overwrite it",
+                hint="pass overwrite=True or choose another episode index",
+                cli_hint="move it out of the dataset folder and rerun (with record, "
+                "--overwrite records the whole dataset afresh)",
             )
         defaults = {
             "sim": True,

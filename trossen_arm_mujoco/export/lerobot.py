@@ -27,6 +27,8 @@ those of the source step whose period contains ``t_{k+1}``. An episode of ``T`` 
 ``floor(T dt N)`` frames: later ones would need an action past the episode's end. The exact
 rule is in :mod:`.lerobot_plan`.
 
+An output it cannot write (a file or a broken link in the way, a non-empty folder, a
+read-only or unwritable parent) stops the export with one line before any episode is read.
 Every episode file is validated before anything is written; the dataset is built in a
 hidden sibling folder, ``.<output name>.tmp``, and renamed onto ``output`` only when
 complete. An error, Ctrl-C or SIGTERM removes the build folder and leaves ``output`` as it
@@ -71,7 +73,14 @@ from trossen_arm_mujoco.export.lerobot_plan import (
     plan_export,
 )
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo, VideoSettings
-from trossen_arm_mujoco.fileio import FolderBusyError, deferred_signals, folder_lock, temp_path
+from trossen_arm_mujoco.fileio import (
+    FolderBusyError,
+    check_folder_path,
+    check_writable_dir,
+    deferred_signals,
+    folder_lock,
+    temp_path,
+)
 
 #: A dataset name: ``<owner>/<name>`` as on the Hugging Face Hub.
 REPO_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -108,6 +117,19 @@ def _prepare_output(output: Path, overwrite: bool) -> None:
                 f"output folder {output} is not empty and holds no LeRobot dataset "
                 f"(no {fmt.INFO_PATH}); refusing to delete it, choose another --output"
             )
+
+
+def _check_output(output: str | os.PathLike[str], overwrite: bool) -> Path:
+    """Before any episode is read: ``output`` can become the dataset folder (not a file, a
+    symlink loop or a link to a missing path; missing, empty or, with ``overwrite``, a
+    dataset), and its parent, where the dataset is built and renamed onto ``output``, is a
+    folder this process can write in (created if missing, as the export will). Returns
+    ``output`` resolved."""
+    check_folder_path(output, "--output")  # first: resolving a symlink loop raises
+    output = Path(output).expanduser().resolve()
+    _prepare_output(output, overwrite)
+    check_writable_dir(output.parent, "--output")
+    return output
 
 
 def export_lerobot(
@@ -148,7 +170,7 @@ def export_lerobot(
     """
     start = time.perf_counter()
     _check_repo_id(repo_id)
-    data_dir, output = Path(data_dir).expanduser(), Path(output).expanduser().resolve()
+    data_dir, output = Path(data_dir).expanduser(), _check_output(output, overwrite)
     require("pyarrow")
     found = list_episodes(data_dir)
     if not found:

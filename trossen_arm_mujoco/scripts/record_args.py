@@ -5,8 +5,9 @@ share with it.
 aliases, counts and seed within their bounds, cameras, image size, scene looks, workers and
 engine) and turns them into the run's ``RecordSettings``; unset flags come from
 ``SIM_TASK_CONFIGS[task_name]``. ``camera_names``, ``image_size`` and ``dataset_folder`` are
-the checks of ``--cam_names``, ``--image_size`` and ``--root_dir``/``--data_dir`` every
-recording command makes. Every mistake is a one-line ``UserError`` naming the flag.
+the checks of ``--cam_names``, ``--image_size`` and ``--root_dir``/``--data_dir`` (a folder
+this process can write in, checked before any work) every recording command makes. Every
+mistake is a one-line ``UserError`` naming the flag.
 """
 
 from __future__ import annotations
@@ -20,7 +21,13 @@ from typing import TYPE_CHECKING
 
 from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION, GZIP_LEVEL
-from trossen_arm_mujoco.errors import ArgumentParser, UserError, unknown_name_error
+from trossen_arm_mujoco.errors import (
+    ArgumentParser,
+    UserError,
+    describe_os_error,
+    os_error_hint,
+    unknown_name_error,
+)
 
 if TYPE_CHECKING:
     from trossen_arm_mujoco.collect.pipeline import RecordSettings
@@ -193,32 +200,32 @@ def scene_looks(args: argparse.Namespace) -> SceneLooks:
     return looks
 
 
-def dataset_folder(root: str, data_dir: str) -> Path:
-    """The dataset folder ``data_dir`` (relative to ``root`` unless absolute), created."""
+def dataset_folder(
+    root: str, data_dir: str, flag: str = "--data_dir", *, create: bool = True
+) -> Path:
+    """The dataset folder ``data_dir`` (relative to ``root`` unless absolute), checked and
+    created (unless ``create`` is False: then nothing is left behind) before any work.
+
+    A file, a symlink loop or a link to a missing path on the way (naming ``--root_dir``
+    when it lies in the root, else ``flag``, the flag that gave ``data_dir``), or a folder
+    the file system will not let this process write in
+    (:func:`~trossen_arm_mujoco.fileio.check_writable_dir`), is a one-line UserError."""
     from trossen_arm_mujoco.data.reader import resolve_data_dir
+    from trossen_arm_mujoco.fileio import check_folder_path, check_writable_dir
 
     folder = resolve_data_dir(root, data_dir)
+    if not Path(data_dir).expanduser().is_absolute():
+        check_folder_path(root, "--root_dir")
+    check_writable_dir(folder, flag)
+    if not create:
+        return folder
     try:
         folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
+    except OSError as exc:  # changed since the check
         raise UserError(
-            f"cannot write to {folder}: {exc.strerror or exc}; choose another --root_dir"
+            f"cannot write to {flag} {folder}: {describe_os_error(exc)}; {os_error_hint(exc, flag)}"
         ) from None
     return folder
-
-
-def check_writable(folder: Path) -> None:
-    """Create and remove a file of this run's own (another process never shares its name)."""
-    import secrets
-
-    probe = folder / f".write_test.{os.getpid()}-{secrets.token_hex(4)}"
-    try:
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        raise UserError(
-            f"cannot write to {folder}: {exc.strerror or exc}; choose another --root_dir"
-        ) from None
 
 
 def cpus() -> int:

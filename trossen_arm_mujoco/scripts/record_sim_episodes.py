@@ -39,12 +39,7 @@ from typing import TYPE_CHECKING
 
 from trossen_arm_mujoco.collect.resume import format_indices
 from trossen_arm_mujoco.errors import redeliver_if_in_finalizer, run_cli
-from trossen_arm_mujoco.scripts.record_args import (
-    build_parser,
-    check_writable,
-    dataset_folder,
-    record_options,
-)
+from trossen_arm_mujoco.scripts.record_args import build_parser, dataset_folder, record_options
 
 if TYPE_CHECKING:
     import argparse
@@ -74,6 +69,7 @@ def _raise_hangup(signum, frame):  # a closed terminal: the same clean path as C
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    dataset_folder(args.root_dir, args.data_dir, create=False)  # first, before any work
     options = record_options(args)
     settings, num_episodes, onscreen = options.settings, options.num_episodes, options.onscreen
     folder = dataset_folder(args.root_dir, args.data_dir)
@@ -113,7 +109,6 @@ def _record(args, settings, folder: Path, num_episodes: int, onscreen: bool) -> 
         warn_short_episodes,
     )
 
-    check_writable(folder)
     plan = plan_run(folder, num_episodes, args.overwrite, settings)
     if not plan.indices:
         print(

@@ -7,7 +7,8 @@ against action, one subplot per joint). Also available as ``trossen-mujoco visua
 Each file appears under its name only once complete. Ctrl-C or SIGTERM stops after removing
 the file in progress (exit status 130 or 143) and keeps the finished ones; a run killed
 harder leaves hidden ``.episode_<k>.mp4.tmp`` files, which the next run removes. One run at
-a time writes into an output folder.
+a time writes into an output folder. An output folder it cannot write in (a file in the way,
+a read-only file system) stops it with one line before it reads any episode.
 
 Example::
 
@@ -43,7 +44,12 @@ from trossen_arm_mujoco.errors import (
     os_error_hint,
     run_cli,
 )
-from trossen_arm_mujoco.fileio import FolderBusyError, folder_lock, remove_stale_temps
+from trossen_arm_mujoco.fileio import (
+    FolderBusyError,
+    check_writable_dir,
+    folder_lock,
+    remove_stale_temps,
+)
 
 #: Final names of the files this command writes (their temporary names are ``.<name>.tmp``).
 OWN_FILES = r"episode_\d+(\.mp4|_joints\.png)"
@@ -88,6 +94,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             f"data folder not found: {data_dir} (--root_dir {args.root_dir}, --data_dir "
             f"{args.data_dir}); record episodes first or fix the flags"
         )
+    out_dir = Path(args.output_dir).expanduser()
+    if not out_dir.is_absolute():
+        out_dir = data_dir / out_dir
+    check_writable_dir(out_dir, "--output_dir")  # before reading any episode
     found = list_episodes(data_dir)
     if not found:
         raise UserError(f"no episode_<k>.hdf5 files in {data_dir}; record episodes first")
@@ -105,9 +115,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     if any(ep.has_images for _, ep in episodes):
         h264_encoder()  # fails early with an install hint when PyAV is missing
 
-    out_dir = Path(args.output_dir).expanduser()
-    if not out_dir.is_absolute():
-        out_dir = data_dir / out_dir
     _make_output_dir(out_dir)
     written: list[Path] = []
     no_images: list[str] = []
@@ -135,8 +142,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _make_output_dir(out_dir: Path) -> None:
-    if out_dir.exists() and not out_dir.is_dir():
-        raise UserError(f"--output_dir {out_dir} is a file; give a folder")
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
