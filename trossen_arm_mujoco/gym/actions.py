@@ -34,6 +34,7 @@ import numpy as np
 
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.gym.inputs import action_array, nonfinite_action
 from trossen_arm_mujoco.robot.joint_target_batch import JointTargets
 from trossen_arm_mujoco.robot.kinematics import orientation_error
 from trossen_arm_mujoco.robot.robot import Robot
@@ -42,6 +43,8 @@ from trossen_arm_mujoco.tasks.config_schema import KEYS
 ACTION_MODES = ("joint_position", "joint_rel_position", "ee_delta")
 #: rotation correction per step when holding the tool orientation (rad).
 MAX_ROTATION_STEP = 0.2
+#: dtype characters of the actions taken as they are (float32, float64).
+_FLOAT_CHARS = "fd"
 #: config keys the mapper reads, checked once at construction (``tasks.config_schema``).
 CONFIG_KEYS = ("ee_delta_limit", "joint_rel_limit")
 
@@ -100,6 +103,7 @@ class ActionMapper:
         arm_dim = 3 if mode == "ee_delta" else 6
         self.sizes = [arm_dim + 1 for _ in self.arms]
         self.dim = sum(self.sizes)
+        self._shape = (self.dim,)
         # per arm, looked up once (see _ArmPart); and the centre and half-width of every
         # action value's control range ([-1, 1] maps onto centre -/+ half-width) for the
         # joint modes, whose arm values are controls too
@@ -131,20 +135,27 @@ class ActionMapper:
     def __call__(
         self, data: mujoco.MjData, action: np.ndarray
     ) -> tuple[dict[str, np.ndarray], bool]:
-        """(commands by move group, False).
+        """(commands by move group, False), for ``action`` (dim,) in [-1, 1] (clipped into
+        it). A value that is not ``dim`` finite numbers is an ``InvalidInput`` (a UserError
+        and a ValueError) naming the action space (``gym.inputs``).
 
         The second value is kept for callers of the earlier mapper, which held arms above
         the safety floor here: the floor now acts in the robot, tick by tick; what it held up
         is ``robot.floor_report`` after the step (``gym.safety.safety_info``)."""
-        a = np.asarray(action, dtype=np.float64)
-        if a.ndim != 1:
-            a = a.reshape(-1)
-        if a.shape[0] != self.dim:
-            raise UserError(f"action must have {self.dim} values, got {a.size}")
+        # fast path: a float ndarray of the action's shape (what agents and samples give);
+        # anything else is read and checked in ``gym.inputs`` (errors naming the space)
+        if (
+            type(action) is np.ndarray
+            and action.shape == self._shape
+            and action.dtype.char in _FLOAT_CHARS
+        ):
+            a = action if action.dtype.char == "d" else action.astype(np.float64)  # read only
+        else:
+            a = action_array(action, self.dim)
         # a.a is finite iff every value is (or a huge one overflowed: check exactly then);
         # ndarray.dot on small vectors is a fraction of the cost of the @ operator
         if not math.isfinite(a.dot(a)) and not np.isfinite(a).all():
-            raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
+            raise nonfinite_action(a, self.dim)
         a = clip(a, self._minus_one, self._one)  # arrays: faster than scalars
         scaled = self._mid + self._half * a  # onto the control ranges (ee_delta arm: as is)
         if self.mode == "joint_position":

@@ -26,7 +26,9 @@ Keyword arguments (besides the task's config keys, which override its YAML file)
 
 Every keyword argument is checked once, at construction (``tasks.config_schema`` for the
 config keys: kind, range, NaN/inf, ``*_low <= *_high``): a bad one is a one-line
-``UserError`` naming it and what is valid. After ``close()``, ``step`` and ``render`` raise
+``UserError`` naming it and what is valid. A malformed action or reset option is an
+``InvalidInput`` (a UserError and a ValueError; ``gym.inputs``) naming the action space or
+the accepted reset options. After ``close()``, ``step`` and ``render`` raise
 a one-line ``UserError`` until ``reset()`` reopens the env (renderers, viewer and stepping
 thread are made again when needed).
 
@@ -49,6 +51,7 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.actions import ACTION_MODES, ActionMapper
+from trossen_arm_mujoco.gym.inputs import reset_options
 from trossen_arm_mujoco.gym.safety import safety_info
 from trossen_arm_mujoco.gym.spaces import OBS_TYPES, ObservationBuilder
 from trossen_arm_mujoco.gym.stepping import STEPPING_MODES, make_stepper
@@ -180,6 +183,11 @@ class TrossenMujocoEnv(gymnasium.Env):
 
     # -- gymnasium API --------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode (``seed``: see gymnasium). ``options``: None, ``{}``, or
+        ``{"object_poses": {object name: 7 values [xyz m, quat wxyz]}}`` to place the named
+        objects instead of their sampled poses; an unknown key or a bad value is an
+        ``InvalidInput`` (``gym.inputs``) listing what is accepted."""
+        poses = reset_options(options, self.scene.objects)
         if self._closed:  # reopen: what close() released is made again when needed
             self._closed = False
             close_at_exit(self)
@@ -188,7 +196,7 @@ class TrossenMujocoEnv(gymnasium.Env):
             self.action_space.seed(seed)
             self.observation_space.seed(seed)
         self.stepper.stop()
-        self.task = self.sampler.next_task(self.np_random)
+        self.task = self.sampler.next_task(self.np_random, object_poses=poses)
         self.actions.reset(self.scene.data)
         obs = self._observe()
         info = self._with_safety(self.task.get_info(), False)

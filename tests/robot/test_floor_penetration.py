@@ -1,0 +1,187 @@
+"""How deep the arms' geometry goes into the table when driven into it, through every front
+door that drives joint targets: the dm_control joint env, a gym env and the evaluation env.
+
+An arm is commanded to joint targets that put its fingers 1-3 cm below the table top (the
+targets moved there over 1 s, then held 2 s); every physics step, the deepest contact
+between the table and the arm's collision geoms (``data.contact.dist``) is recorded. The
+safety floor holds the targets at the table top; the geometry overshoots it a little on
+the way (``robot.safety_floor.PENETRATION_MEASURED``). A gripper closing while its fingers
+rest on the table is held like the arm (the floor puts the fingers at their targets too):
+before, the fingers were pressed 3.1 mm into the table.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import mujoco
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.robot.safety_floor import PENETRATION_MEASURED
+
+#: Joint targets (rad) of one arm, fingers 1-3 cm below the table top: ``INTO`` sinks the
+#: most while the arm moves (2.4 mm); ``TILTED`` leaves the fingers slanted over the table,
+#: where a gripper closing after the arm settled (step ``CLOSE_AT``) pressed them 3.1 mm in.
+INTO = np.array([-0.02, 2.25, 1.55, -0.57, -0.69, 1.09])
+TILTED = np.array([-0.68, 2.13, 0.3, -1.22, 1.41, 0.5])
+#: The goal for the fingers (m).
+GOAL = 0.0005
+RAMP, STEPS, CLOSE_AT = 50, 150, 80
+
+
+class Probe:
+    """Deepest contact (m) between the geom ``table`` and the collision geoms of one arm of
+    ``floor``, recorded after every physics step (since ``closing``, once called)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, floor, arm: str):
+        self.data = data
+        self.table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table")
+        bodies = set(int(b) for b in floor.arms[arm].bodies)
+        self.geoms = np.array([
+            g for g in range(model.ngeom)
+            if int(model.geom_bodyid[g]) in bodies
+            and (model.geom_contype[g] or model.geom_conaffinity[g])
+        ])  # fmt: skip
+        self.deepest = 0.0
+        self._closing = False
+
+    def closing(self) -> None:
+        """From now on, record only what the closing gripper does (the arm has settled)."""
+        if not self._closing:
+            self._closing, self.deepest = True, 0.0
+
+    def record(self) -> None:
+        d, n = self.data, self.data.ncon
+        if not n:
+            return
+        g1, g2 = d.contact.geom1[:n], d.contact.geom2[:n]
+        mine = ((g1 == self.table) & np.isin(g2, self.geoms)) | (
+            (g2 == self.table) & np.isin(g1, self.geoms)
+        )
+        if mine.any():
+            self.deepest = max(self.deepest, float(-d.contact.dist[:n][mine].min()))
+
+    def stepping(self, step):
+        """``step(n)`` (n physics steps) that records after each one."""
+
+        def one_by_one(n: int = 1) -> None:
+            for _ in range(n):
+                step(1)
+                self.record()
+
+        return one_by_one
+
+
+def _targets(home: np.ndarray, target: np.ndarray, k: int) -> np.ndarray:
+    return home + min(1.0, k / RAMP) * (target - home)
+
+
+def _dm_control(side: str, target: np.ndarray, close: bool) -> float:
+    from trossen_arm_mujoco.sim_env import TransferCubeTask
+    from trossen_arm_mujoco.utils import make_sim_env
+
+    env = make_sim_env(TransferCubeTask, cam_list=[], random=0)
+    try:
+        home = np.array(env.reset().observation["qpos"])
+        physics = env.physics
+        floor = env.task.robot(physics).safety_floor
+        probe = Probe(physics.model.ptr, physics.data.ptr, floor, f"{side}_arm")
+        physics.step = probe.stepping(physics.step)
+        at = 0 if side == "left" else 8
+        for k in range(STEPS):
+            action = home.copy()
+            action[at : at + 6] = _targets(home[at : at + 6], target, k)
+            if close and k >= CLOSE_AT:
+                action[at + 6 : at + 8] = 0.0
+                probe.closing()
+            env.step(action)
+        return probe.deepest
+    finally:
+        env.close()
+
+
+def _gym(target: np.ndarray, close: bool) -> float:
+    """The single arm (WXAIReach-v0, floor at the table top: ``safety_margin=0``)."""
+    import gymnasium as gym
+
+    import trossen_arm_mujoco  # noqa: F401  (registers the ids)
+
+    env = gym.make("TrossenMujoco/WXAIReach-v0", action_mode="joint_position", safety_margin=0.0)
+    try:
+        env.reset(seed=0)
+        u = env.unwrapped
+        data, arm = u.scene.data, u.task.arm
+        probe = Probe(u.scene.model, data, u.actions.robot.safety_floor, arm.name)
+        u.scene._physics_step = probe.stepping(u.scene._physics_step)
+        low, high = arm.ctrl_limits()
+        home = arm.get_qpos(data)
+        for k in range(STEPS):
+            q = _targets(home, target, k)
+            grip = 1.0
+            if close and k >= CLOSE_AT:
+                grip = -1.0
+                probe.closing()
+            env.step(np.append(2 * (q - low) / (high - low) - 1, grip).astype(np.float32))
+        return probe.deepest
+    finally:
+        env.close()
+
+
+def _eval(side: str, target: np.ndarray, close: bool) -> float:
+    from trossen_arm_mujoco.eval.env import KitPolicyEnv
+
+    env = KitPolicyEnv("sim_transfer_cube", layout="vendor16", render_mode=None)
+    try:
+        home = np.asarray(env.reset(seed=0)[0]["agent_pos"], dtype=float)
+        scene = env.scene
+        floor = scene.robots[env.sampler.robot_name].safety_floor
+        probe = Probe(scene.model, scene.data, floor, f"{side}_arm")
+        scene._physics_step = probe.stepping(scene._physics_step)
+        at = 0 if side == "left" else 8
+        for k in range(STEPS):
+            action = home.copy()
+            action[at : at + 6] = _targets(home[at : at + 6], target, k)
+            if close and k >= CLOSE_AT:
+                action[at + 6 : at + 8] = 0.0
+                probe.closing()
+            env.step(action)
+        return probe.deepest
+    finally:
+        env.close()
+
+
+@functools.cache
+def deepest(door: str, side: str, case: str) -> float:
+    """Deepest penetration (m) of ``door``'s arm ``side`` driven to ``case``'s target."""
+    target, close = (INTO, False) if case == "into" else (TILTED, True)
+    if door == "dm_control":
+        return _dm_control(side, target, close)
+    if door == "gym":
+        return _gym(target, close)
+    return _eval(side, target, close)
+
+
+DOORS = [("dm_control", "left"), ("dm_control", "right"), ("gym", "arm"), ("eval", "left")]
+
+
+@pytest.mark.parametrize("door, side", DOORS)
+def test_a_closing_gripper_keeps_its_fingers_out_of_the_table(door, side):
+    """Fingers slanted over the table, the arm settled, then the gripper closed: the floor
+    holds the gripper's target (3.1 mm deep in the kit before it did)."""
+    assert deepest(door, side, "tilted") <= GOAL
+
+
+@pytest.mark.parametrize("door, side", DOORS)
+def test_an_arm_driven_into_the_table_sinks_at_most_the_measured_depth(door, side):
+    depth = deepest(door, side, "into")
+    assert 0.0 < depth <= PENETRATION_MEASURED  # it touches the table, and sinks this far
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="the floor holds joint targets; the arm's path to them (joints converging at "
+    "different rates) and soft contacts sink the fingers about 2.4 mm on the way",
+)
+def test_an_arm_driven_into_the_table_sinks_at_most_half_a_millimetre():
+    assert deepest("dm_control", "left", "into") <= GOAL
