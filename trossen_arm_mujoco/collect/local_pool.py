@@ -6,10 +6,22 @@ process: a worker that dies loses only the job it was running, which is run agai
 worker (``max_tries`` tries in all), and the run goes on. Results come back as they finish,
 with their job's position; the caller puts them back in order.
 
-Workers ignore SIGINT (Ctrl-C goes to the whole foreground process group; the parent decides)
-and turn SIGTERM into ``KeyboardInterrupt``, so a worker stopped by :meth:`WorkerPool.shutdown`
-(or by a ``kill`` of the process group) discards its partial file before it exits. On Linux a
-worker also gets SIGTERM when its parent dies, even by SIGKILL, so no worker outlives a run.
+Signals, and the parent's death, end a worker quietly (never a traceback on the run's stderr):
+
+- SIGINT is ignored from the worker's first instruction on (Ctrl-C goes to the whole
+  foreground process group; the parent decides): the parent blocks it while it starts a
+  worker, which inherits the blocked signal through its start-up (imports included) until
+  :func:`_worker_main` ignores it;
+- SIGTERM becomes ``KeyboardInterrupt`` while the worker runs jobs, so a worker stopped by
+  :meth:`WorkerPool.shutdown` (or by a ``kill`` of the process group) discards its partial file
+  before it exits; further SIGTERMs while it does so are ignored (its cleanup always ends);
+  once the worker is done (told to stop, or its parent gone) SIGTERM takes its default
+  action, so a late one ends the process at once and in silence, even while the interpreter
+  shuts down (closing renderers, running ``atexit`` functions);
+- a worker whose parent dies, even by SIGKILL, gets SIGTERM (Linux: ``PR_SET_PDEATHSIG``,
+  once for each thread of the parent as they exit; elsewhere a thread polls ``os.getppid()``
+  every :data:`PARENT_POLL_S`), so no worker outlives a run: it discards its partial file and
+  exits.
 """
 
 from __future__ import annotations
@@ -19,6 +31,7 @@ import multiprocessing as mp
 import os
 import signal
 import sys
+import threading
 import time
 import traceback
 from collections import deque
@@ -38,23 +51,109 @@ POLL_S = 0.5
 #: Seconds stopped workers get to exit (and remove their partial files) before SIGKILL.
 STOP_WAIT_S = 15.0
 
+#: Seconds between two looks at the parent, where its death cannot be signalled (not Linux).
+PARENT_POLL_S = 0.5
 
-def _raise_interrupt(signum, frame):
+#: ``prctl`` option: the signal this process gets when its parent dies (linux/prctl.h).
+PR_SET_PDEATHSIG = 1
+
+
+#: Set in a worker once SIGTERM raised ``KeyboardInterrupt`` in it: it is stopping, and
+#: cleaning up (discarding its partial file); more SIGTERMs must not interrupt that.
+_stopping = False
+
+#: Set in a worker once it stops running jobs: SIGTERM then ends it at once, quietly.
+_done = False
+
+
+def _raise_interrupt(signum: int, frame: Any) -> None:
+    """SIGTERM in a worker: the first raises ``KeyboardInterrupt`` while it runs jobs (so
+    that its partial file is discarded); more while it stops are ignored, so that they
+    cannot cut its cleanup short; once it is done (:data:`_done`) the signal takes its
+    default action, so that a late one cannot raise in the interpreter's exit handlers.
+
+    Several do come: the kernel sends the parent-death signal each time the thread that is
+    the worker's parent exits, and the worker is handed to the next thread of the dying
+    process, so a parent killed with N threads signals each worker up to N times.
+    """
+    global _stopping
+    if _done:
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)  # ends the process, with no output
+        return
+    if _stopping:
+        return
     if redeliver_if_in_finalizer(signum, frame):  # not inside a finalizer: it would be lost
         return
+    _stopping = True
     raise KeyboardInterrupt
 
 
-def _die_with_parent(parent: int) -> None:
-    """SIGTERM this process when its parent dies (Linux; elsewhere nothing)."""
-    if sys.platform.startswith("linux"):
-        with contextlib.suppress(Exception):
-            import ctypes
+def _parent_death_signal() -> bool:
+    """Ask the kernel for SIGTERM when the parent dies (Linux); whether it was granted."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
 
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(1, int(signal.SIGTERM), 0, 0, 0)  # PR_SET_PDEATHSIG
-    if os.getppid() != parent:  # the parent died before the line above
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0) == 0
+    except (OSError, AttributeError, TypeError):
+        return False
+
+
+def _watch_parent(parent: int, interval: float = PARENT_POLL_S) -> threading.Thread:
+    """Send this process SIGTERM once its parent ``parent`` is gone (a daemon thread polling
+    ``os.getppid()``, which changes when the process is re-parented)."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(interval)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    thread = threading.Thread(target=watch, name="watch-parent", daemon=True)
+    thread.start()
+    return thread
+
+
+def _die_with_parent(parent: int) -> None:
+    """SIGTERM this process when its parent ``parent`` dies: by the kernel where it can
+    (Linux), else by a thread watching the parent.
+
+    Raises:
+        KeyboardInterrupt: the parent is gone already.
+    """
+    if not _parent_death_signal():
+        _watch_parent(parent)
+    if os.getppid() != parent:  # the parent died before the kernel was asked
         raise KeyboardInterrupt
+
+
+def _unblock_sigint() -> None:
+    """Unblock SIGINT (blocked by the parent while it started this process)."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+@contextlib.contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """Block SIGINT in this thread for the block: a process started meanwhile inherits the
+    blocked signal (through ``exec`` too), so a Ctrl-C during its start-up cannot raise
+    ``KeyboardInterrupt`` there. A Ctrl-C meanwhile reaches this process afterwards."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    # multiprocessing starts its resource tracker with the first process, and unblocks
+    # SIGINT after that: started first, it leaves the mask alone
+    with contextlib.suppress(Exception):
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _send(conn: Connection, message: tuple) -> None:
@@ -73,10 +172,13 @@ def _worker_main(
     initargs: tuple,
     task: Callable[[Any], Any],
 ) -> None:
-    """Body of one worker process: set up, then run jobs until told to stop."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _raise_interrupt)
+    """Body of one worker process: set up, then run jobs until told to stop (or the parent
+    is gone); see the module doc for signals."""
+    global _done, _stopping
     try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        _unblock_sigint()
+        signal.signal(signal.SIGTERM, _raise_interrupt)
         _die_with_parent(parent)
         try:
             initializer(*initargs)
@@ -84,6 +186,7 @@ def _worker_main(
             _send(conn, ("error", None, exc, traceback.format_exc()))
             return
         while True:
+            _stopping = False  # a job that swallowed an interrupt ran to its end: not stopping
             message = conn.recv()
             if message is None:
                 return
@@ -95,6 +198,11 @@ def _worker_main(
             _send(conn, reply)
     except (KeyboardInterrupt, EOFError, BrokenPipeError, ConnectionResetError):
         pass  # stopped, or the parent is gone
+    finally:
+        # done (told to stop, or the parent is gone): a SIGTERM from now on (the parent's
+        # death, seen after its pipe closed; a shutdown) ends the process quietly instead of
+        # raising in its exit handlers. A plain store: no signal handler runs in between
+        _done = True
 
 
 class RemoteTraceback(Exception):
@@ -168,7 +276,8 @@ class WorkerPool:
             args=(there, os.getpid(), self.initializer, self.initargs, self.task),
             daemon=True,
         )
-        process.start()
+        with _sigint_blocked():
+            process.start()
         there.close()
         slot = _Slot(process, here)
         self._slots.append(slot)

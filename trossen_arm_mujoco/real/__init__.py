@@ -4,6 +4,8 @@
 - :mod:`.sim_driver`: :class:`SimArmDriver`, the simulated twin of one arm;
 - :mod:`.clock`: wall-clock and simulated time;
 - :mod:`.validate`: trajectory checks against joint and speed limits;
+- :mod:`.preflight`: the arms' addresses and the episode's step period, checked before
+  anything connects;
 - :mod:`.gripper`: gripper commands clamped to the controller's range, and counted;
 - :mod:`.replay`: the rate-limited replay loop;
 - :mod:`.shutdown`: driver calls as one-line errors, and the safe home/sleep/cleanup exit;

@@ -31,6 +31,8 @@ The simulated twin lives in :mod:`trossen_arm_mujoco.real.sim_driver`.
 
 from __future__ import annotations
 
+import atexit
+import weakref
 from collections.abc import Sequence
 from importlib import metadata
 from types import ModuleType
@@ -62,6 +64,9 @@ COMMAND_ERRORS: frozenset[str] = frozenset(
 #: Robot model and end-effector preset names understood by :meth:`ArmDriver.configure`.
 DEFAULT_MODEL: str = "wxai_v0"
 DEFAULT_END_EFFECTOR: str = "wxai_v0_follower"
+
+#: Seconds ``configure`` waits for an arm controller: ``trossen_arm``'s default.
+CONNECT_TIMEOUT_S: float = 20.0
 
 INSTALL_HINT: str = (
     "pip install 'trossen-arm-mujoco[real]' (or use --backend sim for the simulated twin)"
@@ -171,7 +176,8 @@ def route_driver_logs(ta: ModuleType, min_level: int = 3) -> None:
 
     By default the driver writes every message, ``info`` included, to stderr over several
     lines; replay keeps stderr for its one-line error. The backend is process-wide (the
-    driver has one); calling this again replaces it.
+    driver has one); calling this again replaces it. It is released again before the
+    interpreter exits (:func:`release_driver_logs`, registered with ``atexit``).
     """
     setter = getattr(getattr(ta, "TrossenArmDriver", None), "set_logger_backend", None)
     if setter is None:
@@ -186,7 +192,55 @@ def route_driver_logs(ta: ModuleType, min_level: int = 3) -> None:
         except (OSError, ValueError):  # a closed stdout: nothing to report to
             pass
 
+    _release_at_exit(ta)
     setter(backend)
+    _LOG_STATE["routed"] = True
+
+
+#: Process-wide state of the driver's log routing: whether a Python backend is installed
+#: now, and whether its release at exit is registered.
+_LOG_STATE: dict[str, bool] = {"routed": False, "atexit": False}
+
+#: Every :class:`TrossenArmDriver` not yet cleaned up, released at exit before the backend.
+_LIVE_DRIVERS: weakref.WeakSet[TrossenArmDriver] = weakref.WeakSet()
+
+
+def _release_at_exit(ta: ModuleType) -> None:
+    """Register :func:`release_driver_logs` with ``atexit`` (once per process)."""
+    if not _LOG_STATE["atexit"]:
+        atexit.register(release_driver_logs, ta)
+        _LOG_STATE["atexit"] = True
+
+
+def release_driver_logs(ta: ModuleType | None = None) -> None:
+    """Clean up every :class:`TrossenArmDriver` still connected, then uninstall the Python
+    log backend of :func:`route_driver_logs` (``set_logger_backend(None)``). Never raises.
+
+    Why: ``trossen_arm`` keeps the backend, a Python callable, in a C++ static object that
+    is destroyed by the C library's exit handlers, after the interpreter has finalized;
+    destroying a Python object then needs a thread state (``PyThreadState_New``) that can
+    no longer be made, and the process dies with SIGSEGV (exit status 139) after its last
+    line, whatever it did before. Released while Python still runs, nothing is left for
+    that destructor. Registered with ``atexit`` by :func:`route_driver_logs`; drivers go
+    first, so that their last messages still reach the backend. Afterwards the driver's
+    messages are dropped until :func:`route_driver_logs` is called again.
+    """
+    for driver in list(_LIVE_DRIVERS):
+        try:
+            driver.cleanup()
+        except Exception:  # the process is ending: a failed cleanup changes nothing
+            pass
+    if not _LOG_STATE["routed"]:
+        return
+    ta = ta if ta is not None else find_trossen_arm()
+    setter = getattr(getattr(ta, "TrossenArmDriver", None), "set_logger_backend", None)
+    if setter is None:
+        return
+    try:
+        setter(None)
+    except Exception:
+        return
+    _LOG_STATE["routed"] = False
 
 
 def end_effector_presets(ta: ModuleType) -> list[str]:
@@ -209,11 +263,14 @@ def end_effector_presets(ta: ModuleType) -> list[str]:
     return sorted(names)
 
 
-def check_end_effector(ta: ModuleType, end_effector: str) -> None:
-    """Raise a one-line ``UserError`` listing the valid presets if ``end_effector`` is unknown."""
+def check_end_effector(ta: ModuleType, end_effector: str, flag: str | None = None) -> None:
+    """Raise a one-line ``UserError`` listing the valid presets if ``end_effector`` is
+    unknown; ``flag``: the command-line flag that chose it, named in the message."""
     valid = end_effector_presets(ta)
     if end_effector not in valid:
         where = f"StandardEndEffector presets of the installed trossen_arm {installed_version()}"
+        if flag:
+            where += f"; pass one of them with {flag}"
         raise unknown_name_error("end effector", end_effector, valid, where)
 
 
@@ -241,13 +298,17 @@ class TrossenArmDriver:
     follower arms' fingers, unlike the vendor script's leader preset; in trossen_arm 1.11
     that is the 2026-06-26 hardware, and arms built in 2025 need
     ``wxai_v0_follower_20250509`` (see :func:`end_effector_presets`).
+
+    Args:
+        connect_timeout: seconds :meth:`configure` waits for the arm controller.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, connect_timeout: float = CONNECT_TIMEOUT_S) -> None:
         self._ta = import_trossen_arm()
         route_driver_logs(self._ta)
         self._driver: Any = None
         self.ip_address: str | None = None
+        self.connect_timeout = float(connect_timeout)
 
     def configure(
         self,
@@ -256,11 +317,25 @@ class TrossenArmDriver:
         end_effector: str = DEFAULT_END_EFFECTOR,
         clear_error: bool = True,
     ) -> None:
-        """Connect to the controller at ``ip_address`` (see :meth:`ArmDriver.configure`)."""
+        """Connect to the controller at ``ip_address`` (see :meth:`ArmDriver.configure`),
+        waiting at most ``connect_timeout`` s for it.
+
+        A driver whose ``configure`` fails is cleaned up and released here, so that no
+        half-made connection outlives the call.
+        """
         model_enum, effector = resolve_presets(self._ta, model, end_effector)
         driver = self._ta.TrossenArmDriver()
-        driver.configure(model_enum, effector, ip_address, clear_error)
+        try:
+            driver.configure(model_enum, effector, ip_address, clear_error, self.connect_timeout)
+        except BaseException:
+            try:
+                driver.cleanup()
+            except Exception:
+                pass
+            del driver  # the traceback keeps this frame: it must not keep the driver too
+            raise
         self._driver, self.ip_address = driver, ip_address
+        _LIVE_DRIVERS.add(self)
 
     def _configured(self) -> Any:
         if self._driver is None:
@@ -331,4 +406,5 @@ class TrossenArmDriver:
         """Close the connection (idempotent)."""
         if self._driver is not None:
             driver, self._driver = self._driver, None
+            _LIVE_DRIVERS.discard(self)
             driver.cleanup()

@@ -45,6 +45,7 @@ from tqdm import tqdm
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.real.clock import Clock, SimClock, WallClock
 from trossen_arm_mujoco.real.driver import (
+    CONNECT_TIMEOUT_S,
     DEFAULT_END_EFFECTOR,
     DEFAULT_MODEL,
     ArmDriver,
@@ -117,14 +118,17 @@ def check_fps(fps: float, flag: str = "--fps") -> None:
 DriverFactory = Callable[[str, "Clock | None"], "tuple[dict[str, ArmDriver], Clock]"]
 
 
-def make_drivers(backend: str, clock: Clock | None = None) -> tuple[dict[str, ArmDriver], Clock]:
+def make_drivers(
+    backend: str, clock: Clock | None = None, connect_timeout: float = CONNECT_TIMEOUT_S
+) -> tuple[dict[str, ArmDriver], Clock]:
     """The two drivers of ``backend`` and the clock to wait on.
 
     ``"sim"``: two :class:`SimArmDriver` sharing one :class:`SimClock` (``clock`` if given,
     which must then be a SimClock). ``"trossen"`` and ``"wire"``: two
     :class:`TrossenArmDriver` (no network until configure) and a :class:`WallClock` unless
     ``clock`` is given; for ``"wire"`` the caller serves the kit on the addresses replay
-    configures (``scripts/replay_episode_real.py`` does).
+    configures (``scripts/replay_episode_real.py`` does); their ``configure`` waits at most
+    ``connect_timeout`` s for a controller.
     """
     if backend == "sim":
         clock = SimClock() if clock is None else clock
@@ -132,7 +136,7 @@ def make_drivers(backend: str, clock: Clock | None = None) -> tuple[dict[str, Ar
             raise TypeError("the sim backend needs a SimClock")
         return {side: SimArmDriver(clock) for side in ARMS}, clock
     if backend in ("trossen", "wire"):
-        drivers: dict[str, ArmDriver] = {side: TrossenArmDriver() for side in ARMS}
+        drivers: dict[str, ArmDriver] = {side: TrossenArmDriver(connect_timeout) for side in ARMS}
         return drivers, WallClock() if clock is None else clock
     raise unknown_name_error("backend", backend, BACKENDS)
 

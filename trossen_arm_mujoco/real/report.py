@@ -1,6 +1,7 @@
 """Tracking-error log of a replay and the files written from it.
 
-Per replay, next to the episode in ``<data folder>/replay/``:
+Per replay, next to the episode in ``<data folder>/replay/`` (or ``--output_dir``), checked
+before any arm moves (:func:`check_outputs`):
 
 - ``episode_<k>_<backend>_tracking.csv``: one row per streamed step: ``step``, ``time_s``
   (since streaming began, at the moment of measurement), then for each arm and driver
@@ -28,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from trossen_arm_mujoco.fileio import atomic_path, write_text
+from trossen_arm_mujoco.errors import UserError, describe_os_error, os_error_hint
+from trossen_arm_mujoco.fileio import atomic_path, check_writable_dir, write_text
 from trossen_arm_mujoco.real.validate import ARMS, DRIVER_LABELS, DRIVER_UNITS
 
 #: Column labels of the 14 logged values: ``left_joint_0`` ... ``right_gripper``.
@@ -144,6 +146,51 @@ def plot_tracking(log: TrackingLog, path: Path, title: str) -> None:
         fig.savefig(tmp, format="png", dpi=80)
 
 
+def output_paths(out_dir: Path, stem: str) -> dict[str, Path]:
+    """Where :func:`write_outputs` writes: ``{"csv", "summary", "plot"}`` in ``out_dir``."""
+    return {
+        "csv": out_dir / f"{stem}_tracking.csv",
+        "summary": out_dir / f"{stem}_summary.json",
+        "plot": out_dir / f"{stem}_tracking.png",
+    }
+
+
+def check_outputs(out_dir: Path, stem: str, flag: str) -> Path:
+    """Check, before any arm moves, that :func:`write_outputs` can write its files.
+
+    The folder is checked for real (:func:`~trossen_arm_mujoco.fileio.check_writable_dir`:
+    a part of the path that is a file, a read-only or full file system, missing
+    permissions), then created; a folder in the place of one of the files is refused too
+    (the files themselves are replaced by a rename, which needs only the folder).
+
+    Args:
+        out_dir: the output folder.
+        stem: the files' common prefix (``episode_<k>_<backend>``).
+        flag: the command-line flag that chooses the folder, named in the error.
+
+    Returns:
+        ``out_dir``, created.
+
+    Raises:
+        UserError: one line naming ``flag`` and what to do.
+    """
+    out_dir = check_writable_dir(out_dir, flag)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # the folder changed since the check
+        raise UserError(
+            f"cannot write to {flag} {out_dir}: {describe_os_error(exc)}; "
+            f"{os_error_hint(exc, flag)}"
+        ) from None
+    for path in output_paths(out_dir, stem).values():
+        if path.is_dir() and not path.is_symlink():  # a rename cannot replace a folder
+            raise UserError(
+                f"cannot write to {flag} {out_dir}: {path.name} there is a folder, where "
+                f"the replay writes a file; move it away or choose another {flag}"
+            )
+    return out_dir
+
+
 def write_outputs(
     out_dir: Path, stem: str, log: TrackingLog, summary: dict[str, Any]
 ) -> dict[str, Path | None]:
@@ -154,11 +201,7 @@ def write_outputs(
         missing (a note is added to the summary instead).
     """
     out_dir.mkdir(parents=True, exist_ok=True)
-    paths: dict[str, Path | None] = {
-        "csv": out_dir / f"{stem}_tracking.csv",
-        "summary": out_dir / f"{stem}_summary.json",
-        "plot": out_dir / f"{stem}_tracking.png",
-    }
+    paths: dict[str, Path | None] = dict(output_paths(out_dir, stem))
     csv_text = _csv_text(log)
     write_text(paths["csv"], csv_text)
     data = dict(summary)

@@ -44,25 +44,43 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
     import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
 
 import argparse
+import functools
 import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from trossen_arm_mujoco.collect.resume import format_indices
 from trossen_arm_mujoco.constants import ROOT_DIR
-from trossen_arm_mujoco.data.reader import Episode, episode_path, load_episode, resolve_data_dir
-from trossen_arm_mujoco.errors import ArgumentParser, UserError, report_error, run_cli
+from trossen_arm_mujoco.data.reader import (
+    Episode,
+    episode_path,
+    list_episodes,
+    load_episode,
+    resolve_data_dir,
+)
+from trossen_arm_mujoco.errors import (
+    ArgumentParser,
+    UserError,
+    describe_os_error,
+    os_error_hint,
+    report_error,
+    run_cli,
+)
 from trossen_arm_mujoco.real.clock import Clock, SimClock
 from trossen_arm_mujoco.real.driver import (
+    CONNECT_TIMEOUT_S,
     DEFAULT_END_EFFECTOR,
     DEFAULT_MODEL,
     check_end_effector,
     find_trossen_arm,
     import_trossen_arm,
     installed_version,
+    release_driver_logs,
 )
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX, clamp_gripper
+from trossen_arm_mujoco.real.preflight import check_arm_ips, recorded_dt
 from trossen_arm_mujoco.real.replay import (
     BACKENDS,
     MAX_FPS,
@@ -74,9 +92,20 @@ from trossen_arm_mujoco.real.replay import (
     make_drivers,
     replay,
 )
-from trossen_arm_mujoco.real.report import PLOT_HINT, format_error_table, write_outputs
+from trossen_arm_mujoco.real.report import (
+    PLOT_HINT,
+    check_outputs,
+    format_error_table,
+    write_outputs,
+)
 from trossen_arm_mujoco.real.stop import Interrupted, StopFlag, stop_on_signals
 from trossen_arm_mujoco.real.validate import ArmLimits, format_trajectory_report, validate_actions
+
+#: Longest ``--connect_timeout`` (s).
+MAX_CONNECT_TIMEOUT_S: float = 600.0
+
+#: The flag that sets each arm's address.
+IP_FLAGS: dict[str, str] = {"left": "--left_ip", "right": "--right_ip"}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -140,6 +169,20 @@ def build_parser() -> argparse.ArgumentParser:
         f"{GRIPPER_MAX:g} m while recordings reach 0.044 m. Larger commands are clamped to it "
         f"and counted in the summary (default {GRIPPER_MAX:g})",
     )
+    p.add_argument(
+        "--output_dir",
+        default=None,
+        help="folder of the tracking-error CSV, JSON summary and plot, checked for writing "
+        "before any arm moves (default: <data folder>/replay)",
+    )
+    p.add_argument(
+        "--connect_timeout",
+        type=float,
+        default=CONNECT_TIMEOUT_S,
+        help=f"seconds to wait for each arm controller to answer when connecting, in (0, "
+        f"{MAX_CONNECT_TIMEOUT_S:g}] (--backend trossen and wire; default "
+        f"{CONNECT_TIMEOUT_S:g}, the driver's)",
+    )
     p.add_argument("--dry_run", action="store_true", help="validate and report only; nothing moves")
     p.add_argument("--no_progress", action="store_true", help="no progress bar")
     return p
@@ -170,19 +213,21 @@ def main(
 
 
 def _ips(args: argparse.Namespace) -> dict[str, str]:
-    """The arms' addresses: the flags, else the backend's defaults; loopback for wire."""
+    """The arms' addresses: the flags, else the backend's defaults; checked before anything
+    connects (IPv4, one per arm; loopback for wire), a one-line error naming the flag."""
     wire = args.backend == "wire"
     default = {"left": "127.0.0.2", "right": "127.0.0.3"} if wire else {
         "left": "192.168.1.5", "right": "192.168.1.4"}  # fmt: skip
-    ips = {"left": args.left_ip or default["left"], "right": args.right_ip or default["right"]}
-    if wire:
-        from trossen_arm_mujoco.twin.serving import require_sim_server
+    given = {"left": args.left_ip, "right": args.right_ip}
+    ips = {side: default[side] if given[side] is None else given[side] for side in given}
+    if not wire:
+        return check_arm_ips(ips, IP_FLAGS)
+    from trossen_arm_mujoco.twin.served_kit import check_kit_ips
+    from trossen_arm_mujoco.twin.serving import require_sim_server
 
-        if not args.dry_run:
-            require_sim_server()
-        from trossen_arm_mujoco.twin.served_kit import check_kit_ips
-
-        ips = check_kit_ips(ips, {"left": "--left_ip", "right": "--right_ip"})
+    ips = check_kit_ips(ips, IP_FLAGS)
+    if not args.dry_run:
+        require_sim_server()
     return ips
 
 
@@ -200,10 +245,22 @@ def _run(
     top = float(limits.driver_upper[-1])
     if not (math.isfinite(args.gripper_max) and 0 < args.gripper_max <= top):
         raise UserError(f"--gripper_max must be in (0, {top:g}] m, got {args.gripper_max:g}")
-    ee_note = _check_end_effector(args.end_effector, args.backend, args.dry_run)
+    timeout = args.connect_timeout
+    if not (math.isfinite(timeout) and 0 < timeout <= MAX_CONNECT_TIMEOUT_S):
+        raise UserError(
+            f"--connect_timeout must be in (0, {MAX_CONNECT_TIMEOUT_S:g}] s, got {timeout:g}"
+        )
+    if args.episode_idx < 0:
+        raise UserError(f"--episode_idx must be >= 0, got {args.episode_idx}")
+    if args.output_dir is not None and not str(args.output_dir).strip():
+        raise UserError(
+            "--output_dir must not be empty; give a folder, or leave the flag out to write "
+            "next to the episode (<data folder>/replay)"
+        )
     ips = _ips(args)
+    ee_note = _check_end_effector(args.end_effector, args.backend, args.dry_run)
     folder = resolve_data_dir(args.root_dir, args.data_dir)
-    episode = load_episode(episode_path(folder, args.episode_idx))
+    episode = load_episode(_find_episode(folder, args.episode_idx))
     dt = recorded_dt(episode)
     trajectory = validate_actions(episode.action, args.fps, limits)
     gripper = clamp_gripper(trajectory.commands, args.gripper_max)[1]
@@ -222,12 +279,13 @@ def _run(
         print("dry run: trajectory is valid; no driver was created and nothing moved")
         return 0
 
-    out_dir = episode.path.parent / "replay"
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"cannot create the output folder {out_dir}: {exc.strerror}") from None
-    factory = driver_factory if driver_factory is not None else make_drivers
+    stem = f"episode_{args.episode_idx}_{args.backend}"
+    out_dir = check_outputs(_output_dir(args, episode), stem, "--output_dir")
+    factory = (
+        driver_factory
+        if driver_factory is not None
+        else functools.partial(make_drivers, connect_timeout=args.connect_timeout)
+    )
     if clock is None and args.backend == "sim" and args.realtime:
         clock = SimClock(realtime=True)
     config = ReplayConfig(
@@ -273,14 +331,15 @@ def _run(
         "recovered": result.recovered,
         **({"served": served} if served is not None else {}),
     }
-    stem = f"episode_{args.episode_idx}_{args.backend}"
     try:
         paths = write_outputs(out_dir, stem, result.log, summary)
     except OSError as exc:
         also = f"; {result.reason}" if result.reason else ""
         _say_safe(result)
         return report_error(
-            f"cannot write the replay results to {out_dir}: {exc}{also}", result.exit_code or 1
+            f"cannot write the replay results to {out_dir}: {describe_os_error(exc)} "
+            f"({os_error_hint(exc, '--output_dir')}){also}",
+            result.exit_code or 1,
         )
     if result.steps_done:
         print(f"tracking error (measured - commanded) over {result.steps_done} steps:")
@@ -304,6 +363,33 @@ def _run(
         f"to {args.gripper_max:g} m; arms are home and asleep"
     )
     return 0
+
+
+def _find_episode(folder: Path, index: int) -> Path:
+    """The file of episode ``index`` in ``folder``; a missing one is a one-line error that
+    names the flags choosing it and the episodes that are there."""
+    path = episode_path(folder, index)
+    if path.is_file():
+        return path
+    if not folder.is_dir():
+        raise UserError(
+            f"data folder not found: {folder}; check --data_dir (relative to --root_dir "
+            f"unless absolute)"
+        )
+    found = [k for k, _ in list_episodes(folder)]
+    if not found:
+        raise UserError(f"{folder} holds no episode files (episode_<k>.hdf5); check --data_dir")
+    raise UserError(
+        f"episode file not found: {path}; {folder} holds {format_indices(found)}: pass one "
+        f"of them with --episode_idx"
+    )
+
+
+def _output_dir(args: argparse.Namespace, episode: Episode) -> Path:
+    """``--output_dir`` (``~`` expanded), else ``replay/`` next to the episode."""
+    if args.output_dir is None:
+        return episode.path.parent / "replay"
+    return Path(args.output_dir).expanduser()
 
 
 def _start_kit(episode: Episode, ips: dict[str, str], on_served: Callable[[Any], None] | None):
@@ -342,26 +428,6 @@ def _say_line(text: str) -> None:
         print(text, flush=True)
     except (OSError, ValueError):
         pass
-
-
-def recorded_dt(episode: Episode) -> float:
-    """The episode's step period (s), checked: positive and finite.
-
-    Raises:
-        UserError: naming the file and its ``dt`` attribute (zero, negative, NaN, inf,
-            or not a number).
-    """
-    try:
-        dt = float(episode.dt)
-    except (TypeError, ValueError):
-        dt = math.nan
-    if not (math.isfinite(dt) and dt > 0):
-        raw: Any = episode.attrs.get("dt")
-        raise UserError(
-            f"{episode.path}: attribute 'dt' is {raw!r}; expected the step period in s, a "
-            f"positive finite number (e.g. 0.02 for 50 Hz): fix or delete the attribute"
-        )
-    return dt
 
 
 def _say_safe(result: ReplayResult) -> None:
@@ -413,7 +479,12 @@ def cli(
             return report_error(f"{exc} before any arm was configured; nothing moved",
                                 exc.exit_code)  # fmt: skip
 
-    return run_cli(guarded, argv)
+    try:
+        return run_cli(guarded, argv)
+    finally:
+        # drivers and the driver's Python log backend go before the interpreter does (the
+        # backend left installed ends the process with SIGSEGV at exit); atexit does it too
+        release_driver_logs()
 
 
 if __name__ == "__main__":
