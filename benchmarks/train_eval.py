@@ -37,6 +37,16 @@ import time
 from pathlib import Path
 
 PHASES = ("record", "export", "train", "eval")
+#: Thread-pool sizes a training run is given (torch reads OMP_NUM_THREADS at start).
+THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+def _cores() -> int:
+    """CPUs this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
 
 
 def _fail(message: str) -> None:
@@ -206,6 +216,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--train_seed", type=int, default=1000, help="first training seed")
     p.add_argument("--train_jobs", type=int, default=1,
                    help="training runs at a time (several fit one GPU)")  # fmt: skip
+    p.add_argument(
+        "--train_threads",
+        type=int,
+        default=0,
+        help="CPU threads of each training run (default: the cores shared among the runs "
+        "at a time; torch's own default oversubscribes the cores when runs share them)",
+    )
     p.add_argument("--steps", type=int, default=5000)
     p.add_argument("--batch_size", type=int, default=16)
     p.add_argument("--num_workers", type=int, default=0, help="lerobot-train's data loaders")
@@ -324,11 +341,15 @@ def main(argv: list[str] | None = None) -> None:
             log = work / f"train_seed_{seed}.log"
             jobs.append((seed, (f"lerobot-train seed {seed}",
                                 _train_args(args, python, dataset, out, seed), log)))  # fmt: skip
-        timings = _run_jobs([job for _, job in jobs], env, args.train_jobs)
+        at_once = min(args.train_jobs, max(1, len(jobs)))
+        threads = args.train_threads or max(1, _cores() // at_once)
+        train_env = {**env, **{k: str(threads) for k in THREAD_VARS}}
+        print(f"train: {len(jobs)} run(s), {at_once} at a time, {threads} CPU thread(s) each")
+        timings = _run_jobs([job for _, job in jobs], train_env, at_once)
         for (seed, (_, _, log)), took in zip(jobs, timings):
             runs[str(seed)] = {
                 "train": {**took, "steps": args.steps, "device": args.device,
-                          "jobs_at_once": min(args.train_jobs, len(jobs))},
+                          "jobs_at_once": at_once, "threads": threads},
                 "loss_curve": _losses(log),
             }  # fmt: skip
             save()
