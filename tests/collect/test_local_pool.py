@@ -62,3 +62,16 @@ def test_describe_exit():
     assert describe_exit(-9) == "killed by SIGKILL, out of memory?"
     assert describe_exit(-15) == "killed by SIGTERM"
     assert describe_exit(3) == "exit status 3"
+
+
+def test_a_warning_in_a_worker_prints_as_one_note_line(capfd):
+    import warnings
+
+    pool = _pool(warnings.warn, workers=1)
+    try:
+        assert dict(pool.results(["the light is low"])) == {0: None}
+    finally:
+        assert pool.shutdown() == []
+    err = capfd.readouterr().err
+    assert "note: the light is low" in err
+    assert "UserWarning" not in err and "warnings.warn" not in err

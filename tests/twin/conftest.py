@@ -18,6 +18,7 @@ tests/scripts/test_replay_episode_real.py     127.0.0.81 .. 127.0.0.89
 tests/twin/test_leader_staging.py             127.0.0.91 .. 127.0.0.99
 tests/test_examples.py                        127.0.0.101 .. 127.0.0.109
 tests/scripts/test_serve_signals.py           127.0.0.111 .. 127.0.0.119
+tests/real/test_exit_clean.py                 127.0.0.121 .. 127.0.0.129
 ============================================  ===========================
 
 (tests/twin/test_kit_world.py, test_session_recorder.py, test_episode_spool.py,

@@ -34,13 +34,14 @@ import sys
 import threading
 import time
 import traceback
+import warnings
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
-from trossen_arm_mujoco.errors import UserError, redeliver_if_in_finalizer
+from trossen_arm_mujoco.errors import UserError, redeliver_if_in_finalizer, show_warning_as_note
 
 #: Tries of one job, the first included, before a worker dying on it ends the run.
 MAX_TRIES = 3
@@ -180,6 +181,8 @@ def _worker_main(
         _unblock_sigint()
         signal.signal(signal.SIGTERM, _raise_interrupt)
         _die_with_parent(parent)
+        # warnings raised in a worker print as the parent's do: one plain "note:" line
+        warnings.showwarning = show_warning_as_note
         try:
             initializer(*initargs)
         except Exception as exc:
