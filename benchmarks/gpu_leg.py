@@ -50,7 +50,7 @@ def _log_stats(log: Path) -> dict:
     text = log.read_text(errors="replace") if log.exists() else ""
     data = [float(x) for x in re.findall(r"data_s:([0-9.]+)", text)]
     updt = [float(x) for x in re.findall(r"updt_s:([0-9.]+)", text)]
-    losses = [float(x) for x in re.findall(r"loss:([0-9.]+)", text)]
+    losses = [float(x) for x in re.findall(r"(?<![a-z0-9_])loss:([0-9.]+)", text)]
     return {
         "data_s_per_step": sum(data) / len(data) if data else None,
         "update_s_per_step": sum(updt) / len(updt) if updt else None,

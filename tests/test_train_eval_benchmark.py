@@ -80,3 +80,44 @@ def test_bad_phases_and_missing_inputs_are_one_line(tmp_path):
     assert early.returncode != 0 and "run --phase record,export first" in early.stderr
     noeval = _bench(tmp_path / "w", "--phase", "eval")
     assert noeval.returncode != 0 and "run --phase train first" in noeval.stderr
+
+
+def test_gpu_leg_trains_the_plan_and_packs_each_checkpoint_for_the_trip(tmp_path):
+    """``benchmarks/gpu_leg.py`` (run with LeRobot's Python, as on a GPU machine): the plan's
+    runs train at once; each last checkpoint comes back as a tar (float16 weights, cut into
+    parts under a size limit) that joins and unpacks into a checkpoint folder."""
+    python = _python()
+    work = tmp_path / "w"
+    assert _bench(work, "--phase", "record,export", "--episodes", "2").returncode == 0
+    plan = tmp_path / "plan.json"
+    args = ["--work_dir", str(work), "--train_seeds", "2", "--train_jobs", "2", *TINY]
+    plan.write_text(json.dumps([{"name": "tiny", "args": args}]))
+    pack = tmp_path / "pack"
+    leg = subprocess.run(
+        [python, str(SCRIPT.with_name("gpu_leg.py")), "--plan", str(plan), "--deadline_s", "300",
+         "--pack_dir", str(pack), "--half", "--split_mb", "0.05"],
+        capture_output=True, text=True, timeout=600,
+        env={**os.environ, "TROSSEN_LEROBOT_PYTHON": python},
+    )  # fmt: skip
+    assert leg.returncode == 0, leg.stdout + leg.stderr
+    report = json.loads((pack / "gpu_leg.json").read_text())
+    assert [(r["seed"], r["steps"]) for r in report["runs"]] == [(1000, 2), (1001, 2)]
+    import tarfile
+
+    for run in report["runs"]:
+        assert len(run["pack"]) > 1  # cut into parts of 0.05 MiB
+        whole = tmp_path / f"{run['seed']}.tar"
+        whole.write_bytes(b"".join((pack / name).read_bytes() for name in run["pack"]))
+        dest = tmp_path / f"ckpt_{run['seed']}"
+        with tarfile.open(whole) as tar:
+            tar.extractall(dest, filter="data")
+        model = dest / "pretrained_model"
+        assert (model / "config.json").is_file()
+        check = subprocess.run(
+            [python, "-c", "import sys; from safetensors import safe_open; "
+             "f = safe_open(sys.argv[1], 'pt'); "
+             "print({str(f.get_tensor(k).dtype) for k in f.keys()})",
+             str(model / "model.safetensors")],
+            capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        assert check.returncode == 0 and "torch.float16" in check.stdout, check.stderr
