@@ -88,17 +88,24 @@ def _dm_control(side: str, target: np.ndarray, close: bool) -> float:
         floor = env.task.robot(physics).safety_floor
         probe = Probe(physics.model.ptr, physics.data.ptr, floor, f"{side}_arm")
         physics.step = probe.stepping(physics.step)
-        at = 0 if side == "left" else 8
-        for k in range(STEPS):
-            action = home.copy()
-            action[at : at + 6] = _targets(home[at : at + 6], target, k)
-            if close and k >= CLOSE_AT:
-                action[at + 6 : at + 8] = 0.0
-                probe.closing()
-            env.step(action)
-        return probe.deepest
+        return _drive_kit_arm(env.step, probe, home, side, target, close)
     finally:
         env.close()
+
+
+def _drive_kit_arm(step, probe, home: np.ndarray, side: str, target: np.ndarray,
+                   close: bool) -> float:  # fmt: skip
+    """Step a kit env (16-value actions) with one arm driven toward ``target``, its gripper
+    closed from ``CLOSE_AT`` when ``close``; the deepest penetration the probe saw (m)."""
+    at = 0 if side == "left" else 8
+    for k in range(STEPS):
+        action = home.copy()
+        action[at : at + 6] = _targets(home[at : at + 6], target, k)
+        if close and k >= CLOSE_AT:
+            action[at + 6 : at + 8] = 0.0
+            probe.closing()
+        step(action)
+    return probe.deepest
 
 
 def _gym(target: np.ndarray, close: bool) -> float:
@@ -138,15 +145,7 @@ def _eval(side: str, target: np.ndarray, close: bool) -> float:
         floor = scene.robots[env.sampler.robot_name].safety_floor
         probe = Probe(scene.model, scene.data, floor, f"{side}_arm")
         scene._physics_step = probe.stepping(scene._physics_step)
-        at = 0 if side == "left" else 8
-        for k in range(STEPS):
-            action = home.copy()
-            action[at : at + 6] = _targets(home[at : at + 6], target, k)
-            if close and k >= CLOSE_AT:
-                action[at + 6 : at + 8] = 0.0
-                probe.closing()
-            env.step(action)
-        return probe.deepest
+        return _drive_kit_arm(env.step, probe, home, side, target, close)
     finally:
         env.close()
 
