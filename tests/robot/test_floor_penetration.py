@@ -5,9 +5,12 @@ An arm is commanded to joint targets that put its fingers 1-3 cm below the table
 targets moved there over 1 s, then held 2 s); every physics step, the deepest contact
 between the table and the arm's collision geoms (``data.contact.dist``) is recorded. The
 safety floor holds the targets at the table top; the geometry overshoots it a little on
-the way (``robot.safety_floor.PENETRATION_MEASURED``). A gripper closing while its fingers
-rest on the table is held like the arm (the floor puts the fingers at their targets too):
-before, the fingers were pressed 3.1 mm into the table.
+the way (``PENETRATION_MEASURED``). A gripper closing while its fingers are slanted over
+the table presses them 3.1 mm in: the floor holds arm joint targets, not gripper targets.
+Holding the gripper's target too (tried on 2026-11-26) took that case to 0 mm, but it also
+stopped the vendor's own recorded transfer, whose right fingers close on the cube brushing
+the table (``tests/test_sim_env.py::test_vendor_recorded_transfer_transfers_the_cube``), so
+it was taken out; the 0.5 mm goal is marked by strict xfails.
 """
 
 from __future__ import annotations
@@ -18,8 +21,6 @@ import mujoco
 import numpy as np
 import pytest
 
-from trossen_arm_mujoco.robot.safety_floor import PENETRATION_MEASURED
-
 #: Joint targets (rad) of one arm, fingers 1-3 cm below the table top: ``INTO`` sinks the
 #: most while the arm moves (2.4 mm); ``TILTED`` leaves the fingers slanted over the table,
 #: where a gripper closing after the arm settled (step ``CLOSE_AT``) pressed them 3.1 mm in.
@@ -27,6 +28,8 @@ INTO = np.array([-0.02, 2.25, 1.55, -0.57, -0.69, 1.09])
 TILTED = np.array([-0.68, 2.13, 0.3, -1.22, 1.41, 0.5])
 #: The goal for the fingers (m).
 GOAL = 0.0005
+#: The deepest the arms' geometry went into the table here (m), asserted below.
+PENETRATION_MEASURED = 0.0035
 RAMP, STEPS, CLOSE_AT = 50, 150, 80
 
 
@@ -165,22 +168,20 @@ DOORS = [("dm_control", "left"), ("dm_control", "right"), ("gym", "arm"), ("eval
 
 
 @pytest.mark.parametrize("door, side", DOORS)
-def test_a_closing_gripper_keeps_its_fingers_out_of_the_table(door, side):
-    """Fingers slanted over the table, the arm settled, then the gripper closed: the floor
-    holds the gripper's target (3.1 mm deep in the kit before it did)."""
-    assert deepest(door, side, "tilted") <= GOAL
-
-
-@pytest.mark.parametrize("door, side", DOORS)
-def test_an_arm_driven_into_the_table_sinks_at_most_the_measured_depth(door, side):
-    depth = deepest(door, side, "into")
+@pytest.mark.parametrize("case", ["into", "tilted"])
+def test_the_fingers_sink_at_most_the_measured_depth(door, side, case):
+    """``into``: an arm driven into the table; ``tilted``: the arm settled with its fingers
+    slanted over the table, then the gripper closed."""
+    depth = deepest(door, side, case)
     assert 0.0 < depth <= PENETRATION_MEASURED  # it touches the table, and sinks this far
 
 
 @pytest.mark.xfail(
     strict=True,
-    reason="the floor holds joint targets; the arm's path to them (joints converging at "
-    "different rates) and soft contacts sink the fingers about 2.4 mm on the way",
+    reason="the floor holds arm joint targets; the arm's path to them (joints converging at "
+    "different rates) and soft contacts sink the fingers about 2.4 mm on the way, and a "
+    "closing gripper with slanted fingers presses them about 3.1 mm in",
 )
-def test_an_arm_driven_into_the_table_sinks_at_most_half_a_millimetre():
-    assert deepest("dm_control", "left", "into") <= GOAL
+@pytest.mark.parametrize("case", ["into", "tilted"])
+def test_the_fingers_sink_at_most_half_a_millimetre(case):
+    assert deepest("dm_control", "left", case) <= GOAL

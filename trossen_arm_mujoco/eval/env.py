@@ -34,7 +34,7 @@ shapes, the names the export writes.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium
@@ -42,6 +42,7 @@ import numpy as np
 
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.gym.inputs import reset_options
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS, REAL_KIT_LAYOUT
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
@@ -131,42 +132,6 @@ def feature_spec(
         key = f"observation.images.{cam}"
         spec[key] = (key, "VISUAL", (h, w, 3))
     return spec
-
-
-def _object_poses_option(options: Any, objects: Mapping[str, Any]) -> dict[str, np.ndarray] | None:
-    """``reset``'s ``options`` checked: None, or ``{"object_poses": {name: (7,) pose}}`` with
-    every name one of ``objects`` and every pose 7 finite values with a non-zero quaternion
-    (the poses as float64 arrays; None when no poses are given)."""
-    if options is None:
-        return None
-    if not isinstance(options, Mapping):
-        raise UserError(f"reset options must be a dict, got {type(options).__name__}")
-    unknown = sorted(set(options) - {"object_poses"})
-    if unknown:
-        raise UserError(f"unknown reset option(s) {unknown}; valid options: object_poses")
-    poses = options.get("object_poses")
-    if poses is None:
-        return None
-    if not isinstance(poses, Mapping):
-        raise UserError(
-            "object_poses must map object names to 7 values [xyz, quat wxyz], "
-            f"got {type(poses).__name__}"
-        )
-    out: dict[str, np.ndarray] = {}
-    for name, pose in poses.items():
-        if name not in objects:
-            raise unknown_name_error("object", str(name), objects)
-        try:
-            p = np.asarray(pose, dtype=float)
-        except (TypeError, ValueError):
-            p = np.empty(0)
-        if p.shape != (7,) or not np.isfinite(p).all() or np.linalg.norm(p[3:]) < 1e-9:
-            raise UserError(
-                f"object_poses['{name}'] must be 7 finite values [xyz m, quat wxyz] with a "
-                f"non-zero quaternion, got {np.shape(pose)} {pose!r}"[:300]
-            )
-        out[str(name)] = p
-    return out
 
 
 def _layout(name: str):
@@ -309,10 +274,11 @@ class KitPolicyEnv(gymnasium.Env):
         ``options={"object_poses": {name: pose}}`` places the named objects instead of the
         sampled poses (e.g. a recorded episode's start: the HDF5 attributes
         ``object_names`` and ``initial_env_state``), each pose 7 values [xyz m, quat wxyz];
-        objects not named keep their sampled pose. Any other option, an unknown object or a
-        bad pose is a ``UserError``.
+        objects not named keep their sampled pose. Any other option (but the keys of
+        ``gym.inputs.WRAPPER_OPTIONS``, such as lerobot-eval's ``lerobot_new_rollout``), an
+        unknown object or a bad pose is a ``UserError`` (``gym.inputs.InvalidInput``).
         """
-        poses = _object_poses_option(options, self.scene.objects)
+        poses = reset_options(options, self.scene.objects)
         super().reset(seed=seed)
         if seed is None:
             seed = int(self.np_random.integers(2**31))

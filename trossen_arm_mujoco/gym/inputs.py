@@ -27,6 +27,10 @@ RESET_OPTIONS: dict[str, str] = {
     "object_poses": "a dict {object name: 7 values [x, y, z (m, world), quat w, x, y, z]} "
     "(or None)",
 }
+#: Keys that wrappers of known tools add to ``reset``'s options for themselves, accepted and
+#: ignored: LeRobot's ``lerobot-eval`` marks a new rollout with ``lerobot_new_rollout`` (its
+#: ``FreezeAfterEpisodeEnd`` wrapper passes the options on to the env).
+WRAPPER_OPTIONS: frozenset[str] = frozenset({"lerobot_new_rollout"})
 
 
 class InvalidInput(UserError, ValueError):
@@ -81,7 +85,8 @@ def reset_options(options: Any, objects: Mapping[str, Any]) -> dict[str, np.ndar
     (7,) [xyz m, quat wxyz]) or None.
 
     Args:
-        options: None, or a dict whose keys are among ``RESET_OPTIONS``.
+        options: None, or a dict whose keys are among ``RESET_OPTIONS`` (and
+            ``WRAPPER_OPTIONS``, ignored).
         objects: the scene's objects by name (the names ``object_poses`` may use).
     """
     if options is None:
@@ -93,7 +98,7 @@ def reset_options(options: Any, objects: Mapping[str, Any]) -> dict[str, np.ndar
             f"got {type(options).__name__}"
         )
     for key in options:
-        if key not in RESET_OPTIONS:
+        if key not in RESET_OPTIONS and key not in WRAPPER_OPTIONS:
             raise InvalidInput(
                 f"unknown reset option {key!r:.40}; accepted keys: {accepted} "
                 f"(object_poses: {RESET_OPTIONS['object_poses']})"

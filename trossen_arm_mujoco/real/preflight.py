@@ -9,7 +9,6 @@ import ipaddress
 import math
 from typing import Any
 
-from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.errors import UserError
 
 __all__ = ["check_arm_ips", "check_ip", "recorded_dt"]
@@ -73,8 +72,9 @@ def check_arm_ips(ips: dict[str, object], flags: dict[str, str]) -> dict[str, st
     return out
 
 
-def recorded_dt(episode: Episode) -> float:
-    """The episode's step period (s), checked: positive and finite.
+def recorded_dt(episode: Any) -> float:
+    """The step period (s) of ``episode`` (a ``data.reader.Episode``: ``real`` sits beside
+    ``data`` and does not import it), checked: positive and finite.
 
     Raises:
         UserError: naming the file and its ``dt`` attribute (zero, negative, NaN, inf,

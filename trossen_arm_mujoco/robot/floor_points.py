@@ -13,11 +13,6 @@ geom's lowest point:
 
 The arm's tool-frame site is one more point (radius 0). ``ArmPoints.heights(data)`` is the
 world z (m) of every point's lowest reach at ``data``'s body poses: one matrix product.
-
-The joints of the subtree that are not the arm's (a gripper's fingers) are looked up too
-(``FingerDrives``): those a position actuator drives, whose joint target is its control, and
-those a joint equality couples to one of them; the floor puts them at their targets with the
-arm's, so a gripper closing toward the table is held like an arm moving into it.
 ``reach[p, i]`` bounds how far point p moves per radian of joint i in any configuration (the
 lengths along the kinematic chain, added up; 0 for joints that do not move p, and for a
 vertical first joint, which moves nothing up or down); points no joint moves up or down
@@ -35,8 +30,6 @@ from trossen_arm_mujoco.robot.selection import as_slice
 
 #: Sides of the polygons standing in for cylinder end discs.
 CYLINDER_SIDES = 16
-#: Joint types a gripper's fingers may have (``FingerDrives``).
-_MOVING_JOINTS = (int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE))
 
 
 def _box_corners(half: np.ndarray) -> np.ndarray:
@@ -66,78 +59,6 @@ def geom_points(model: mujoco.MjModel, geom: int) -> tuple[np.ndarray, float]:
         return model.mesh_vert[start : start + n].astype(np.float64), 0.0
     aabb = model.geom_aabb[geom]  # [centre (3), half sizes (3)] in the geom frame
     return aabb[:3] + _box_corners(aabb[3:]), 0.0
-
-
-class FingerDrives:
-    """The joints of an arm's subtree that the arm's own joints are not (a gripper's), and
-    how their targets follow from the controls, looked up once.
-
-    Attributes:
-        actuator_ids: (F,) position actuators (``trntype`` joint, affine bias ``-kp * q``)
-            driving a subtree joint; their control / gear is the joint's target (m or rad).
-        qpos_idx: (F,) qpos address of each such joint.
-        inv_gear: (F,) 1 / the actuator's gear.
-        coupled: ``(qpos address, driver qpos address, polycoef (5,), qpos0 of both)`` of
-            each subtree joint a joint equality ties to a driven one: ``y - y0 = c0 +
-            c1 (x - x0) + ... + c4 (x - x0)^4``, as MuJoCo's joint equality.
-    """
-
-    def __init__(self, model: mujoco.MjModel, bodies: np.ndarray, arm_joints: Sequence[int]):
-        body_set = {int(b) for b in bodies}
-        own = {int(j) for j in arm_joints}
-        finger_joints = [
-            j for j in range(model.njnt)
-            if int(model.jnt_bodyid[j]) in body_set and j not in own
-            and int(model.jnt_type[j]) in _MOVING_JOINTS
-        ]  # fmt: skip
-        acts, qidx, inv_gear, driven = [], [], [], set()
-        for a in range(model.nu):
-            joint = int(model.actuator_trnid[a, 0])
-            if (int(model.actuator_trntype[a]) != int(mujoco.mjtTrn.mjTRN_JOINT)
-                    or joint not in finger_joints or not _is_position_servo(model, a)):  # fmt: skip
-                continue
-            acts.append(a)
-            qidx.append(int(model.jnt_qposadr[joint]))
-            inv_gear.append(1.0 / float(model.actuator_gear[a, 0]))
-            driven.add(joint)
-        self.actuator_ids = np.array(acts, dtype=int)
-        self.qpos_idx = np.array(qidx, dtype=int)
-        self.inv_gear = np.array(inv_gear)
-        self.coupled: list[tuple[int, int, np.ndarray, float, float]] = []
-        for e in range(model.neq):
-            if int(model.eq_type[e]) != int(mujoco.mjtEq.mjEQ_JOINT) or not model.eq_active0[e]:
-                continue
-            j1, j2 = int(model.eq_obj1id[e]), int(model.eq_obj2id[e])
-            if j1 in finger_joints and j1 not in driven and j2 in driven:
-                q1, q2 = int(model.jnt_qposadr[j1]), int(model.jnt_qposadr[j2])
-                self.coupled.append(
-                    (q1, q2, model.eq_data[e, :5].copy(), float(model.qpos0[q1]),
-                     float(model.qpos0[q2]))
-                )  # fmt: skip
-
-    def __len__(self) -> int:
-        return len(self.actuator_ids)
-
-    def put(self, qpos: np.ndarray, ctrl: np.ndarray) -> None:
-        """Write into ``qpos`` (nq,) the finger joints' targets from their actuators'
-        controls ``ctrl`` (F,), and the joints coupled to them."""
-        qpos[self.qpos_idx] = ctrl * self.inv_gear
-        for q1, q2, c, y0, x0 in self.coupled:
-            x = qpos[q2] - x0
-            qpos[q1] = y0 + c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * c[4])))
-
-
-def _is_position_servo(model: mujoco.MjModel, actuator: int) -> bool:
-    """A position actuator: force = kp * ctrl - kp * length (- kv * velocity), no dynamics."""
-    kp = float(model.actuator_gainprm[actuator, 0])
-    return (
-        int(model.actuator_dyntype[actuator]) == int(mujoco.mjtDyn.mjDYN_NONE)
-        and int(model.actuator_gaintype[actuator]) == int(mujoco.mjtGain.mjGAIN_FIXED)
-        and int(model.actuator_biastype[actuator]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
-        and kp > 0
-        and float(model.actuator_biasprm[actuator, 0]) == 0.0
-        and float(model.actuator_biasprm[actuator, 1]) == -kp
-    )
 
 
 def _subtree(model: mujoco.MjModel, root: int) -> list[int]:
@@ -196,10 +117,7 @@ class ArmPoints:
         self._per_body = self.vector[:-1].reshape(k_bodies, 4)  # a view: filled in place
         self.body_sel = as_slice(self.bodies)
         self.qpos_sel = as_slice(np.asarray(group.qpos_idx, dtype=int))
-        self.n_joints = len(group.qpos_idx)
         self.dof_sel = as_slice(np.asarray(group.dof_idx, dtype=int))
-        #: the subtree's other joints (a gripper's fingers) and the actuators driving them
-        self.fingers = FingerDrives(model, self.bodies, group.joint_ids)
         self.reach = _joint_reach(model, group.joint_ids, self.bodies, self.matrix, self.owner)
         #: points no arm joint moves up or down (their height never changes)
         self.fixed_height = ~self.reach.any(axis=1)

@@ -11,25 +11,17 @@ What is kept above it:
 - Joint-actuated arms: every collision geom of the arm (links, wrist, fingers; see
   ``robot.floor_points``) and its tool frame. Every control tick, once the controllers have
   computed the tick's controls (joint targets, rate-limited), one forward kinematics pass on
-  a private ``MjData`` puts every arm commanded in that tick at its new control (``below``):
-  its joints at their targets, and its gripper's fingers at theirs (the subtree joints a
-  position actuator drives, and those coupled to them: ``floor_points.FingerDrives``), so a
-  gripper closing toward the table is held like an arm moving into it. An arm with a point
-  below the floor gets the exact rule (``offender``): a move breaks the floor when a point
-  ends below it and lower than it was (a point already below it,
-  e.g. placed there, may stay or rise). The move is the control's, arm and gripper
-  together, from the control the tick started from to the new one, both put through
-  forward kinematics (exact: no lag). It is shortened (the fractions of ``BACKOFF``, down
-  to no move: the control held) until no point breaks the floor. A fraction of the step
-  stays within the speed limits and the control range the controller kept. The controller
-  keeps its target: an arm commanded into the table moves toward it at its speed limits,
-  stops at the floor, and goes on as soon as a command leads away. Ticks of any length
-  hold it (the served kit ticks every 2 ms): a held control never sinks.
-- Targets, not geometry: the floor holds joint targets; the geometry follows them through
-  the servos. At rest on the floor it stays there (the arms' gravity is compensated), but
-  an arm driven into the table sinks a little on the way: its joints converge at different
-  rates, so its path leaves the straight line the rule checks, and the contacts are soft.
-  Measured by ``tests/robot/test_floor_penetration.py`` (``PENETRATION_MEASURED``).
+  a private ``MjData`` puts every arm commanded in that tick at its new control (``below``).
+  An arm with a point below the floor gets the exact rule (``offender``): a move breaks the
+  floor when a point ends below the floor and lower than it was (a point already below it,
+  e.g. placed there, may stay or rise). The move is the control's, from the control the
+  tick started from to the new one, both put through forward kinematics (exact: no lag, no
+  slack). It is shortened (the fractions of ``BACKOFF``, down to no move: the control held)
+  until no point breaks the floor. A fraction of the step stays within the speed limits and
+  the control range the controller kept. The controller keeps its target: an arm commanded
+  into the table moves toward it at its speed limits, stops at the floor, and goes on as
+  soon as a command leads away. Ticks of any length hold it (the served kit ticks every
+  2 ms): a held control never sinks.
 - Cartesian targets: ``ee_delta`` and ``ee_pose`` controllers clip the tool frame's target
   height (``tool_height``) before any IK: to the floor, or, for a tool frame below it, to no
   lower than it is. Mocap arms (the EE envs) get only this, from their control (no lower
@@ -62,10 +54,6 @@ from trossen_arm_mujoco.robot.selection import as_slice
 TOLERANCE = 1e-9
 #: Fractions of an arm's move tried when the whole move would break the floor.
 BACKOFF = (0.5, 0.25, 0.125, 0.0)
-#: The deepest the arms' geometry went into the table (m) in
-#: ``tests/robot/test_floor_penetration.py`` (an arm driven into it over 1 s, then held),
-#: through the dm_control joint env, the gym env and the evaluation env; asserted there.
-PENETRATION_MEASURED = 0.003
 
 
 def floor_height(table_height: float, margin: float = 0.0) -> float:
@@ -127,13 +115,7 @@ class SafetyFloor:
         report: ``FloorReport`` of what the floor changed (cleared by the robot).
     """
 
-    def __init__(
-        self,
-        model: mujoco.MjModel,
-        arms: Sequence,
-        floor_z: float,
-        tools: Sequence = (),
-    ):
+    def __init__(self, model: mujoco.MjModel, arms: Sequence, floor_z: float, tools: Sequence = ()):
         self.model = model
         self.floor_z = float(floor_z)
         if not math.isfinite(self.floor_z):  # NaN would compare False: no floor at all
@@ -142,16 +124,10 @@ class SafetyFloor:
                 "check table_height and safety_margin"
             )
         self.arms = {arm.name: ArmPoints(model, arm) for arm in arms}
-        # the actuators of the arms that have them: the arm's joints', then its fingers'
+        # the arms' actuators (joint targets), for the ones that have them
         self._ctrl_sel = {
-            arm.name: as_slice(
-                np.concatenate([arm.actuator_ids, self.arms[arm.name].fingers.actuator_ids])
-            )
-            for arm in arms
-            if hasattr(arm, "actuator_ids")
+            arm.name: as_slice(arm.actuator_ids) for arm in arms if hasattr(arm, "actuator_ids")
         }
-        # the arms with fingers, checked when a group that is no arm (a gripper) moved
-        self._fingered = tuple(name for name in self._ctrl_sel if len(self.arms[name].fingers))
         self.tools = {tool.name: tool for tool in tools}
         self.report = FloorReport()
         self._data = mujoco.MjData(model)
@@ -164,14 +140,12 @@ class SafetyFloor:
     def heights(self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None) -> np.ndarray:
         """World z (m) of the lowest reach of every point of ``arm`` (its collision geoms and
         tool frame), (N,), at ``qpos_full`` (nq,) with the arm's joints replaced by ``q``
-        (rad): forward kinematics on the private ``MjData``. ``q`` may also be the arm's
-        controls (its joints' targets, then its fingers' actuators' controls: the floor's
-        ``_ctrl_sel``), which put the fingers at their targets too."""
+        (rad): forward kinematics on the private ``MjData``."""
         pts = self.arms[arm]
         data = self._data
         data.qpos[:] = qpos_full
         if q is not None:
-            _put(data.qpos, pts, q)
+            data.qpos[pts.qpos_sel] = q
         mujoco.mj_kinematics(self.model, data)
         return pts.heights(data)
 
@@ -194,20 +168,19 @@ class SafetyFloor:
         return int(self.arms[arm].owner[int(np.where(bad, z_new, np.inf).argmin())])
 
     def below(self, qpos_full: np.ndarray, targets: Mapping[str, np.ndarray]) -> list[str]:
-        """The arms of ``targets`` (arm -> joints (rad), or controls as ``heights`` takes
-        them) with a point that can move up or down below the floor when every arm is at
-        its target, at ``qpos_full`` (nq,) for the rest: one forward kinematics pass on the
-        private ``MjData`` for all of them."""
+        """The arms of ``targets`` (arm -> joints (rad)) with a point that can move up or
+        down below the floor when every arm is at its target, at ``qpos_full`` (nq,) for
+        the rest: one forward kinematics pass on the private ``MjData`` for all of them."""
         arms = self.arms
         return self._below(qpos_full, [(arm, arms[arm], q) for arm, q in targets.items()])
 
     def _below(self, qpos_full: np.ndarray, entries: Sequence[tuple]) -> list:
-        """``below`` for ``entries`` ``(key, ArmPoints, joints (rad) or controls)``: the keys
-        of those with a point below the floor."""
+        """``below`` for ``entries`` ``(key, ArmPoints, joints (rad))``: the keys of those
+        with a point below the floor."""
         qpos = self._qpos
         qpos[:] = qpos_full
         for _, pts, q in entries:
-            _put(qpos, pts, q)
+            qpos[pts.qpos_sel] = q
         mujoco.mj_kinematics(self.model, self._data)
         xmat, xpos, floor_z = self._xmat, self._xpos, self.floor_z
         out = []
@@ -217,11 +190,6 @@ class SafetyFloor:
                 out.append(key)
         return out
 
-    def controls(self, data: mujoco.MjData, arm: str) -> np.ndarray:
-        """The controls of ``arm`` the floor checks, from ``data.ctrl``: its joints' targets
-        (rad), then its fingers' actuators' controls (``heights`` takes them)."""
-        return data.ctrl[self._ctrl_sel[arm]].copy()
-
     def link_name(self, body: int) -> str:
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
 
@@ -229,10 +197,10 @@ class SafetyFloor:
     def safe_fraction(
         self, qpos_full: np.ndarray, arm: str, q_from: np.ndarray, q_to: np.ndarray
     ) -> tuple[float, str]:
-        """(Largest fraction of ``arm``'s move from joints ``q_from`` to ``q_to`` (rad; or
-        controls, as ``heights`` takes them), among 1 and ``BACKOFF``, that breaks the floor
-        nowhere (``offender``); name of the link that breaks it on the whole move, "" when
-        none), at ``qpos_full`` (nq,) for the rest."""
+        """(Largest fraction of ``arm``'s move from joints ``q_from`` to ``q_to`` (rad), among
+        1 and ``BACKOFF``, that breaks the floor nowhere (``offender``); name of the link
+        that breaks it on the whole move, "" when none), at ``qpos_full`` (nq,) for the
+        rest."""
         z_was = self.heights(qpos_full, arm, q_from)
         body = self.offender(arm, self.heights(qpos_full, arm, q_to), z_was)
         if body < 0:
@@ -245,20 +213,16 @@ class SafetyFloor:
 
     def hold(self, data: mujoco.MjData, start_ctrl: np.ndarray, names: Sequence[str]) -> list[str]:
         """After a control tick's controls are written: the arms among ``names`` (the groups
-        commanded in the tick, a tuple or list; a group that is no arm, e.g. a gripper, adds
-        every arm with fingers) whose new control breaks the floor get a shorter step, arm and
-        fingers together, from ``start_ctrl`` ((nu,), ``data.ctrl`` before the tick) toward
-        their new control (see the module docstring), written to ``data.ctrl``. Returns the
-        names of the arms held up (their links are added to ``report``)."""
+        commanded in the tick, a tuple or list) whose new control breaks the floor get a
+        shorter step, from ``start_ctrl`` ((nu,), ``data.ctrl`` before the tick) toward their
+        new control (see the module docstring), written to ``data.ctrl``. Returns the names
+        of the arms held up (their links are added to ``report``)."""
         key = names if type(names) is tuple else tuple(names)
         arms = self._checked.get(key)
         if arms is None:
             sel = self._ctrl_sel
-            checked = [name for name in dict.fromkeys(key) if name in sel]
-            if any(name not in self.arms for name in key):
-                checked += [name for name in self._fingered if name not in checked]
             arms = self._checked[key] = tuple(
-                (name, self.arms[name], sel[name]) for name in checked
+                (name, self.arms[name], sel[name]) for name in dict.fromkeys(key) if name in sel
             )
         if not arms:
             return []
@@ -295,15 +259,3 @@ class SafetyFloor:
         if z != z_target:
             self.report.add(self.link_name(int(self.model.site_bodyid[site])))
         return z
-
-
-def _put(qpos: np.ndarray, pts: ArmPoints, u: np.ndarray) -> None:
-    """Write into ``qpos`` (nq,) the arm's joints from ``u``: its joints (rad), (n,), or its
-    controls (n + F,): its joints' targets, then its fingers' actuators' controls, which put
-    the fingers (and the joints coupled to them) at their targets."""
-    n = pts.n_joints
-    if len(u) == n:
-        qpos[pts.qpos_sel] = u
-    else:
-        qpos[pts.qpos_sel] = u[:n]
-        pts.fingers.put(qpos, u[n:])
