@@ -290,3 +290,32 @@ def test_signal_in_a_finalizer_is_delivered_after_it(monkeypatch):
         _signal.signal(_signal.SIGTERM, old)
         _errors._received.clear()
     assert seen and seen[0] == "finalizer done"
+
+
+def test_ctrl_c_in_a_finalizer_is_delivered_after_it():
+    """Commands run by ``run_cli`` get a SIGINT handler that does the same for Ctrl-C
+    (Python's own raised inside the finalizer: "Exception ignored", and the run went on)."""
+    from trossen_arm_mujoco import errors as _errors
+
+    seen, handlers = [], []
+
+    class Finalized:
+        def __del__(self):
+            signal.raise_signal(signal.SIGINT)
+            seen.append("finalizer done")
+
+    def command(argv=None) -> int:
+        handlers.append(signal.getsignal(signal.SIGINT))
+        Finalized()
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline:
+            time.sleep(0.001)
+        return 0
+
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        assert _errors.run_cli(command) == 130
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+    finally:
+        signal.signal(signal.SIGINT, before)
+    assert handlers == [_errors.raise_interrupt] and seen == ["finalizer done"]

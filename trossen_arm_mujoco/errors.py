@@ -289,7 +289,20 @@ def _install_handlers() -> dict[int, Any]:
             continue  # ignored, a handler not from Python (faulthandler), or one in place
         signal.signal(sig, raise_terminated)
         previous[sig] = old
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        # Python's own Ctrl-C handler raises even inside a finalizer, where the exception is
+        # printed as "Exception ignored" and lost (the run then went on to finish)
+        signal.signal(signal.SIGINT, raise_interrupt)
+        previous[signal.SIGINT] = signal.default_int_handler
     return previous
+
+
+def raise_interrupt(signum: int, frame: Any) -> None:
+    """SIGINT handler: ``KeyboardInterrupt``, as Python's own, except inside a finalizer,
+    where the signal is delivered again once the finalizer has returned."""
+    if redeliver_if_in_finalizer(signum, frame):
+        return
+    raise KeyboardInterrupt
 
 
 def _restore_handlers(previous: dict[int, Any]) -> None:
