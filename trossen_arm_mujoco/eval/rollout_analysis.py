@@ -22,7 +22,6 @@ Aggregated (``rollouts_report``): failed episodes counted by the furthest stage 
 
 from __future__ import annotations
 
-import json
 import statistics
 from collections.abc import Sequence
 from pathlib import Path
@@ -30,8 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore
-from trossen_arm_mujoco.fileio import atomic_path
+from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore, write_json
 
 #: The file written next to ``eval_info.json``.
 ROLLOUTS_FILE = "rollouts.json"
@@ -187,8 +185,4 @@ def failure_line(report: dict[str, Any]) -> str:
 
 def write_rollouts(path: Path, report: dict[str, Any]) -> Path:
     """Write ``report`` as JSON to ``path`` atomically."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        Path(tmp).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
-    return path
+    return write_json(path, report)

@@ -118,6 +118,11 @@ def eval_info(
 
 def write_eval_info(path: Path, info: dict[str, Any]) -> Path:
     """Write ``info`` as JSON to ``path`` atomically (temp file, then rename)."""
+    return write_json(path, info)
+
+
+def write_json(path: Path, info: dict[str, Any]) -> Path:
+    """Write ``info`` as indented JSON to ``path`` atomically (temp file, then rename)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
