@@ -54,19 +54,24 @@ class RolloutRecorder:
         self.rewards: list[float] = []
         self.gaps: list[tuple[float, float]] = []  # (left, right) finger opening, m
         self.left_touch: list[bool] = []
+        self._readers: tuple[Any, Any, Any, Any] | None = None  # looked up once an episode
 
     def record(self, env: Any, reward: float) -> None:
         """Read the state after one ``env.step`` (``env``: a ``KitPolicyEnv``; ``reward``: the
         step's reward)."""
-        task = env.episode
-        view = task.robot.view
+        if self._readers is None:  # the episode's grippers and contact check, found once
+            task = env.episode
+            view = task.robot.view
+            self._readers = (
+                view.get_move_group("left_gripper"),
+                view.get_move_group("right_gripper"),
+                getattr(task.reward_fn, "touching", None),  # the transfer's contact check
+                task.data,
+            )
+        left, right, touching, data = self._readers
         self.rewards.append(float(reward))
-        self.gaps.append(
-            (view.group("left_gripper").inter_finger_dist,
-             view.group("right_gripper").inter_finger_dist)
-        )  # fmt: skip
-        touching = getattr(task.reward_fn, "touching", None)  # the transfer's contact check
-        self.left_touch.append(bool(touching(task.data)[1]) if touching is not None else False)
+        self.gaps.append((left.inter_finger_dist, right.inter_finger_dist))
+        self.left_touch.append(bool(touching(data)[1]) if touching is not None else False)
 
     def _time(self, step: int | None) -> float | None:
         return None if step is None else round((step + 1) / self.fps, 6)
