@@ -248,8 +248,19 @@ def quat_to_rpy(q) -> tuple[float, float, float]:
 
 
 # ----------------------------------------------------------------------------- MJCF pieces
+#: Contact between the table and the arms' collision geoms (issue 27): as stiff as MuJoCo
+#: keeps stable (time constant 2 timesteps of 2 ms; default 0.02 s), so fingers pressed on
+#: the table (arm driven into it, gripper closing over it) sink < 0.5 mm, not ~3 mm: a
+#: wooden top and the aluminium fingers barely give. The actuators' forces are unchanged.
+#: ``solmix="0"`` on both sides: two such geoms (table-arm, and arm-arm: the two arms'
+#: fingers at a hand-over) use these parameters; against any other geom (the cube, peg,
+#: socket, the frame: default solmix 1), the other geom's parameters, exactly, so the
+#: contacts of the objects with the fingers and the table are what they were.
+RIGID_CONTACT = 'solref="0.004 1" solmix="0"'
+
+
 def mjcf_defaults() -> str:
-    return """  <default>
+    return f"""  <default>
     <default class="wxai">
       <joint frictionloss="0.1" actuatorgravcomp="true"/>
       <position inheritrange="1"/>
@@ -257,7 +268,7 @@ def mjcf_defaults() -> str:
         <geom type="box" group="2" contype="0" conaffinity="0" density="0" material="wxai_black"/>
       </default>
       <default class="wxai_collision">
-        <geom group="3" density="0" rgba="0.5 0.5 0.5 0.3"/>
+        <geom group="3" density="0" rgba="0.5 0.5 0.5 0.3" {RIGID_CONTACT}/>
         <default class="wxai_pad">
           <geom type="mesh" condim="4" friction="1.5 0.02 0.0001" rgba="0.3 0.3 0.3 0.3"/>
         </default>
@@ -478,7 +489,7 @@ def wxai_table_scene_xml() -> str:
 {looks.mjcf_lights(camera_forward(xyaxes))}    <geom name="floor" type="plane" size="0 0 0.05" pos="0 0 -0.75" material="groundplane"/>
     <body name="table_body" pos="0.25 0 0">
       <geom name="table" type="box" size="0.45 0.6 0.02" pos="0 0 -0.02" material="maple"
-            friction="1 0.005 0.0001"/>
+            friction="1 0.005 0.0001" {RIGID_CONTACT}/>
 {legs}
     </body>
     <camera name="overview" pos="{fmt(pos)}" xyaxes="{fmt(xyaxes)}"
@@ -574,7 +585,8 @@ def trossen_ai_xml() -> str:
                 diaginertia="0.301156 0.287827 0.165329"/>
       <geom name="table_visual" type="box" size="{fmt(TABLE_HALF)}" pos="0 0 0.01" material="maple"
             contype="0" conaffinity="0"/>
-      <geom name="table" type="mesh" mesh="table_top" pos="0 0 0.01" group="3" rgba="0.8 0.6 0.4 0.3"/>
+      <geom name="table" type="mesh" mesh="table_top" pos="0 0 0.01" group="3" rgba="0.8 0.6 0.4 0.3"
+            {RIGID_CONTACT}/>
 {chr(10).join(frame)}
 {chr(10).join(cams)}
 {arms}    </body>

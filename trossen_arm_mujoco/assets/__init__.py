@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+__all__ = ["ASSETS_DIR", "STATIONARY_CAMERAS", "STATIONARY_TABLE_TOP", "asset_path"]
+
 #: Folder of the shipped models.
 ASSETS_DIR: str = str(Path(__file__).resolve().parent)
 

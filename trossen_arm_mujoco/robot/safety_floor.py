@@ -28,6 +28,12 @@ What is kept above it:
   than it was asked to be): their control is the tool-frame pose, their links follow the
   weld, and there are no joint targets to shorten.
 
+The floor holds controls, not the geometry: an arm moving onto its held targets overshoots
+them into the table, and gripper targets are not floored (fingers must close along the table
+to grasp an object resting on it). What keeps the geometry out is the table's contact with
+the arms' collision geoms, as stiff as MuJoCo keeps stable (``tools/build_models.py``,
+``RIGID_CONTACT``): fingers sink <= 0.5 mm (``tests/robot/test_floor_penetration.py``).
+
 Cost: one ``mj_kinematics`` per tick for all the arms of a robot (on its private data);
 an arm with a point below the floor takes 2-5 more.
 
@@ -48,6 +54,8 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.floor_points import ArmPoints
 from trossen_arm_mujoco.robot.selection import as_slice
+
+__all__ = ["BACKOFF", "TOLERANCE", "FloorReport", "SafetyFloor", "floor_height"]
 
 #: Rounding (m) below which a point is not lower than it was (a turn about a vertical axis
 #: leaves heights equal up to it).
@@ -91,10 +99,12 @@ class FloorReport:
         return bool(self.links)
 
     def add(self, link: str) -> None:
+        """Note that the floor held ``link`` (a body name) up this step (once)."""
         if link not in self.links:
             self.links.append(link)
 
     def clear(self) -> None:
+        """Forget the links of the last step (a new step begins)."""
         if self.links:
             self.links.clear()
 
@@ -191,6 +201,7 @@ class SafetyFloor:
         return out
 
     def link_name(self, body: int) -> str:
+        """The name of body id ``body`` (``body <id>`` when it has none)."""
         return mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}"
 
     # -- the rule -------------------------------------------------------------------------
