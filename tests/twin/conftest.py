@@ -19,10 +19,13 @@ tests/twin/test_leader_staging.py             127.0.0.91 .. 127.0.0.99
 tests/test_examples.py                        127.0.0.101 .. 127.0.0.109
 tests/scripts/test_serve_signals.py           127.0.0.111 .. 127.0.0.119
 tests/real/test_exit_clean.py                 127.0.0.121 .. 127.0.0.129
+tests/eval/test_wire_backend.py               127.0.0.131 .. 127.0.0.139
+tests/scripts/test_serve_rehearsal.py         127.0.0.141 .. 127.0.0.149
 ============================================  ===========================
 
 (tests/twin/test_kit_world.py, test_session_recorder.py, test_episode_spool.py,
-test_stop_signals.py and test_faults.py serve nothing.)
+test_stop_signals.py and test_faults.py serve nothing; test_camera_stream.py and
+test_episode_control.py serve only on 127.0.0.1, on free ports.)
 """
 
 from __future__ import annotations

@@ -40,6 +40,8 @@ from trossen_arm_mujoco.twin.faults import Fault, lag_fault_of
 from trossen_arm_mujoco.twin.frame import Frame
 from trossen_arm_mujoco.twin.pacer import Pacer
 
+__all__ = ["COUPLED_FINGER", "DRIVER_JOINTS", "GROUPS", "KitWorld", "kit_task_names"]
+
 #: MJCF joints of the 7 driver values of one arm (unprefixed), and the coupled finger.
 DRIVER_JOINTS: tuple[str, ...] = (*ARM_JOINTS, "left_carriage_joint")
 COUPLED_FINGER = "right_carriage_joint"
@@ -106,6 +108,9 @@ class KitWorld:
         #: each frame, and with each finished frame.
         self.before_frame: Callable[[], None] | None = None
         self.on_frame: Callable[[Frame], None] | None = None
+        #: More hooks called with each finished frame after ``on_frame`` (stepping thread,
+        #: lock held): e.g. the episode control channel's score (``episode_control``).
+        self.frame_listeners: list[Callable[[Frame], None]] = []
         #: Called (stepping thread, lock held) with ``(side, Fault)`` when an arm's target
         #: runs too far ahead of its setpoint (``faults.lag_fault``, checked while the world
         #: keeps real time: ``pacer.on_time``); the arm is idled.
@@ -240,6 +245,8 @@ class KitWorld:
             self.frames += 1
             if self.on_frame is not None:
                 self.on_frame(frame)
+            for listener in list(self.frame_listeners):
+                listener(frame)
         return frame
 
     def advance(self, seconds: float) -> None:

@@ -28,6 +28,8 @@ from trossen_arm_mujoco.twin.kit_world import KitWorld
 from trossen_arm_mujoco.twin.serving import check_loopback
 from trossen_arm_mujoco.twin.session_recorder import RecordStats, SessionRecorder
 
+__all__ = ["DEFAULT_IPS", "ServedKit", "check_kit_ips", "kit_for_episode"]
+
 #: Default addresses of the served follower arms.
 DEFAULT_IPS: dict[str, str] = {"left": "127.0.0.2", "right": "127.0.0.3"}
 
@@ -102,6 +104,9 @@ class ServedKit:
         self._lock = threading.Lock()
         self._started = False
         self.record_stats: RecordStats | None = None
+        #: Client sessions delimit the recorder's episodes (False: the episode control
+        #: channel's start / end do, ``episode_control``).
+        self.sessions_from_clients = True
 
     def _hook(self, side: str) -> Callable[[str, str], None]:
         def on_event(kind: str, text: str) -> None:
@@ -114,7 +119,7 @@ class ServedKit:
                 elif kind == "fault":
                     self.faults.append(f"{side} arm: {text}")
                 is_open = bool(self._connected)
-            if self.recorder is not None and is_open != was_open:
+            if self.recorder is not None and self.sessions_from_clients and is_open != was_open:
                 if is_open:
                     self.recorder.session_started()
                 else:

@@ -1,0 +1,175 @@
+"""``eval --backend wire``: policies driven through the served kit (the ``trossen_arm`` driver
+and the ZMQ camera stream) in wall-clock time, on 127.0.0.131 .. 127.0.0.136 and free loopback
+ports only. The scripted transfer over 10 episodes (9 s each: it transfers by about 8 s) takes
+about 110 s; the other tests a few seconds each."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import socket
+import textwrap
+import uuid
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("trossen_arm_sim")
+pytest.importorskip("trossen_arm")
+pytest.importorskip("zmq")
+
+from trossen_arm_mujoco.scripts import eval_policy  # noqa: E402
+
+POLICIES = """
+import threading
+import time
+
+STALL_AT, STALL_S, STEPS = 5, 0.0, []
+STREAM = None  # a CameraStream the policy stops at step 10 (set by the test)
+
+
+def hold(obs):
+    STEPS.append(len(STEPS))
+    if len(STEPS) == STALL_AT:
+        if STALL_S > 0:
+            time.sleep(STALL_S)
+        else:
+            threading.Event().wait()  # never answers
+    return obs["agent_pos"]
+
+
+def stop_stream(obs):
+    STEPS.append(len(STEPS))
+    if len(STEPS) == 10:
+        STREAM.stop()
+    return obs["agent_pos"]
+"""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def policies(tmp_path, monkeypatch):
+    name = f"wire_policies_{uuid.uuid4().hex[:8]}"
+    (tmp_path / f"{name}.py").write_text(textwrap.dedent(POLICIES), encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return importlib.import_module(name)
+
+
+def run_eval(tmp_path: Path, left: str, right: str, *flags: str) -> tuple[int, dict | None]:
+    out = tmp_path / f"out_{uuid.uuid4().hex[:6]}"
+    rc = eval_policy.cli([
+        "--backend", "wire", "--left_ip", left, "--right_ip", right,
+        "--camera_port", str(free_port()), "--control_port", str(free_port()),
+        "--output_dir", str(out), *flags,
+    ])  # fmt: skip
+    info = out / "eval_info.json"
+    return rc, json.loads(info.read_text()) if info.exists() else None
+
+
+def test_scripted_transfer_through_the_wire_scores_90_percent(tmp_path) -> None:
+    rc, info = run_eval(tmp_path, "127.0.0.131", "127.0.0.132", "--policy", "scripted",
+                        "--num_episodes", "10", "--episode_length", "450",
+                        "--cam_names", "cam_high", "--image_size", "48x64")  # fmt: skip
+    assert rc == 0 and info is not None
+    assert info["aggregated"]["pc_success"] >= 90.0, info["per_episode"]
+    assert [r["seed"] for r in info["per_episode"]] == list(range(10))  # eval's seeds
+    timing = info["timing"]
+    assert timing["actions"] >= 10 * 440 and timing["missed_periods"] <= 10 * 10
+    assert timing["obs_age_ms_median_of_episodes"] < 1000
+    assert timing["action_latency_ms_median_of_episodes"] < 20  # one 50 fps period
+    assert info["run"]["backend"] == "wire"
+
+
+def test_a_policy_that_stalls_fails_its_episode_with_the_reason(tmp_path, policies) -> None:
+    policies.STALL_S = 0.5
+    rc, info = run_eval(tmp_path, "127.0.0.133", "127.0.0.134", "--policy",
+                        f"{policies.__name__}:hold", "--num_episodes", "2",
+                        "--episode_length", "20", "--action_timeout", "0.3")  # fmt: skip
+    assert rc == 0 and info is not None
+    first, second = info["per_episode"]
+    assert not first["success"] and first["steps"] == 4
+    assert "the policy sent no action for 0.3 s (step " in info["timing"]["failures"]["0"]
+    # the policy answered again: the next episode ran whole (periods missed under load aside)
+    timing = info["timing"]["per_episode"][1]
+    assert "1" not in info["timing"]["failures"]
+    assert second["steps"] == timing["actions"]
+    assert timing["actions"] + timing["missed_periods"] == 20
+    rollouts = json.loads((Path(info["run"]["output_dir"]) / "rollouts.json").read_text())
+    assert "no action" in rollouts["episodes"][0]["failure"]
+
+
+def test_a_policy_that_never_answers_is_reported_not_hung(tmp_path, policies, capsys) -> None:
+    policies.STALL_S = 0.0  # blocks forever at its 5th call
+    rc, info = run_eval(tmp_path, "127.0.0.133", "127.0.0.134", "--policy",
+                        f"{policies.__name__}:hold", "--num_episodes", "2",
+                        "--episode_length", "20", "--action_timeout", "0.3")  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and info is None
+    assert err[-1].startswith("error: ") and "has not answered for more than 0.3 s" in err[-1]
+
+
+def test_a_camera_stream_that_stops_fails_the_episode(tmp_path, policies) -> None:
+    """``--connect`` to a kit served in this process; the policy stops its stream mid-way."""
+    from trossen_arm_mujoco.twin.camera_stream import CameraStream
+    from trossen_arm_mujoco.twin.episode_control import EpisodeControl
+    from trossen_arm_mujoco.twin.kit_world import KitWorld
+    from trossen_arm_mujoco.twin.served_kit import ServedKit
+
+    left, right = "127.0.0.135", "127.0.0.136"
+    cam_port, control_port = free_port(), free_port()
+    world = KitWorld()
+    kit = ServedKit(world, {"left": left, "right": right})
+    stream = CameraStream(world, ["cam_high"], 48, 64, fps=25, port=cam_port)
+    control = EpisodeControl(world, control_port)
+    policies.STREAM = stream
+    try:
+        kit.start()
+        stream.start()
+        control.start()
+        out = tmp_path / "out"
+        rc = eval_policy.cli([
+            "--backend", "wire", "--connect", "--left_ip", left, "--right_ip", right,
+            "--camera_port", str(cam_port), "--control_port", str(control_port),
+            "--policy", f"{policies.__name__}:stop_stream", "--cam_names", "cam_high",
+            "--image_size", "48x64", "--num_episodes", "1", "--episode_length", "200",
+            "--output_dir", str(out),
+        ])  # fmt: skip
+    finally:
+        stream.stop()
+        control.stop()
+        kit.close()
+    assert rc == 0
+    info = json.loads((out / "eval_info.json").read_text())
+    (row,) = info["per_episode"]
+    assert not row["success"] and 10 <= row["steps"] < 200
+    assert "camera stream stopped (cam_high" in info["timing"]["failures"]["0"]
+
+
+@pytest.mark.parametrize(
+    ("flags", "expected"),
+    [
+        (["--left_ip", "192.168.1.5"], "--left_ip '192.168.1.5' is not an IPv4 loopback"),
+        (["--right_ip", "0.0.0.0"], "--right_ip '0.0.0.0' is not an IPv4 loopback"),
+        (["--videos", "1"], "--backend wire runs one episode at a time"),
+        (["--action_timeout", "0"], "--action_timeout must be in"),
+    ],
+)
+def test_mistakes_are_one_line_exit_2(flags, expected, tmp_path, capsys) -> None:
+    rc = eval_policy.cli(["--backend", "wire", "--policy", "scripted", "--num_episodes", "2",
+                          "--output_dir", str(tmp_path / "o"), *flags])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and expected in err[0], err
+
+
+def test_a_kit_that_is_not_there_is_one_line(tmp_path, capsys) -> None:
+    rc = eval_policy.cli(["--backend", "wire", "--connect", "--policy", "scripted",
+                          "--left_ip", "127.0.0.137", "--right_ip", "127.0.0.138",
+                          "--control_port", str(free_port()), "--num_episodes", "1",
+                          "--output_dir", str(tmp_path / "o")])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and err[-1].startswith("error: no episode control channel on 127.0.0.1")

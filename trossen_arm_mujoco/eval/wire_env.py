@@ -1,0 +1,66 @@
+"""The env a policy adapter sees under ``eval --backend wire`` (``eval.wire_backend``).
+
+``eval.policies`` adapters read their env's task, rate, layout, cameras and episode length
+and, for the scripted policy, the episode's object poses. :class:`WireEnv` gives them the
+in-process eval's values (from a ``KitPolicyEnv`` that only draws scenes: reset with a seed,
+never stepped, never rendered) and converts between the env's layout and the driver's 14
+values (per arm: 6 joints rad, gripper m).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.runner import EvalSettings
+from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
+
+__all__ = ["WireEnv"]
+
+
+class WireEnv:
+    """What a policy adapter reads of its env, for the wire: the in-process env's
+    attributes (task, rate, layout, cameras, episode length) from a ``KitPolicyEnv`` that
+    only draws scenes, and the object poses sent to the kit at the last reset."""
+
+    def __init__(self, settings: EvalSettings) -> None:
+        from dataclasses import replace
+
+        self.scenes = replace(settings, cam_names=()).make_env()  # draws scenes, never renders
+        s = self.scenes
+        self.task, self.task_description, self.fps = s.task, s.task_description, s.fps
+        self.layout, self.layout_name = s.layout, s.layout_name
+        self.cam_names, self.image_size = tuple(settings.cam_names), tuple(settings.image_size)
+        self._max_episode_steps, self.max_reward = s._max_episode_steps, s.max_reward
+        self.action_low, self.action_high = s.action_low, s.action_high
+        self._poses: dict[str, np.ndarray] = {}
+
+    def draw_scene(self, seed: int) -> dict[str, np.ndarray]:
+        """The object poses of the in-process eval's ``reset(seed=seed)``."""
+        self.scenes.reset(seed=seed)
+        self._poses = {k: np.asarray(v).copy() for k, v in self.scenes.object_poses().items()}
+        return self._poses
+
+    def object_poses(self) -> dict[str, np.ndarray]:
+        """The object poses of the episode's scene: name -> (7,) world position (m) and
+        quaternion (wxyz), a copy."""
+        return dict(self._poses)
+
+    def to_layout(self, values14: np.ndarray) -> np.ndarray:
+        """14 driver values -> the env's layout (float32)."""
+        v = np.asarray(values14, dtype=np.float64)
+        out = v if self.layout is REAL_KIT_LAYOUT else REAL_KIT_LAYOUT.to_vendor(v)
+        return out.astype(np.float32)
+
+    def to_driver(self, action: np.ndarray) -> np.ndarray:
+        """An action in the env's layout -> 14 driver values, clipped to the joint limits."""
+        a = np.array(action, dtype=np.float64).reshape(-1)
+        if a.shape != (self.layout.size,) or not np.isfinite(a).all():
+            raise UserError(f"the policy's action must be {self.layout.size} finite values "
+                            f"(layout {self.layout_name}), got {np.shape(action)}")  # fmt: skip
+        np.clip(a, self.action_low, self.action_high, out=a)
+        return a if self.layout is REAL_KIT_LAYOUT else REAL_KIT_LAYOUT.from_vendor(a)
+
+    def close(self) -> None:
+        """Release the scene source (its physics)."""
+        self.scenes.close()

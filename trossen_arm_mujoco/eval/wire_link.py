@@ -1,0 +1,280 @@
+"""The client side of a served kit, for ``eval --backend wire``: the ``serve`` process, its
+episode control channel, its camera stream and its two arms through the ``trossen_arm``
+driver. Every address is checked to be IPv4 loopback (127.0.0.0/8) before it is used.
+
+- :class:`KitLink` settings (addresses, ports) and :func:`start_kit` (``serve`` in a child
+  process with ``--cameras`` and ``--control_port``; ``connect`` uses one already running).
+- :class:`ControlClient`: the JSON-lines channel of ``twin.episode_control``.
+- :class:`CameraReader`: a ZeroMQ SUB socket on the stream of ``twin.camera_stream``; keeps
+  the latest image per camera and its timestamp (wall-clock s of the state shown).
+- :class:`ArmPair`: both arms through ``trossen_arm``: position mode, 7 values per arm
+  (6 joints rad, gripper m), read (positions, velocities) and command.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import ipaddress
+import json
+import socket
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+
+__all__ = ["ArmPair", "CameraReader", "ControlClient", "KitLink", "check_loopback", "start_kit"]
+
+#: Seconds to wait for a started ``serve`` to print its first line.
+START_TIMEOUT_S = 120.0
+
+
+def check_loopback(host: str, flag: str) -> str:
+    """``host`` when it is an IPv4 address in 127.0.0.0/8, else a one-line ``UserError``."""
+    try:
+        addr = ipaddress.ip_address(str(host).strip())
+    except ValueError:
+        addr = None
+    if not isinstance(addr, ipaddress.IPv4Address) or not addr.is_loopback:
+        raise UserError(
+            f"{flag} {host!r} is not an IPv4 loopback address: the wire backend talks to the "
+            "simulated kit on this machine only (127.0.0.0/8)"
+        )
+    return str(addr)
+
+
+@dataclass(frozen=True)
+class KitLink:
+    """Where the served kit is: the arms' addresses, the camera stream, the control
+    channel (all loopback); ``connect``: use a ``serve`` already running there."""
+
+    left_ip: str = "127.0.0.2"
+    right_ip: str = "127.0.0.3"
+    host: str = "127.0.0.1"
+    camera_port: int = 5555
+    control_port: int = 5556
+    connect: bool = False
+
+    def checked(self) -> KitLink:
+        """This link, after checking every address is loopback, the arms' addresses differ
+        and the ports are in 1-65535 (UserError naming the flag otherwise)."""
+        for flag, ip in (("--left_ip", self.left_ip), ("--right_ip", self.right_ip),
+                         ("--kit_host", self.host)):  # fmt: skip
+            check_loopback(ip, flag)
+        if self.left_ip == self.right_ip:
+            raise UserError("--left_ip and --right_ip must differ")
+        for flag, port in (("--camera_port", self.camera_port),
+                           ("--control_port", self.control_port)):  # fmt: skip
+            if not 1 <= port <= 65535:
+                raise UserError(f"{flag} must be in 1..65535, got {port}")
+        return self
+
+
+def start_kit(
+    link: KitLink, task: str, cams: tuple[str, ...], size: tuple[int, int], fps: float
+) -> subprocess.Popen:
+    """``serve`` in a child process for ``link``, publishing ``cams`` at ``size`` and ``fps``;
+    returns once it serves. A child that exits first is a ``UserError`` with its last line."""
+    cmd = [sys.executable, "-m", "trossen_arm_mujoco.scripts.serve", "--task_name", task,
+           "--left_ip", link.left_ip, "--right_ip", link.right_ip,
+           "--control_port", str(link.control_port), "--control_host", link.host]  # fmt: skip
+    if cams:
+        cmd += ["--cameras", ",".join(cams), "--image_size", f"{size[0]}x{size[1]}",
+                "--camera_fps", f"{fps:g}", "--camera_port", str(link.camera_port),
+                "--camera_host", link.host]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    errors: list[str] = []
+    for stream, into in ((proc.stdout, lines), (proc.stderr, errors)):  # drained: never full
+        threading.Thread(target=into.extend, args=(stream,), daemon=True).start()
+    proc.lines = lines  # type: ignore[attr-defined]  (what serve printed, for stop_kit)
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while time.monotonic() < deadline:
+        if any(line.startswith("serving ") for line in lines):
+            return proc
+        if proc.poll() is not None:
+            time.sleep(0.2)  # the readers catch the last lines
+            why = (errors or lines or ["no output"])[-1].strip().removeprefix("error: ")
+            raise UserError(f"the served kit did not start: {why}")
+        time.sleep(0.05)
+    stop_kit(proc)
+    raise UserError(f"the served kit did not start within {START_TIMEOUT_S:.0f} s")
+
+
+def stop_kit(proc: subprocess.Popen | None) -> list[str]:
+    """Stop a kit started by :func:`start_kit` (SIGINT, then kill after 30 s); the lines it
+    printed (its last ones: the camera stream's rate and frame age, its real-time factor)."""
+    if proc is None:
+        return []
+    if proc.poll() is None:
+        import signal
+
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    time.sleep(0.2)  # the reader catches the last lines
+    return [line.strip() for line in getattr(proc, "lines", [])]
+
+
+class ControlClient:
+    """The kit's episode control channel (``twin.episode_control``)."""
+
+    def __init__(self, host: str, port: int, timeout: float = 15.0) -> None:
+        host = check_loopback(host, "--kit_host")
+        try:
+            self.sock = socket.create_connection((host, port), timeout=timeout)
+        except OSError as exc:
+            raise UserError(f"no episode control channel on {host}:{port} ({exc}); start the "
+                            "kit with serve --control_port PORT") from None  # fmt: skip
+        self.file = self.sock.makefile("rwb")
+
+    def request(self, cmd: str, **fields: Any) -> dict[str, Any]:
+        """Send one request; its reply (``ok`` true), else a ``UserError`` with the kit's."""
+        try:
+            self.file.write((json.dumps({"cmd": cmd, **fields}) + "\n").encode())
+            self.file.flush()
+            line = self.file.readline()
+        except OSError as exc:
+            raise UserError(f"the served kit's control channel failed ({exc})") from None
+        if not line:
+            raise UserError("the served kit closed its control channel (did serve stop?)")
+        reply = json.loads(line)
+        if not reply.get("ok"):
+            raise UserError(f"the served kit refused {cmd}: {reply.get('error')}")
+        return reply
+
+    def close(self) -> None:
+        """Close the control connection (errors ignored)."""
+        try:
+            self.file.close()
+            self.sock.close()
+        except OSError:
+            pass
+
+
+class CameraReader:
+    """Latest image of each camera on the stream at ``tcp://host:port`` (a daemon thread
+    decodes every message; see ``twin.camera_stream`` for the format and colours)."""
+
+    def __init__(self, host: str, port: int) -> None:
+        try:
+            import zmq
+        except ImportError:
+            raise UserError("--backend wire with cameras needs pyzmq: pip install "
+                            "'trossen-arm-mujoco[cameras]'") from None  # fmt: skip
+        self._zmq = zmq
+        self._ctx = zmq.Context()
+        self._sock = self._ctx.socket(zmq.SUB)
+        self._sock.setsockopt_string(zmq.SUBSCRIBE, "")
+        self._sock.setsockopt(zmq.RCVTIMEO, 200)
+        self._sock.connect(f"tcp://{check_loopback(host, '--kit_host')}:{port}")
+        self._lock = threading.Lock()
+        self.latest: dict[str, tuple[np.ndarray, float]] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="wire-cameras", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        from PIL import Image
+
+        while not self._stop.is_set():
+            try:
+                msg = json.loads(self._sock.recv_string())
+            except self._zmq.Again:
+                continue
+            except self._zmq.ZMQError:
+                return
+            stamps = msg.get("timestamps", {})
+            for name, text in msg.get("images", {}).items():
+                with Image.open(io.BytesIO(base64.b64decode(text))) as img:
+                    rgb = np.ascontiguousarray(np.asarray(img.convert("RGB"))[..., ::-1])
+                with self._lock:
+                    self.latest[name] = (rgb, float(stamps.get(name, 0.0)))
+
+    def frames(self) -> dict[str, tuple[np.ndarray, float]]:
+        """Camera -> (latest RGB image, its timestamp)."""
+        with self._lock:
+            return dict(self.latest)
+
+    def wait_newer(self, names: tuple[str, ...], after: float, timeout: float) -> bool:
+        """Wait until every camera of ``names`` has an image stamped after ``after``."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            got = self.frames()
+            if all(n in got and got[n][1] > after for n in names):
+                return True
+            time.sleep(0.005)
+        return False
+
+    def close(self) -> None:
+        """Stop the reader thread and close its ZeroMQ socket and context."""
+        self._stop.set()
+        self._thread.join(2.0)
+        self._sock.close(0)
+        self._ctx.term()
+
+
+class ArmPair:
+    """Both arms through ``trossen_arm`` (``configure`` with the follower preset, position
+    mode); :meth:`read` gives 14 values (left then right: 6 joints rad, gripper m)."""
+
+    def __init__(self, left_ip: str, right_ip: str, timeout: float = 10.0) -> None:
+        from trossen_arm_mujoco.real.driver import (
+            DEFAULT_END_EFFECTOR,
+            DEFAULT_MODEL,
+            import_trossen_arm,
+            resolve_presets,
+        )
+
+        self._ta = ta = import_trossen_arm()
+        self._presets = resolve_presets(ta, DEFAULT_MODEL, DEFAULT_END_EFFECTOR)
+        self.ips = [check_loopback(left_ip, "--left_ip"), check_loopback(right_ip, "--right_ip")]
+        self.timeout = timeout
+        #: What the driver raises once a controller is in an error state.
+        self.errors: tuple[type[BaseException], ...] = (RuntimeError,)
+        self.drivers: list[Any] = []
+        self.connect()
+
+    def connect(self) -> None:
+        """(Re)configure both arms, clearing any error state, in position mode."""
+        self.close()
+        try:
+            for ip in self.ips:
+                driver = self._ta.TrossenArmDriver()
+                self.drivers.append(driver)
+                driver.configure(*self._presets, ip, True, self.timeout)
+                driver.set_all_modes(self._ta.Mode.position)
+        except Exception as exc:
+            self.close()
+            raise UserError(f"cannot drive the served kit's arms ({' '.join(str(exc).split())})"
+                            ) from None  # fmt: skip
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities, 14 values each."""
+        pos = np.concatenate([np.asarray(d.get_all_positions()) for d in self.drivers])
+        vel = np.concatenate([np.asarray(d.get_all_velocities()) for d in self.drivers])
+        return pos, vel
+
+    def command(self, values14: np.ndarray, goal_time: float) -> None:
+        """Send 7 goal positions to each arm (non-blocking, reached after ``goal_time`` s)."""
+        for i, driver in enumerate(self.drivers):
+            goal = [float(v) for v in values14[7 * i : 7 * i + 7]]
+            driver.set_all_positions(goal, float(goal_time), False)
+
+    def close(self) -> None:
+        """``cleanup()`` each arm's driver (errors ignored) and forget them."""
+        for driver in self.drivers:
+            try:
+                driver.cleanup()
+            except Exception:
+                pass
+        self.drivers = []

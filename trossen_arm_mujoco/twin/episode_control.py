@@ -1,0 +1,275 @@
+"""Episodes on the served kit: a small loopback control channel (JSON lines over TCP).
+
+``serve --control_port P`` listens on ``127.0.0.1:P`` (``--control_host``, in 127.0.0.0/8
+only). A client sends one JSON object per line and gets one JSON object per line back,
+``{"ok": true, ...}`` or ``{"ok": false, "error": "..."}``::
+
+    {"cmd": "start", "seed": 7}             the scene record --seed 7 records as its episode 0
+    {"cmd": "start", "seed": 7, "episode": 3}          ... as its episode 3
+    {"cmd": "start", "seed": 7, "object_poses": {"box": [x, y, z, qw, qx, qy, qz]}}
+                                            objects placed at these poses (m, quat wxyz);
+                                            eval --backend wire sends the poses of the
+                                            in-process eval's env.reset(seed=7)
+    {"cmd": "end"}                          ends the episode; replies its score
+    {"cmd": "status"}                       the episode now (and the sim-only ground truth)
+
+``start`` puts both arms back at the task's initial pose (sim only: the world is reset,
+the clients stay connected; their next position command moves them on) and the objects at
+the episode's poses; scoring runs from the next frame. Replies of ``start``, ``end`` and
+``status`` carry::
+
+    task, episode (record index), seed (run seed), running, frames (world frames scored),
+    sim_time (s), reward (now), max_reward, sum_reward (over the frames), task_max_reward,
+    success (the task judged success at any frame), stages {"1": s, "2": s, ...}: the first
+    time (s after start) each reward level was reached (eval.scores.STAGES names them),
+    object_names, env_state (sim-only: object poses now, 7 values each, the
+    ``observation.environment_state`` of state-based checkpoints)
+
+With ``serve --record``, each ``start`` .. ``end`` is one episode file (client connections
+then no longer delimit episodes). Requests are applied by the stepping thread between two
+frames (at most one per frame), so a start and the recording it begins see the same scene.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import queue
+import socket
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.twin.frame import Frame
+from trossen_arm_mujoco.twin.kit_world import KitWorld
+from trossen_arm_mujoco.twin.serving import check_loopback, shut
+
+__all__ = ["EpisodeControl", "EpisodeTracker", "MAX_SEED"]
+
+log = logging.getLogger(__name__)
+
+#: Largest run seed (as ``record``).
+MAX_SEED = 2**63 - 1
+#: Seconds a request waits for the stepping thread to apply it.
+APPLY_TIMEOUT_S = 10.0
+#: Longest request line accepted (bytes).
+MAX_LINE = 1 << 16
+
+
+class EpisodeTracker:
+    """The score of the running episode, fed every frame (stepping thread, lock held)."""
+
+    def __init__(self, world: KitWorld) -> None:
+        self.world = world
+        self.running = False
+        self._reset_counts()
+
+    def _reset_counts(self) -> None:
+        self.frames, self.sum_reward, self.max_reward, self.reward = 0, 0.0, 0.0, 0.0
+        self.success, self.start_time, self.stages = False, float(self.world.data.time), {}
+
+    def begin(self) -> None:
+        """Start counting an episode from the world's current state."""
+        self._reset_counts()
+        self.reward = float(self.world.task.get_reward())
+        self.running = True
+
+    def on_frame(self, frame: Frame) -> None:
+        """Add one world frame (its reward and success) to the running episode's totals
+        and first stage times; ignored when no episode runs."""
+        if not self.running:
+            return
+        r = float(frame.reward)
+        self.frames += 1
+        self.reward, self.sum_reward = r, self.sum_reward + r
+        self.max_reward = max(self.max_reward, r)
+        self.success = self.success or bool(frame.success)
+        t = float(self.world.data.time) - self.start_time
+        for level in range(1, int(np.floor(r)) + 1):
+            self.stages.setdefault(str(level), round(t, 4))
+
+    def report(self) -> dict[str, Any]:
+        """The reply fields (see the module doc)."""
+        w = self.world
+        poses = w.object_poses()
+        return {
+            "task": w.task_name, "episode": w.episode_index, "seed": w.base_seed,
+            "running": self.running, "frames": self.frames,
+            "sim_time": round(float(w.data.time) - self.start_time, 6),
+            "reward": self.reward, "max_reward": self.max_reward, "sum_reward": self.sum_reward,
+            "task_max_reward": float(getattr(w.task, "max_reward", 1.0)),
+            "success": self.success, "stages": dict(self.stages),
+            "object_names": list(poses), "env_state": w.env_state().tolist(),
+        }  # fmt: skip
+
+
+class EpisodeControl:
+    """The control channel of ``world``; see the module doc.
+
+    Args:
+        world: the served world (its ``frame_listeners`` get the tracker).
+        port: TCP port on ``host``; one in use is a one-line ``UserError``.
+        host: address in 127.0.0.0/8.
+        recorder: a ``SessionRecorder`` whose episodes follow start / end (optional).
+        say: one line per episode start and end (optional).
+    """
+
+    def __init__(
+        self,
+        world: KitWorld,
+        port: int,
+        host: str = "127.0.0.1",
+        recorder: Any = None,
+        say: Callable[[str], None] | None = None,
+    ) -> None:
+        self.host = check_loopback(host, "--control_host")
+        if not 1 <= int(port) <= 65535:
+            raise UserError(f"--control_port must be in 1..65535, got {port}")
+        self.world, self.port, self.recorder, self.say = world, int(port), recorder, say
+        self.tracker = EpisodeTracker(world)
+        self._requests: queue.Queue = queue.Queue()
+        self._listen = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._listen.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            self._listen.bind((self.host, self.port))
+        except OSError as exc:
+            self._listen.close()
+            raise UserError(
+                f"cannot serve the control channel on {self.host}:{self.port} "
+                f"({exc.strerror}); choose another --control_port"
+            ) from None
+        self._listen.listen(4)
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._clients: list[socket.socket] = []
+        world.frame_listeners.append(self._on_frame)
+
+    def start(self) -> EpisodeControl:
+        """Accept clients in a daemon thread until :meth:`stop`."""
+        t = threading.Thread(target=self._accept, name="kit-control", daemon=True)
+        t.start()
+        self._threads.append(t)
+        return self
+
+    # -- stepping thread (lock held) ------------------------------------------------------
+    def _on_frame(self, frame: Frame) -> None:
+        self.tracker.on_frame(frame)
+        try:
+            request, done = self._requests.get_nowait()  # one per frame
+        except queue.Empty:
+            return
+        try:
+            done.append(self._apply(request))
+        except UserError as exc:
+            done.append({"ok": False, "error": str(exc)})
+        except Exception as exc:  # a bad request must not stop the world
+            done.append({"ok": False, "error": f"{type(exc).__name__}: {exc}"})
+
+    def _apply(self, request: dict[str, Any]) -> dict[str, Any]:
+        cmd = request["cmd"]
+        if cmd == "start":
+            seed, episode, poses = _start_args(request, self.world)
+            self.world.base_seed = seed
+            self.world.reset(episode, object_poses=poses)
+            self.tracker.begin()
+            if self.recorder is not None:
+                self.recorder.session_started()
+            if self.say is not None:
+                self.say(f"episode started: seed {seed}, episode {episode}"
+                         + (" (objects placed by the client)" if poses else ""))  # fmt: skip
+        elif cmd == "end":
+            if not self.tracker.running:
+                raise UserError("no episode is running: send start first")
+            self.tracker.running = False
+            if self.recorder is not None:
+                self.recorder.session_ended()
+            if self.say is not None:
+                t = self.tracker
+                self.say(f"episode ended: max reward {t.max_reward:g}, "
+                         f"{'success' if t.success else 'no success'}")  # fmt: skip
+        return {"ok": True, **self.tracker.report()}
+
+    # -- server threads -------------------------------------------------------------------
+    def _accept(self) -> None:
+        while not self._stop.is_set():
+            try:
+                conn, _ = self._listen.accept()
+            except OSError:
+                return
+            self._clients.append(conn)
+            t = threading.Thread(target=self._serve, args=(conn,), name="kit-control-client",
+                                 daemon=True)  # fmt: skip
+            t.start()
+            self._threads.append(t)
+
+    def _serve(self, conn: socket.socket) -> None:
+        reader = conn.makefile("rb")
+        try:
+            for line in reader:
+                if len(line) > MAX_LINE:
+                    reply = {"ok": False, "error": "request line too long"}
+                else:
+                    reply = self.handle(line)
+                conn.sendall((json.dumps(reply) + "\n").encode())
+        except OSError:
+            pass
+        finally:
+            reader.close()
+            shut(conn)
+
+    def handle(self, line: bytes | str) -> dict[str, Any]:
+        """One request line -> its reply (``status`` at once; ``start`` and ``end`` applied
+        by the stepping thread between two frames)."""
+        try:
+            request = json.loads(line)
+        except ValueError as exc:
+            return {"ok": False, "error": f"not a JSON line: {exc}"}
+        if not isinstance(request, dict) or request.get("cmd") not in ("start", "end", "status"):
+            return {"ok": False, "error": 'expected {"cmd": "start" | "end" | "status", ...}'}
+        if request["cmd"] == "status":
+            with self.world.lock:
+                return {"ok": True, **self.tracker.report()}
+        done: list[dict[str, Any]] = []
+        self._requests.put((request, done))
+        waited = 0.0
+        while not done and waited < APPLY_TIMEOUT_S and not self._stop.is_set():
+            self._stop.wait(0.002)
+            waited += 0.002
+        return done[0] if done else {"ok": False, "error": "the world is not stepping"}
+
+    def stop(self) -> None:
+        """Close the channel and its clients (idempotent)."""
+        self._stop.set()
+        shut(self._listen)
+        for conn in list(self._clients):
+            shut(conn)
+        for t in self._threads:
+            t.join(2.0)
+        if self._on_frame in self.world.frame_listeners:
+            self.world.frame_listeners.remove(self._on_frame)
+
+
+def _start_args(request: dict[str, Any], world: KitWorld) -> tuple[int, int, dict | None]:
+    """``start``'s seed, episode and object poses, checked (``UserError`` otherwise)."""
+    seed, episode = request.get("seed", world.base_seed), request.get("episode", 0)
+    for name, value, top in (("seed", seed, MAX_SEED), ("episode", episode, 10**9)):
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= top:
+            raise UserError(f"start: {name} must be an int in 0..{top}, got {value!r}")
+    raw = request.get("object_poses")
+    if raw is None:
+        return seed, episode, None
+    names = list(world.object_poses())
+    if not isinstance(raw, dict):
+        raise UserError("start: object_poses must be {name: [x, y, z, qw, qx, qy, qz]}")
+    poses = {}
+    for name, pose in raw.items():
+        if name not in names:
+            raise UserError(f"start: unknown object '{name}'; objects: {', '.join(names)}")
+        p = np.asarray(pose, dtype=np.float64).reshape(-1)
+        if p.shape != (7,) or not np.isfinite(p).all():
+            raise UserError(f"start: the pose of '{name}' must be 7 finite numbers")
+        poses[name] = p
+    return seed, episode, poses
