@@ -32,6 +32,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
+
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
@@ -57,7 +59,7 @@ def mj_step_time(model: mujoco.MjModel, n: int, repeats: int, clock) -> float:
 def episode_row(name: str, args, clock) -> str:
     from trossen_arm_mujoco.tasks import registry
 
-    on = registry.make_sampler(name, randomize=True)
+    on = registry.make_sampler(name, SamplerSettings(randomize=True))
     off = registry.make_sampler(name)
     view = on.robot_view
     on.sample_task(0)

@@ -193,7 +193,7 @@ class TipHeightTask(Task):
 
     def __init__(self, env, config, target: float = 0.2):
         super().__init__(env, config)
-        self.arm = self.robot.view.group("arm")
+        self.arm = self.robot.view.get_move_group("arm")
         self.target = np.array([target])  # (1,) m
         self.tolerance = float(self.config["success_tolerance"])
 

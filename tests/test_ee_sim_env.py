@@ -87,7 +87,7 @@ def test_custom_task_reward_sees_contacts():
     env = make_sim_env(MyEETask, cam_list=[])
     env.reset()
     physics = env.physics
-    tool = env.task.robot(physics).view.group("left_arm").get_frame_pose(physics.data.ptr)
+    tool = env.task.robot(physics).view.get_move_group("left_arm").get_frame_pose(physics.data.ptr)
     # cube inside the left gripper, rotated like the tool frame, 25 mm before the tips
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, tool[3:])

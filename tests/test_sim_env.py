@@ -95,7 +95,7 @@ def test_custom_task_reward_sees_contacts():
     env = make_sim_env(MyJointTask, cam_list=[])
     env.reset()
     physics = env.physics
-    tool = env.task.robot(physics).view.group("right_arm").get_frame_pose(physics.data.ptr)
+    tool = env.task.robot(physics).view.get_move_group("right_arm").get_frame_pose(physics.data.ptr)
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, tool[3:])
     center = tool[:3] - 0.025 * rot.reshape(3, 3)[:, 0]

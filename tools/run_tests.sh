@@ -15,12 +15,19 @@ $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends \
     libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri \
     xvfb x11-apps imagemagick ffmpeg >/dev/null
+# Headless Chromium: tests/docs screenshots the built documentation site.
+$SUDO apt-get install -y -qq --no-install-recommends chromium fonts-dejavu-core >/dev/null
 
 python -m pip install -q --upgrade pip
 # torch (for stable-baselines3) as the CPU build: without a torch already installed, [dev]
 # would pull the multi-GB CUDA build. TORCH_SPEC overrides it (e.g. a CUDA machine's pin).
 python -m pip install -q "${TORCH_SPEC:-torch==2.13.0}" || python -m pip install -q torch
-python -m pip install -q -e ".[dev]"
+python -m pip install -q -e ".[dev,cameras,docs]"
+
+# The documentation site, strictly (a warning or a broken link fails), into site/ (git-ignored);
+# tests/docs checks it (TROSSEN_DOCS_REQUIRED turns their "site not built" skip into a failure).
+NO_MKDOCS_2_WARNING=1 python -m mkdocs build --strict --quiet
+export TROSSEN_DOCS_REQUIRED=1
 
 # LeRobot (the real dataset loader, lerobot-train and lerobot-eval the export and the env plugin
 # are tested against) needs Python >= 3.12: a second venv, reused while it holds the pinned
@@ -54,10 +61,12 @@ if ! "$LEROBOT_VENV/bin/python" -c "import lerobot, accelerate, sys; sys.exit(le
     done
     echo "LeRobot venv installed in $(( $(date +%s) - start )) s: $LEROBOT_VENV"
 fi
-"$LEROBOT_VENV/bin/python" -m pip install -q -e ".[dev,train]" -e plugins/lerobot_env_trossen
+"$LEROBOT_VENV/bin/python" -m pip install -q -e ".[dev,train,cameras]" -e plugins/lerobot_env_trossen
 export TROSSEN_LEROBOT_PYTHON="$LEROBOT_VENV/bin/python"
 
 # The suite on this Python (3.11 in CI), then the same suite on 3.12
-# next to LeRobot 0.6.1.
+# next to LeRobot 0.6.1. Run once, on this Python: the documentation tests (they check the
+# site) and the 10-episode wall-clock eval through the wire (about 100 s of real time).
 MUJOCO_GL=egl python -m pytest -q
-MUJOCO_GL=egl "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider
+MUJOCO_GL=egl "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider --ignore=tests/docs \
+    --deselect tests/eval/test_wire_backend.py::test_scripted_transfer_through_the_wire_scores_90_percent

@@ -12,6 +12,8 @@ rendering context instead (see ``_DeferredGLFinder``).
 import os as _os
 import sys as _sys
 
+__all__: list[str] = []  # submodules only: import them by name
+
 # Headless rendering by default (EGL); set MUJOCO_GL yourself to choose another backend.
 _os.environ.setdefault("MUJOCO_GL", "egl")
 

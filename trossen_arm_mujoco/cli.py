@@ -14,6 +14,8 @@ from collections.abc import Sequence
 
 from trossen_arm_mujoco.errors import report_error, run_cli, unknown_name_error
 
+__all__ = ["SUBCOMMANDS", "USAGE", "main"]
+
 SUBCOMMANDS = {
     "record": "trossen_arm_mujoco.scripts.record_sim_episodes",
     "visualize": "trossen_arm_mujoco.scripts.visualize_eps",
@@ -38,6 +40,8 @@ USAGE = (
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``trossen-mujoco <command> [flags]``: import the command's module and run its
+    ``cli``. Returns the exit status (0 done, 2 a user error, 130/143 interrupted)."""
     args = list(sys.argv[1:] if argv is None else argv)
     if not args or args[0] in ("-h", "--help"):
         print(USAGE)

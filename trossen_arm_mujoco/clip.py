@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+__all__ = ["clip"]
+
 
 def clip(x: Any, low: Any, high: Any, out: np.ndarray | None = None) -> Any:
     """``x`` clipped into [``low``, ``high``] (broadcasting), into ``out`` when given.

@@ -27,6 +27,23 @@ from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
 from trossen_arm_mujoco.images import write_png
 from trossen_arm_mujoco.viewer import close_viewer, display_problem, launch_viewer
 
+__all__ = [
+    "CIRCLE_PERIOD",
+    "CIRCLE_RADIUS",
+    "FLAVOURS",
+    "GRIPPER_PERIOD",
+    "HEADLESS_STEPS",
+    "IMAGE_SIZE",
+    "JOINT_WAVES",
+    "RAMP_S",
+    "build_parser",
+    "demo_main",
+    "gripper_opening",
+    "run_headless",
+    "run_live",
+    "scripted_action",
+]
+
 FLAVOURS = ("ee", "joint")
 HEADLESS_STEPS = 25
 IMAGE_SIZE = (480, 640)  # (height, width)
@@ -177,6 +194,8 @@ def run_headless(flavour: str, seconds: float, seed: int | None, out_dir: Path) 
 
 
 def build_parser(flavour: str) -> argparse.ArgumentParser:
+    """The argument parser of the ``flavour`` demo (``"ee"``: ``ee_sim_env.py``,
+    ``"joint"``: ``sim_env.py``)."""
     script = "ee_sim_env.py" if flavour == "ee" else "sim_env.py"
     kind = "mocap (end-effector)" if flavour == "ee" else "joint-position"
     parser = ArgumentParser(

@@ -23,6 +23,28 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
+__all__ = [
+    "EXIT_INTERRUPTED",
+    "EXIT_TERMINATED",
+    "EXIT_USER_ERROR",
+    "TERMINATING_SIGNALS",
+    "ArgumentParser",
+    "Terminated",
+    "UserError",
+    "describe_os_error",
+    "interrupt_note",
+    "note",
+    "os_error_hint",
+    "plain_warnings",
+    "raise_interrupt",
+    "raise_terminated",
+    "redeliver_if_in_finalizer",
+    "report_error",
+    "run_cli",
+    "show_warning_as_note",
+    "unknown_name_error",
+]
+
 #: Exit status of a command-line entry point after a user error.
 EXIT_USER_ERROR = 2
 #: Exit status after Ctrl-C (128 + SIGINT).

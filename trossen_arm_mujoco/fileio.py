@@ -38,6 +38,26 @@ from trossen_arm_mujoco.errors import (
     os_error_hint,
 )
 
+__all__ = [
+    "DEFERRED_SIGNALS",
+    "PROBE_PREFIX",
+    "FolderBusyError",
+    "PathLike",
+    "atomic_path",
+    "check_folder_path",
+    "check_writable_dir",
+    "deferred_signals",
+    "folder_lock",
+    "folder_problem",
+    "fsync_dir",
+    "fsync_file",
+    "publish",
+    "remove_stale_temps",
+    "temp_path",
+    "write_bytes",
+    "write_text",
+]
+
 PathLike = str | os.PathLike[str]
 
 #: Signals held by :func:`deferred_signals`: Ctrl-C and those that would end the process.

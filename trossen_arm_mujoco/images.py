@@ -11,6 +11,8 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import write_bytes
 
+__all__ = ["encode_png", "write_png"]
+
 
 def _rgb(image: np.ndarray) -> np.ndarray:
     img = np.asarray(image)

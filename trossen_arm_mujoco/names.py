@@ -6,6 +6,8 @@ import mujoco
 
 from trossen_arm_mujoco.errors import unknown_name_error
 
+__all__ = ["lookup_id", "names_of"]
+
 _OBJ = {
     "body": (mujoco.mjtObj.mjOBJ_BODY, "nbody"),
     "joint": (mujoco.mjtObj.mjOBJ_JOINT, "njnt"),

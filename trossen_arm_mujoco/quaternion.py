@@ -6,6 +6,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+__all__ = ["Quaternion"]
+
 
 class Quaternion:
     """Quaternion [w, x, y, z].
@@ -55,15 +57,18 @@ class Quaternion:
 
     @property
     def conjugate(self) -> Quaternion:
+        """The conjugate [w, -x, -y, -z] (the inverse of a unit quaternion)."""
         w, x, y, z = self.elements
         return Quaternion([w, -x, -y, -z])
 
     @property
     def normalised(self) -> Quaternion:
+        """This quaternion scaled to unit norm."""
         return Quaternion(self.elements / np.linalg.norm(self.elements))
 
     @property
     def inverse(self) -> Quaternion:
+        """The multiplicative inverse: conjugate / squared norm."""
         return Quaternion(self.conjugate.elements / np.dot(self.elements, self.elements))
 
     def rotate(self, vector: Sequence[float]) -> np.ndarray:

@@ -17,6 +17,14 @@ import warnings
 import mujoco
 import numpy as np
 
+__all__ = [
+    "VIEWER_START_TIMEOUT_S",
+    "LiveViewer",
+    "close_viewer",
+    "display_problem",
+    "launch_viewer",
+]
+
 #: Seconds to wait for the viewer window before giving up.
 VIEWER_START_TIMEOUT_S = 20.0
 
@@ -110,6 +118,8 @@ class LiveViewer:
 
     @classmethod
     def open(cls, model: mujoco.MjModel, data: mujoco.MjData) -> LiveViewer | None:
+        """A passive MuJoCo viewer of ``model`` / ``data``, or None (with a note on
+        stderr) when no window can be opened."""
         problem = display_problem(probe_window=False)
         if problem:
             print(f"live view off: {problem}; continuing headless", file=sys.stderr)
@@ -124,6 +134,7 @@ class LiveViewer:
         return cls(handle, threads)
 
     def is_running(self) -> bool:
+        """Whether the viewer window is still open."""
         return bool(self.handle.is_running())
 
     def update(self, images: dict[str, np.ndarray] | None = None) -> bool:
@@ -149,6 +160,7 @@ class LiveViewer:
             pass
 
     def close(self) -> None:
+        """Close the window and stop its threads; errors while closing are ignored."""
         try:
             close_viewer(self.handle, self.threads)
         except Exception:

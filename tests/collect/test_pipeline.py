@@ -13,6 +13,7 @@ from trossen_arm_mujoco.collect.pipeline import (
 )
 from trossen_arm_mujoco.data.reader import load_episode
 from trossen_arm_mujoco.sim_env import TransferCubeTask
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.utils import make_sim_env
 
 CAMS = ("cam_high", "cam_left_wrist")
@@ -221,8 +222,9 @@ def test_stored_record_re_renders_the_episode_exactly(tmp_path):
     record = record_from_json(ep.attrs["randomization"])
     names = list(ep.attrs["object_names"])
     poses = dict(zip(names, np.asarray(ep.attrs["initial_env_state"]).reshape(-1, 7)))
-    sampler = registry.make_sampler("sim_transfer_cube", camera_names=["cam_high"],
-                                    height=24, width=32)  # fmt: skip
+    sampler = registry.make_sampler(
+        "sim_transfer_cube", SamplerSettings(camera_names=["cam_high"], height=24, width=32)
+    )
     try:
         task = sampler.sample_task(0, object_poses=poses, randomization=record)
         with ep.open_frames() as frames:

@@ -76,7 +76,7 @@ def test_safety_floor_joint_position(make_env):
     u = env.unwrapped
     arm = u.task.arm
     # joint_1 (shoulder) far forward, elbow extended: the tool would go under the table
-    low, high = arm.ctrl_limits()
+    low, high = arm.ctrl_limits.T
     target = np.array([0.0, 2.6, 0.3, 0.0, 0.0, 0.0])
     action = np.append(2 * (target - low) / (high - low) - 1, 1.0)
     kin = Kinematics(u.scene.model, arm.frame_site_id, arm.qpos_idx, arm.dof_idx, arm.joint_range)

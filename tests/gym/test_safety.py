@@ -91,7 +91,7 @@ KIT = "TrossenMujoco/StationaryAITransferCube-v0"
 
 
 def _joint_action(env, target: np.ndarray, gripper: float = 1.0) -> np.ndarray:
-    low, high = env.unwrapped.task.arm.ctrl_limits()
+    low, high = env.unwrapped.task.arm.ctrl_limits.T
     return np.append(2 * (target - low) / (high - low) - 1, gripper)
 
 
@@ -165,7 +165,7 @@ def test_the_floor_checks_where_the_joint_targets_end_the_tick(make_env, monkeyp
         env.step(_joint_action(env, far))
         assert len(checked) == before + 1  # one pass per tick (one tick per Reach step)
         assert np.array_equal(checked[-1], arm.get_ctrl(u.scene.data))
-    assert not np.allclose(checked[-1], np.clip(far, *arm.ctrl_limits()))  # not the target
+    assert not np.allclose(checked[-1], np.clip(far, *arm.ctrl_limits.T))  # not the target
 
 
 def test_normal_action_is_not_clipped(make_env):
@@ -266,7 +266,7 @@ def test_below_flags_exactly_the_arms_with_a_point_under_the_floor(make_env, env
     for _ in range(200):
         targets = {}
         for name in sorted(floor.arms):
-            low, high = view.group(name).joint_range.T
+            low, high = view.get_move_group(name).joint_range.T
             targets[name] = rng.uniform(low, high)
         qpos = data.qpos.copy()
         below = floor.below(data.qpos, targets)
@@ -295,17 +295,17 @@ def test_dm_control_joint_env_and_gym_env_clip_alike(make_env):
               (dm_env.physics.model.ptr, dm_env.physics.data.ptr,
                dm_env.task.robot(dm_env.physics))]  # fmt: skip
     groups = KIT_LAYOUT.groups  # both arms and grippers
-    start = {g: u.task.robot.view.group(g).get_qpos(u.scene.data) for g in groups}
+    start = {g: u.task.robot.view.get_move_group(g).get_qpos(u.scene.data) for g in groups}
     for model, data, robot in worlds:  # the same arms, at rest, holding
         for g, q in start.items():
-            robot.view.group(g).set_qpos(data, q)
+            robot.view.get_move_group(g).set_qpos(data, q)
         data.qvel[:] = 0.0
         mujoco.mj_forward(model, data)
         robot.hold(data)
     floor = worlds[0][2].safety_floor
     assert worlds[1][2].safety_floor.floor_z == floor.floor_z == 0.02
     # right arm: elbow into the table; left arm where it is
-    low, high = u.task.robot.view.group("right_arm").ctrl_limits()
+    low, high = u.task.robot.view.get_move_group("right_arm").ctrl_limits.T
     target = np.clip(ELBOW_DOWN, low, high)
     assert floor.lowest(u.scene.data.qpos, "right_arm", target)[0] < floor.floor_z - 0.03
     action = np.zeros(14)

@@ -53,8 +53,8 @@ def observation(env: MujocoEnv) -> dict:
         "env_state": np.concatenate(
             [env.objects["peg"].get_pose(env.data), env.objects["socket"].get_pose(env.data)]
         ),
-        "mocap_pose_left": view.group("left_arm").get_ctrl(env.data),
-        "mocap_pose_right": view.group("right_arm").get_ctrl(env.data),
+        "mocap_pose_left": view.get_move_group("left_arm").get_ctrl(env.data),
+        "mocap_pose_right": view.get_move_group("right_arm").get_ctrl(env.data),
     }
 
 
@@ -97,7 +97,7 @@ def episode():
     env = start_env(
         "trossen_ai_insertion_scene_joint.xml", stationary_ai_joint_config(), peg, socket
     )
-    ranges = np.concatenate([env.robots[ROBOT].view.group(g).joint_range for g in GROUPS])
+    ranges = np.concatenate([env.robots[ROBOT].view.get_move_group(g).joint_range for g in GROUPS])
     assert np.all(actions >= ranges[:, 0] - 1e-3) and np.all(actions <= ranges[:, 1] + 1e-3)
     np.clip(actions, ranges[:, 0], ranges[:, 1], out=actions)
     reward = InsertionReward(env.model)

@@ -26,7 +26,7 @@ def test_simply_actuated_group(wxai):
     arm = ArmMoveGroup(wxai, "arm", ARM_JOINTS, ARM_JOINTS, "ee_site")
     assert isinstance(arm, SimplyActuatedMoveGroup)
     assert arm.ctrl_dim == 6
-    low, high = arm.ctrl_limits()
+    low, high = arm.ctrl_limits.T
     np.testing.assert_allclose(low, arm.joint_range[:, 0])  # inheritrange="1"
     np.testing.assert_allclose(high, arm.joint_range[:, 1])
     arm.set_ctrl(data, [0.1, 0.2, 0.3, 0.4, 0.5, 0.6])

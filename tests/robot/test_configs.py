@@ -39,7 +39,7 @@ def test_every_config_builds_on_its_model(make, xml):
     assert set(config.command_mode) <= set(config.groups)
     assert set(config.init_qpos) <= set(config.groups)
     for name, q in config.init_qpos.items():
-        group = view.group(name)
+        group = view.get_move_group(name)
         assert len(q) == group.n_joints
         assert np.all(np.asarray(q) >= group.joint_range[:, 0])
         assert np.all(np.asarray(q) <= group.joint_range[:, 1])
@@ -53,10 +53,10 @@ def test_wxai_config():
     np.testing.assert_allclose(config.init_qpos["gripper"], [GRIPPER_OPEN, GRIPPER_OPEN])
     model = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
     view = config.build_view(model)
-    assert isinstance(view.group("arm"), ArmMoveGroup)
-    assert isinstance(view.group("gripper"), GripperGroup)
-    assert isinstance(view.group("base"), ImmobileRobotBaseGroup)
-    assert view.group("arm").frame_site_name == "ee_site"
+    assert isinstance(view.get_move_group("arm"), ArmMoveGroup)
+    assert isinstance(view.get_move_group("gripper"), GripperGroup)
+    assert isinstance(view.get_move_group("base"), ImmobileRobotBaseGroup)
+    assert view.get_move_group("arm").frame_site_name == "ee_site"
 
 
 def test_stationary_configs():
@@ -68,9 +68,9 @@ def test_stationary_configs():
     assert mocap.command_mode["right_gripper"] == "joint_position"
     model = mujoco.MjModel.from_xml_path(str(ASSETS / "stationary_ai/trossen_ai_scene.xml"))
     view = mocap.build_view(model)
-    assert isinstance(view.group("left_arm"), MocapArmGroup)
-    assert view.group("left_arm").frame_site_name == "left/ee_site"
-    assert view.group("right_arm").mocap_id == 1
+    assert isinstance(view.get_move_group("left_arm"), MocapArmGroup)
+    assert view.get_move_group("left_arm").frame_site_name == "left/ee_site"
+    assert view.get_move_group("right_arm").mocap_id == 1
 
 
 def test_with_command_modes():
@@ -114,7 +114,7 @@ def test_default_configs_carry_the_urdf_limits(make, xml):
     config = make()
     view = config.build_view(mujoco.MjModel.from_xml_path(str(ASSETS / xml)))
     for name, spec in config.groups.items():
-        group = view.group(name)
+        group = view.get_move_group(name)
         if spec.kind == "arm":
             assert spec.velocity_limits == URDF_ARM and spec.rate_limit
             np.testing.assert_array_equal(group.velocity_limits, URDF_ARM)
@@ -140,8 +140,8 @@ def test_with_velocity_limits_and_with_rate_limit():
     assert one.groups["right_arm"].enforced_velocity_limits is None
     model = mujoco.MjModel.from_xml_path(str(ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"))
     view = one.build_view(model)
-    assert view.group("right_gripper").velocity_limits is None
-    np.testing.assert_array_equal(view.group("left_arm").velocity_limits, URDF_ARM)
+    assert view.get_move_group("right_gripper").velocity_limits is None
+    np.testing.assert_array_equal(view.get_move_group("left_arm").velocity_limits, URDF_ARM)
     with pytest.raises(UserError, match="unknown move group 'arm'.*left_arm"):
         config.with_velocity_limits(arm=[1.0] * 6)
     with pytest.raises(UserError, match="'left_base' has no velocity limits"):
@@ -175,8 +175,8 @@ def test_group_checks_its_velocity_limits():
     model = mujoco.MjModel.from_xml_path(str(ASSETS / "wxai/wxai_follower.xml"))
     view = wxai_config().build_view(model)
     with pytest.raises(UserError, match=r"^arm: expected 6 velocity limits .*got 7$"):
-        view.group("arm").set_velocity_limits(np.ones(7))
+        view.get_move_group("arm").set_velocity_limits(np.ones(7))
     with pytest.raises(UserError, match="velocity limits apply to joint-actuated"):
-        view.group("base").set_velocity_limits([1.0])
-    view.group("arm").set_velocity_limits(None)
-    assert view.group("arm").velocity_limits is None
+        view.get_move_group("base").set_velocity_limits([1.0])
+    view.get_move_group("arm").set_velocity_limits(None)
+    assert view.get_move_group("arm").velocity_limits is None

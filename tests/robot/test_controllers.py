@@ -50,7 +50,7 @@ def test_joint_position_reaches_target():
     target = np.array([0.5, 0.8, 0.6, -0.3, 0.4, 1.0])
     robot.update_control({"arm": target, "gripper": [0.01]})
     env.step(TWO_SECONDS)
-    arm, grip = robot.view.group("arm"), robot.view.group("gripper")
+    arm, grip = robot.view.get_move_group("arm"), robot.view.get_move_group("gripper")
     np.testing.assert_allclose(arm.get_qpos(env.data), target, atol=1e-2)
     np.testing.assert_allclose(grip.get_qpos(env.data), [0.01, 0.01], atol=1e-3)  # coupled
     np.testing.assert_allclose(arm.get_qvel(env.data), 0.0, atol=1e-2)
@@ -72,7 +72,7 @@ def test_joint_rel_position_reaches_target_once():
     it must not be added again at every control tick."""
     env = wxai_env("joint_rel_position")
     robot = env.robots["wxai"]
-    arm = robot.view.group("arm")
+    arm = robot.view.get_move_group("arm")
     q0 = arm.get_qpos(env.data)
     delta = np.array([0.3, 0.2, 0.3, -0.2, 0.3, 0.5])
     robot.update_control({"arm": delta})
@@ -99,7 +99,7 @@ def test_joint_rel_position_limits():
 def test_ee_delta_moves_tool_frame_in_commanded_direction():
     env = wxai_env("ee_delta")
     robot = env.robots["wxai"]
-    arm = robot.view.group("arm")
+    arm = robot.view.get_move_group("arm")
     for delta in (np.array([0.02, 0.0, 0.0]), np.array([0.0, -0.02, 0.0]), [0.0, 0.0, 0.02]):
         p0 = arm.get_frame_pose(env.data)[:3]
         robot.update_control({"arm": delta})
@@ -113,7 +113,7 @@ def test_ee_delta_moves_tool_frame_in_commanded_direction():
 def test_ee_delta_with_rotation():
     env = MujocoEnv(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=CTRL_DT)
     env.reset()
-    arm = env.robots["wxai"].view.group("arm")
+    arm = env.robots["wxai"].view.get_move_group("arm")
     ctrl = EEDeltaController(arm, env.model, rotation=True)
     assert ctrl.command_dim == 6
     low, high = ctrl.command_limits()
@@ -134,7 +134,7 @@ def test_ee_pose_mocap_kit_reaches_target():
     env.reset()
     robot = env.robots["kit"]
     assert isinstance(robot.controllers["left_arm"], EEPoseController)
-    arm = robot.view.group("left_arm")
+    arm = robot.view.get_move_group("left_arm")
     p0 = arm.get_frame_pose(env.data)
     quat = (Quaternion(axis=[0, 1, 0], degrees=20) * Quaternion(p0[3:])).elements
     target = np.concatenate([p0[:3] + [0.05, -0.03, 0.04], quat])
@@ -144,7 +144,7 @@ def test_ee_pose_mocap_kit_reaches_target():
     np.testing.assert_allclose(pose[:3], target[:3], atol=2e-3)
     assert np.linalg.norm(orientation_error(target[3:], pose[3:])) < 1e-2
     # the other arm did not move
-    right = robot.view.group("right_arm")
+    right = robot.view.get_move_group("right_arm")
     np.testing.assert_allclose(
         right.get_qpos(env.data), [0, np.pi / 12, np.pi / 12, 0, 0, 0], atol=1e-3
     )
@@ -156,7 +156,7 @@ def test_ee_pose_ik_on_joint_kit_reaches_target():
     env = MujocoEnv(KIT_JOINT, robots={"kit": config}, ctrl_dt=CTRL_DT)
     env.reset()
     robot = env.robots["kit"]
-    arm = robot.view.group("right_arm")
+    arm = robot.view.get_move_group("right_arm")
     p0 = arm.get_frame_pose(env.data)
     quat = (Quaternion(axis=[0, 0, 1], degrees=-15) * Quaternion(p0[3:])).elements
     target = np.concatenate([p0[:3] + [0.05, 0.03, 0.04], quat])
@@ -172,32 +172,32 @@ def test_controller_registry_and_errors():
     model = mujoco.MjModel.from_xml_path(str(WXAI))
     view = wxai_config().build_view(model)
     with pytest.raises(UserError, match="unknown command mode 'velocity'.*ee_delta"):
-        make_controller("velocity", view.group("arm"), model)
+        make_controller("velocity", view.get_move_group("arm"), model)
     with pytest.raises(UserError, match="needs joint actuators"):
-        JointPosController(view.group("base"), model)
+        JointPosController(view.get_move_group("base"), model)
     with pytest.raises(UserError, match="needs a tool frame"):
-        EEPoseController(view.group("gripper"), model)
+        EEPoseController(view.get_move_group("gripper"), model)
     with pytest.raises(UserError, match="joint-actuated arm"):
-        EEDeltaController(view.group("gripper"), model)
+        EEDeltaController(view.get_move_group("gripper"), model)
     mocap_model = mujoco.MjModel.from_xml_path(str(KIT_MOCAP))
     mocap_view = stationary_ai_mocap_config().build_view(mocap_model)
     with pytest.raises(UserError, match="joint_position needs joint actuators"):
-        make_controller("joint_position", mocap_view.group("left_arm"), mocap_model)
+        make_controller("joint_position", mocap_view.get_move_group("left_arm"), mocap_model)
     with pytest.raises(UserError, match="joint-actuated arm"):
-        make_controller("ee_delta", mocap_view.group("left_arm"), mocap_model)
+        make_controller("ee_delta", mocap_view.get_move_group("left_arm"), mocap_model)
 
 
 def test_command_checks():
     model = mujoco.MjModel.from_xml_path(str(WXAI))
     data = mujoco.MjData(model)
     view = wxai_config().build_view(model)
-    ctrl = make_controller("joint_position", view.group("arm"), model)
+    ctrl = make_controller("joint_position", view.get_move_group("arm"), model)
     assert ctrl.command_dim == 6
     with pytest.raises(UserError, match=r"arm \(joint_position\): expected 6 values, got 5"):
         ctrl.compute(data, np.zeros(5))
     with pytest.raises(UserError, match="NaN or inf"):
         ctrl.compute(data, [0, 0, 0, np.nan, 0, 0])
-    pose = make_controller("ee_pose", view.group("arm"), model)
+    pose = make_controller("ee_pose", view.get_move_group("arm"), model)
     assert pose.command_dim == 7
     with pytest.raises(UserError, match="expected 7 values"):
         pose.compute(data, np.zeros(3))
@@ -253,11 +253,11 @@ def toy(config: RobotConfig, ctrl_dt: float = 0.01):
 def run_ticks(model, data, robot, ticks: int) -> dict[str, np.ndarray]:
     """Control history by group, (ticks + 1,) from the start, stepping physics in between."""
     n_sub = int(round(robot.ctrl_dt / model.opt.timestep))
-    hist = {g: [robot.view.group(g).get_ctrl(data)[0]] for g in ("arm", "gripper")}
+    hist = {g: [robot.view.get_move_group(g).get_ctrl(data)[0]] for g in ("arm", "gripper")}
     for _ in range(ticks):
         robot.compute_control(data)
         for g in hist:
-            hist[g].append(robot.view.group(g).get_ctrl(data)[0])
+            hist[g].append(robot.view.get_move_group(g).get_ctrl(data)[0])
         for _ in range(n_sub):
             mujoco.mj_step(model, data)
     return {g: np.array(h) for g, h in hist.items()}
@@ -285,8 +285,8 @@ def test_limit_over_several_ticks_ends_where_the_ticks_do(mode):
     data = mujoco.MjData(model)
     robot = Robot(model, wxai_config(), ctrl_dt=CTRL_DT, data=data)
     robot.reset()
-    controller = make_controller(mode, robot.view.group("arm"), model, CTRL_DT)
-    arm = robot.view.group("arm")
+    controller = make_controller(mode, robot.view.get_move_group("arm"), model, CTRL_DT)
+    arm = robot.view.get_move_group("arm")
     target = arm.get_ctrl(data) + np.array([0.5, -0.3, 0.2, 1.0, -0.4, 0.05])
     for ticks in (1, 3):
         expected = controller.limit(data, target, ticks)
@@ -312,7 +312,7 @@ def test_rate_limit_off_jumps_at_once():
         toy_config().with_velocity_limits(arm=None, gripper=None),
     ):
         model, data, robot = toy(config)
-        assert robot.view.group("arm").velocity_limits is None
+        assert robot.view.get_move_group("arm").velocity_limits is None
         robot.update_control({"arm": [2.5], "gripper": [0.04]})
         out = robot.compute_control(data)
         np.testing.assert_allclose([out["arm"][0], out["gripper"][0]], [2.5, 0.04])
@@ -329,7 +329,7 @@ def test_ik_modes_of_a_joint_arm_are_rate_limited():
     for mode, command in (("ee_pose", None), ("ee_delta", [0.05, 0.0, -0.05])):
         env = wxai_env(mode)
         robot = env.robots["wxai"]
-        arm = robot.view.group("arm")
+        arm = robot.view.get_move_group("arm")
         ctrl = robot.controllers["arm"]
         if command is None:
             p0 = arm.get_frame_pose(env.data)
@@ -352,8 +352,8 @@ def test_mocap_ee_pose_is_not_rate_limited():
     env = MujocoEnv(KIT_MOCAP, robots={"kit": stationary_ai_mocap_config()}, ctrl_dt=CTRL_DT)
     env.reset()
     robot = env.robots["kit"]
-    assert robot.view.group("left_arm").velocity_limits is None
-    pose = robot.view.group("left_arm").get_frame_pose(env.data) + [0.3, 0, 0, 0, 0, 0, 0]
+    assert robot.view.get_move_group("left_arm").velocity_limits is None
+    pose = robot.view.get_move_group("left_arm").get_frame_pose(env.data) + [0.3, 0, 0, 0, 0, 0, 0]
     robot.update_control({"left_arm": pose})
     np.testing.assert_array_equal(robot.compute_control(env.data)["left_arm"], pose)
 
@@ -381,9 +381,9 @@ def test_physical_joint_speed_stays_at_the_limit(group, index, ctrl_dt):
     model = mujoco.MjModel.from_xml_path(str(WXAI))
     data = mujoco.MjData(model)
     robot = Robot(model, wxai_config(), ctrl_dt=ctrl_dt)
-    g = robot.view.group(group)
+    g = robot.view.get_move_group(group)
     limit = g.velocity_limits[index]
-    low, high = g.ctrl_limits()
+    low, high = g.ctrl_limits.T
     mid, half = (low[index] + high[index]) / 2, 0.4 * (high[index] - low[index])
     n_sub = int(round(ctrl_dt / model.opt.timestep))
     picked = [index] if group == "arm" else [0, 1]  # the joint, or both fingers
@@ -392,7 +392,7 @@ def test_physical_joint_speed_stays_at_the_limit(group, index, ctrl_dt):
     contacts = 0
     for start, end in ((mid - half, mid + half), (mid + half, mid - half)):
         robot.reset(data)
-        robot.view.group("arm").set_qpos(data, SWEEP_POSE)
+        robot.view.get_move_group("arm").set_qpos(data, SWEEP_POSE)
         q = g.get_qpos(data)
         q[picked] = start
         g.set_qpos(data, q)
@@ -438,7 +438,7 @@ def floor_env(mode: str = "joint_position", config=None, xml=WXAI) -> MujocoEnv:
 def test_floor_clips_an_elbow_into_the_table_command():
     env = floor_env()
     robot = env.robots["r"]
-    floor, arm = robot.safety_floor, robot.view.group("arm")
+    floor, arm = robot.safety_floor, robot.view.get_move_group("arm")
     assert floor.floor_z == FLOOR_MARGIN and set(floor.arms) == {"arm"}
     assert robot.controllers["arm"].floor is floor
     # the tool frame alone would pass: only the forearm goes under the floor
@@ -471,7 +471,7 @@ def test_without_the_floor_the_same_command_goes_into_the_table():
     assert robot.controllers["arm"].floor is None
     robot.update_control({"arm": ELBOW_DOWN})
     env.step(TWO_SECONDS)
-    low = [g for g in (robot.view.group("arm"),)][0]
+    low = [g for g in (robot.view.get_move_group("arm"),)][0]
     floor = robot.set_safety_floor(0.0, FLOOR_MARGIN)  # only to measure
     assert floor.lowest(env.data.qpos, "arm")[0] < FLOOR_MARGIN - 0.02
     assert not robot.floor_report.clipped and low.name == "arm"
@@ -482,7 +482,7 @@ def test_floor_holds_every_joint_mode_above_it(mode):
     """The other controllers of a joint arm are held above the floor the same way."""
     env = floor_env(mode)
     robot = env.robots["r"]
-    arm = robot.view.group("arm")
+    arm = robot.view.get_move_group("arm")
     floor = robot.safety_floor
     if mode == "joint_rel_position":
         command = np.array([0.0, 0.3, 0.0, 0.0, 0.0, 0.0])  # shoulder forward and down
@@ -508,7 +508,7 @@ def test_ee_modes_clip_the_tool_frame_target_height():
     """ee_delta never asks the tool frame below the floor; from below it, no lower."""
     env = floor_env("ee_delta")
     robot = env.robots["r"]
-    arm = robot.view.group("arm")
+    arm = robot.view.get_move_group("arm")
     controller = robot.controllers["arm"]
     z = arm.get_frame_pose(env.data)[2]
     free = controller.target(env.data, [0.0, 0.0, -0.04])  # stays above: untouched
@@ -531,7 +531,7 @@ def test_mocap_arm_target_is_kept_above_the_floor():
     robot = env.robots["r"]
     floor = robot.safety_floor
     assert set(floor.tools) == {"left_arm", "right_arm"} and not floor.arms
-    arm = robot.view.group("left_arm")
+    arm = robot.view.get_move_group("left_arm")
     pose = arm.get_frame_pose(env.data)
     low = np.concatenate([pose[:3] * [1, 1, 0] - [0, 0, 0.1], pose[3:]])
     robot.update_control({"left_arm": low})

@@ -23,7 +23,7 @@ def test_kit_gripper_control_is_the_actuated_finger():
     grip = GripperGroup(kit, "left_gripper", [f"left/{f}" for f in FINGERS], "left/gripper")
     assert grip.ctrl_dim == 1 and grip.n_joints == 2
     assert grip.actuated_qpos_idx == 7  # the left carriage carries the actuator
-    np.testing.assert_allclose(grip.ctrl_limits(), ([0.0], [0.044]))
+    np.testing.assert_allclose(grip.ctrl_limits, [[0.0, 0.044]])
     grip.set_ctrl(data, [0.02])
     np.testing.assert_allclose(grip.get_ctrl(data), [0.02])
     grip.set_ctrl(data, [0.5])

@@ -31,7 +31,7 @@ def kit():
 def _random_commands(robot: Robot, rng: np.random.Generator) -> dict[str, np.ndarray]:
     out = {}
     for name, controller in robot.controllers.items():
-        low, high = controller.group.ctrl_limits()
+        low, high = controller.group.ctrl_limits.T
         out[name] = rng.uniform(low - 0.2, high + 0.2)  # some beyond the range
     return out
 
@@ -57,7 +57,7 @@ def test_batched_controls_equal_the_controllers_one_by_one(kit):
 
 def test_a_new_speed_limit_is_picked_up(kit):
     _, data, robot = kit
-    arm = robot.view.group("left_arm")
+    arm = robot.view.get_move_group("left_arm")
     target = arm.get_ctrl(data) + 1.0
     robot.update_control({"left_arm": target})
     before = arm.get_ctrl(data)
@@ -77,7 +77,7 @@ def test_a_subclassed_controller_is_run_on_its_own(kit):
         def _target(self, data, cmd):
             return 0.5 * cmd
 
-    group = robot.view.group("right_arm")
+    group = robot.view.get_move_group("right_arm")
     robot.controllers["right_arm"] = Halved(group, robot.model, ctrl_dt=0.02)
     assert not batchable(robot.controllers["right_arm"])
     robot.update_control({"left_arm": np.zeros(6), "right_arm": np.full(6, 0.02)})
@@ -215,7 +215,7 @@ def test_changed_joint_targets_are_read_entry_by_entry(kit):
 def test_joint_targets_of_an_outdated_batch_follow_the_new_limits(kit):
     _, data, robot = kit
     batch = robot.joint_target_batch(("left_arm", "left_gripper"))
-    arm = robot.view.group("left_arm")
+    arm = robot.view.get_move_group("left_arm")
     arm.set_velocity_limits(np.full(6, 0.5))  # the batch no longer fits
     before = arm.get_ctrl(data)
     robot.update_control(batch.commands(np.concatenate([before + 1.0, [0.02]])))
@@ -247,7 +247,7 @@ def test_no_batch_for_a_subclassed_controller(kit):
         def _target(self, data, cmd):
             return 2.0 * cmd
 
-    robot.controllers["left_arm"] = Doubled(robot.view.group("left_arm"), robot.model)
+    robot.controllers["left_arm"] = Doubled(robot.view.get_move_group("left_arm"), robot.model)
     assert robot.joint_target_batch(("left_arm", "left_gripper")) is None
     assert robot.joint_target_batch(("right_arm", "right_gripper")) is not None
     with pytest.raises(UserError, match="controlled move group"):

@@ -78,7 +78,7 @@ def test_fk_bimanual_world_frame(case):
 @pytest.fixture(scope="module")
 def arm_kinematics(wxai):
     model, _ = wxai
-    group = wxai_config().build_view(model).group("arm")
+    group = wxai_config().build_view(model).get_move_group("arm")
     kin = Kinematics(model, group.frame_site_id, group.qpos_idx, group.dof_idx, group.joint_range)
     return model, kin
 

@@ -130,7 +130,7 @@ def test_reset_mocap_targets_follow_the_tool_frame():
     data.mocap_pos[:] = 0.0  # garbage before reset
     robot.reset(data)
     for side, mocap_id in (("left", 0), ("right", 1)):
-        frame = robot.view.group(f"{side}_arm").get_frame_pose(data)
+        frame = robot.view.get_move_group(f"{side}_arm").get_frame_pose(data)
         np.testing.assert_allclose(data.mocap_pos[mocap_id], frame[:3], atol=1e-12)
         np.testing.assert_allclose(np.abs(data.mocap_quat[mocap_id] @ frame[3:]), 1.0, atol=1e-12)
 
@@ -223,7 +223,7 @@ def test_a_controller_swapped_in_without_ctrl_dt_takes_the_robots():
     data = mujoco.MjData(model)
     robot = Robot(model, stationary_ai_joint_config(), ctrl_dt=0.02)
     robot.reset(data)
-    arm = robot.view.group("left_arm")
+    arm = robot.view.get_move_group("left_arm")
     robot.controllers["left_arm"] = EEDeltaController(arm, model, rotation=True)
     robot.update_control({"left_arm": [0.05, 0, -0.05, 0, 0, 0]})
     before = arm.get_ctrl(data)

@@ -53,7 +53,7 @@ def set_test_pose(model, data, view) -> None:
 
 def frame_pose(model, data, view, group: str) -> np.ndarray:
     mujoco.mj_kinematics(model, data)
-    return view.group(group).get_frame_pose(data)
+    return view.get_move_group(group).get_frame_pose(data)
 
 
 @pytest.mark.parametrize(("case", "frame"), FRAME_CASES)
@@ -85,7 +85,7 @@ def test_jacobian_mask_selects_group_columns(case, frame):
     model, data, view = make_view(case)
     set_test_pose(model, data, view)
     full = np.zeros((6, model.nv))
-    mujoco.mj_jacSite(model, data, full[:3], full[3:], view.group(frame).frame_site_id)
+    mujoco.mj_jacSite(model, data, full[:3], full[3:], view.get_move_group(frame).frame_site_id)
     for name, group in view.move_groups.items():
         masked = view.get_jacobian(data, frame, [name])
         assert masked.shape == (6, group.n_joints)
@@ -114,7 +114,7 @@ def test_jacobian_needs_a_frame_group():
 def test_unknown_group_lists_valid_names():
     _, _, view = make_view("kit_joint")
     with pytest.raises(UserError) as err:
-        view.group("left")
+        view.get_move_group("left")
     msg = str(err.value)
     for name in ("left_arm", "left_gripper", "right_arm", "right_gripper", "left_base"):
         assert name in msg
@@ -156,7 +156,7 @@ def test_ctrl_dicts_kit_joint():
     np.testing.assert_array_equal(noop["left_arm"], START_ARM_POSE[0:6])
     np.testing.assert_array_equal(noop["left_gripper"], [0.03])
     for name, ctrl in noop.items():
-        view.group(name).set_ctrl(data, ctrl)
+        view.get_move_group(name).set_ctrl(data, ctrl)
     got = view.get_ctrl_dict(data)
     for name in noop:
         np.testing.assert_allclose(got[name], noop[name])
@@ -187,7 +187,7 @@ def test_bound_view_ids_and_groups():
     assert view.is_bound and view.data is data
     assert view.move_group_ids() == list(stationary_ai_joint_config().groups)
     arm = view.get_move_group("left_arm")
-    assert arm is view.group("left_arm") and arm.data is data
+    assert arm is view.get_move_group("left_arm") and arm.data is data
     assert all(g.is_bound for g in view.move_groups.values())
     assert view.base_group_ids() == ["left_base", "right_base"]
     assert view.base is view.get_move_group("left_base")

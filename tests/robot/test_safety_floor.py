@@ -12,6 +12,7 @@ import pytest
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.safety_floor import FloorReport, SafetyFloor, floor_height
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 
 @pytest.mark.parametrize(
@@ -53,21 +54,25 @@ def test_nan_floor_is_refused():
 def test_samplers_build_robots_with_a_floor_at_the_table_top(name, flavour):
     """Every front door builds its robots through a sampler: the floor is on by default, at
     the table top (``floor_margin=0``); ``floor_margin=None`` leaves it off."""
-    with registry.make_sampler(name, flavour=flavour) as sampler:
+    with registry.make_sampler(name, SamplerSettings(flavour=flavour)) as sampler:
         robot = sampler.env.robots[sampler.robot_name]
         floor = robot.safety_floor
         assert floor is not None and floor.floor_z == sampler.config["table_height"]
         arms = {a for a, _ in sampler.arms}
         assert set(floor.arms if flavour == "joint" else floor.tools) == arms
         assert all(c.floor is floor for c in robot.controllers.values())
-    with registry.make_sampler(name, flavour=flavour, floor_margin=0.05) as sampler:
+    with registry.make_sampler(
+        name, SamplerSettings(flavour=flavour, floor_margin=0.05)
+    ) as sampler:
         floor = sampler.env.robots[sampler.robot_name].safety_floor
         assert floor.floor_z == pytest.approx(sampler.config["table_height"] + 0.05)
-    with registry.make_sampler(name, flavour=flavour, floor_margin=None) as sampler:
+    with registry.make_sampler(
+        name, SamplerSettings(flavour=flavour, floor_margin=None)
+    ) as sampler:
         robot = sampler.env.robots[sampler.robot_name]
         assert robot.safety_floor is None and not robot.floor_report.clipped
     with pytest.raises(UserError, match="safety margin"):
-        registry.make_sampler(name, flavour=flavour, floor_margin=-0.01)
+        registry.make_sampler(name, SamplerSettings(flavour=flavour, floor_margin=-0.01))
 
 
 def test_dm_control_envs_hold_a_floor():

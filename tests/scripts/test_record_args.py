@@ -6,14 +6,13 @@ from __future__ import annotations
 import pytest
 
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.scripts.record_args import (
+from trossen_arm_mujoco.scripts.common_options import (
     MAX_EPISODE_LEN,
-    build_parser,
     camera_names,
     dataset_folder,
     image_size,
-    record_options,
 )
+from trossen_arm_mujoco.scripts.record_args import build_parser, record_options
 
 
 def _args(*extra: str):

@@ -17,6 +17,7 @@ from trossen_arm_mujoco.sim.looks import (
     SceneLooks,
     menagerie_folder,
 )
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 ASSETS = Path(ASSETS_DIR)
 PUSH = ASSETS / "wxai/scene_push.xml"
@@ -65,7 +66,7 @@ def test_the_look_travels_as_an_argument():
 
     assert load_model(PUSH).light_castshadow.any()  # default: SceneLooks()
     assert not MujocoEnv(PUSH, looks=SceneLooks(shadows=False)).model.light_castshadow.any()
-    with registry.make_sampler("push", looks=SceneLooks(shadows=False)) as sampler:
+    with registry.make_sampler("push", SamplerSettings(looks=SceneLooks(shadows=False))) as sampler:
         assert not sampler.env.model.light_castshadow.any()
     with registry.make_sampler("push") as sampler:  # the one before left nothing behind
         assert sampler.env.model.light_castshadow.any()
@@ -73,7 +74,7 @@ def test_the_look_travels_as_an_argument():
     assert not env.scene.model.light_castshadow.any()
     env.close()
     with pytest.raises(UserError, match="looks must be a SceneLooks") as err:
-        registry.make_sampler("push", looks={"shadows": False})
+        registry.make_sampler("push", SamplerSettings(looks={"shadows": False}))
     assert "\n" not in str(err.value)
 
 

@@ -33,6 +33,7 @@ from trossen_arm_mujoco.tasks.insertion import (
     InsertionTask,
     sample_insertion_poses,
 )
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 JOINT_XML = Path(ASSETS_DIR) / "stationary_ai/trossen_ai_insertion_scene_joint.xml"
 SINK = 1e-4  # resting objects sink about 0.1 mm into the table under their soft contact
@@ -55,7 +56,7 @@ class Scene:
         mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
         mujoco.mj_kinematics(self.model, self.data)
         self.home_quat = {
-            side: self.view.group(f"{side}_arm").get_frame_pose(self.data)[3:]
+            side: self.view.get_move_group(f"{side}_arm").get_frame_pose(self.data)[3:]
             for side in ("left", "right")
         }
 
@@ -67,7 +68,7 @@ class Scene:
 
     def grasp(self, side: str, tool_xyz, fingers: float) -> None:
         """Put ``side``'s tool frame at tool_xyz in the policy's grasp orientation."""
-        group = self.view.group(f"{side}_arm")
+        group = self.view.get_move_group(f"{side}_arm")
         kin = Kinematics(
             self.model, group.frame_site_id, group.qpos_idx, group.dof_idx, group.joint_range
         )
@@ -75,7 +76,7 @@ class Scene:
         q, residual = kin.solve(self.data.qpos.copy(), np.asarray(tool_xyz), quat, iterations=300)
         assert residual < 1e-6, f"IK failed for the {side} arm: {residual}"
         group.set_qpos(self.data, q)
-        self.view.group(f"{side}_gripper").set_qpos(self.data, [fingers, fingers])
+        self.view.get_move_group(f"{side}_gripper").set_qpos(self.data, [fingers, fingers])
 
     def grasp_peg(self, peg) -> None:
         self.grasp("right", np.asarray(peg) + PEG_GRIP, PEG_FINGERS)
@@ -191,7 +192,7 @@ def test_open_fingers_do_not_count(scene):
     scene.place(peg=peg, socket=socket)
     scene.grasp_peg(peg)
     scene.grasp_socket(socket)
-    scene.view.group("right_gripper").set_qpos(scene.data, [0.03, 0.03])
+    scene.view.get_move_group("right_gripper").set_qpos(scene.data, [0.03, 0.03])
     assert scene.reward() == 0
 
 
@@ -282,7 +283,7 @@ def test_task_scores_and_describes(sampler):
 
 
 def test_mocap_flavour(sampler):
-    ee = InsertionSampler(load_task_config("insertion"), flavour="ee")
+    ee = InsertionSampler(load_task_config("insertion"), SamplerSettings(flavour="ee"))
     try:
         task = ee.sample_task(11)
         obs = task.policy_observation()

@@ -16,6 +16,7 @@ from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization import FIELDS
 from trossen_arm_mujoco.tasks.randomization_record import KINDS
 from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_SCHEMA
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 #: kinds that change what a camera sees at reset (the others change dynamics only)
 VISUAL = {"lights", "table", "objects", "camera", "joint_noise"}
@@ -30,8 +31,11 @@ def only(kind: str, **params) -> dict:
 
 def make(kind: str | None = None, name: str = "push", **params):
     overrides = {} if kind is None else {"randomization": only(kind, **params)}
-    return registry.make_sampler(name, randomize=kind is not None, camera_names=["overview"],
-                                 height=32, width=40, **overrides)  # fmt: skip
+    return registry.make_sampler(
+        name,
+        SamplerSettings(randomize=kind is not None, camera_names=["overview"], height=32, width=40),
+        **overrides,
+    )
 
 
 def fields(sampler) -> dict[str, np.ndarray]:
@@ -96,7 +100,7 @@ def _scene(name: str):
 
 
 def test_repeated_episodes_do_not_drift_and_switching_off_restores_nominal():
-    sampler = registry.make_sampler("sim_transfer_cube", randomize=True)
+    sampler = registry.make_sampler("sim_transfer_cube", SamplerSettings(randomize=True))
     try:
         nominal = sampler.randomizer.nominal
         sampler.sample_task(5)
@@ -116,7 +120,10 @@ def test_repeated_episodes_do_not_drift_and_switching_off_restores_nominal():
 
 def test_task_episode_is_the_same_with_and_without_randomization():
     """Randomization draws from a child stream: object poses and goals do not move."""
-    plain, randomized = registry.make_sampler("push"), registry.make_sampler("push", randomize=True)
+    plain, randomized = (
+        registry.make_sampler("push"),
+        registry.make_sampler("push", SamplerSettings(randomize=True)),
+    )
     try:
         for seed in (0, 1):
             a, b = plain.sample_task(seed), randomized.sample_task(seed)
@@ -148,7 +155,7 @@ def test_ranges_are_respected():
         "camera": {"position": 0.01, "orientation_deg": 3.0},
         "joint_noise": {"range": 0.05},
     }  # fmt: skip
-    sampler = registry.make_sampler("push", randomize=True, randomization=section)
+    sampler = registry.make_sampler("push", SamplerSettings(randomize=True), randomization=section)
     model, r = sampler.env.model, sampler.randomizer
     nom = r.nominal
     mats, picked = {"groundplane", "table_leg"}, set()
@@ -205,7 +212,7 @@ def test_every_shipped_config_randomizes_every_kind():
         section = registry.load(name).load_config()["randomization"]
         assert set(section) == set(RANDOMIZATION_SCHEMA)
         assert all(section[k]["enabled"] for k in section)
-        with registry.make_sampler(name, randomize=True) as sampler:
+        with registry.make_sampler(name, SamplerSettings(randomize=True)) as sampler:
             sampler.sample_task(0)
             assert set(sampler.randomization) == {"version", "seed", *KINDS}
             object_kinds = {"objects", "object_mass"} if not sampler.env.objects else set()

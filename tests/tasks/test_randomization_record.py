@@ -20,6 +20,7 @@ from trossen_arm_mujoco.tasks.randomization_record import (
     record_from_json,
     record_to_json,
 )
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 
 def _scene(name: str) -> Path:
@@ -30,9 +31,14 @@ def _scene(name: str) -> Path:
 
 def test_record_reapplied_reproduces_images_exactly():
     section = {k: {"enabled": True} for k in KINDS}
-    a = registry.make_sampler("sim_transfer_cube", randomize=True, randomization=section,
-                              camera_names=["cam_high"], height=32, width=40)  # fmt: skip
-    b = registry.make_sampler("sim_transfer_cube", camera_names=["cam_high"], height=32, width=40)
+    a = registry.make_sampler(
+        "sim_transfer_cube",
+        SamplerSettings(randomize=True, camera_names=["cam_high"], height=32, width=40),
+        randomization=section,
+    )
+    b = registry.make_sampler(
+        "sim_transfer_cube", SamplerSettings(camera_names=["cam_high"], height=32, width=40)
+    )
     try:
         task = a.sample_task(9)
         record = record_from_json(record_to_json(a.randomization))
@@ -52,7 +58,7 @@ def test_record_reapplied_reproduces_images_exactly():
 
 
 def test_seed_in_the_record_regenerates_it():
-    sampler = registry.make_sampler("reach", randomize=True)
+    sampler = registry.make_sampler("reach", SamplerSettings(randomize=True))
     try:
         sampler.sample_task(4)
         record = sampler.randomization
@@ -64,7 +70,7 @@ def test_seed_in_the_record_regenerates_it():
 
 
 def test_apply_to_a_bare_model():
-    sampler = registry.make_sampler("reach", randomize=True)
+    sampler = registry.make_sampler("reach", SamplerSettings(randomize=True))
     try:
         sampler.sample_task(2)
         model = mujoco.MjModel.from_xml_path(str(_scene("reach")))
@@ -78,12 +84,15 @@ def test_apply_to_a_bare_model():
 
 @pytest.mark.parametrize(
     "record, match",
-    [({"version": 2}, "version"), ([], "version"),
-     ({"version": 1, "weather": {}}, "unknown randomization kind"),
-     ({"version": 1, "lights": {"sun": {}}}, "unknown light 'sun'"),
-     ({"version": 1, "friction": {"table": "high"}}, "friction.table"),
-     ({"version": 1, "camera": {"overview": {"pos": [0, 0, 1]}}}, "missing 'quat'")],
-)  # fmt: skip
+    [
+        ({"version": 2}, "version"),
+        ([], "version"),
+        ({"version": 1, "weather": {}}, "unknown randomization kind"),
+        ({"version": 1, "lights": {"sun": {}}}, "unknown light 'sun'"),
+        ({"version": 1, "friction": {"table": "high"}}, "friction.table"),
+        ({"version": 1, "camera": {"overview": {"pos": [0, 0, 1]}}}, "missing 'quat'"),
+    ],
+)
 def test_bad_records_are_one_line_errors(record, match):
     model = mujoco.MjModel.from_xml_path(str(_scene("reach")))
     with pytest.raises(UserError, match=match) as err:

@@ -134,11 +134,11 @@ def test_joint_noise_is_seeded_and_bounded(sampler):
 
 def test_joint_noise_stays_within_the_joint_limits():
     probe = registry.make_sampler("reach")
-    low = probe.env.robots["wxai"].view.group("arm").joint_range[:, 0].copy()
+    low = probe.env.robots["wxai"].view.get_move_group("arm").joint_range[:, 0].copy()
     probe.close()
     s = registry.make_sampler("reach", init_arm_qpos=low.tolist(), init_joint_noise=0.5)
     try:
-        arm = s.env.robots["wxai"].view.group("arm")
+        arm = s.env.robots["wxai"].view.get_move_group("arm")
         for seed in range(5):
             s.env.reset()
             s.perturb_arm(np.random.default_rng(seed))

@@ -227,7 +227,11 @@ def test_ee_action_moves_mocap_targets():
     np.testing.assert_allclose(ts.observation["gripper_ctrl"], [closing, GRIPPER_OPEN])
     for _ in range(50):
         ts = env.step(action)
-    tool = env.task.robot(env.physics).view.group("left_arm").get_frame_pose(env.physics.data.ptr)
+    tool = (
+        env.task.robot(env.physics)
+        .view.get_move_group("left_arm")
+        .get_frame_pose(env.physics.data.ptr)
+    )
     np.testing.assert_allclose(tool[:3], action[0:3], atol=2e-3)
     np.testing.assert_allclose(ts.observation["qpos"][6:8], [0.02, 0.02], atol=1e-3)
     env.task.close()

@@ -7,6 +7,7 @@ import pytest
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.tasks.task import Task
 
 
@@ -66,7 +67,9 @@ def test_entries_resolve_to_classes(name):
 
 
 def test_make_sampler_applies_overrides():
-    sampler = registry.make_sampler("reach", command_mode="ee_delta", success_tolerance=0.04)
+    sampler = registry.make_sampler(
+        "reach", SamplerSettings(command_mode="ee_delta"), success_tolerance=0.04
+    )
     try:
         task = sampler.sample_task(0)
         assert task.tolerance == 0.04
@@ -77,4 +80,4 @@ def test_make_sampler_applies_overrides():
 
 def test_make_sampler_unknown_command_mode_lists_modes():
     with pytest.raises(UserError, match="joint_position"):
-        registry.make_sampler("reach", command_mode="torque")
+        registry.make_sampler("reach", SamplerSettings(command_mode="torque"))

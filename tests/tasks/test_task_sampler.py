@@ -8,6 +8,7 @@ import pytest
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler import as_generator
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 
 @pytest.fixture(scope="module")
@@ -120,7 +121,9 @@ def test_randomize_scene_takes_env_and_robot_view(samplers):
 
 
 def test_sampler_owns_and_closes_its_env():
-    with registry.make_sampler("reach", camera_names=["overview"], height=8, width=8) as s:
+    with registry.make_sampler(
+        "reach", SamplerSettings(camera_names=["overview"], height=8, width=8)
+    ) as s:
         s.sample_task(0)
         s.env.render_images()
         assert s.env.cameras._renderer is not None
@@ -130,7 +133,7 @@ def test_sampler_owns_and_closes_its_env():
 @pytest.mark.parametrize("value", ["yes", 1, None])
 def test_randomize_must_be_a_bool(value):
     with pytest.raises(UserError, match="randomize must be True or False"):
-        registry.make_sampler("reach", randomize=value)
+        registry.make_sampler("reach", SamplerSettings(randomize=value))
 
 
 @pytest.mark.parametrize(

@@ -14,6 +14,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import stationary_ai_joint_config
 from trossen_arm_mujoco.robot.kinematics import Kinematics
 from trossen_arm_mujoco.sim_env import TransferCubeTask
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.tasks.transfer_cube import (
     BOX_REST_Z,
     BOX_X_RANGE,
@@ -51,7 +52,7 @@ class Scene:
 
     def grasp(self, side: str, cube_xyz) -> None:
         """Put ``side``'s fingers around a cube centred at cube_xyz, tool pointing down."""
-        group = self.view.group(f"{side}_arm")
+        group = self.view.get_move_group(f"{side}_arm")
         kin = Kinematics(
             self.model, group.frame_site_id, group.qpos_idx, group.dof_idx, group.joint_range
         )
@@ -60,7 +61,7 @@ class Scene:
         q, residual = kin.solve(self.data.qpos.copy(), site, down_quat(), iterations=200)
         assert residual < 1e-6, f"IK failed for the {side} arm: {residual}"
         group.set_qpos(self.data, q)
-        self.view.group(f"{side}_gripper").set_qpos(self.data, [FINGERS_ON_CUBE] * 2)
+        self.view.get_move_group(f"{side}_gripper").set_qpos(self.data, [FINGERS_ON_CUBE] * 2)
 
     def place_cube(self, xyz) -> None:
         self.data.qpos[16:23] = [*xyz, 1.0, 0.0, 0.0, 0.0]
@@ -129,7 +130,7 @@ def test_open_fingers_around_the_cube_do_not_count(scene):
     cube = [0.0, -0.05, LIFTED]
     scene.place_cube(cube)
     scene.grasp("right", cube)
-    scene.view.group("right_gripper").set_qpos(scene.data, [0.03, 0.03])
+    scene.view.get_move_group("right_gripper").set_qpos(scene.data, [0.03, 0.03])
     assert reward_of(scene) == 0
 
 
@@ -156,7 +157,7 @@ def test_pick_up_with_the_right_arm_reaches_reward_2():
     env = make_sim_env(TransferCubeTask, cam_list=[], box_pose=[*cube, 1, 0, 0, 0])
     env.reset()
     physics = env.physics
-    group = env.task.robot(physics).view.group("right_arm")
+    group = env.task.robot(physics).view.get_move_group("right_arm")
     kin = Kinematics(
         physics.model.ptr, group.frame_site_id, group.qpos_idx, group.dof_idx, group.joint_range
     )
@@ -262,17 +263,23 @@ def test_every_finger_geom_counts_for_the_reward(sampler):
 def test_commands_reach_both_arms(sampler):
     task = sampler.sample_task(0)
     view = task.robot.view
-    target = view.group("right_arm").get_qpos(task.data) + 0.2
+    target = view.get_move_group("right_arm").get_qpos(task.data) + 0.2
     for _ in range(30):
         task.step({"right_arm": target, "right_gripper": np.array([0.02])})
-    np.testing.assert_allclose(view.group("right_arm").get_qpos(task.data), target, atol=0.03)
-    assert view.group("right_gripper").get_qpos(task.data)[1] == pytest.approx(0.02, abs=0.003)
+    np.testing.assert_allclose(
+        view.get_move_group("right_arm").get_qpos(task.data), target, atol=0.03
+    )
+    assert view.get_move_group("right_gripper").get_qpos(task.data)[1] == pytest.approx(
+        0.02, abs=0.003
+    )
 
 
 def test_ee_flavour_drives_the_mocap_arms():
     from trossen_arm_mujoco.tasks import registry
 
-    ee = registry.make_sampler("transfer_cube", flavour="ee")  # the old name is an alias
+    ee = registry.make_sampler(
+        "transfer_cube", SamplerSettings(flavour="ee")
+    )  # the old name is an alias
     try:
         task = ee.sample_task(3)
         obs = task.policy_observation()
@@ -281,7 +288,7 @@ def test_ee_flavour_drives_the_mocap_arms():
         for _ in range(25):
             task.step({"right_arm": target})
         np.testing.assert_allclose(task.tool_pose("right"), target, atol=1e-9)
-        site = task.robot.view.group("right_arm").get_frame_pose(task.data)
+        site = task.robot.view.get_move_group("right_arm").get_frame_pose(task.data)
         np.testing.assert_allclose(site[:3], target[:3], atol=2e-3)
     finally:
         ee.close()

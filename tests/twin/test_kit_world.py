@@ -10,6 +10,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.twin.arm_adapter import ArmAdapter
 from trossen_arm_mujoco.twin.commands import EFFORT, EXTERNAL_EFFORT, POSITION, VELOCITY
 from trossen_arm_mujoco.twin.kit_world import KitWorld, kit_task_names
@@ -43,7 +44,7 @@ def test_scene_is_records_episode(task: str, seed: int, index: int) -> None:
     """Episode k of base seed S: the objects where record --seed S's rollout of episode k
     put them (its end-effector sampler, seeded with episode_seed(S, k))."""
     world = KitWorld(task, base_seed=seed, episode_index=index)
-    with registry.make_sampler(task, flavour="ee") as ee:
+    with registry.make_sampler(task, SamplerSettings(flavour="ee")) as ee:
         rng = np.random.default_rng(episode_seed(seed, index))
         expected = ee.next_task(rng).object_poses()
     got = world.object_poses()

@@ -43,6 +43,17 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import UserError, redeliver_if_in_finalizer, show_warning_as_note
 
+__all__ = [
+    "MAX_TRIES",
+    "PARENT_POLL_S",
+    "POLL_S",
+    "PR_SET_PDEATHSIG",
+    "STOP_WAIT_S",
+    "RemoteTraceback",
+    "WorkerPool",
+    "describe_exit",
+]
+
 #: Tries of one job, the first included, before a worker dying on it ends the run.
 MAX_TRIES = 3
 

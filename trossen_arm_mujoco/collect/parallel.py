@@ -110,6 +110,7 @@ class RunReport:
 
     @property
     def successes(self) -> int:
+        """Number of saved episodes that succeeded."""
         return sum(o.success for o in self.saved)
 
     @property

@@ -42,6 +42,20 @@ from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
 from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization_record import record_to_json
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
+
+__all__ = [
+    "ACTION_SPEED_LIMITS",
+    "EpisodeOutcome",
+    "EpisodeRecorder",
+    "RecordSettings",
+    "StepHook",
+    "TimeStep",
+    "default_cameras",
+    "episode_seed",
+    "limit_speed",
+    "policy_minimum_episode_len",
+]
 
 #: Speed limit of each of the 16 action values (URDF: rad/s for the joints, m/s for both
 #: finger values), in the qpos layout.
@@ -92,6 +106,21 @@ class RecordSettings:
     randomize: bool = False
     shadows: bool = True  # the key light casts shadows in the images
     visual: str = "own"  # arm meshes: "own" or "menagerie" (sim.looks)
+
+    def sampler_settings(self, flavour: str = "joint") -> SamplerSettings:
+        """How the sampler of ``flavour`` is built: the joint flavour renders the cameras
+        (``cam_names`` at ``height`` x ``width`` px) with the run's looks; the ee flavour
+        (the scripted rollout) renders nothing. Both randomize as ``randomize`` says."""
+        if flavour == "ee":
+            return SamplerSettings(flavour="ee", randomize=self.randomize)
+        return SamplerSettings(
+            flavour=flavour,
+            camera_names=self.cam_names,
+            height=self.height,
+            width=self.width,
+            randomize=self.randomize,
+            looks=SceneLooks(shadows=self.shadows, visual=self.visual),
+        )
 
 
 @dataclass
@@ -147,18 +176,8 @@ class EpisodeRecorder:
         self.step_hook = step_hook
         self.arm_limits = ArmLimits.from_mjcf()
         self.last_speed_limited = 0
-        self.ee_sampler = registry.make_sampler(
-            self.entry.name, flavour="ee", randomize=settings.randomize
-        )
-        self.joint_sampler = registry.make_sampler(
-            self.entry.name,
-            flavour="joint",
-            camera_names=settings.cam_names,
-            height=settings.height,
-            width=settings.width,
-            randomize=settings.randomize,
-            looks=SceneLooks(shadows=settings.shadows, visual=settings.visual),
-        )
+        self.ee_sampler = registry.make_sampler(self.entry.name, settings.sampler_settings("ee"))
+        self.joint_sampler = registry.make_sampler(self.entry.name, settings.sampler_settings())
         #: randomization record of the last scripted rollout (None: not randomizing).
         self.last_randomization: dict | None = None
         self.ee_task = None
@@ -170,7 +189,7 @@ class EpisodeRecorder:
         #: Steps the scripted policy needs to finish the task (0 when it does not say).
         self.minimum_episode_len = int(getattr(self.policy_cls, "minimum_episode_len", 0))
         view = self.joint_sampler.env.robots[probe.robot_name].view
-        ranges = np.concatenate([view.group(g).joint_range for g in KIT_LAYOUT.groups])
+        ranges = np.concatenate([view.get_move_group(g).joint_range for g in KIT_LAYOUT.groups])
         self.action_low, self.action_high = ranges[:, 0].copy(), ranges[:, 1].copy()
 
     @property
@@ -366,6 +385,7 @@ class EpisodeRecorder:
         return True, float(np.max(trajectory.peak_speed / self.arm_limits.velocity))
 
     def close(self) -> None:
+        """Close both samplers and the envs (and renderers) they own."""
         self.ee_sampler.close()
         self.joint_sampler.close()
 

@@ -15,6 +15,8 @@ from typing import Any, TextIO
 
 from tqdm import tqdm
 
+__all__ = ["LOG_INTERVAL_S", "Progress", "is_terminal"]
+
 #: Seconds between two plain progress lines when the output is not a terminal.
 LOG_INTERVAL_S: float = 10.0
 

@@ -31,6 +31,16 @@ from trossen_arm_mujoco.collect.parallel import (
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, RecordSettings
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = [
+    "CANCEL_WAIT_S",
+    "FINISH_GRACE_S",
+    "MAX_BUFFERED",
+    "MAX_RETRIES",
+    "WAIT_STEP_S",
+    "BeforeAttempt",
+    "RayDatasetRecorder",
+]
+
 #: Times Ray runs an attempt again after its worker process died.
 MAX_RETRIES = 3
 

@@ -35,6 +35,16 @@ from types import ModuleType
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "LOCAL_RAY_ENV",
+    "RAY_MISSING",
+    "check_reachable",
+    "import_ray",
+    "is_loopback_node",
+    "ray_session",
+]
+
 RAY_MISSING = 'the Ray engine needs Ray: pip install "trossen_arm_mujoco[ray]"'
 
 #: Environment of a private local Ray (see the module docstring).

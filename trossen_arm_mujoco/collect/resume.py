@@ -28,6 +28,8 @@ from trossen_arm_mujoco.data.reader import EpisodeError, list_episodes, load_epi
 from trossen_arm_mujoco.data.schema import EPISODE_FILE_RE
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = ["RunPlan", "check_episode_names", "format_indices", "plan_run", "settings_differences"]
+
 if TYPE_CHECKING:
     from trossen_arm_mujoco.collect.pipeline import RecordSettings
 

@@ -29,6 +29,8 @@ from concurrent.futures import Future, ThreadPoolExecutor
 import h5py
 import numpy as np
 
+__all__ = ["ChunkCompressor", "default_workers", "deflate_function", "write_chunk"]
+
 #: Filter mask of a chunk stored without its (only, optional) deflate filter.
 _SKIP_DEFLATE = 0x1
 

@@ -25,6 +25,16 @@ from pathlib import Path
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = [
+    "LOCK_FILE",
+    "DatasetLock",
+    "DatasetLockedError",
+    "holder_text",
+    "is_locked_here",
+    "locked_message",
+    "read_holder",
+]
+
 #: Name of the lock file inside a dataset folder (hidden; never an episode name).
 LOCK_FILE = ".trossen.lock"
 
@@ -70,6 +80,8 @@ def holder_text(pid: int | None, host: str | None) -> str:
 
 
 def locked_message(folder: Path, pid: int | None, host: str | None) -> str:
+    """The one-line error for a dataset ``folder`` locked by process ``pid`` on
+    ``host`` (either None when unknown), with how to go on."""
     return (
         f"another record run ({holder_text(pid, host)}) is writing to {folder}; wait for it "
         "to finish (or pass --wait), or choose another --data_dir"
@@ -124,6 +136,8 @@ class DatasetLock:
         return self._acquired
 
     def acquire(self) -> DatasetLock:
+        """Take the lock (waiting for it when ``wait``), or a ``DatasetLockedError``
+        naming its holder; taking it again in the same process only counts up. Returns ``self``."""
         if self._acquired:
             return self
         key = _key(self.folder)

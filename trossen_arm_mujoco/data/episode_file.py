@@ -36,6 +36,8 @@ from trossen_arm_mujoco.data.schema import SCHEMA
 from trossen_arm_mujoco.data.temp_files import unique_temp_path
 from trossen_arm_mujoco.fileio import publish
 
+__all__ = ["EpisodeFile"]
+
 
 class EpisodeFile:
     """The temporary HDF5 file of one episode, published whole or not at all.

@@ -21,6 +21,16 @@ import h5py
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = [
+    "IO_ERRORS",
+    "EpisodeIOError",
+    "EpisodeWriteError",
+    "discard_file",
+    "folder_io_error",
+    "io_error",
+    "os_error_number",
+]
+
 
 class EpisodeWriteError(UserError):
     """Invalid data handed to the episode writer, or a refused write."""

@@ -28,6 +28,17 @@ from trossen_arm_mujoco.data.schema import (
 from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = [
+    "Episode",
+    "EpisodeError",
+    "FrameReader",
+    "episode_path",
+    "iter_episodes",
+    "list_episodes",
+    "load_episode",
+    "resolve_data_dir",
+]
+
 
 class EpisodeError(UserError):
     """An episode file is missing, unreadable or does not follow the schema."""

@@ -42,6 +42,29 @@ import numpy as np
 
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
 
+__all__ = [
+    "ATTR_KINDS",
+    "COMPRESSIONS",
+    "DEFAULT_COMPRESSION",
+    "ENV_STATE_DIM",
+    "EPISODE_FILE_RE",
+    "GZIP_LEVEL",
+    "JOINT_NAMES",
+    "JOINT_UNITS",
+    "NUM_JOINTS",
+    "SCHEMA",
+    "SCHEMAS",
+    "SCHEMA_V1",
+    "SCHEMA_V2",
+    "SCHEMA_VERSION",
+    "VENDOR_DT",
+    "ArraySpec",
+    "EpisodeSchema",
+    "encode_attr",
+    "episode_file_name",
+    "temp_file_name",
+]
+
 #: Step period (s) of files without a ``dt`` attribute (vendor files: recorded at 50 Hz), and
 #: the writer's default; the recorder passes its task's ``policy_dt``.
 VENDOR_DT: float = 0.02

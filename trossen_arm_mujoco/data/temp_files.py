@@ -15,6 +15,8 @@ from pathlib import Path
 
 from trossen_arm_mujoco.data.schema import temp_file_name
 
+__all__ = ["remove_stale_temp_files", "unique_temp_path"]
+
 #: Temporary episode files: ``.<final>.tmp`` (older versions) or ``.<final>.<pid>-<hex>.tmp``.
 _TEMP_RE = re.compile(r"^\.(?P<final>.+\.hdf5)(?:\.(?P<pid>[0-9]+)-[0-9a-f]+)?\.tmp$")
 

@@ -25,6 +25,18 @@ from trossen_arm_mujoco.data.schema import JOINT_NAMES, JOINT_UNITS, NUM_JOINTS
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import atomic_path
 
+__all__ = [
+    "H264_ENCODERS",
+    "INSTALL_HINT",
+    "CameraGrid",
+    "grid_shape",
+    "h264_encoder",
+    "plot_joints",
+    "video_info",
+    "write_episode_video",
+    "write_frames_video",
+]
+
 #: H.264 encoders tried in order.
 H264_ENCODERS: tuple[str, ...] = ("libx264", "libopenh264", "h264")
 

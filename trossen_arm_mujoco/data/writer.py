@@ -35,6 +35,8 @@ from trossen_arm_mujoco.data.schema import (
 )
 from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
 
+__all__ = ["EpisodeWriter", "package_version"]
+
 #: Attributes that follow from the writer's arguments; callers may not change them.
 _WRITER_ATTRS = frozenset({"sim", "episode_len", "camera_names", "schema_version"})
 

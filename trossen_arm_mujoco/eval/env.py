@@ -47,6 +47,21 @@ from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS, REAL_KIT_LAYOUT
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
+
+__all__ = [
+    "BASE_SIM_DT",
+    "EVAL_STREAM",
+    "LEROBOT_KEYS",
+    "RENDER_CAMERA",
+    "KitPolicyEnv",
+    "bimanual_tasks",
+    "episode_generator",
+    "feature_spec",
+    "parse_cameras",
+    "parse_image_size",
+    "rate_timing",
+]
 
 #: Physics step of the scenes (s); a rate's step is the largest that divides its period.
 BASE_SIM_DT = 0.002
@@ -199,14 +214,8 @@ class KitPolicyEnv(gymnasium.Env):
         self.task = entry.name
         self.cam_names = cams
         self.image_size = (h, w)
-        self.sampler = registry.make_sampler(
-            entry.name,
-            flavour="joint",
-            camera_names=cams,
-            height=h,
-            width=w,
-            **overrides,
-        )
+        settings = SamplerSettings(camera_names=tuple(cams), height=h, width=w)
+        self.sampler = registry.make_sampler(entry.name, settings, **overrides)
         self.scene = self.sampler.env
         probe = self.sampler.make_task()
         self.task_description = probe.get_task_description()
@@ -214,7 +223,7 @@ class KitPolicyEnv(gymnasium.Env):
         self._max_episode_steps = int(episode_length)
         self.metadata = {**self.metadata, "render_fps": self.fps}
         view = self.scene.robots[probe.robot_name].view
-        ranges = np.concatenate([view.group(g).joint_range for g in KIT_LAYOUT.groups])
+        ranges = np.concatenate([view.get_move_group(g).joint_range for g in KIT_LAYOUT.groups])
         low16, high16 = ranges[:, 0], ranges[:, 1]
         if self.layout is REAL_KIT_LAYOUT:
             self.action_low = REAL_KIT_LAYOUT.from_vendor(low16)

@@ -22,6 +22,16 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
 
+__all__ = [
+    "LEROBOT_MISSING",
+    "LeRobotPolicy",
+    "check_checkpoint",
+    "checkpoint_dir",
+    "checkpoint_features",
+    "feature_mismatch",
+    "import_lerobot",
+]
+
 LEROBOT_MISSING = (
     "evaluating a LeRobot checkpoint needs LeRobot 0.6 (Python >= 3.12): "
     "pip install 'trossen-arm-mujoco[train]'"
@@ -162,10 +172,15 @@ class LeRobotPolicy:
         self.task_text = env.task_description
 
     def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        """Start an episode of ``env``: clear the policy's action queue and take the
+        task's description as the language instruction (``seed`` is unused: the policy is
+        deterministic)."""
         self.policy.reset()
         self.task_text = env.task_description
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
+        """The action for one observation: (action dim,) floats in the layout the
+        checkpoint was trained on (the kit's 14 values: rad, gripper carriages m)."""
         obs = self._preprocess_observation(observation)
         obs["task"] = [self.task_text]
         obs = self.pre(obs)
@@ -175,4 +190,5 @@ class LeRobotPolicy:
         return action.to("cpu").numpy().reshape(-1).astype(float)
 
     def close(self) -> None:
+        """Nothing to release (the model stays loaded until the object goes)."""
         pass

@@ -23,13 +23,22 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, episode_generator
 from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
 
+__all__ = ["FunctionPolicy", "Policy", "ScriptedPolicy", "is_function_spec", "make_policy"]
+
 
 class Policy(Protocol):
-    def reset(self, env: KitPolicyEnv, seed: int) -> None: ...
+    """What the eval runner drives: ``reset`` at each episode, ``act`` every step,
+    ``close`` once at the end."""
 
-    def act(self, observation: dict[str, Any]) -> np.ndarray: ...
+    def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        """Start an episode of ``env`` drawn from ``seed``."""
 
-    def close(self) -> None: ...
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        """The action for ``observation`` (the env's observation dict): a (action dim,)
+        float array in the env's layout."""
+
+    def close(self) -> None:
+        """Release what the policy holds (envs, models)."""
 
 
 class ScriptedPolicy:
@@ -44,6 +53,8 @@ class ScriptedPolicy:
         self._t = 0
 
     def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        """Plan the episode: run the task's scripted rollout on ``env``'s object poses
+        (seeded like ``record``), resampled to the env's fps when it differs."""
         src_dt = self.recorder.policy_dt
         native_len = int(round(env._max_episode_steps / env.fps / src_dt))
         self.recorder.settings = type(self.recorder.settings)(
@@ -63,11 +74,13 @@ class ScriptedPolicy:
         self._t = 0
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
+        """The next planned action, (14,) kit values; the last one again after the plan ends."""
         row = self._plan[min(self._t, len(self._plan) - 1)]
         self._t += 1
         return row
 
     def close(self) -> None:
+        """Close the recorder that plans the episodes."""
         self.recorder.close()
 
 
@@ -88,14 +101,17 @@ class FunctionPolicy:
         self.fn = fn
 
     def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        """Call the function's ``reset()`` when it has one."""
         reset = getattr(self.fn, "reset", None)
         if callable(reset):
             reset()
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
+        """``fn(observation)`` as a float array, (action dim,)."""
         return np.asarray(self.fn(observation), dtype=float)
 
     def close(self) -> None:
+        """Nothing to release."""
         pass
 
 

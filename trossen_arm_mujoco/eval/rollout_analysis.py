@@ -31,6 +31,17 @@ import numpy as np
 
 from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore, write_json
 
+__all__ = [
+    "LIFT_STAGE",
+    "RELEASE_OPENING",
+    "ROLLOUTS_FILE",
+    "RolloutRecorder",
+    "failure_line",
+    "rollouts_report",
+    "stopped_at",
+    "write_rollouts",
+]
+
 #: The file written next to ``eval_info.json``.
 ROLLOUTS_FILE = "rollouts.json"
 #: Opening (m) by which the right fingers must widen beyond their narrowest since the lift

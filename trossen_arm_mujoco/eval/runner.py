@@ -36,6 +36,20 @@ from trossen_arm_mujoco.eval.env import KitPolicyEnv
 from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
 from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
 
+__all__ = [
+    "ENGINES",
+    "THREAD_VARS",
+    "VIDEO_DIR",
+    "EpisodeRunner",
+    "EvalSettings",
+    "PolicyCallError",
+    "available_cpus",
+    "evaluate",
+    "limit_threads",
+    "thread_env",
+    "threads_per_worker",
+]
+
 #: Where the rollout videos go, in the output folder.
 VIDEO_DIR = "videos"
 #: Environment variables sizing the thread pools of numpy's BLAS, OpenMP (torch) and MKL.
@@ -116,6 +130,8 @@ class EvalSettings:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def make_env(self) -> KitPolicyEnv:
+        """A ``KitPolicyEnv`` of these settings (task, cameras, image size, fps,
+        episode length, layout), rendering ``rgb_array`` frames for the videos."""
         return KitPolicyEnv(
             self.task,
             cam_names=self.cam_names,
@@ -201,6 +217,7 @@ class EpisodeRunner:
             ) from exc
 
     def close(self) -> None:
+        """Close the policy and the env."""
         self.policy.close()
         self.env.close()
 

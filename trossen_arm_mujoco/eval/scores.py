@@ -23,6 +23,17 @@ from typing import Any
 
 from trossen_arm_mujoco.fileio import atomic_path
 
+__all__ = [
+    "STAGES",
+    "EpisodeScore",
+    "aggregate",
+    "eval_info",
+    "stages_reached",
+    "wilson_interval",
+    "write_eval_info",
+    "write_json",
+]
+
 #: Task -> stage name -> the reward that marks it (reached when max reward >= it).
 STAGES: dict[str, dict[str, float]] = {
     # 1 right fingers touch the cube, 2 and it is off the table, 4 the left holds it up

@@ -7,6 +7,8 @@ from types import ModuleType
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = ["LEROBOT_INSTALL_HINT", "require"]
+
 #: How to install what the LeRobot export needs.
 LEROBOT_INSTALL_HINT = 'pip install "trossen_arm_mujoco[lerobot]"'
 

@@ -82,6 +82,8 @@ from trossen_arm_mujoco.fileio import (
     temp_path,
 )
 
+__all__ = ["REPO_ID_RE", "ExportSummary", "export_lerobot", "frame_values"]
+
 #: A dataset name: ``<owner>/<name>`` as on the Hugging Face Hub.
 REPO_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
 

@@ -32,6 +32,34 @@ import numpy as np
 from trossen_arm_mujoco.export.deps import require
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS
 
+__all__ = [
+    "CHUNKS_SIZE",
+    "CODEBASE_VERSION",
+    "DATA_FILES_SIZE_MB",
+    "DATA_PATH",
+    "ENV_STATE_KEY",
+    "EPISODES_PATH",
+    "INDEX_FEATURES",
+    "INFO_PATH",
+    "QUANTILES",
+    "ROBOT_TYPE",
+    "STATS_PATH",
+    "STAT_NAMES",
+    "TASKS_PATH",
+    "VECTOR_FEATURES",
+    "VIDEO_FILES_SIZE_MB",
+    "VIDEO_PATH",
+    "FileIndex",
+    "build_features",
+    "build_info",
+    "data_schema",
+    "layout_values",
+    "video_key",
+    "write_episodes",
+    "write_json",
+    "write_tasks",
+]
+
 #: Format version LeRobot checks when loading.
 CODEBASE_VERSION = "v3.0"
 #: Files per chunk folder, and the size (MB) at which data / video files roll over.

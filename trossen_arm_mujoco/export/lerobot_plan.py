@@ -41,6 +41,20 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 from trossen_arm_mujoco.tasks import registry
 
+__all__ = [
+    "DEFAULT_LAYOUT",
+    "POSE_COMPONENTS",
+    "ExportPlan",
+    "FrameMap",
+    "check_layout",
+    "env_state_names",
+    "episode_frames",
+    "frame_map",
+    "output_fps",
+    "plan_export",
+    "source_fps",
+]
+
 #: The layout written unless asked otherwise: the real kit's 14 values.
 DEFAULT_LAYOUT = "kit14"
 #: Suffixes of an object's 7 pose values in ``observation.environment_state`` names.

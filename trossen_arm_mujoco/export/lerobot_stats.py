@@ -20,6 +20,20 @@ import numpy as np
 
 from trossen_arm_mujoco.export.lerobot_format import QUANTILES, STAT_NAMES
 
+__all__ = [
+    "IMAGE_DOWNSAMPLE_FROM",
+    "IMAGE_STATS_SIDE",
+    "MAX_IMAGE_SAMPLES",
+    "MIN_IMAGE_SAMPLES",
+    "Stats",
+    "aggregate",
+    "array_stats",
+    "downsample",
+    "image_sample_indices",
+    "image_stats",
+    "to_lists",
+]
+
 Stats = dict[str, np.ndarray]
 
 #: Frames sampled per episode for image statistics: all up to this many, then T**0.75.

@@ -24,6 +24,16 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.export.deps import require
 from trossen_arm_mujoco.export.lerobot_format import FileIndex
 
+__all__ = [
+    "DEFAULT_CRF",
+    "ENCODERS",
+    "MAX_CRF",
+    "PIX_FMTS",
+    "SVTAV1_PRESET",
+    "CameraVideo",
+    "VideoSettings",
+]
+
 #: Codec choice -> PyAV encoder name, and its default CRF.
 ENCODERS: dict[str, str] = {"libsvtav1": "libsvtav1", "h264": "libx264"}
 DEFAULT_CRF: dict[str, int] = {"libsvtav1": 30, "h264": 23}

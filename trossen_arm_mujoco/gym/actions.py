@@ -40,6 +40,8 @@ from trossen_arm_mujoco.robot.kinematics import orientation_error
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.tasks.config_schema import KEYS
 
+__all__ = ["ACTION_MODES", "CONFIG_KEYS", "MAX_ROTATION_STEP", "ActionMapper"]
+
 ACTION_MODES = ("joint_position", "joint_rel_position", "ee_delta")
 #: rotation correction per step when holding the tool orientation (rad).
 MAX_ROTATION_STEP = 0.2
@@ -69,9 +71,9 @@ class _ArmPart:
         self.arm, self.gripper = arm, gripper
         self.arm_values = slice(start, start + size - 1)
         self.grip_value = slice(start + size - 1, start + size)
-        low, high = arm.ctrl_limits()
+        low, high = arm.ctrl_limits.T
         self.a_mid, self.a_half = 0.5 * (low + high), 0.5 * (high - low)
-        g_low, g_high = gripper.ctrl_limits()
+        g_low, g_high = gripper.ctrl_limits.T
         self.g_mid, self.g_half = 0.5 * (g_low + g_high), 0.5 * (g_high - g_low)
 
 
@@ -98,7 +100,7 @@ class ActionMapper:
         self.rel_limit = float(config["joint_rel_limit"])
         self.hold = bool(config["hold_orientation"]) and mode == "ee_delta"
         view = robot.view
-        self.arms = [(view.group(a), view.group(g)) for a, g in arms]
+        self.arms = [(view.get_move_group(a), view.get_move_group(g)) for a, g in arms]
         self.ref_quat: dict[str, np.ndarray] = {}
         arm_dim = 3 if mode == "ee_delta" else 6
         self.sizes = [arm_dim + 1 for _ in self.arms]

@@ -61,7 +61,10 @@ from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.config import merge_overrides
 from trossen_arm_mujoco.tasks.config_key import Key
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.tasks.task import Task
+
+__all__ = ["ENV_OPTIONS", "RENDER_MODES", "TrossenMujocoEnv", "has_display"]
 
 RENDER_MODES = ("rgb_array", "human")
 ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "width",
@@ -155,16 +158,16 @@ class TrossenMujocoEnv(gymnasium.Env):
             check_can_render()  # fail now, not with a hang at the first image
         self.task_name = task
         self.obs_type, self.action_mode, self.render_mode = obs_type, action_mode, render_mode
-        self.sampler = sampler_cls(
-            self.config,
+        settings = SamplerSettings(
             command_mode=action_mode,
-            camera_names=cameras,
+            camera_names=tuple(cameras),
             height=height,
             width=width,
             randomize=randomize,
             looks=looks,
             floor_margin=self.config["safety_margin"],
         )
+        self.sampler = sampler_cls(self.config, settings)
         self.scene = self.sampler.env
         robot = self.scene.robots[sampler_cls.robot_name]
         self.actions = ActionMapper(robot, sampler_cls.arms, action_mode, self.config)

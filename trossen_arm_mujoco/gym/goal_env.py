@@ -18,6 +18,8 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.gym.env import TrossenMujocoEnv
 from trossen_arm_mujoco.tasks import registry
 
+__all__ = ["TrossenMujocoGoalEnv"]
+
 
 class TrossenMujocoGoalEnv(TrossenMujocoEnv):
     """Goal-conditioned gym env over a goal-conditioned task (reach, push, pick_place)."""

@@ -22,6 +22,16 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 
+__all__ = [
+    "RESET_OPTIONS",
+    "WRAPPER_OPTIONS",
+    "InvalidInput",
+    "action_array",
+    "describe_space",
+    "nonfinite_action",
+    "reset_options",
+]
+
 #: Keys ``reset(options=...)`` accepts, and what each value must be.
 RESET_OPTIONS: dict[str, str] = {
     "object_poses": "a dict {object name: 7 values [x, y, z (m, world), quat w, x, y, z]} "

@@ -21,6 +21,8 @@ from typing import Any
 
 from gymnasium.envs.registration import EnvSpec
 
+__all__ = ["ENV_IDS", "NAMESPACE", "TaskEnvSpec", "register_envs"]
+
 NAMESPACE = "TrossenMujoco"
 _ENV = "trossen_arm_mujoco.gym.env:TrossenMujocoEnv"
 _GOAL_ENV = "trossen_arm_mujoco.gym.goal_env:TrossenMujocoGoalEnv"
@@ -49,6 +51,8 @@ class TaskEnvSpec(EnvSpec):
 
     @property  # type: ignore[override]
     def max_episode_steps(self) -> int | None:
+        """The task config's ``max_episode_steps`` (the TimeLimit), read from its YAML
+        file the first time it is asked for."""
         if self.__dict__.get("_lazy"):
             from trossen_arm_mujoco.tasks import registry
 

@@ -15,6 +15,8 @@ from typing import Any
 
 from trossen_arm_mujoco.robot.safety_floor import FloorReport
 
+__all__ = ["safety_info"]
+
 
 def safety_info(info: dict[str, Any], report: FloorReport) -> dict[str, Any]:
     """``info`` with ``safety_clipped`` and ``safety_links`` from ``report`` (the robot's

@@ -29,6 +29,8 @@ from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.tasks.task import Task
 
+__all__ = ["OBS_TYPES", "ObservationBuilder"]
+
 OBS_TYPES = ("state", "pixels", "pixels_state")
 
 
@@ -85,6 +87,7 @@ class ObservationBuilder:
 
     @property
     def needs_images(self) -> bool:
+        """Whether observations include camera images (every type but ``state``)."""
         return self.obs_type != "state"
 
     def _space(self) -> spaces.Space:

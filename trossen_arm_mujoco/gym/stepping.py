@@ -30,6 +30,15 @@ import numpy as np
 from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.tasks.task import Task
 
+__all__ = [
+    "MAX_LAG",
+    "STEPPING_MODES",
+    "PausedStepper",
+    "RealtimeStepper",
+    "Stepper",
+    "make_stepper",
+]
+
 STEPPING_MODES = ("fast", "paused", "realtime")
 MAX_LAG = 0.25
 
@@ -54,9 +63,12 @@ class Stepper:
         """Stop advancing the simulation (before a reset or close)."""
 
     def step(self, task: Task, commands: Mapping[str, np.ndarray]) -> None:
+        """Advance ``task`` by one policy step under ``commands`` (group id -> command),
+        as fast as the CPU allows."""
         task.advance(commands)
 
     def close(self) -> None:
+        """Stop stepping (a background thread, if any) for good."""
         self.stop()
 
 
@@ -70,6 +82,7 @@ class PausedStepper(Stepper):
         self._clock, self._sleep = clock, sleep
 
     def step(self, task, commands):
+        """One policy step, then wait out the rest of ``policy_dt`` (s) of wall-clock time."""
         start = self._clock()
         super().step(task, commands)
         remaining = task.policy_dt - (self._clock() - start)
@@ -109,6 +122,8 @@ class RealtimeStepper(Stepper):
             self._thread = None
 
     def step(self, task, commands):
+        """Hand ``commands`` to the physics thread (started at the first call), which
+        keeps stepping in real time between calls; a failure of that thread is raised here."""
         if self.error is not None:
             raise RuntimeError("the realtime physics thread failed") from self.error
         if self._thread is None:

@@ -35,6 +35,24 @@ from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 from trossen_arm_mujoco.tasks.insertion import PEG_HALF, PIN_FACE_Y, SOCKET_MOUTH_Y
 
+__all__ = [
+    "APPROACH",
+    "GRIPPER_SPEED",
+    "LIFT",
+    "MEET_POINT",
+    "NOISE_CONTACT",
+    "NOISE_FREE",
+    "OVERTRAVEL",
+    "PEG_GRASP",
+    "PEG_GRIP",
+    "PEG_SAG",
+    "PRE_INSERT_GAP",
+    "SOCKET_GRASP",
+    "SOCKET_GRIP",
+    "TILT_DEG",
+    "InsertionPolicy",
+]
+
 GRIPPER_SPEED = GRIPPER_PLAN_SPEED
 #: Finger travel commanded on the 20 mm peg and on the 32 mm socket: the pads would meet
 #: about 4.5 mm inside each face; the difference sets the squeeze of the position actuator

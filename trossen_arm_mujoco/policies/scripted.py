@@ -17,6 +17,17 @@ from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.tasks.task import DEFAULT_POLICY_DT
 
+__all__ = [
+    "GRIPPER_PLAN_SPEED",
+    "BimanualWaypointPolicy",
+    "Waypoint",
+    "add_position_noise",
+    "check_waypoints",
+    "interpolate",
+    "steps_for",
+    "waypoint",
+]
+
 Waypoint = dict
 
 

@@ -15,6 +15,8 @@ from __future__ import annotations
 import time
 from typing import Protocol, runtime_checkable
 
+__all__ = ["Advanceable", "Clock", "SimClock", "WallClock"]
+
 
 @runtime_checkable
 class Clock(Protocol):

@@ -43,6 +43,28 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
 
+__all__ = [
+    "COMMAND_ERRORS",
+    "CONNECT_TIMEOUT_S",
+    "DEFAULT_END_EFFECTOR",
+    "DEFAULT_MODEL",
+    "HOME_POSE",
+    "INSTALL_HINT",
+    "NUM_ARM_VALUES",
+    "SLEEP_POSE",
+    "ArmDriver",
+    "TrossenArmDriver",
+    "check_end_effector",
+    "end_effector_presets",
+    "find_trossen_arm",
+    "import_trossen_arm",
+    "installed_version",
+    "release_driver_logs",
+    "resolve_presets",
+    "route_driver_logs",
+    "split_arms",
+]
+
 #: Values per arm sent to / read from a driver: 6 joints (rad) + gripper (m).
 NUM_ARM_VALUES: int = 7
 

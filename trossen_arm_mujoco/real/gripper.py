@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+__all__ = ["GRIPPER_INDEX", "GRIPPER_MAX", "GripperClamp", "clamp_gripper"]
+
 #: Largest gripper command the arm controller accepts (m, one carriage's travel).
 GRIPPER_MAX: float = 0.04
 

@@ -70,7 +70,6 @@ __all__ = [
     "MAX_COMMAND_PERIOD",
     "MAX_FPS",
     "MIN_FPS",
-    "DriverError",
     "DriverFactory",
     "ReplayConfig",
     "ReplayResult",

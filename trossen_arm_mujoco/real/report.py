@@ -33,6 +33,18 @@ from trossen_arm_mujoco.errors import UserError, describe_os_error, os_error_hin
 from trossen_arm_mujoco.fileio import atomic_path, check_writable_dir, write_text
 from trossen_arm_mujoco.real.validate import ARMS, DRIVER_LABELS, DRIVER_UNITS
 
+__all__ = [
+    "LABELS",
+    "PLOT_HINT",
+    "UNITS",
+    "TrackingLog",
+    "check_outputs",
+    "format_error_table",
+    "output_paths",
+    "plot_tracking",
+    "write_outputs",
+]
+
 #: Column labels of the 14 logged values: ``left_joint_0`` ... ``right_gripper``.
 LABELS: tuple[str, ...] = tuple(f"{arm}_{name}" for arm in ARMS for name in DRIVER_LABELS)
 UNITS: tuple[str, ...] = DRIVER_UNITS * 2

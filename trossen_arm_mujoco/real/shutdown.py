@@ -38,6 +38,17 @@ from trossen_arm_mujoco.real.clock import Clock
 from trossen_arm_mujoco.real.driver import HOME_POSE, NUM_ARM_VALUES, SLEEP_POSE, ArmDriver
 from trossen_arm_mujoco.real.validate import ArmLimits, safe_move_time
 
+__all__ = [
+    "SHUTDOWN_TRIES",
+    "ArmStates",
+    "DriverError",
+    "call",
+    "move_time",
+    "one_line",
+    "read_positions",
+    "shutdown",
+]
+
 #: Attempts of each call during shutdown.
 SHUTDOWN_TRIES: int = 2
 

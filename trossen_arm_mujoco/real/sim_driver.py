@@ -39,6 +39,16 @@ from trossen_arm_mujoco.real.driver import (
     SLEEP_POSE,
 )
 
+__all__ = [
+    "ACTUATORS",
+    "ARM_XML",
+    "JOINTS",
+    "QUINTIC_MIN_GOAL_TIME",
+    "SIM_END_EFFECTORS",
+    "SIM_MODELS",
+    "SimArmDriver",
+]
+
 #: Single-arm model of the twin.
 ARM_XML: Path = Path(ASSETS_DIR) / "wxai" / "wxai_follower.xml"
 

@@ -26,6 +26,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+__all__ = ["STOP_SIGNALS", "WAIT_SLICE", "Interrupted", "StopFlag", "stop_on_signals"]
+
 #: Signals that stop a replay cleanly (where the platform has them).
 STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
     getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")

@@ -31,6 +31,22 @@ from trossen_arm_mujoco.real.sim_driver import ARM_XML
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import ARM_VALUES, KIT_LAYOUT
 
+__all__ = [
+    "ARMS",
+    "DATASET_JOINTS",
+    "DRIVER_LABELS",
+    "DRIVER_UNITS",
+    "POSITION_TOLERANCE",
+    "VELOCITY_LIMITS",
+    "VELOCITY_TOLERANCE",
+    "ArmLimits",
+    "Trajectory",
+    "TrajectoryError",
+    "format_trajectory_report",
+    "safe_move_time",
+    "validate_actions",
+]
+
 ARMS: tuple[str, str] = ("left", "right")
 
 #: MJCF joints of one arm in dataset order (8 values per arm).

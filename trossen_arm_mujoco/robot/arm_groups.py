@@ -23,6 +23,8 @@ from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.selection import as_slice
 
+__all__ = ["ArmMoveGroup", "MocapArmGroup", "SimplyActuatedMoveGroup"]
+
 
 class SimplyActuatedMoveGroup(MoveGroup):
     """One position actuator per joint: the control is the joint target (rad or m).

@@ -26,6 +26,13 @@ from trossen_arm_mujoco.robot.frames import (
 )
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 
+__all__ = [
+    "FreeJointRobotBaseGroup",
+    "ImmobileRobotBaseGroup",
+    "MocapRobotBaseGroup",
+    "RobotBaseGroup",
+]
+
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
 
 

@@ -7,6 +7,8 @@ import mujoco
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.checks import check_data_fits
 
+__all__ = ["DataBound"]
+
 
 class DataBound:
     """Reads and writes one ``MjData`` once bound (``bind``); ``data`` is that MjData.
@@ -35,6 +37,7 @@ class DataBound:
 
     @property
     def is_bound(self) -> bool:
+        """Whether an ``MjData`` is bound (then calls may leave the data out)."""
         return self._data is not None
 
     @property

@@ -17,6 +17,8 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = ["KinematicChain"]
+
 _HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 
 

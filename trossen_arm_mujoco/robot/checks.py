@@ -13,6 +13,8 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = ["check_data_fits", "check_velocity_limits", "finite", "model_and_data", "vector"]
+
 
 def model_and_data(source) -> tuple[mujoco.MjModel, mujoco.MjData | None]:
     """(model, data) of an ``MjModel`` (data None) or an ``MjData`` (its model)."""

@@ -32,6 +32,21 @@ from trossen_arm_mujoco.robot.layout import (
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.robot_view import RobotView
 
+__all__ = [
+    "ACTUATED_FINGER",
+    "BASE_KINDS",
+    "GROUP_KINDS",
+    "JOINT_VELOCITY_LIMITS",
+    "START_ARM",
+    "START_FINGERS",
+    "MoveGroupSpec",
+    "RobotConfig",
+    "qpos16_to_dict",
+    "stationary_ai_joint_config",
+    "stationary_ai_mocap_config",
+    "wxai_config",
+]
+
 #: MoveGroupSpec kinds of base groups (the robot frame): fixed to the world, on a mocap
 #: body (teleportable), on a free joint.
 BASE_KINDS: tuple[str, ...] = ("base", "mocap_base", "free_joint_base")

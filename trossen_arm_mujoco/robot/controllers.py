@@ -38,6 +38,16 @@ from trossen_arm_mujoco.robot.kinematics import Kinematics
 from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 
+__all__ = [
+    "CONTROLLERS",
+    "Controller",
+    "EEDeltaController",
+    "EEPoseController",
+    "JointPosController",
+    "JointRelPosController",
+    "make_controller",
+]
+
 if TYPE_CHECKING:
     from trossen_arm_mujoco.robot.safety_floor import SafetyFloor
 
@@ -72,10 +82,13 @@ class Controller:
 
     @property
     def command_dim(self) -> int:
+        """Number of values in one command (the group's ``ctrl_dim`` for joint modes)."""
         return self.group.ctrl_dim
 
     def command_limits(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.group.ctrl_limits()
+        """(low, high) of a command, two (command_dim,) arrays in the command's units
+        (rad / m for joint positions)."""
+        return tuple(self.group.ctrl_limits.T)
 
     @property
     def max_step(self) -> np.ndarray | None:
@@ -176,7 +189,9 @@ class JointRelPosController(JointPosController):
     relative = True
 
     def command_limits(self):
-        low, high = self.group.ctrl_limits()
+        """(low, high) of a relative command: +- the span of each control range
+        (rad / m), two (command_dim,) arrays."""
+        low, high = self.group.ctrl_limits.T
         span = high - low
         return -span, span
 
@@ -204,9 +219,11 @@ class EEPoseController(Controller):
 
     @property
     def command_dim(self) -> int:
+        """7: the tool pose [x, y, z (m), quat wxyz]."""
         return 7
 
     def command_limits(self):
+        """(low, high) of a pose command: +-2 m per position, +-1 per quaternion component."""
         return np.array([-2.0, -2.0, -2.0, -1, -1, -1, -1]), np.array([2.0, 2.0, 2.0, 1, 1, 1, 1])
 
     def _target(self, data, cmd):
@@ -245,9 +262,11 @@ class EEDeltaController(Controller):
 
     @property
     def command_dim(self) -> int:
+        """3 ([dx, dy, dz] m) or, with ``rotation``, 6 (plus a rotation vector, rad)."""
         return 6 if self.rotation else 3
 
     def command_limits(self):
+        """(low, high) of a delta: +-0.05 m per axis, +-0.2 rad per rotation component."""
         lim = np.full(self.command_dim, 0.05)
         if self.rotation:
             lim[3:] = 0.2

@@ -28,6 +28,8 @@ import numpy as np
 
 from trossen_arm_mujoco.robot.selection import as_slice
 
+__all__ = ["CYLINDER_SIDES", "ArmPoints", "geom_points"]
+
 #: Sides of the polygons standing in for cylinder end discs.
 CYLINDER_SIDES = 16
 

@@ -14,6 +14,22 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = [
+    "as_transform",
+    "check_transforms",
+    "frame_jacobian",
+    "frame_transform",
+    "invert",
+    "matrix_to_quat",
+    "pose7_to_transform",
+    "pose_error",
+    "pose_error_rp",
+    "relative",
+    "rotation_log",
+    "transform",
+    "transform_to_pose7",
+]
+
 
 def transform(pos: np.ndarray, rot: np.ndarray) -> np.ndarray:
     """4x4 transform from a position (3,) m and a rotation matrix (3, 3) (or 9 values)."""

@@ -11,6 +11,8 @@ from trossen_arm_mujoco.robot.checks import vector
 from trossen_arm_mujoco.robot.limits import frozen
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 
+__all__ = ["GripperGroup"]
+
 
 class GripperGroup(MoveGroup):
     """Two coupled fingers driven by one position actuator.

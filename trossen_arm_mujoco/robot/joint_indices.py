@@ -18,6 +18,19 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 
+__all__ = [
+    "BALL",
+    "FREE",
+    "HINGE",
+    "POS_DIM",
+    "SLIDE",
+    "VEL_DIM",
+    "JointIndices",
+    "actuator_ids",
+    "joint_indices",
+    "root_body_id",
+]
+
 HINGE, SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 BALL, FREE = int(mujoco.mjtJoint.mjJNT_BALL), int(mujoco.mjtJoint.mjJNT_FREE)
 #: qpos values per joint type (a free joint: position + quaternion).

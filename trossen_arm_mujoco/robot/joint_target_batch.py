@@ -32,6 +32,8 @@ from trossen_arm_mujoco.robot.controllers import Controller, JointPosController
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.selection import as_slice
 
+__all__ = ["JointTargetBatch", "JointTargets", "batchable", "split_batchable"]
+
 _PLAIN_GROUPS = (SimplyActuatedMoveGroup, GripperGroup)
 
 
@@ -203,6 +205,11 @@ def _forgets_vector(name: str):
         return method(self, *args, **kwargs)
 
     wrapper.__name__ = name
+    wrapper.__qualname__ = f"JointTargets.{name}"
+    wrapper.__doc__ = (
+        f"``dict.{name}``, after dropping ``vector``: the entries may no longer be its views "
+        "(the robot then reads them one by one)."
+    )
     return wrapper
 
 

@@ -14,6 +14,8 @@ import numpy as np
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = ["Kinematics", "damped_least_squares", "orientation_error"]
+
 
 def orientation_error(target_quat: np.ndarray, quat: np.ndarray) -> np.ndarray:
     """Rotation vector (rad, world frame) that turns ``quat`` into ``target_quat``."""

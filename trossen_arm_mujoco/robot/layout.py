@@ -16,6 +16,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = [
+    "ARM_JOINTS",
+    "ARM_VALUES",
+    "EE_LAYOUT",
+    "FINGER_JOINTS",
+    "GRIPPER_CLOSED",
+    "GRIPPER_OPEN",
+    "KIT_LAYOUT",
+    "LAYOUTS",
+    "REAL_KIT_LAYOUT",
+    "SIDES",
+    "START_ARM_POSE",
+    "EELayout",
+    "KitLayout",
+    "RealKitLayout",
+    "kit_joint_commands",
+]
+
 #: Gripper finger travel (m): fully open; and closed on the 25 mm cube.
 GRIPPER_OPEN: float = 0.044
 GRIPPER_CLOSED: float = 0.012
@@ -55,14 +73,17 @@ class KitLayout:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The 16 value names, ``left_joint_0`` ... ``right_right_finger``."""
         return tuple(f"{side}_{joint}" for side in SIDES for joint in ARM_VALUES)
 
     @property
     def units(self) -> tuple[str, ...]:
+        """Unit of each of the 16 values: ``rad`` for arm joints, ``m`` for fingers."""
         return (("rad",) * 6 + ("m",) * 2) * 2
 
     @property
     def groups(self) -> dict[str, slice]:
+        """Move group id -> slice of the 16 values (arm: 6 joints, gripper: 2 fingers)."""
         return {
             "left_arm": slice(0, 6),
             "left_gripper": slice(6, 8),
@@ -118,11 +139,14 @@ class RealKitLayout:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The 14 value names of the real kit, ``left_joint_0.pos`` ...
+        ``right_left_carriage_joint.pos``."""
         arm = ARM_JOINTS + ("left_carriage_joint",)
         return tuple(f"{side}_{joint}.pos" for side in SIDES for joint in arm)
 
     @property
     def units(self) -> tuple[str, ...]:
+        """Unit of each of the 14 values: ``rad`` for arm joints, ``m`` for the carriage."""
         return (("rad",) * 6 + ("m",)) * 2
 
     def arm(self, side: str) -> slice:
@@ -195,6 +219,8 @@ class EELayout:
 
     @property
     def groups(self) -> dict[str, slice]:
+        """Move group id -> slice of the 16 values (arm: tool pose [xyz m, quat wxyz],
+        gripper: 1 opening, m)."""
         return {
             "left_arm": slice(0, 7),
             "left_gripper": slice(7, 8),

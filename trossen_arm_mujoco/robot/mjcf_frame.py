@@ -16,6 +16,8 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.frames import frame_jacobian
 
+__all__ = ["MJCFFrameMixin"]
+
 
 class MJCFFrameMixin:
     """A leaf frame named in the MJCF: a site (e.g. the tool frame ``ee_site``) or a body.

@@ -35,8 +35,10 @@ from trossen_arm_mujoco.robot.binding import DataBound
 from trossen_arm_mujoco.robot.checks import check_velocity_limits, finite, model_and_data
 from trossen_arm_mujoco.robot.frames import frame_jacobian, frame_transform, relative
 from trossen_arm_mujoco.robot.joint_indices import HINGE, SLIDE, joint_indices, root_body_id
-from trossen_arm_mujoco.robot.limits import Limits, frozen
+from trossen_arm_mujoco.robot.limits import frozen
 from trossen_arm_mujoco.robot.selection import as_slice
+
+__all__ = ["MoveGroup", "RobotFrame"]
 
 
 class RobotFrame(Protocol):
@@ -128,6 +130,7 @@ class MoveGroup(DataBound):
 
     @property
     def n_joints(self) -> int:
+        """Number of joints of the group."""
         return len(self.joint_ids)
 
     @property
@@ -142,6 +145,7 @@ class MoveGroup(DataBound):
 
     @property
     def n_actuators(self) -> int:
+        """Number of actuators of the group (0 for mocap and unactuated groups)."""
         return len(self.actuator_ids)
 
     @property
@@ -198,9 +202,10 @@ class MoveGroup(DataBound):
         return self.joint_range.copy()
 
     @property
-    def ctrl_limits(self) -> Limits:
-        """(ctrl_dim, 2) [low, high] per control value; ``ctrl_limits()`` gives (low, high)."""
-        return Limits.of(self._ctrl_low, self._ctrl_high)
+    def ctrl_limits(self) -> np.ndarray:
+        """(ctrl_dim, 2) [low, high] per control value (rad / m), a fresh copy;
+        ``low, high = group.ctrl_limits.T`` gives the two (ctrl_dim,) bounds."""
+        return np.stack([self._ctrl_low, self._ctrl_high], axis=-1).astype(float)
 
     # -- frames (4x4, after mj_kinematics) -----------------------------------------------
     @property
@@ -244,6 +249,8 @@ class MoveGroup(DataBound):
         return data.qpos[self._qpos_sel].copy()
 
     def set_qpos(self, data: mujoco.MjData, qpos: Sequence[float]) -> None:
+        """Write the group's joint positions, (pos_dim,) rad / m, into ``data.qpos`` (a
+        UserError for a wrong shape or NaN; run ``mj_kinematics`` / ``mj_forward`` after)."""
         q = np.asarray(qpos, dtype=float)
         if q.shape != (self.pos_dim,):
             raise UserError(f"{self.name}: expected {self.pos_dim} joint values, got {q.shape}")
@@ -254,6 +261,8 @@ class MoveGroup(DataBound):
         return data.qvel[self._dof_sel].copy()
 
     def set_qvel(self, data: mujoco.MjData, qvel: Sequence[float]) -> None:
+        """Write the group's joint velocities, (vel_dim,) rad/s / m/s, into
+        ``data.qvel`` (a UserError for a wrong shape or NaN)."""
         v = np.asarray(qvel, dtype=float)
         if v.shape != (self.vel_dim,):
             raise UserError(f"{self.name}: expected {self.vel_dim} joint velocities, got {v.shape}")

@@ -27,6 +27,8 @@ from trossen_arm_mujoco.robot.frames import as_transform, check_transforms, inve
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.robot_kinematics import RobotKinematics, check_ik_options
 
+__all__ = ["BatchIKResult", "ParallelKinematics"]
+
 
 @dataclass(frozen=True)
 class BatchIKResult:

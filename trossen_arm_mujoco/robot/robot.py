@@ -27,6 +27,8 @@ from trossen_arm_mujoco.robot.robot_kinematics import RobotKinematics
 from trossen_arm_mujoco.robot.robot_view import RobotView
 from trossen_arm_mujoco.robot.safety_floor import FloorReport, SafetyFloor, floor_height
 
+__all__ = ["Robot"]
+
 
 class Robot:
     """Commands in, controls out.
@@ -81,7 +83,7 @@ class Robot:
             raise UserError(f"ctrl_dt must be a positive number of seconds, got {ctrl_dt}")
         self.view: RobotView = config.build_view(model)
         self.controllers: dict[str, Controller] = {
-            g: make_controller(mode, self.view.group(g), model, self.ctrl_dt)
+            g: make_controller(mode, self.view.get_move_group(g), model, self.ctrl_dt)
             for g, mode in config.command_mode.items()
         }
         self._commands: dict[str, np.ndarray] = {}
@@ -104,6 +106,7 @@ class Robot:
 
     @property
     def robot_view(self) -> RobotView:
+        """The robot's ``RobotView`` (the same as ``robot.view``)."""
         return self.view
 
     @property
@@ -148,7 +151,7 @@ class Robot:
         """
         data = self._data(data)
         target = as_transform("world pose", pose)
-        bases = [self.view.group(n) for n in self.view.base_group_ids()]
+        bases = [self.view.get_move_group(n) for n in self.view.base_group_ids()]
         if not bases:
             raise UserError(f"robot '{self.config.name}' has no base group to move")
         for base in bases:
@@ -367,7 +370,7 @@ class Robot:
         data = self._data(data)
         self.view.set_qpos_dict(data, self.config.init_qpos)
         for name in self.config.init_qpos:
-            data.qvel[self.view.group(name).dof_idx] = 0.0
+            data.qvel[self.view.get_move_group(name).dof_idx] = 0.0
         self._commands.clear()
         self._targets.clear()
         self._batch = None

@@ -26,6 +26,8 @@ from trossen_arm_mujoco.robot.kinematics import damped_least_squares
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.robot_view import RobotView
 
+__all__ = ["IKResult", "RobotKinematics", "check_ik_options"]
+
 if TYPE_CHECKING:
     from trossen_arm_mujoco.robot.configs import RobotConfig
 

@@ -22,6 +22,8 @@ from trossen_arm_mujoco.robot.checks import model_and_data
 from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 
+__all__ = ["RobotView"]
+
 
 class RobotView(DataBound):
     """Named move groups of one robot; reads and writes qpos/ctrl by group name.
@@ -64,8 +66,6 @@ class RobotView(DataBound):
             return self.move_groups[mg_id]
         except KeyError:
             raise unknown_name_error("move group", mg_id, self.move_groups) from None
-
-    group = get_move_group  # the earlier name
 
     def base_group_ids(self) -> list[str]:
         """Ids of the base groups, in order (the first is the robot's primary base)."""

@@ -7,6 +7,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+__all__ = ["as_slice"]
+
 
 def as_slice(indices: Sequence[int] | np.ndarray) -> slice | np.ndarray:
     """``slice(first, first + n)`` when ``indices`` are n consecutive ints, else them as an

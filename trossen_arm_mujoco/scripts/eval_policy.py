@@ -14,9 +14,16 @@ times and what the grippers did, per episode: ``trossen_arm_mujoco.eval.rollout_
 and the mp4 of the first ``--videos`` rollouts. An ``--output_dir`` that cannot be written is
 refused before the first episode; a ``module:function`` policy that raises is one ``error:``
 line naming the policy, episode and step, then the policy's traceback (exit status 1).
+
+``--backend wire`` runs the same policies and seeds through the served kit instead, in
+wall-clock time: joints and actions through the ``trossen_arm`` driver, images from the
+kit's ZeroMQ camera stream, the kit scoring; ``eval_info.json`` gains a ``timing`` block
+(``trossen_arm_mujoco.eval.wire_backend``; docs/rehearsal.md).
 """
 
 from __future__ import annotations
+
+__all__ = ["MAX_EPISODES", "build_parser", "cli", "main"]
 
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
@@ -44,6 +51,16 @@ from trossen_arm_mujoco.errors import (
     run_cli,
 )
 from trossen_arm_mujoco.robot.layout import LAYOUTS
+from trossen_arm_mujoco.scripts.common_options import (
+    add_cameras,
+    add_engine,
+    add_fps,
+    add_image_size,
+    add_num_episodes,
+    add_overwrite,
+    add_seed,
+    add_task_name,
+)
 
 #: Largest number of episodes one run takes.
 MAX_EPISODES = 100_000
@@ -59,24 +76,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--policy", required=True,
                    help="'scripted', module:function, or a LeRobot checkpoint folder "
                    "(.../checkpoints/last/pretrained_model)")  # fmt: skip
-    p.add_argument("--task_name", default="sim_transfer_cube",
-                   help="registered kit task (default sim_transfer_cube)")  # fmt: skip
-    p.add_argument("--num_episodes", type=int, default=10, help="episodes (default 10)")
+    add_task_name(p, "registered kit task")
+    add_num_episodes(p, "episodes", 10)
     p.add_argument("--num_workers", type=int, default=1,
                    help="worker processes (default 1; at most the CPU count)")  # fmt: skip
-    p.add_argument("--seed", type=int, default=0,
-                   help="base seed: episode i is env.reset(seed=seed + i) (default 0)")  # fmt: skip
-    p.add_argument("--cam_names", default=None,
-                   help="observed cameras, comma list or 'none' (default: the checkpoint's, "
-                   "else none)")  # fmt: skip
-    p.add_argument(
-        "--image_size",
-        default=None,
-        help="HxW of the observed images (default: the checkpoint's, else 480x640)",
-    )
-    p.add_argument("--fps", type=float, default=None,
-                   help="policy rate; 30 for data exported with --fps 30 (default: the "
-                   "task's 50)")  # fmt: skip
+    add_seed(p, "base seed: episode i is env.reset(seed=seed + i)")
+    add_cameras(p, "observed cameras", "the checkpoint's, else none")
+    add_image_size(p, "observed image size", default=None,
+                   default_text="the checkpoint's, else 480x640")  # fmt: skip
+    add_fps(p, "policy rate; 30 for data exported with --fps 30", "the task's, 50")
     p.add_argument("--episode_length", type=int, default=None,
                    help="steps per episode (default: the task's recording length, 12 s for "
                    "the transfer)")  # fmt: skip
@@ -86,11 +94,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--output_dir", default="eval_out",
                    help="where eval_info.json and videos/ go (default eval_out)")  # fmt: skip
     p.add_argument("--videos", type=int, default=0, help="mp4 of the first K rollouts")
-    p.add_argument("--engine", default="local", choices=("local", "ray"),
-                   help="local worker processes (default) or Ray")  # fmt: skip
+    add_engine(p, "where episodes run: local worker processes, or Ray")
     p.add_argument("--device", default="cpu", help="torch device of a checkpoint (default cpu)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace an eval_info.json already in --output_dir")  # fmt: skip
+    p.add_argument("--backend", default="sim", choices=("sim", "wire"),
+                   help="sim: in-process (default); wire: through the served kit in wall-clock "
+                   "time (trossen_arm driver + ZMQ cameras; docs/rehearsal.md)")  # fmt: skip
+    p.add_argument("--connect", action="store_true",
+                   help="with --backend wire: use a serve already running (with --cameras and "
+                   "--control_port) instead of starting one")  # fmt: skip
+    p.add_argument("--left_ip", default="127.0.0.2",
+                   help="with --backend wire: left arm address (default 127.0.0.2)")  # fmt: skip
+    p.add_argument("--right_ip", default="127.0.0.3",
+                   help="with --backend wire: right arm address (default 127.0.0.3)")  # fmt: skip
+    p.add_argument("--camera_port", type=int, default=5555,
+                   help="with --backend wire: camera stream port (default 5555)")  # fmt: skip
+    p.add_argument("--control_port", type=int, default=5556,
+                   help="with --backend wire: episode control port (default 5556)")  # fmt: skip
+    p.add_argument("--action_timeout", type=float, default=2.0,
+                   help="with --backend wire: seconds without an action before the episode "
+                   "fails (default 2)")  # fmt: skip
+    add_overwrite(p, "replace an eval_info.json already in --output_dir")
     return p
 
 
@@ -152,6 +175,27 @@ def _settings(args: argparse.Namespace):
     return settings, workers
 
 
+def _kit_link(args: argparse.Namespace, workers: int):
+    """``--backend wire``'s kit addresses, checked (loopback only); None for ``sim``."""
+    from trossen_arm_mujoco.eval.wire_link import KitLink
+
+    if args.backend != "wire":
+        defaults = build_parser().parse_args(["--policy", "x"])
+        for flag in ("connect", "left_ip", "right_ip", "camera_port", "control_port",
+                     "action_timeout"):  # fmt: skip
+            if getattr(args, flag) != getattr(defaults, flag):
+                raise UserError(f"--{flag} needs --backend wire")
+        return None
+    if workers > 1 or args.engine != "local" or args.videos:
+        raise UserError("--backend wire runs one episode at a time on one kit: leave out "
+                        "--num_workers, --engine and --videos")  # fmt: skip
+    if not 0.05 <= args.action_timeout <= 600:
+        raise UserError(f"--action_timeout must be in [0.05, 600] s, got {args.action_timeout}")
+    link = KitLink(args.left_ip, args.right_ip, camera_port=args.camera_port,
+                   control_port=args.control_port, connect=args.connect)  # fmt: skip
+    return link.checked()
+
+
 def _has_av() -> bool:
     try:
         import av  # noqa: F401
@@ -174,6 +218,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from trossen_arm_mujoco.eval.scores import write_eval_info
 
     settings, workers = _settings(args)
+    link = _kit_link(args, workers)  # --backend wire's addresses, checked before any episode
     env = settings.make_env()  # fail fast on a bad task, camera, size or checkpoint
     try:
         if settings.policy != "scripted" and not is_function_spec(settings.policy):
@@ -205,7 +250,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         with interrupt_note(kept):
-            info = evaluate(settings, workers, args.engine, on_episode=tick)
+            if args.backend == "wire":
+                from trossen_arm_mujoco.eval.wire_backend import evaluate_wire
+
+                info = evaluate_wire(settings, link, args.action_timeout, on_episode=tick)
+            else:
+                info = evaluate(settings, workers, args.engine, on_episode=tick)
     except PolicyCallError as exc:  # the user's code raised: say where, then its traceback
         bar.close()
         report_error(exc, 1)

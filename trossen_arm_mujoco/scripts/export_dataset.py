@@ -12,6 +12,8 @@ recording rate or, resampled, at ``--fps N`` (the real kit runs at 30).
 
 from __future__ import annotations
 
+__all__ = ["FORMATS", "build_parser", "cli", "main"]
+
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
     from pathlib import Path
@@ -25,10 +27,10 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.reader import resolve_data_dir
 from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
 from trossen_arm_mujoco.robot.layout import LAYOUTS
+from trossen_arm_mujoco.scripts.common_options import add_data_dir, add_root_dir
 
 FORMATS = ("lerobot",)
 
@@ -42,12 +44,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--format", default="lerobot", choices=FORMATS, help="dataset format (default: lerobot)"
     )
-    p.add_argument(
-        "--data_dir",
-        required=True,
-        help="episode folder, relative to --root_dir unless absolute (e.g. sim_transfer_cube)",
-    )
-    p.add_argument("--root_dir", default=ROOT_DIR, help=f"root of datasets (default: {ROOT_DIR})")
+    add_data_dir(p, "episode folder", example="sim_transfer_cube")
+    add_root_dir(p)
     p.add_argument(
         "--output",
         required=True,

@@ -1,13 +1,10 @@
-"""The record command's arguments, and the recording options the serve and teleop commands
-share with it.
+"""The record command's arguments.
 
-``build_parser`` declares the flags; ``record_options`` checks them together (task name and
+``build_parser`` declares the flags (those other commands share through
+``scripts.common_options``); ``record_options`` checks them together (task name and
 aliases, counts and seed within their bounds, cameras, image size, scene looks, workers and
 engine) and turns them into the run's ``RecordSettings``; unset flags come from
-``SIM_TASK_CONFIGS[task_name]``. ``camera_names``, ``image_size`` and ``dataset_folder`` are
-the checks of ``--cam_names``, ``--image_size`` and ``--root_dir``/``--data_dir`` (a folder
-this process can write in, checked before any work) every recording command makes. Every
-mistake is a one-line ``UserError`` naming the flag.
+``SIM_TASK_CONFIGS[task_name]``. Every mistake is a one-line ``UserError`` naming the flag.
 """
 
 from __future__ import annotations
@@ -16,58 +13,58 @@ import argparse
 import os
 import sys
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING
 
-from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
-from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION, GZIP_LEVEL
-from trossen_arm_mujoco.errors import (
-    ArgumentParser,
-    UserError,
-    describe_os_error,
-    os_error_hint,
-    unknown_name_error,
+from trossen_arm_mujoco.constants import SIM_TASK_CONFIGS
+from trossen_arm_mujoco.data.schema import GZIP_LEVEL
+from trossen_arm_mujoco.errors import ArgumentParser, UserError, unknown_name_error
+from trossen_arm_mujoco.scripts.common_options import (
+    MAX_EPISODE_LEN,
+    MAX_EPISODES,
+    add_cameras,
+    add_compression,
+    add_data_dir,
+    add_engine,
+    add_episode_len,
+    add_image_size,
+    add_looks,
+    add_num_episodes,
+    add_overwrite,
+    add_root_dir,
+    add_seed,
+    add_task_name,
+    add_wait,
+    camera_names,
+    check_seed,
+    image_size,
+    scene_looks,
 )
+
+__all__ = [
+    "RecordOptions",
+    "build_parser",
+    "check_numbers",
+    "cpus",
+    "num_workers",
+    "record_options",
+]
 
 if TYPE_CHECKING:
     from trossen_arm_mujoco.collect.pipeline import RecordSettings
-    from trossen_arm_mujoco.sim.looks import SceneLooks
-
-#: Longest episode accepted (steps; 2000 s at 50 Hz).
-MAX_EPISODE_LEN = 100_000
-#: Most episodes one dataset may be asked to hold.
-MAX_EPISODES = 1_000_000
-#: Largest run seed (stored as a signed 64-bit attribute).
-MAX_SEED = 2**63 - 1
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``trossen-mujoco record``."""
     p = ArgumentParser(
         prog="trossen-mujoco record",
         description="Record scripted simulation episodes (two-phase: mocap rollout, joint "
         "replay with cameras) into HDF5 files.",
     )
-    p.add_argument(
-        "--task_name",
-        default="sim_transfer_cube",
-        help="task to record (default: sim_transfer_cube)",
-    )
-    p.add_argument(
-        "--data_dir", required=True, help="dataset folder, relative to --root_dir unless absolute"
-    )
-    p.add_argument("--root_dir", default=ROOT_DIR, help=f"root of datasets (default: {ROOT_DIR})")
-    p.add_argument(
-        "--num_episodes",
-        type=int,
-        default=None,
-        help="episodes the dataset should hold (default: task config)",
-    )
-    p.add_argument(
-        "--episode_len",
-        type=int,
-        default=None,
-        help=f"steps per episode at 50 Hz, at most {MAX_EPISODE_LEN} (default: task config, 600)",
-    )
+    add_task_name(p, "task to record")
+    add_data_dir(p)
+    add_root_dir(p)
+    add_num_episodes(p, "episodes the dataset should hold", None, "task config")
+    add_episode_len(p, f"steps per episode at 50 Hz, at most {MAX_EPISODE_LEN}", "task config, 600")
     p.add_argument(
         "--onscreen_render",
         action="store_true",
@@ -87,17 +84,8 @@ def build_parser() -> argparse.ArgumentParser:
         "masses, damping, cameras, joint noise) as the task YAML's 'randomization' section "
         "says; each episode stores it in its 'randomization' attribute (default: off)",
     )
-    p.add_argument(
-        "--cam_names",
-        default=None,
-        help="comma-separated cameras to record, or 'none' (default: all 4)",
-    )
-    p.add_argument(
-        "--seed",
-        type=int,
-        default=0,
-        help="run seed, 0 .. 2**63-1; episode k uses a seed derived from (seed, k) (default: 0)",
-    )
+    add_cameras(p, "cameras to record", "all 4")
+    add_seed(p, "run seed, 0 .. 2**63-1; episode k uses a seed derived from (seed, k)")
     p.add_argument(
         "--num_workers",
         type=int,
@@ -107,125 +95,31 @@ def build_parser() -> argparse.ArgumentParser:
         "the Ray tasks in flight (default: the cluster's CPUs; also the CPUs of a local "
         "Ray); results are identical for any number",
     )
-    p.add_argument(
-        "--engine",
-        default="local",
-        choices=("local", "ray"),
-        help="where episodes run: local processes, or one Ray task each (default: local)",
-    )
+    add_engine(p, "where episodes run: local processes, or one Ray task each")
     p.add_argument(
         "--ray_address",
         default=None,
         help="with --engine ray: 'auto', HOST:PORT or ray://HOST:PORT of a running Ray "
         "cluster (default: start a local Ray on this machine)",
     )
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="start afresh at episode 0, replacing existing episodes",
-    )
+    add_overwrite(p, "start afresh at episode 0, replacing existing episodes")
     p.add_argument(
         "--skip_failed",
         action="store_true",
         help="keep attempting until num_episodes successful episodes are saved (without it "
         "failed episodes are kept, the exit status is 1, and a rerun records them again)",
     )
-    p.add_argument(
-        "--wait",
-        action="store_true",
-        help="when another record run is writing to the folder, wait for it to finish and "
+    add_wait(
+        p,
+        "when another record run is writing to the folder, wait for it to finish and "
         "then continue the dataset (default: refuse, naming its pid)",
     )
-    p.add_argument(
-        "--compression",
-        default=DEFAULT_COMPRESSION,
-        choices=COMPRESSIONS,
-        help=f"image compression (default: {DEFAULT_COMPRESSION}, level {GZIP_LEVEL}, "
-        "compressed off the render path; 'none' for raw frames)",
+    add_compression(
+        p, f", level {GZIP_LEVEL}, compressed off the render path; 'none' for raw frames"
     )
-    p.add_argument(
-        "--image_size", default="480x640", help="camera image size HEIGHTxWIDTH (default: 480x640)"
-    )
-    p.add_argument(
-        "--no_shadows",
-        action="store_true",
-        help="render without shadows (faster with software rendering)",
-    )
-    p.add_argument(
-        "--visual",
-        default="own",
-        help="arm meshes: 'own' (default) or 'menagerie' (the official Trossen meshes of the "
-        "MuJoCo Menagerie checkout named by TROSSEN_MENAGERIE_DIR)",
-    )
+    add_image_size(p)
+    add_looks(p)
     return p
-
-
-def image_size(text: str) -> tuple[int, int]:
-    """``--image_size`` HEIGHTxWIDTH as (height, width) pixels, within 1x1 .. 480x640."""
-    try:
-        h, w = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise UserError(f"--image_size must look like 480x640, got '{text}'") from None
-    if not (0 < h <= 480 and 0 < w <= 640):
-        raise UserError(f"--image_size must be within 1x1 .. 480x640, got {h}x{w}")
-    return h, w
-
-
-def camera_names(text: str | None, task_name: str) -> tuple[str, ...]:
-    """``--cam_names`` (comma-separated, 'none', or None for the task's defaults) as camera
-    names of the task, each once."""
-    defaults = SIM_TASK_CONFIGS[task_name]["cam_names"]
-    if text is None:
-        return tuple(defaults)
-    if text.strip().lower() == "none":
-        return ()
-    names = [n.strip() for n in text.split(",") if n.strip()]
-    if not names:
-        raise UserError("--cam_names is empty; give camera names or 'none'")
-    for name in names:
-        if name not in defaults:
-            raise unknown_name_error("camera", name, defaults, "or 'none' for no images")
-    if len(set(names)) != len(names):
-        raise UserError(f"--cam_names lists a camera twice: {names}")
-    return tuple(names)
-
-
-def scene_looks(args: argparse.Namespace) -> SceneLooks:
-    """The scene looks of --no_shadows / --visual, checked now (before any episode)."""
-    from trossen_arm_mujoco.sim.looks import SceneLooks, menagerie_meshes
-
-    looks = SceneLooks(shadows=not args.no_shadows, visual=args.visual)
-    if looks.visual == "menagerie":
-        menagerie_meshes()  # fail now with the fix, not in a worker
-    return looks
-
-
-def dataset_folder(
-    root: str, data_dir: str, flag: str = "--data_dir", *, create: bool = True
-) -> Path:
-    """The dataset folder ``data_dir`` (relative to ``root`` unless absolute), checked and
-    created (unless ``create`` is False: then nothing is left behind) before any work.
-
-    A file, a symlink loop or a link to a missing path on the way (naming ``--root_dir``
-    when it lies in the root, else ``flag``, the flag that gave ``data_dir``), or a folder
-    the file system will not let this process write in
-    (:func:`~trossen_arm_mujoco.fileio.check_writable_dir`), is a one-line UserError."""
-    from trossen_arm_mujoco.data.reader import resolve_data_dir
-    from trossen_arm_mujoco.fileio import check_folder_path, check_writable_dir
-
-    folder = resolve_data_dir(root, data_dir)
-    if not Path(data_dir).expanduser().is_absolute():
-        check_folder_path(root, "--root_dir")
-    check_writable_dir(folder, flag)
-    if not create:
-        return folder
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:  # changed since the check
-        raise UserError(
-            f"cannot write to {flag} {folder}: {describe_os_error(exc)}; {os_error_hint(exc, flag)}"
-        ) from None
-    return folder
 
 
 def cpus() -> int:
@@ -262,8 +156,7 @@ def check_numbers(args: argparse.Namespace, num_episodes: int, episode_len: int)
             f"--episode_len must be in 1 .. {MAX_EPISODE_LEN} steps (2000 s at 50 Hz), "
             f"got {episode_len}"
         )
-    if not 0 <= args.seed <= MAX_SEED:
-        raise UserError(f"--seed must be in 0 .. 2**63-1 ({MAX_SEED}), got {args.seed}")
+    check_seed(args.seed)
     if args.num_workers is not None and args.num_workers < 1:
         raise UserError(f"--num_workers must be at least 1, got {args.num_workers}")
 

@@ -17,6 +17,14 @@ from trossen_arm_mujoco.collect.parallel import failure_summary, format_size
 from trossen_arm_mujoco.collect.resume import format_indices
 from trossen_arm_mujoco.errors import EXIT_INTERRUPTED, EXIT_TERMINATED, UserError, report_error
 
+__all__ = [
+    "EXIT_FAILED_EPISODES",
+    "report_run",
+    "say_plan",
+    "warn_disk_space",
+    "warn_short_episodes",
+]
+
 if TYPE_CHECKING:
     from trossen_arm_mujoco.collect.parallel import RunReport
     from trossen_arm_mujoco.collect.pipeline import RecordSettings

@@ -19,6 +19,8 @@ the complete episodes; no partial file is left.
 
 from __future__ import annotations
 
+__all__ = ["cli", "main"]
+
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
     from pathlib import Path
@@ -39,7 +41,8 @@ from typing import TYPE_CHECKING
 
 from trossen_arm_mujoco.collect.resume import format_indices
 from trossen_arm_mujoco.errors import redeliver_if_in_finalizer, run_cli
-from trossen_arm_mujoco.scripts.record_args import build_parser, dataset_folder, record_options
+from trossen_arm_mujoco.scripts.common_options import dataset_folder
+from trossen_arm_mujoco.scripts.record_args import build_parser, record_options
 
 if TYPE_CHECKING:
     import argparse
@@ -68,6 +71,8 @@ def _raise_hangup(signum, frame):  # a closed terminal: the same clean path as C
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Record the episodes ``argv`` asks for into the dataset folder (locked while
+    recording). Returns the exit status; user mistakes raise ``UserError``."""
     args = build_parser().parse_args(argv)
     dataset_folder(args.root_dir, args.data_dir, create=False)  # first, before any work
     options = record_options(args)
@@ -181,6 +186,7 @@ def _live_view_hook(settings):
 
 
 def cli(argv: Sequence[str] | None = None) -> int:
+    """``main`` with one-line errors and signal handling (``errors.run_cli``); the exit status."""
     return run_cli(main, argv)
 
 

@@ -34,6 +34,8 @@ Examples::
 
 from __future__ import annotations
 
+__all__ = ["IP_FLAGS", "MAX_CONNECT_TIMEOUT_S", "build_parser", "cli", "main"]
+
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
     from pathlib import Path

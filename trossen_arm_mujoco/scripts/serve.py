@@ -20,6 +20,12 @@ writing short). Every recorded step is on disk as it is recorded: an episode tha
 serve (SIGKILL, a crash) could not write is left in a hidden ``.serve_spool.<pid>-<id>.tmp``
 file, which the next ``serve --record`` into the folder publishes as its next episode.
 
+``--cameras cam_high,... --control_port P`` rehearses a deployment (docs/rehearsal.md): the
+named cameras published over ZeroMQ in LeRobot's ZMQ camera protocol (``--camera_port``,
+default 5555, at ``--image_size`` and ``--camera_fps``; ``twin.camera_stream``), and an
+episode control channel of JSON lines (start with a seed, end, status: reward, success,
+stages; ``twin.episode_control``); with ``--record``, one episode file per start .. end.
+
 ``--role leader --replay EPISODE.hdf5`` serves two leader arms replaying a recorded episode
 instead (default addresses 127.0.0.4 and 127.0.0.5), for ``teleop`` (or LeRobot's
 ``lerobot-teleoperate`` with Trossen's leader plugin: ``--lead_in 8`` keeps them still until
@@ -27,6 +33,8 @@ its followers have connected).
 """
 
 from __future__ import annotations
+
+__all__ = ["LEADER_IPS", "build_parser", "cli", "main"]
 
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
@@ -45,15 +53,30 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from trossen_arm_mujoco.constants import ROOT_DIR
-from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION
 from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
+from trossen_arm_mujoco.scripts.common_options import (
+    add_cameras,
+    add_compression,
+    add_episode_len,
+    add_fps,
+    add_image_size,
+    add_root_dir,
+    add_seed,
+    add_task_name,
+    add_viewer,
+    add_wait,
+    check_seed,
+)
+from trossen_arm_mujoco.scripts.serve_rehearsal import (
+    add_rehearsal_flags,
+    build_rehearsal,
+    check_rehearsal_flags,
+    stop_rehearsal,
+)
 from trossen_arm_mujoco.twin.stop_signals import StopSignals
 
 #: Default addresses of served leader arms (``--role leader``).
 LEADER_IPS: dict[str, str] = {"left": "127.0.0.4", "right": "127.0.0.5"}
-#: Largest run seed (as ``record``).
-MAX_SEED = 2**63 - 1
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -64,39 +87,27 @@ def build_parser() -> argparse.ArgumentParser:
         "protocol on loopback addresses, so that trossen_arm clients drive it like the real "
         "kit; optionally record what they do.",
     )
-    p.add_argument("--task_name", default="sim_transfer_cube",
-                   help="kit task whose objects and reward the world holds "
-                   "(default sim_transfer_cube)")  # fmt: skip
+    add_task_name(p, "kit task whose objects and reward the world holds")
     p.add_argument("--left_ip", default=None,
                    help="left arm's address in 127.0.0.0/8 (default 127.0.0.2; leaders "
                    "127.0.0.4)")  # fmt: skip
     p.add_argument("--right_ip", default=None,
                    help="right arm's address in 127.0.0.0/8 (default 127.0.0.3; leaders "
                    "127.0.0.5)")  # fmt: skip
-    p.add_argument("--seed", type=int, default=0,
-                   help="run seed: the scene of episode k is record --seed S's episode k "
-                   "(default 0)")  # fmt: skip
-    p.add_argument("--viewer", action="store_true", help="show a live viewer (needs a display)")
+    add_seed(p, "run seed: the scene of episode k is record --seed S's episode k")
+    add_viewer(p, "show a live viewer (needs a display)")
     p.add_argument("--record", default=None, metavar="DIR",
                    help="record the clients' sessions into this dataset folder (relative to "
                    "--root_dir unless absolute); episodes continue after its last one")  # fmt: skip
-    p.add_argument("--root_dir", default=ROOT_DIR, help=f"datasets root (default {ROOT_DIR})")
-    p.add_argument("--cam_names", default=None,
-                   help="with --record: comma-separated cameras, or 'none' (default: the "
-                   "task's 4)")  # fmt: skip
-    p.add_argument("--image_size", default="480x640",
-                   help="with --record: HEIGHTxWIDTH (default 480x640)")  # fmt: skip
-    p.add_argument("--fps", type=float, default=None,
-                   help="recording rate in frames per simulated second; 500/n, e.g. 50 or 25 "
-                   "(default: the task's, 50)")  # fmt: skip
-    p.add_argument("--episode_len", type=int, default=None,
-                   help="with --record: at most this many frames per episode; a longer "
-                   "session is split (default: one episode per session)")  # fmt: skip
-    p.add_argument("--compression", default=DEFAULT_COMPRESSION, choices=COMPRESSIONS,
-                   help=f"image compression (default {DEFAULT_COMPRESSION})")  # fmt: skip
-    p.add_argument("--wait", action="store_true",
-                   help="with --record: wait for another run writing to DIR instead of "
-                   "refusing")  # fmt: skip
+    add_root_dir(p)
+    add_cameras(p, "cameras to record (with --record)", "the task's 4")
+    add_image_size(p, "camera image size (with --record, --cameras)")
+    add_fps(p, "recording rate in frames per simulated second; 500/n, e.g. 50 or 25",
+            "the task's, 50")  # fmt: skip
+    add_episode_len(p, "with --record: at most this many frames per episode; a longer "
+                    "session is split", "one episode per session")  # fmt: skip
+    add_compression(p)
+    add_wait(p, "with --record: wait for another run writing to DIR instead of refusing")
     p.add_argument("--role", default="follower", choices=("follower", "leader"),
                    help="follower: the kit world (default); leader: two leader arms "
                    "replaying --replay")  # fmt: skip
@@ -118,6 +129,7 @@ def build_parser() -> argparse.ArgumentParser:
         "external_effort mode, before they move (default 1; lerobot-teleoperate connects its "
         "followers after the leaders: give it 8)",
     )
+    add_rehearsal_flags(p)
     p.add_argument("--verbose", action="store_true", help="log every protocol request")
     return p
 
@@ -162,16 +174,18 @@ def _parse_and_serve(argv: Sequence[str] | None, stops: StopSignals) -> int:
     for name in ("trossen_arm_sim", "trossen_arm_mujoco.twin"):
         logging.getLogger(name).setLevel(level)
     if args.role == "leader":
+        if args.cameras is not None or args.control_port is not None:
+            raise UserError("--cameras and --control_port need --role follower")
         return _serve_leaders(args, stops)
     if args.replay is not None:
         raise UserError("--replay needs --role leader")
     if args.lead_in is not None:
         raise UserError("--lead_in needs --role leader")
+    check_rehearsal_flags(args)
     from trossen_arm_mujoco.twin.served_kit import DEFAULT_IPS
 
     ips = _ips(args, DEFAULT_IPS)
-    if not 0 <= args.seed <= MAX_SEED:
-        raise UserError(f"--seed must be in 0 .. 2**63-1, got {args.seed}")
+    check_seed(args.seed)
     if args.episode_len is not None and args.episode_len < 1:
         raise UserError(f"--episode_len must be at least 1, got {args.episode_len}")
     if args.record is None:
@@ -181,9 +195,9 @@ def _parse_and_serve(argv: Sequence[str] | None, stops: StopSignals) -> int:
         stops.install()
         return _serve(args, ips, None, stops)
     from trossen_arm_mujoco.data.dataset_lock import DatasetLock
-    from trossen_arm_mujoco.scripts.record_args import camera_names as _cameras
-    from trossen_arm_mujoco.scripts.record_args import dataset_folder as _dataset_folder
-    from trossen_arm_mujoco.scripts.record_args import image_size as _image_size
+    from trossen_arm_mujoco.scripts.common_options import camera_names as _cameras
+    from trossen_arm_mujoco.scripts.common_options import dataset_folder as _dataset_folder
+    from trossen_arm_mujoco.scripts.common_options import image_size as _image_size
 
     cams = _cameras(args.cam_names, _task(args.task_name))
     size = _image_size(args.image_size)
@@ -229,10 +243,16 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
             folder, cams, (h, w) = record
             options = RecordOptions(folder, cams, h, w, args.compression, args.episode_len)
             recorder = SessionRecorder(world, options, first, _say)
+        stream, control = build_rehearsal(args, world, recorder, _say)
         kit = ServedKit(world, ips, _say, recorder)
+        kit.sessions_from_clients = control is None
         try:
             kit.start()
+            for part in (stream, control):
+                if part is not None:
+                    part.start()
         except BaseException:
+            stop_rehearsal(stream, control, _say)
             kit.stop()
             raise
         stops.keep = True  # serving: once it ends, the process ends
@@ -242,10 +262,13 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
                 f"serving {world.task_name} (seed {args.seed}, episode {first}): left arm on "
                 f"{ips['left']}, right arm on {ips['right']} (TCP 50001, UDP 50000)"
                 + (f"; recording into {record[0]}" if record else "")
+                + (f"; cameras {','.join(stream.cam_names)} on {stream.address}" if stream else "")
+                + (f"; episode control on {control.host}:{control.port}" if control else "")
                 + "; Ctrl-C stops"
             )
             how = _wait(world, args.viewer, stops)
         finally:
+            stop_rehearsal(stream, control, _say)
             stats = kit.stop(lambda: _report_repeats(stops, recorder))
         rtf = world.realtime_factor
         line = (f"stopped ({how}) after {time.monotonic() - started:.1f} s at real-time "

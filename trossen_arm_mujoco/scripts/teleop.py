@@ -26,6 +26,8 @@ way every finished episode is kept and the one in progress is discarded.
 
 from __future__ import annotations
 
+__all__ = ["EXIT_LEADER_FAULT", "StdinControl", "build_parser", "cli", "main"]
+
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
     from pathlib import Path
@@ -44,8 +46,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
-from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION
+from trossen_arm_mujoco.constants import SIM_TASK_CONFIGS
 from trossen_arm_mujoco.errors import (
     ArgumentParser,
     UserError,
@@ -54,20 +55,33 @@ from trossen_arm_mujoco.errors import (
     run_cli,
     unknown_name_error,
 )
-from trossen_arm_mujoco.scripts.record_args import (
+from trossen_arm_mujoco.scripts.common_options import (
     MAX_EPISODE_LEN,
     MAX_EPISODES,
-    MAX_SEED,
+    add_cameras,
+    add_compression,
+    add_data_dir,
+    add_episode_len,
+    add_fps,
+    add_image_size,
+    add_looks,
+    add_num_episodes,
+    add_root_dir,
+    add_seed,
+    add_task_name,
+    add_viewer,
+    camera_names,
+    check_seed,
+    dataset_folder,
+    image_size,
 )
-from trossen_arm_mujoco.scripts.record_args import camera_names as _cameras
-from trossen_arm_mujoco.scripts.record_args import dataset_folder as _dataset_folder
-from trossen_arm_mujoco.scripts.record_args import image_size as _image_size
 
 #: Exit status when a leader arm failed.
 EXIT_LEADER_FAULT = 1
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``trossen-mujoco teleop``."""
     p = ArgumentParser(
         prog="trossen-mujoco teleop",
         description="Teleoperate the simulated Stationary AI kit from two leader arms "
@@ -75,43 +89,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--leader_left_ip", required=True, help="address of the left leader arm")
     p.add_argument("--leader_right_ip", required=True, help="address of the right leader arm")
-    p.add_argument(
-        "--task_name", default="sim_transfer_cube", help="kit task (default: sim_transfer_cube)"
+    add_task_name(p, "kit task")
+    add_data_dir(p)
+    add_root_dir(p)
+    add_num_episodes(p, "episodes to record in this run", 1)
+    add_episode_len(
+        p,
+        "most steps per episode",
+        "the task's, 600 for sim_transfer_cube, at 50 Hz; the same duration at another --fps",
     )
-    p.add_argument(
-        "--data_dir", required=True, help="dataset folder, relative to --root_dir unless absolute"
-    )
-    p.add_argument("--root_dir", default=ROOT_DIR, help=f"root of datasets (default: {ROOT_DIR})")
-    p.add_argument(
-        "--num_episodes", type=int, default=1, help="episodes to record in this run (default: 1)"
-    )
-    p.add_argument(
-        "--episode_len",
-        type=int,
-        default=None,
-        help="most steps per episode (default: the task's, 600 for sim_transfer_cube, at "
-        "50 Hz; the same duration at another --fps)",
-    )
-    p.add_argument(
-        "--cam_names", default=None, help="comma-separated cameras to record, or 'none' "
-        "(default: all 4; rendering must keep up with --fps)",
-    )  # fmt: skip
-    p.add_argument(
-        "--image_size", default="480x640", help="camera image size HEIGHTxWIDTH (default: 480x640)"
-    )
-    p.add_argument(
-        "--fps", type=float, default=None, help="recording and control rate in Hz (default: "
-        "the task's, 50)",
-    )  # fmt: skip
-    p.add_argument(
-        "--seed", type=int, default=0, help="run seed: episode k's object poses are those of "
-        "'record --seed' episode k (default: 0)",
-    )  # fmt: skip
+    add_cameras(p, "cameras to record", "all 4; rendering must keep up with --fps")
+    add_image_size(p)
+    add_fps(p, "recording and control rate in Hz", "the task's, 50")
+    add_seed(p, "run seed: episode k's object poses are those of 'record --seed' episode k")
     p.add_argument(
         "--object_poses_from", default=None, metavar="EPISODE.hdf5",
         help="place the objects as at the start of this recorded episode, in every episode",
     )  # fmt: skip
-    p.add_argument("--viewer", action="store_true", help="show the simulation in a live viewer")
+    add_viewer(p)
     p.add_argument(
         "--end_effector", default="wxai_v0_leader", help="trossen_arm StandardEndEffector "
         "preset of the leader arms (default: wxai_v0_leader)",
@@ -120,11 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--connect_timeout", type=float, default=10.0, help="seconds to wait for each leader "
         "arm's controller (default: 10)",
     )  # fmt: skip
-    p.add_argument(
-        "--compression", default=DEFAULT_COMPRESSION, choices=COMPRESSIONS,
-        help=f"image compression (default: {DEFAULT_COMPRESSION})",
-    )  # fmt: skip
-    p.add_argument("--no_shadows", action="store_true", help="render without shadows (faster)")
+    add_compression(p)
+    add_looks(p, visual=False)
     p.add_argument(
         "--verbose", action="store_true", help="print the trossen_arm driver's own log lines"
     )
@@ -166,6 +158,8 @@ class StdinControl:
                 return out
 
     def wait_start(self, index: int) -> bool:
+        """Wait for Enter before episode ``index``: True to start, False when the
+        operator typed ``q`` or stdin closed (always True when stdin is not a terminal)."""
         if not self.interactive:
             return True
         self._drain()  # keys pressed meanwhile do not count
@@ -174,6 +168,8 @@ class StdinControl:
         return line is not None and line not in ("q", "quit")
 
     def poll(self) -> str | None:
+        """The operator's command typed since the last poll: ``"end"`` (e), ``"discard"``
+        (d), or None."""
         for line in self._drain():
             if line in ("e", "end"):
                 return "end"
@@ -207,6 +203,8 @@ def _rate(args: argparse.Namespace, task_name: str) -> tuple[float, dict[str, fl
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Teleoperate and record the episodes ``argv`` asks for. Returns the exit status;
+    user mistakes raise ``UserError``."""
     args = build_parser().parse_args(argv)
     from trossen_arm_mujoco.tasks.registry import ALIASES
 
@@ -222,12 +220,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise UserError(f"--num_episodes must be in 1 .. {MAX_EPISODES}, got {args.num_episodes}")
     if not 1 <= episode_len <= MAX_EPISODE_LEN:
         raise UserError(f"--episode_len must be in 1 .. {MAX_EPISODE_LEN}, got {episode_len}")
-    if not 0 <= args.seed <= MAX_SEED:
-        raise UserError(f"--seed must be in 0 .. 2**63-1, got {args.seed}")
+    check_seed(args.seed)
     if not (math.isfinite(args.connect_timeout) and args.connect_timeout > 0):
         raise UserError(f"--connect_timeout must be a positive number, got {args.connect_timeout}")
-    cams = _cameras(args.cam_names, task_name)
-    height, width = _image_size(args.image_size)
+    cams = camera_names(args.cam_names, task_name)
+    height, width = image_size(args.image_size)
 
     from trossen_arm_mujoco.twin.leader_arms import LeaderArms
     from trossen_arm_mujoco.twin.teleop import TeleopSettings, object_poses_from
@@ -251,7 +248,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         overrides=overrides,
         shadows=not args.no_shadows,
     )
-    folder = _dataset_folder(args.root_dir, args.data_dir)
+    folder = dataset_folder(args.root_dir, args.data_dir)
     from trossen_arm_mujoco.data.dataset_lock import DatasetLock
 
     with DatasetLock(folder):
@@ -366,6 +363,7 @@ def _episode_line(o, format_size) -> str:
 
 
 def cli(argv: Sequence[str] | None = None) -> int:
+    """``main`` with one-line errors and signal handling (``errors.run_cli``); the exit status."""
     return run_cli(main, argv)
 
 

@@ -17,6 +17,8 @@ Example::
 
 from __future__ import annotations
 
+__all__ = ["OWN_FILES", "build_parser", "cli", "main"]
+
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
     from pathlib import Path

@@ -30,6 +30,8 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.names import lookup_id, names_of
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 
+__all__ = ["SHADOW_MAP_IMAGE", "CameraSet", "check_can_render", "gl_opened", "shadow_map_size"]
+
 _gl_pid: int | None = None  # process that opened a GL context through this module
 _forked_from_gl = False  # this process was forked from one with a GL context
 
@@ -111,9 +113,11 @@ class CameraSet:
 
     @staticmethod
     def available(model: mujoco.MjModel) -> list[str]:
+        """Names of every camera of ``model``, in model order."""
         return names_of(model, "camera")
 
     def check(self, name: str) -> None:
+        """A UserError listing the cameras of the set when ``name`` is not one of them."""
         if name not in self.ids:
             raise unknown_name_error("camera", name, self.ids)
 
@@ -144,6 +148,7 @@ class CameraSet:
         return {n: self.render(data, n) for n in self.names}
 
     def close(self) -> None:
+        """Release the renderer (its GL context); rendering again makes a new one."""
         forget(self)
         if self._renderer is not None:
             self._renderer.close()

@@ -15,9 +15,14 @@ import threading
 import weakref
 from typing import Protocol
 
+__all__ = ["Closable", "close_at_exit", "forget"]
+
 
 class Closable(Protocol):
-    def close(self) -> None: ...
+    """Anything with a ``close()`` that releases what it holds."""
+
+    def close(self) -> None:
+        """Release what the object holds; safe to call twice."""
 
 
 _open: weakref.WeakSet = weakref.WeakSet()

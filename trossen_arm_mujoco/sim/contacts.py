@@ -9,6 +9,8 @@ from collections.abc import Iterable
 import mujoco
 import numpy as np
 
+__all__ = ["ContactPartners"]
+
 
 class ContactPartners:
     """The geoms in contact with any of ``geoms`` (model geom ids, looked up by the caller).

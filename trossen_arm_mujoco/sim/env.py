@@ -26,6 +26,8 @@ from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.looks import SceneLooks, checked_looks, compile_model
 from trossen_arm_mujoco.sim.objects import FreeJointObject
 
+__all__ = ["MujocoEnv", "load_model", "load_physics", "whole_ratio"]
+
 if TYPE_CHECKING:
     import numpy as np
     from dm_control.mujoco import Physics
@@ -192,6 +194,7 @@ class MujocoEnv:
             mujoco.mj_kinematics(self.model, self.data)
 
     def forward(self) -> None:
+        """``mj_forward``: positions, velocities and forces of the current state, no time step."""
         mujoco.mj_forward(self.model, self.data)
 
     def apply_control(self) -> None:
@@ -223,4 +226,5 @@ class MujocoEnv:
         ]
 
     def close(self) -> None:
+        """Release the renderers (GL context); the model and data stay usable."""
         self.cameras.close()

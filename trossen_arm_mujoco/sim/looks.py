@@ -11,12 +11,12 @@ casting off on every light of the loaded model (``model.light_castshadow``), whi
 software-rendered pixel observations several times faster.
 
 The look travels as an argument, like a seed: a front door makes a ``SceneLooks`` and hands
-it to the sampler it builds (``looks=``), which hands it to ``sim.env.MujocoEnv`` and on to
-``sim.env.load_model`` (or, for the dm_control front doors, to ``load_physics``). No argument:
-``SceneLooks()`` (own meshes, shadows on).
+it to the sampler it builds (``SamplerSettings(looks=...)``), which hands it to
+``sim.env.MujocoEnv`` and on to ``sim.env.load_model`` (or, for the dm_control front doors,
+to ``load_physics``). No argument: ``SceneLooks()`` (own meshes, shadows on).
 
-    >>> sampler = registry.make_sampler("push", camera_names=["overview"],
-    ...                                 looks=SceneLooks(shadows=False))
+    >>> settings = SamplerSettings(camera_names=("overview",), looks=SceneLooks(shadows=False))
+    >>> sampler = registry.make_sampler("push", settings)
 """
 
 from __future__ import annotations
@@ -28,6 +28,25 @@ from pathlib import Path
 import mujoco
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+
+__all__ = [
+    "KEPT_OWN_MESHES",
+    "MENAGERIE_ENV",
+    "MENAGERIE_MESHES",
+    "MENAGERIE_MESH_DIRS",
+    "MENAGERIE_MODEL",
+    "MENAGERIE_TEXTURE",
+    "OWN_VISUAL_CLASS",
+    "VISUALS",
+    "SceneLooks",
+    "apply_shadows",
+    "checked_looks",
+    "compile_model",
+    "menagerie_folder",
+    "menagerie_mesh",
+    "menagerie_meshes",
+    "use_menagerie_visuals",
+]
 
 #: Arm looks: this project's shapes, or the official meshes of a Menagerie checkout.
 VISUALS: tuple[str, ...] = ("own", "menagerie")

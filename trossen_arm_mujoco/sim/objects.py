@@ -10,6 +10,8 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 
+__all__ = ["FreeJointObject"]
+
 
 class FreeJointObject:
     """A body with a free joint. Pose = [x, y, z, qw, qx, qy, qz] (world, m)."""
@@ -25,6 +27,7 @@ class FreeJointObject:
         self.geom_id = lookup_id(model, "geom", geom_name) if geom_name else None
 
     def get_pose(self, data: mujoco.MjData) -> np.ndarray:
+        """The object's pose, (7,) [x, y, z (m, world frame), quat wxyz], a copy."""
         return self.pose_view(data).copy()
 
     def pose_view(self, data: mujoco.MjData) -> np.ndarray:
@@ -42,6 +45,7 @@ class FreeJointObject:
         self.zero_velocity(data)
 
     def zero_velocity(self, data: mujoco.MjData) -> None:
+        """Set the free joint's 6 velocities (linear m/s, angular rad/s) to zero."""
         data.qvel[self.dof_adr : self.dof_adr + 6] = 0.0
 
     def get_velocity(self, data: mujoco.MjData) -> np.ndarray:

@@ -4,3 +4,5 @@
 task class, sampler class and YAML config; ``tasks.task.Task`` and ``tasks.sampler.TaskSampler``
 are the bases. Nothing is imported here, so importing the package stays cheap.
 """
+
+__all__: list[str] = []  # submodules only: import them by name

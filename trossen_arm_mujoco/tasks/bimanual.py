@@ -35,6 +35,8 @@ from trossen_arm_mujoco.tasks.observation import Part, indexed, joined
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
 from trossen_arm_mujoco.tasks.task import Task
 
+__all__ = ["LAYOUT_GROUPS", "ROBOT_NAME", "BimanualSampler", "BimanualTask", "finger_geoms"]
+
 ROBOT_NAME = "stationary_ai"
 LAYOUT_GROUPS = tuple(KIT_LAYOUT.groups)
 
@@ -65,14 +67,14 @@ class BimanualTask(Task):
         view = self.robot.view
         self.layout = view.qpos_indices(LAYOUT_GROUPS)
         self.layout_dofs = view.dof_indices(LAYOUT_GROUPS)
-        ranges = np.concatenate([view.group(g).joint_range for g in LAYOUT_GROUPS])
+        ranges = np.concatenate([view.get_move_group(g).joint_range for g in LAYOUT_GROUPS])
         self.qpos_low, self.qpos_high = ranges[:, 0].copy(), ranges[:, 1].copy()
         self.max_qvel = float(self.config["max_joint_velocity"])
         self.max_obj_vel = float(self.config["max_object_velocity"])
         self.ws_low = np.asarray(self.config["workspace_low"], dtype=float)
         self.ws_high = np.asarray(self.config["workspace_high"], dtype=float)
         self.bodies = [env.objects[name] for name in self.objects]
-        self._arms = {side: view.group(f"{side}_arm") for side in ("left", "right")}
+        self._arms = {side: view.get_move_group(f"{side}_arm") for side in ("left", "right")}
 
     # -- observation ------------------------------------------------------------------------
     def observation_parts(self) -> list[Part]:

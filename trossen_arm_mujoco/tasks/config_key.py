@@ -19,6 +19,8 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = ["INF", "Key", "Source", "fmt_number", "is_real", "show"]
+
 INF = math.inf
 
 
@@ -37,13 +39,16 @@ class Source:
 
     @classmethod
     def file(cls, path: Any) -> Source:
+        """The source of keys read from the YAML file at ``path``."""
         return cls(f"config file {path}", "key")
 
     @classmethod
     def overrides(cls, name: str) -> Source:
+        """The source of keyword overrides of task config ``name``."""
         return cls(f"task config '{name}'", "keyword argument")
 
     def where(self, key: str) -> str:
+        """Where ``key`` comes from, for an error message (``config file x.yaml, key k``)."""
         return f"{self.origin}, {self.label} {key}"
 
 

@@ -29,6 +29,15 @@ from trossen_arm_mujoco.tasks.randomization_schema import (
     default_randomization,
 )
 
+__all__ = [
+    "KEYS",
+    "RANGE_PAIRS",
+    "REQUIRED",
+    "check_file_config",
+    "check_overrides",
+    "check_ranges",
+]
+
 
 def _num(low: float = -INF, high: float = INF, unit: str = "", open_low: bool = False) -> Key:
     return Key("number", low, high, open_low, unit=unit)

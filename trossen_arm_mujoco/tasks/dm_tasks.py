@@ -23,11 +23,20 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler import MAX_SAMPLE_TRIES
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.tasks.stationary import (
     StationaryTaskBase,
     TrossenAIStationaryEETask,
     TrossenAIStationaryTask,
 )
+
+__all__ = [
+    "BOX_POSE",
+    "RegisteredTaskMixin",
+    "TransferCubeEETask",
+    "TransferCubeTask",
+    "dm_task_class",
+]
 
 #: Cube pose used by ``TransferCubeTask`` at the next reset when no ``box_pose`` is given
 #: (vendor-compatible hand-over: ``sim_env.BOX_POSE[0] = pose`` before ``env.reset()``).
@@ -69,15 +78,14 @@ class RegisteredTaskMixin(StationaryTaskBase):
         self.task = None
 
     def build_scene(self, physics) -> MujocoEnv:
-        self.sampler = registry.make_sampler(
-            self.task_name,
+        settings = SamplerSettings(
             flavour=self.FLAVOUR,
-            physics=physics,
-            camera_names=self.cam_list,
+            camera_names=tuple(self.cam_list),
             height=self.image_size[0],
             width=self.image_size[1],
             randomize=self.randomize,
         )
+        self.sampler = registry.make_sampler(self.task_name, settings, physics=physics)
         return self.sampler.env
 
     def episode_object_poses(self) -> Mapping[str, Any] | None:
@@ -130,6 +138,7 @@ class TransferCubeTask(RegisteredTaskMixin, TrossenAIStationaryTask):
 
     @property
     def box_pose(self) -> np.ndarray | None:
+        """The cube's pose placed at every reset, (7,) [xyz m, quat wxyz]; None: sampled."""
         return None if self.object_poses is None else self.object_poses["box"]
 
     def episode_object_poses(self):

@@ -29,6 +29,31 @@ from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 from trossen_arm_mujoco.tasks.sampler import uniform
 
+__all__ = [
+    "MAX_REWARD",
+    "PEG_GEOM",
+    "PEG_HALF",
+    "PEG_REST_Z",
+    "PEG_X_RANGE",
+    "PEG_Y_RANGE",
+    "PIN_FACE_Y",
+    "PIN_GEOM",
+    "SOCKET_GEOMS",
+    "SOCKET_HALF_LENGTH",
+    "SOCKET_INNER_HALF",
+    "SOCKET_MOUTH_Y",
+    "SOCKET_OUTER_HALF",
+    "SOCKET_REST_Z",
+    "SOCKET_X_RANGE",
+    "SOCKET_Y_RANGE",
+    "TABLE_GEOM",
+    "TABLE_TOP_Z",
+    "InsertionReward",
+    "InsertionSampler",
+    "InsertionTask",
+    "sample_insertion_poses",
+]
+
 TABLE_TOP_Z = 0.02
 #: Half-sizes of the peg (x, y, z) and outer half-size of the socket's square section (m).
 PEG_HALF = (0.01, 0.06, 0.01)
@@ -144,6 +169,7 @@ class InsertionTask(BimanualTask):
         return self.reward_fn(self.data)
 
     def get_task_description(self) -> str:
+        """The insertion in words (the same for every episode)."""
         return (
             "pick up the blue socket with the left arm and the red peg with the right arm, "
             "lift both and insert the peg into the socket"

@@ -27,6 +27,8 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = ["ObservationParts", "Part", "PartValue", "check_part", "indexed", "joined"]
+
 #: A part's value: a live view (read as is) or a callable returning the current value.
 PartValue = np.ndarray | Callable[[], np.ndarray]
 

@@ -16,6 +16,8 @@ from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.push import PushSampler, PushTask, cube_rest_z
 from trossen_arm_mujoco.tasks.sampler import uniform
 
+__all__ = ["PickPlaceSampler", "PickPlaceTask"]
+
 
 class PickPlaceTask(PushTask):
     """Bring the cube's centre within ``success_tolerance`` of a 3-D goal (m)."""
@@ -44,6 +46,7 @@ class PickPlaceTask(PushTask):
         return info
 
     def get_task_description(self) -> str:
+        """The episode's goal position in words (m, world frame)."""
         x, y, z = self.goal
         return f"pick up the red cube and place it at ({x:.3f}, {y:.3f}, {z:.3f}) m"
 

@@ -17,6 +17,8 @@ from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
 
+__all__ = ["CUBE", "MAX_GOAL_TRIES", "PushSampler", "PushTask", "cube_rest_z"]
+
 CUBE = ("cube", ("cube_joint", "cube"))
 MAX_GOAL_TRIES = 100
 
@@ -73,6 +75,7 @@ class PushTask(SingleArmTask):
         )
 
     def get_task_description(self) -> str:
+        """The episode's goal on the table in words (m, world frame)."""
         x, y, _ = self.goal
         return f"push the red cube to ({x:.3f}, {y:.3f}) m on the table"
 

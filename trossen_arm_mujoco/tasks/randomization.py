@@ -30,6 +30,8 @@ from trossen_arm_mujoco.tasks.randomization_record import (
     seed_record,
 )
 
+__all__ = ["FIELDS", "SceneRandomizer", "episode_generator"]
+
 #: Model fields a randomization may write (saved at construction, restored every episode).
 FIELDS = ("light_dir", "light_diffuse", "light_specular", "light_ambient", "geom_rgba",
           "geom_matid", "geom_friction", "body_mass", "body_inertia", "dof_damping",
@@ -99,6 +101,7 @@ class SceneRandomizer:
 
     @property
     def enabled_kinds(self) -> list[str]:
+        """The randomization kinds switched on (``enabled``) in the settings, in ``KINDS`` order."""
         return [k for k in KINDS if self.settings[k]["enabled"]]
 
     # -- model state ----------------------------------------------------------------------

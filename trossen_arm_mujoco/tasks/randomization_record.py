@@ -34,6 +34,17 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_SCHEMA
 
+__all__ = [
+    "KINDS",
+    "RECORD_VERSION",
+    "NameIds",
+    "apply_randomization",
+    "generator_from_seed",
+    "record_from_json",
+    "record_to_json",
+    "seed_record",
+]
+
 RECORD_VERSION = 1
 #: Kinds in draw order; each draws from its own stream.
 KINDS: tuple[str, ...] = tuple(RANDOMIZATION_SCHEMA)

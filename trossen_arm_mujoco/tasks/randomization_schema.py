@@ -17,6 +17,13 @@ from typing import Any
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.tasks.config_key import Key, Source, is_real, show
 
+__all__ = [
+    "RANDOMIZATION_KEY",
+    "RANDOMIZATION_SCHEMA",
+    "check_randomization",
+    "default_randomization",
+]
+
 #: Config key of the domain-randomization section.
 RANDOMIZATION_KEY = "randomization"
 

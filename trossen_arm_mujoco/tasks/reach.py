@@ -12,6 +12,8 @@ from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
 
+__all__ = ["ReachSampler", "ReachTask"]
+
 
 class ReachTask(SingleArmTask):
     """Reach a target (m, world frame) with the tool frame."""
@@ -27,6 +29,7 @@ class ReachTask(SingleArmTask):
         return -self.distance_coef * dist + self.success_bonus * (dist < self.tolerance)
 
     def get_task_description(self) -> str:
+        """The episode's target of the tool in words (m, world frame)."""
         x, y, z = self.goal
         return f"move the gripper tip to ({x:.3f}, {y:.3f}, {z:.3f}) m"
 

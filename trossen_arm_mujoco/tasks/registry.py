@@ -9,7 +9,9 @@ read only when a task is used (``load_config``, ``make_sampler``, ``RecordDefaul
 so listing is cheap and a broken config fails only the commands that use its task.
 
     >>> from trossen_arm_mujoco.tasks import registry
-    >>> sampler = registry.make_sampler("reach", command_mode="ee_delta", success_tolerance=0.03)
+    >>> from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
+    >>> settings = SamplerSettings(command_mode="ee_delta")
+    >>> sampler = registry.make_sampler("reach", settings, success_tolerance=0.03)
     >>> task = sampler.sample_task(seed=0)
 
 Adding a task = one task module (task + sampler), one scripted policy module (optional), one
@@ -19,14 +21,32 @@ config keys no task had before: a line each in ``tasks.config_schema.KEYS``).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
-from trossen_arm_mujoco.errors import unknown_name_error
+from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.tasks.config import load_task_config
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
+
+__all__ = [
+    "ALIASES",
+    "ENTRIES",
+    "TASKS",
+    "RecordDefaults",
+    "TaskEntry",
+    "canonical",
+    "load",
+    "make_sampler",
+    "names",
+    "scripted_names",
+    "sim_task_configs",
+]
+
+#: Fields of ``SamplerSettings``: never task config keys.
+SETTING_NAMES = frozenset(f.name for f in dataclasses.fields(SamplerSettings))
 
 
 def _import(path: str) -> Any:
@@ -59,16 +79,16 @@ class TaskEntry:
     record: dict[str, Any] = field(default_factory=dict)
 
     def task_class(self) -> type:
+        """The task's ``Task`` subclass (imported on first use)."""
         return _import(self.task)
 
     def sampler_class(self) -> type:
+        """The task's ``TaskSampler`` subclass (imported on first use)."""
         return _import(self.sampler)
 
     def policy_class(self) -> type:
         """The scripted policy class; a UserError when the task has none."""
         if not self.policy:
-            from trossen_arm_mujoco.errors import UserError
-
             raise UserError(f"task '{self.name}' has no scripted policy")
         return _import(self.policy)
 
@@ -175,35 +195,29 @@ class RecordDefaults(dict):
 
 def make_sampler(
     name: str,
+    settings: SamplerSettings | None = None,
     *,
-    command_mode: str = "joint_position",
-    camera_names: Sequence[str] = (),
-    height: int = 480,
-    width: int = 640,
-    flavour: str = "joint",
     physics: Any = None,
     seed: Any = None,
-    randomize: bool = False,
-    looks: Any = None,
-    floor_margin: float | None = 0.0,
     **overrides: Any,
 ):
-    """The sampler of a task (it builds the env), config overridden by keyword; see
-    ``TaskSampler`` for the arguments (``randomize=True``: domain randomization as the
-    config's ``randomization`` section says; ``looks``: a ``sim.looks.SceneLooks``;
-    ``floor_margin``: the safety floor above the table top, m)."""
+    """The sampler of a task (it builds the env), its config overridden by keyword.
+
+    Args:
+        name: registered task name or alias.
+        settings: how the sampler builds its env (``tasks.sampler_settings.SamplerSettings``:
+            command mode, cameras, image size, flavour, ``randomize``, looks, floor margin);
+            default ``SamplerSettings()``.
+        physics, seed: see ``TaskSampler``.
+        overrides: task config keys (``tasks.config_schema``), checked like the YAML file.
+            A sampler setting given here is a UserError saying to put it in ``settings``.
+    """
+    misplaced = [k for k in overrides if k in SETTING_NAMES]
+    if misplaced:
+        raise UserError(
+            f"{misplaced[0]} is a sampler setting, not a config key: pass "
+            f"make_sampler({name!r}, SamplerSettings({misplaced[0]}=...))"
+        )
     entry = load(name)
     config = entry.load_config(**overrides)
-    return entry.sampler_class()(
-        config,
-        command_mode=command_mode,
-        camera_names=camera_names,
-        height=height,
-        width=width,
-        flavour=flavour,
-        physics=physics,
-        seed=seed,
-        randomize=randomize,
-        looks=looks,
-        floor_margin=floor_margin,
-    )
+    return entry.sampler_class()(config, settings, physics=physics, seed=seed)

@@ -12,14 +12,15 @@ the sampler was made with ``randomize=True``; see ``tasks.randomization``); ``_s
 places the task's objects and builds the task (None when this draw gives no valid episode);
 the task is reset. The sampler owns the env and closes it (``close()``, or ``with``).
 
-What a sampler hands down when it builds the env, as arguments: the scene's look
-(``looks``, ``sim.looks.SceneLooks``) to the scene loader, and the safety floor
+How the env is built is one ``tasks.sampler_settings.SamplerSettings`` (command mode,
+cameras, image size, flavour, randomization, looks, safety floor); the sampler hands its
+parts down as arguments: the scene's look to the scene loader, and the safety floor
 (``floor_margin`` above the config's ``table_height``) to the robot (``robot.safety_floor``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -31,18 +32,17 @@ from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import EEDeltaController
 from trossen_arm_mujoco.robot.robot_view import RobotView
 from trossen_arm_mujoco.sim.env import MujocoEnv
-from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks.randomization import SceneRandomizer
 from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_KEY, default_randomization
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.tasks.task import Task
+
+__all__ = ["MAX_SAMPLE_TRIES", "Seed", "TaskSampler", "as_generator", "uniform"]
 
 #: ``sample_task`` attempts ``next_task`` makes before giving up.
 MAX_SAMPLE_TRIES = 100
 
 Seed = int | np.random.Generator | None
-
-#: Flavours of a scene: joint position actuators, or mocap-driven arms (bimanual tasks).
-FLAVOURS: tuple[str, ...] = ("joint", "ee")
 
 
 def uniform(rng: np.random.Generator, low: Any, high: Any, size: Any = None) -> Any:
@@ -70,26 +70,15 @@ class TaskSampler:
     """Base of every sampler.
 
     Args:
-        config: task config (``tasks.config.load_task_config``); ``scene`` (path relative to
-            the assets folder), ``ctrl_dt`` and ``sim_dt`` (when the config has it) are read here.
-        command_mode: command mode of the arms (``joint_position``, ``joint_rel_position``,
-            ``ee_delta``); grippers always take ``joint_position``.
-        camera_names, height, width: cameras rendered by ``env.render_images()``.
-        flavour: ``"joint"`` (scene ``config["scene"]``, arms in ``command_mode``) or ``"ee"``
-            (scene ``config["ee_scene"]``, mocap-driven arms taking tool poses; bimanual
-            tasks only).
+        config: task config (``tasks.config.load_task_config``); ``scene`` / ``ee_scene``
+            (paths relative to the assets folder), ``ctrl_dt`` and ``sim_dt`` (when the config
+            has it) are read here.
+        settings: how the env is built (``tasks.sampler_settings.SamplerSettings``: command
+            mode, cameras and image size, flavour, randomization, looks, safety floor);
+            default ``SamplerSettings()``.
         physics: an existing dm_control ``Physics`` of that scene to build the env over (the
             dm_control front doors); default: load the scene.
         seed: int or ``np.random.Generator``: the sampler's generator ``self.rng``.
-        randomize: domain randomization of every episode, as the config's ``randomization``
-            section says (default off: episodes are exactly those of a sampler without it).
-        looks: how the scene is drawn (shadows, arm meshes; ``sim.looks.SceneLooks``), handed
-            to the scene loader like ``seed`` and ``randomize`` (default ``SceneLooks()``);
-            a given ``physics`` keeps its own.
-        floor_margin: the robot's safety floor (``robot.safety_floor``) lies this far (m,
-            >= 0) above the config's ``table_height``; default 0.0, the table top itself
-            (nothing goes into the table; the gym envs pass the config's ``safety_margin``);
-            None: no floor.
 
     Subclasses set ``task_cls``, ``robot_name``, ``arms`` and implement ``robot_config``,
     ``objects`` and ``_sample_task``.
@@ -105,33 +94,32 @@ class TaskSampler:
     def __init__(
         self,
         config: Mapping[str, Any],
+        settings: SamplerSettings | None = None,
         *,
-        command_mode: str = "joint_position",
-        camera_names: Sequence[str] = (),
-        height: int = 480,
-        width: int = 640,
-        flavour: str = "joint",
         physics: Any = None,
         seed: Seed = None,
-        randomize: bool = False,
-        looks: SceneLooks | None = None,
-        floor_margin: float | None = 0.0,
     ):
+        if settings is None:
+            settings = SamplerSettings()
+        elif not isinstance(settings, SamplerSettings):
+            raise UserError(
+                f"settings must be a SamplerSettings (tasks.sampler_settings), "
+                f"got {type(settings).__name__}"
+            )
+        self.settings = settings
         self.config = dict(config)
         self.rng = as_generator(seed)
-        if not isinstance(randomize, (bool, np.bool_)):
-            raise UserError(f"randomize must be True or False, got {randomize!r}")
-        self.randomize = bool(randomize)
+        self.randomize = settings.randomize
         #: record of the randomization of the current episode (None: nominal scene).
         self.randomization: dict[str, Any] | None = None
-        self.command_mode = command_mode
-        self.flavour = flavour
+        self.command_mode = command_mode = settings.command_mode
+        self.flavour = flavour = settings.flavour
         if flavour == "joint":
             scene_key = "scene"
             robot = self.robot_config().with_command_modes(
                 **{a: command_mode for a, _ in self.arms}
             )
-        elif flavour == "ee":
+        else:
             scene_key = "ee_scene"
             if "ee_scene" not in self.config:
                 raise UserError(
@@ -139,19 +127,18 @@ class TaskSampler:
                     "use flavour='joint'"
                 )
             robot = self.ee_robot_config()
-        else:
-            raise unknown_name_error("flavour", flavour, FLAVOURS)
+        floor_margin = settings.floor_margin
         self.env = MujocoEnv(
             None if physics is not None else Path(ASSETS_DIR) / self.config[scene_key],
             physics=physics,
             robots={self.robot_name: robot},
             objects=self.objects(),
-            camera_names=camera_names,
-            height=height,
-            width=width,
+            camera_names=settings.camera_names,
+            height=settings.height,
+            width=settings.width,
             ctrl_dt=float(self.config["ctrl_dt"]),
             sim_dt=self.config.get("sim_dt"),
-            looks=looks,
+            looks=settings.looks,
             table_height=None if floor_margin is None else self.config.get("table_height"),
             floor_margin=0.0 if floor_margin is None else floor_margin,
         )
@@ -170,12 +157,15 @@ class TaskSampler:
         robot = self.env.robots[self.robot_name]
         for arm, _ in self.arms:
             robot.controllers[arm] = EEDeltaController(
-                robot.view.group(arm), self.env.model, rotation=True, ctrl_dt=self.env.ctrl_dt
+                robot.view.get_move_group(arm),
+                self.env.model,
+                rotation=True,
+                ctrl_dt=self.env.ctrl_dt,
             )
 
     def _make_randomizer(self) -> SceneRandomizer:
         view = self.robot_view
-        arm_joints = [j for arm, _ in self.arms for j in view.group(arm).joint_ids]
+        arm_joints = [j for arm, _ in self.arms for j in view.get_move_group(arm).joint_ids]
         robot_joints = [j for g in view.move_groups.values() for j in g.joint_ids]
         return SceneRandomizer(
             self.env.model,
@@ -192,6 +182,8 @@ class TaskSampler:
 
     # -- to override ----------------------------------------------------------------------
     def robot_config(self) -> RobotConfig:
+        """Robot config of the joint flavour (move groups, initial qpos, command modes);
+        subclasses return theirs."""
         raise NotImplementedError
 
     def ee_robot_config(self) -> RobotConfig:

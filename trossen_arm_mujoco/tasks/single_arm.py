@@ -23,6 +23,8 @@ from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import TaskSampler, uniform
 from trossen_arm_mujoco.tasks.task import Task
 
+__all__ = ["GOAL_REWARD_TYPES", "SingleArmSampler", "SingleArmTask", "goal_distance"]
+
 GOAL_REWARD_TYPES = ("sparse", "dense")
 
 
@@ -58,8 +60,8 @@ class SingleArmTask(Task):
     def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
         super().__init__(env, config)
         view = self.robot.view
-        self.arm = view.group("arm")
-        self.gripper = view.group("gripper")
+        self.arm = view.get_move_group("arm")
+        self.gripper = view.get_move_group("gripper")
         self.tolerance = float(self.config["success_tolerance"])
         self.reward_type = str(self.config["goal_reward_type"])
         if self.reward_type not in GOAL_REWARD_TYPES:
@@ -99,7 +101,7 @@ class SingleArmTask(Task):
         joints = arm.state_views(data)
         if joints is None:  # joints not consecutive in qpos/qvel: read them each time
             joints = (lambda: arm.get_qpos(data)), (lambda: arm.get_qvel(data))
-        lo, hi = gripper.ctrl_limits()
+        lo, hi = gripper.ctrl_limits.T
         return [
             Part("arm_qpos", joints[0], arm.joint_range[:, 0], arm.joint_range[:, 1]),
             Part("arm_qvel", joints[1], -self.max_qvel, self.max_qvel),
@@ -137,6 +139,7 @@ class SingleArmTask(Task):
         return -dist
 
     def judge_success(self) -> bool:
+        """Whether the goal distance (m) is below the config's ``success_tolerance``."""
         return self.distance() < self.tolerance
 
     # -- scoring: the reward and the diagnostics from one goal distance --------------------
@@ -172,6 +175,7 @@ class SingleArmTask(Task):
         return {"is_success": dist < self.tolerance, "goal_distance": dist}
 
     def get_reward(self) -> float:
+        """The reward at the current goal distance (``reward_at``: sparse or dense)."""
         return self.reward_at(self.distance())
 
     def get_info(self) -> dict[str, Any]:
@@ -187,6 +191,8 @@ class SingleArmSampler(TaskSampler):
     cameras: ClassVar[tuple[str, ...]] = ("overview", "cam")
 
     def robot_config(self) -> RobotConfig:
+        """The wxai robot starting at the config's ``init_arm_qpos`` (rad) with the
+        fingers at ``init_gripper`` (m, default open)."""
         base = wxai_config()
         fingers = float(self.config.get("init_gripper", GRIPPER_OPEN))
         init = {"arm": list(self.config["init_arm_qpos"]), "gripper": [fingers, fingers]}
@@ -195,6 +201,6 @@ class SingleArmSampler(TaskSampler):
     def perturb_arm(self, rng: np.random.Generator) -> None:
         """Add the initial joint noise to the arm (in place, within the joint limits)."""
         noise = float(self.config.get("init_joint_noise", 0.0))
-        arm = self.env.robots[self.robot_name].view.group("arm")
+        arm = self.env.robots[self.robot_name].view.get_move_group("arm")
         q = arm.get_qpos(self.env.data) + uniform(rng, -noise, noise, arm.n_joints)
         arm.set_qpos(self.env.data, clip(q, arm.joint_range[:, 0], arm.joint_range[:, 1]))

@@ -38,6 +38,13 @@ from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import LAYOUT_GROUPS, ROBOT_NAME
 from trossen_arm_mujoco.tasks.task import DEFAULT_POLICY_DT
 
+__all__ = [
+    "CUBE_OBJECTS",
+    "StationaryTaskBase",
+    "TrossenAIStationaryEETask",
+    "TrossenAIStationaryTask",
+]
+
 #: Objects of the cube scenes, for custom tasks on them: name -> (free joint, geom).
 CUBE_OBJECTS = {"box": ("red_box_joint", "red_box")}
 
@@ -76,6 +83,7 @@ class StationaryTaskBase(base.Task):
 
     # -- layers -------------------------------------------------------------------------
     def robot_config(self) -> RobotConfig:
+        """Robot config of this flavour (joint or mocap Stationary AI); subclasses return theirs."""
         raise NotImplementedError
 
     def build_scene(self, physics) -> MujocoEnv:
@@ -102,9 +110,11 @@ class StationaryTaskBase(base.Task):
         return self._scene
 
     def robot(self, physics):
+        """The Stationary AI ``Robot`` of ``physics``'s scene."""
         return self.scene(physics).robots[ROBOT_NAME]
 
     def close(self) -> None:
+        """Close the scene (renderers) built over the physics, if any."""
         if self._scene is not None:
             self._scene.close()
 
@@ -114,6 +124,7 @@ class StationaryTaskBase(base.Task):
         return specs.BoundedArray((16,), np.float64, low, high, name="action")
 
     def action_bounds(self, physics) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) of the 16-value action, two (16,) arrays in the action's units."""
         raise NotImplementedError
 
     def initialize_robots(self, physics) -> None:
@@ -127,6 +138,7 @@ class StationaryTaskBase(base.Task):
         super().initialize_episode(physics)
 
     def split_action(self, action: np.ndarray) -> dict[str, np.ndarray]:
+        """The 16-value action as move group id -> command."""
         raise NotImplementedError
 
     def check_action_size(self, size: int) -> None:
@@ -157,14 +169,20 @@ class StationaryTaskBase(base.Task):
         obs["mocap_pose_left"] = self.tool_target(physics, "left_arm")
         obs["mocap_pose_right"] = self.tool_target(physics, "right_arm")
         obs["gripper_ctrl"] = np.concatenate(
-            [view.group("left_gripper").get_ctrl(data), view.group("right_gripper").get_ctrl(data)]
+            [
+                view.get_move_group("left_gripper").get_ctrl(data),
+                view.get_move_group("right_gripper").get_ctrl(data),
+            ]
         )
         return obs
 
     def tool_target(self, physics, arm: str) -> np.ndarray:
+        """The tool target of ``arm`` now, (7,) [xyz m, quat wxyz] in the world frame
+        (the ``mocap_pose_left/right`` observations)."""
         raise NotImplementedError
 
     def get_env_state(self, physics) -> np.ndarray:
+        """The state of the task's objects (e.g. the cube's 7-value pose); subclasses say which."""
         raise NotImplementedError
 
     def get_reward(self, physics) -> float:
@@ -191,6 +209,8 @@ class TrossenAIStationaryEETask(StationaryTaskBase):
         return stationary_ai_mocap_config()
 
     def action_bounds(self, physics):
+        """(low, high) of the mocap action per arm: tool position x, y in [-1, 1] m,
+        z in [0, 1.5] m, quaternion components in [-1, 1], gripper opening in [0, 0.044] m."""
         pose_low = [-1.0, -1.0, 0.0, -1, -1, -1, -1]
         pose_high = [1.0, 1.0, 1.5, 1, 1, 1, 1]
         low = np.array(pose_low + [0.0] + pose_low + [0.0])
@@ -202,7 +222,7 @@ class TrossenAIStationaryEETask(StationaryTaskBase):
 
     def tool_target(self, physics, arm: str) -> np.ndarray:
         """The mocap pose commanded to ``arm`` ([xyz, quat wxyz], world)."""
-        return self.robot(physics).view.group(arm).get_ctrl(physics.data.ptr)
+        return self.robot(physics).view.get_move_group(arm).get_ctrl(physics.data.ptr)
 
 
 class TrossenAIStationaryTask(StationaryTaskBase):
@@ -228,7 +248,7 @@ class TrossenAIStationaryTask(StationaryTaskBase):
     def action_bounds(self, physics):
         """Joint limits in the qpos layout (rad / m)."""
         view = self.robot(physics).view
-        ranges = np.concatenate([view.group(g).joint_range for g in LAYOUT_GROUPS])
+        ranges = np.concatenate([view.get_move_group(g).joint_range for g in LAYOUT_GROUPS])
         return ranges[:, 0].copy(), ranges[:, 1].copy()
 
     def check_action_size(self, size: int) -> None:
@@ -247,4 +267,4 @@ class TrossenAIStationaryTask(StationaryTaskBase):
 
     def tool_target(self, physics, arm: str) -> np.ndarray:
         """The arm's current tool-frame (ee_site) pose [xyz, quat wxyz], world frame."""
-        return self.robot(physics).view.group(arm).get_frame_pose(physics.data.ptr)
+        return self.robot(physics).view.get_move_group(arm).get_frame_pose(physics.data.ptr)

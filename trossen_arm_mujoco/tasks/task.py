@@ -25,6 +25,8 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.sim.env import MujocoEnv, whole_ratio
 from trossen_arm_mujoco.tasks.observation import ObservationParts, Part, check_part
 
+__all__ = ["DEFAULT_POLICY_DT", "Bounds", "Task"]
+
 DEFAULT_POLICY_DT = 0.02
 
 Bounds = dict[str, tuple[np.ndarray, np.ndarray]]
@@ -90,6 +92,7 @@ class Task:
 
     @property
     def data(self):
+        """The env's ``MjData``."""
         return self.env.data
 
     # -- physics hooks --------------------------------------------------------------------
@@ -159,12 +162,15 @@ class Task:
         return self.is_terminal() or self.is_timed_out()
 
     def judge_success(self) -> bool:
+        """Whether the episode is a success in the current state; subclasses decide."""
         raise NotImplementedError
 
     def get_task_description(self) -> str:
+        """The task in one line of words (the language instruction of a dataset)."""
         raise NotImplementedError
 
     def get_reward(self) -> float:
+        """The reward of the current state; subclasses define it."""
         raise NotImplementedError
 
     def get_info(self) -> dict[str, Any]:
@@ -249,7 +255,11 @@ class Task:
         return np.minimum(achieved.low, desired.low), np.maximum(achieved.high, desired.high)
 
     def goal_reward(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """Rewards of achieved goals against desired ones, (batch,) from (batch, goal
+        dim) arrays (goal-conditioned tasks only; ``GoalEnv.compute_reward``)."""
         raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")
 
     def goal_success(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """Success of achieved goals against desired ones, (batch,) bools from
+        (batch, goal dim) arrays (goal-conditioned tasks only)."""
         raise NotImplementedError(f"task '{self.name}' is not goal-conditioned")

@@ -19,6 +19,19 @@ from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 from trossen_arm_mujoco.tasks.sampler import uniform
 
+__all__ = [
+    "BOX_HALF_SIZE",
+    "BOX_REST_Z",
+    "BOX_X_RANGE",
+    "BOX_Y_RANGE",
+    "MAX_REWARD",
+    "TABLE_TOP_Z",
+    "TransferCube",
+    "TransferCubeReward",
+    "TransferCubeSampler",
+    "sample_cube_pose",
+]
+
 #: Cube spawn region on the table (world frame, m): x, y uniform; z = resting height.
 BOX_X_RANGE = (-0.15, 0.15)
 BOX_Y_RANGE = (-0.2, 0.1)
@@ -86,6 +99,7 @@ class TransferCube(BimanualTask):
         return self.reward_fn(self.data)
 
     def get_task_description(self) -> str:
+        """The handover in words (the same for every episode)."""
         return "pick up the red cube with the right arm and hand it over to the left arm"
 
 

@@ -23,7 +23,11 @@ The served kit (``trossen-mujoco serve``, ``replay-real --backend wire``):
   an episode file (served sessions and teleoperation); a dead process's spool is
   published by the next run;
 - :mod:`.stop_signals`: stop signals as requests, so that any number of them end serving
-  cleanly.
+  cleanly;
+- :mod:`.camera_stream`: the kit's cameras over ZeroMQ in LeRobot's ZMQ camera protocol
+  (``serve --cameras``);
+- :mod:`.episode_control`: the episode control channel (``serve --control_port``: start
+  with a seed, end, status).
 
 Teleoperation:
 
@@ -37,3 +41,5 @@ Teleoperation:
 
 Serving needs the optional ``trossen_arm_sim`` package, reading leader arms ``trossen_arm``.
 """
+
+__all__: list[str] = []  # submodules only: import them by name

@@ -49,6 +49,8 @@ from trossen_arm_mujoco.twin.faults import (
 )
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 
+__all__ = ["MAX_VELOCITY_DT", "OUTPUT_TEMPERATURE_C", "ArmAdapter"]
+
 #: Rotor and driver temperature reported for every joint (C).
 OUTPUT_TEMPERATURE_C: float = 40.0
 

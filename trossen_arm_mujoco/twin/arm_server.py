@@ -28,6 +28,8 @@ from collections.abc import Callable
 
 from trossen_arm_mujoco.twin.serving import LoopbackArmServer, logger
 
+__all__ = ["ArmServer", "EventHook"]
+
 try:
     from trossen_arm_sim.protocol import (
         JOINT_INPUT_STRUCT,
@@ -84,6 +86,8 @@ class ArmServer(LoopbackArmServer):
         self._event("fault", f"{state.name}: {reason}")
 
     def clear_error(self) -> None:
+        """Clear the arm's error state, as the driver asks; a cleared error is reported as
+        a session event."""
         was = self.error_state
         super().clear_error()
         if was != ErrorState.NONE:

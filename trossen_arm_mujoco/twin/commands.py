@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+__all__ = ["EFFORT", "EXTERNAL_EFFORT", "IDLE", "POSITION", "VELOCITY", "ArmState"]
+
 #: ``trossen_arm_sim.protocol.Mode`` values (no optional import needed here).
 IDLE, POSITION, VELOCITY, EXTERNAL_EFFORT, EFFORT = 0, 1, 2, 3, 4
 

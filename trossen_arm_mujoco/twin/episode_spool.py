@@ -44,6 +44,20 @@ from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.errors import describe_os_error
 from trossen_arm_mujoco.twin.frame import Frame
 
+__all__ = [
+    "MAGIC",
+    "NUMERIC",
+    "RECORDING_ID_ATTR",
+    "EpisodeSpool",
+    "Recovery",
+    "SpoolContents",
+    "SpoolFormatError",
+    "read_spool",
+    "recover_spools",
+    "spool_pid",
+    "stale_spools",
+]
+
 #: First bytes of a spool file (format version 1), then the header's length (uint64 LE).
 MAGIC = b"TAMSPOOL1\n"
 _LENGTH = struct.Struct("<Q")
@@ -323,6 +337,7 @@ class SpoolContents:
 
     @property
     def steps(self) -> int:
+        """Number of steps in the spool."""
         return len(self.rows["reward"])
 
 

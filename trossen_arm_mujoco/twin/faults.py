@@ -48,6 +48,25 @@ import numpy as np
 from trossen_arm_mujoco.real.validate import POSITION_TOLERANCE, ArmLimits
 from trossen_arm_mujoco.twin.commands import EFFORT, EXTERNAL_EFFORT, POSITION, VELOCITY
 
+__all__ = [
+    "EFFORT_LIMITS",
+    "EFFORT_TOLERANCE_FRACTION",
+    "JOINT_LIMIT_EXCEEDED",
+    "LABELS",
+    "ROBOT_INPUT_INFINITE",
+    "SETPOINT_LAG_S",
+    "UNITS",
+    "VELOCITY_TOLERANCE_FRACTION",
+    "Fault",
+    "InputChecker",
+    "JointLimit",
+    "lag_fault",
+    "lag_fault_of",
+    "pack_limits",
+    "served_limits",
+    "unpack_limits",
+]
+
 #: Effort limits of the 7 driver values (URDF ``<limit effort>``): N m for joint_0..5, N for
 #: the gripper carriage.
 EFFORT_LIMITS: tuple[float, ...] = (27.0, 27.0, 27.0, 7.0, 7.0, 7.0, 400.0)

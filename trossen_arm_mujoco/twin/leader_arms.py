@@ -34,6 +34,15 @@ from trossen_arm_mujoco.real.driver import (
 )
 from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, SIDES
 
+__all__ = [
+    "CONNECT_TIMEOUT_S",
+    "LEADER_END_EFFECTOR",
+    "DriverLog",
+    "LeaderArms",
+    "LeaderFault",
+    "first_line",
+]
+
 #: End-effector preset of the leader arms (trossen_arm ``StandardEndEffector``).
 LEADER_END_EFFECTOR: str = "wxai_v0_leader"
 #: Seconds ``configure`` waits for a leader's controller.

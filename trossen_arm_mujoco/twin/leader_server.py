@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from trossen_arm_mujoco.twin.serving import LoopbackArmServer
 
+__all__ = ["LeaderArmServer"]
+
 try:
     from trossen_arm_sim.protocol import UDPCommand, parse_robot_input
 except ImportError:  # pragma: no cover - the optional package is missing: require_sim_server

@@ -19,6 +19,8 @@ from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.real.validate import ArmLimits
 from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, SIDES
 
+__all__ = ["SOURCES", "LeaderTrajectory", "load_leader_trajectory"]
+
 #: What a replay can play: the episode's actions or its measured joint positions.
 SOURCES: tuple[str, ...] = ("action", "qpos")
 
@@ -42,6 +44,7 @@ class LeaderTrajectory:
 
     @property
     def num_steps(self) -> int:
+        """Number of steps (rows of ``positions``)."""
         return int(self.positions.shape[0])
 
     @property

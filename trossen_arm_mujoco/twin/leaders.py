@@ -63,6 +63,16 @@ from trossen_arm_mujoco.twin.leader_trajectory import LeaderTrajectory, load_lea
 from trossen_arm_mujoco.twin.replay_clock import LEAD_IN_S, ReplayClock, check_speed
 from trossen_arm_mujoco.twin.serving import check_loopback, require_sim_server
 
+__all__ = [
+    "APPROACH_SPEED_FRACTION",
+    "DEFAULT_LEADER_IPS",
+    "EXTERNAL_EFFORT_MODE",
+    "POSITION_MODE",
+    "LeaderPair",
+    "PlayedLeaderArm",
+    "serve_leaders",
+]
+
 #: Joint mode values of ``position`` and ``external_effort`` in the controller's protocol.
 POSITION_MODE: int = 1
 EXTERNAL_EFFORT_MODE: int = 3

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import time
 
+__all__ = ["MAX_LAG_S", "ON_TIME_S", "UNSURE_AFTER_LAG_S", "Pacer"]
+
 #: The simulation gives up catching up with wall-clock time when this far behind (s).
 MAX_LAG_S: float = 0.1
 #: A simulation at most this late keeps real time (s).

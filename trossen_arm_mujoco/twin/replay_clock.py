@@ -14,6 +14,8 @@ from collections.abc import Callable
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.layout import SIDES
 
+__all__ = ["LEAD_IN_S", "SPEED_RANGE", "ReplayClock", "check_speed"]
+
 #: Seconds the arms hold the first pose after both are in external_effort mode.
 LEAD_IN_S: float = 1.0
 #: Replay speeds accepted (1.0 = as recorded).

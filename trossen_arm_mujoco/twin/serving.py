@@ -35,6 +35,18 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
 
+__all__ = [
+    "INSTALL_HINT",
+    "JOIN_TIMEOUT_S",
+    "MAX_DATAGRAM",
+    "UDP_ERROR_PAUSE_S",
+    "UDP_POLL_S",
+    "LoopbackArmServer",
+    "check_loopback",
+    "require_sim_server",
+    "shut",
+]
+
 try:
     from trossen_arm_sim import TrossenArmSimServer
     from trossen_arm_sim.protocol import TCP_PORT, UDP_PORT

@@ -45,6 +45,15 @@ from trossen_arm_mujoco.twin.episode_spool import RECORDING_ID_ATTR, EpisodeSpoo
 from trossen_arm_mujoco.twin.frame import Frame
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 
+__all__ = [
+    "BACKLOG_WARN_S",
+    "PROGRESS_S",
+    "RENDER_NICENESS",
+    "RecordOptions",
+    "RecordStats",
+    "SessionRecorder",
+]
+
 #: How much lower the recorder thread's priority is than the stepping thread's (nice steps).
 RENDER_NICENESS: int = 10
 

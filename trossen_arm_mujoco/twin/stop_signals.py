@@ -28,6 +28,8 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import Terminated, redeliver_if_in_finalizer
 
+__all__ = ["POLL_S", "STOP_SIGNALS", "StopSignals", "signal_name"]
+
 #: Signals that request a stop: Ctrl-C, ``kill``, a closed terminal.
 STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
     getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)

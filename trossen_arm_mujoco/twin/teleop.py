@@ -52,8 +52,19 @@ from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, REAL_KIT_LAYOUT, SIDES
 from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization_record import record_to_json
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.twin.episode_spool import EpisodeSpool
 from trossen_arm_mujoco.twin.leader_arms import LeaderArms
+
+__all__ = [
+    "ARM_COLUMNS",
+    "KIT_SPEED_LIMITS",
+    "EpisodeControl",
+    "TeleopOutcome",
+    "TeleopRecorder",
+    "TeleopSettings",
+    "object_poses_from",
+]
 
 #: Speed limit (per second) of each of the 14 kit values: rad/s x6, gripper m/s, per arm.
 KIT_SPEED_LIMITS: np.ndarray = np.tile(np.asarray(VELOCITY_LIMITS, dtype=float), 2)
@@ -91,6 +102,16 @@ class TeleopSettings:
     overrides: Mapping[str, float] = field(default_factory=dict)
     shadows: bool = True
     visual: str = "own"
+
+    def sampler_settings(self) -> SamplerSettings:
+        """How the follower world's sampler is built: the joint flavour rendering
+        ``cam_names`` at ``height`` x ``width`` px with the run's looks."""
+        return SamplerSettings(
+            camera_names=self.cam_names,
+            height=self.height,
+            width=self.width,
+            looks=SceneLooks(shadows=self.shadows, visual=self.visual),
+        )
 
 
 @dataclass
@@ -148,20 +169,14 @@ class TeleopRecorder:
         self.settings = settings
         self.step_hook = step_hook
         self.sampler = registry.make_sampler(
-            self.entry.name,
-            flavour="joint",
-            camera_names=settings.cam_names,
-            height=settings.height,
-            width=settings.width,
-            looks=SceneLooks(shadows=settings.shadows, visual=settings.visual),
-            **dict(settings.overrides),
+            self.entry.name, settings.sampler_settings(), **dict(settings.overrides)
         )
         probe = self.sampler.make_task()
         self.policy_dt = float(probe.policy_dt)
         self.fps = 1.0 / self.policy_dt
         self.task_max_reward = float(probe.max_reward)
         view = self.sampler.env.robots[probe.robot_name].view
-        ranges = np.concatenate([view.group(g).joint_range for g in KIT_LAYOUT.groups])
+        ranges = np.concatenate([view.get_move_group(g).joint_range for g in KIT_LAYOUT.groups])
         self.low = REAL_KIT_LAYOUT.from_vendor(ranges[:, 0])
         self.high = REAL_KIT_LAYOUT.from_vendor(ranges[:, 1])
         self.max_step = KIT_SPEED_LIMITS * self.policy_dt
@@ -336,6 +351,7 @@ class TeleopRecorder:
         )
 
     def close(self) -> None:
+        """Close the sampler and the env (renderers) it owns."""
         self.sampler.close()
 
 

@@ -1,0 +1,95 @@
+"""The Benchmarks page's plots, drawn from the measured numbers in
+``docs/data/benchmark_curves.json`` (each set says which benchmark measured it, when and
+where). Rerun after adding a measurement; the PNGs are committed.
+
+    python tools/docs_plots.py      # writes docs/images/benchmarks/*.png
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "docs" / "data" / "benchmark_curves.json"
+OUT = ROOT / "docs" / "images" / "benchmarks"
+
+
+def load() -> dict[str, Any]:
+    """The measured curves (see the data file's ``source`` / ``measured`` fields)."""
+    return json.loads(DATA.read_text(encoding="utf-8"))
+
+
+def _save(fig: Any, name: str) -> Path:
+    """Write a figure as ``OUT/name`` atomically."""
+    from trossen_arm_mujoco.fileio import atomic_path
+
+    OUT.mkdir(parents=True, exist_ok=True)
+    with atomic_path(OUT / name) as tmp:
+        fig.savefig(tmp, format="png", dpi=100)
+    return OUT / name
+
+
+def plot_training_success(curves: dict[str, Any]) -> Path:
+    """Success (%) against training steps, every run with its 95 % Wilson interval; colour
+    by data, marker by device, points of one step count spread sideways to stay readable."""
+    import matplotlib.pyplot as plt
+
+    runs = curves["runs"]
+    variants = list(dict.fromkeys(r["data"] for r in runs))
+    markers = {"CPU": "o", "H100": "s"}
+    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    for i, variant in enumerate(variants):
+        for device, marker in markers.items():
+            mine = [r for r in runs if r["data"] == variant and r["device"] == device]
+            if not mine:
+                continue
+            x = [r["steps"] + (i - 1) * 180 + (r["seed"] - 1000) * 60 for r in mine]
+            y = [r["success"] for r in mine]
+            low = [r["success"] - float(r["ci"][0]) for r in mine]
+            err = [low, [float(r["ci"][1]) - r["success"] for r in mine]]
+            ax.errorbar(x, y, yerr=err, fmt=marker, color=f"C{i}", capsize=3,
+                        label=f"{variant} ({device})")  # fmt: skip
+    ax.set_xticks([2000, 5000])
+    ax.set_xlim(1000, 6000)
+    ax.set_ylim(0, 100)
+    ax.set_xlabel("training steps")
+    ax.set_ylabel("success over 50 episodes (%)")
+    ax.set_title("ACT on sim_transfer_cube: success against training steps")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2)
+    fig.tight_layout()
+    return _save(fig, "training_success.png")
+
+
+def plot_camera_loss(curve: dict[str, Any]) -> Path:
+    """Training loss against steps of the one-camera run."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.0, 3.4))
+    ax.plot(curve["steps"], curve["loss"], "o-")
+    ax.set_xlabel("training steps")
+    ax.set_ylabel("training loss")
+    ax.set_title("ACT, cam_high 96x128, no object pose")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, "camera_run_loss.png")
+
+
+def main() -> int:
+    """Draw every plot; prints the files written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    curves = load()
+    for path in (
+        plot_training_success(curves["training_success"]),
+        plot_camera_loss(curves["camera_run_loss"]),
+    ):
+        print(path.relative_to(ROOT))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

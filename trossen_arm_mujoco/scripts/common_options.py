@@ -1,0 +1,271 @@
+"""The command-line options that several commands share, declared once.
+
+``record``, ``teleop``, ``serve``, ``export`` and ``eval`` take some of the same flags: the
+task (``--task_name``), where datasets live (``--root_dir``, ``--data_dir``), the run seed
+(``--seed``), cameras and their image size (``--cam_names``, ``--image_size``), the rate
+(``--fps``), episode counts and lengths, image compression, the scene's looks
+(``--no_shadows``, ``--visual``), the engine, a live viewer, ``--wait`` and ``--overwrite``. Each
+``add_*`` function declares one of them (type, default and the shape of its help: what it
+does in that command, then ``(default: ...)``); the checks (``check_seed``,
+``camera_names``, ``image_size``, ``dataset_folder``, ``scene_looks``) turn the parsed text
+into values, and every mistake is a one-line ``UserError`` naming the flag.
+
+    >>> p = ArgumentParser(prog="trossen-mujoco record")
+    >>> add_task_name(p, "task to record")
+    >>> add_seed(p, "run seed; episode k uses a seed derived from (seed, k)")
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
+from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION
+from trossen_arm_mujoco.errors import (
+    UserError,
+    describe_os_error,
+    os_error_hint,
+    unknown_name_error,
+)
+
+if TYPE_CHECKING:
+    from trossen_arm_mujoco.sim.looks import SceneLooks
+
+__all__ = [
+    "DEFAULT_IMAGE_SIZE",
+    "DEFAULT_TASK",
+    "ENGINES",
+    "MAX_EPISODES",
+    "MAX_EPISODE_LEN",
+    "MAX_RECORD_IMAGE_SIZE",
+    "MAX_SEED",
+    "add_cameras",
+    "add_compression",
+    "add_data_dir",
+    "add_engine",
+    "add_episode_len",
+    "add_fps",
+    "add_image_size",
+    "add_looks",
+    "add_num_episodes",
+    "add_overwrite",
+    "add_root_dir",
+    "add_seed",
+    "add_task_name",
+    "add_viewer",
+    "add_wait",
+    "camera_names",
+    "check_seed",
+    "dataset_folder",
+    "image_size",
+    "scene_looks",
+]
+
+#: The task every command starts from when ``--task_name`` is not given.
+DEFAULT_TASK = "sim_transfer_cube"
+#: Camera image size of the recording commands, HEIGHTxWIDTH pixels (also the largest:
+#: MAX_RECORD_IMAGE_SIZE, height and width).
+DEFAULT_IMAGE_SIZE = "480x640"
+MAX_RECORD_IMAGE_SIZE = (480, 640)
+#: Largest run seed (stored as a signed 64-bit attribute).
+MAX_SEED = 2**63 - 1
+#: Longest episode accepted (steps; 2000 s at 50 Hz).
+MAX_EPISODE_LEN = 100_000
+#: Most episodes one dataset may be asked to hold.
+MAX_EPISODES = 1_000_000
+#: Where episodes run: local worker processes, or Ray tasks.
+ENGINES = ("local", "ray")
+
+_Parser = argparse.ArgumentParser  # in the signatures below
+
+
+# -- declarations ------------------------------------------------------------------------
+def add_task_name(p: _Parser, what: str) -> None:
+    """``--task_name``: a registered task (aliases accepted), default ``sim_transfer_cube``;
+    ``what`` says what the task is for in this command."""
+    p.add_argument("--task_name", default=DEFAULT_TASK, help=f"{what} (default: {DEFAULT_TASK})")
+
+
+def add_root_dir(p: _Parser) -> None:
+    """``--root_dir``: the folder dataset folders are relative to (default ``ROOT_DIR``,
+    ``~/.trossen/mujoco/data/``)."""
+    p.add_argument("--root_dir", default=ROOT_DIR, help=f"root of datasets (default: {ROOT_DIR})")
+
+
+def add_data_dir(p: _Parser, what: str = "dataset folder", example: str = "") -> None:
+    """``--data_dir`` (required): ``what``, relative to ``--root_dir`` unless absolute;
+    ``example`` is appended to the help as ``(e.g. ...)``."""
+    tail = f" (e.g. {example})" if example else ""
+    p.add_argument(
+        "--data_dir", required=True, help=f"{what}, relative to --root_dir unless absolute{tail}"
+    )
+
+
+def add_seed(p: _Parser, what: str) -> None:
+    """``--seed``: an int, default 0 (``check_seed`` bounds it); ``what`` says how the
+    command derives its episodes from it."""
+    p.add_argument("--seed", type=int, default=0, help=f"{what} (default: 0)")
+
+
+def add_cameras(p: _Parser, what: str, default: str) -> None:
+    """``--cam_names``: comma-separated camera names (``what``: which cameras, e.g.
+    "cameras to record") or ``none``; None when not given (``default`` describes what the
+    command then uses)."""
+    p.add_argument(
+        "--cam_names", default=None, help=f"comma-separated {what}, or 'none' (default: {default})"
+    )
+
+
+def add_image_size(
+    p: _Parser,
+    what: str = "camera image size",
+    default: str | None = DEFAULT_IMAGE_SIZE,
+    default_text: str | None = None,
+) -> None:
+    """``--image_size`` HEIGHTxWIDTH (pixels); ``default_text`` describes a None default."""
+    shown = default if default_text is None else default_text
+    p.add_argument("--image_size", default=default, help=f"{what} HEIGHTxWIDTH (default: {shown})")
+
+
+def add_fps(p: _Parser, what: str, default: str) -> None:
+    """``--fps``: a rate in Hz (float, None when not given; ``default`` describes it)."""
+    p.add_argument("--fps", type=float, default=None, help=f"{what} (default: {default})")
+
+
+def add_num_episodes(p: _Parser, what: str, default: int | None, default_text: str = "") -> None:
+    """``--num_episodes``: an int (``default_text`` describes a None default)."""
+    shown = default_text or str(default)
+    p.add_argument("--num_episodes", type=int, default=default, help=f"{what} (default: {shown})")
+
+
+def add_episode_len(p: _Parser, what: str, default: str) -> None:
+    """``--episode_len``: steps per episode (int, None when not given; ``default``
+    describes what the command then uses)."""
+    p.add_argument("--episode_len", type=int, default=None, help=f"{what} (default: {default})")
+
+
+def add_engine(p: _Parser, what: str) -> None:
+    """``--engine``: ``local`` (default) or ``ray``."""
+    p.add_argument("--engine", default="local", choices=ENGINES, help=f"{what} (default: local)")
+
+
+def add_compression(p: _Parser, detail: str = "") -> None:
+    """``--compression``: image compression of the episode files (``data.schema``)."""
+    p.add_argument(
+        "--compression",
+        default=DEFAULT_COMPRESSION,
+        choices=COMPRESSIONS,
+        help=f"image compression (default: {DEFAULT_COMPRESSION}{detail})",
+    )
+
+
+def add_looks(p: _Parser, visual: bool = True) -> None:
+    """``--no_shadows`` and (``visual``) ``--visual``: how the scene is drawn
+    (``sim.looks.SceneLooks``; ``scene_looks`` checks them)."""
+    p.add_argument(
+        "--no_shadows",
+        action="store_true",
+        help="render without shadows (faster with software rendering)",
+    )
+    if visual:
+        p.add_argument(
+            "--visual",
+            default="own",
+            help="arm meshes: 'own' (default) or 'menagerie' (the official Trossen meshes of "
+            "the MuJoCo Menagerie checkout named by TROSSEN_MENAGERIE_DIR)",
+        )
+
+
+def add_viewer(p: _Parser, what: str = "show the simulation in a live viewer") -> None:
+    """``--viewer``: a live MuJoCo viewer (needs a display)."""
+    p.add_argument("--viewer", action="store_true", help=what)
+
+
+def add_wait(p: _Parser, what: str) -> None:
+    """``--wait``: wait for another run writing to the dataset folder instead of refusing."""
+    p.add_argument("--wait", action="store_true", help=what)
+
+
+def add_overwrite(p: _Parser, what: str) -> None:
+    """``--overwrite``: replace what an earlier run left in the output."""
+    p.add_argument("--overwrite", action="store_true", help=what)
+
+
+# -- checks ------------------------------------------------------------------------------
+def check_seed(seed: int, most: int = MAX_SEED) -> int:
+    """``--seed`` within 0 .. ``most`` (default 2**63-1), else a UserError."""
+    if not 0 <= seed <= most:
+        shown = "2**63-1" if most == MAX_SEED else str(most)
+        raise UserError(f"--seed must be in 0 .. {shown}, got {seed}")
+    return seed
+
+
+def image_size(text: str) -> tuple[int, int]:
+    """``--image_size`` HEIGHTxWIDTH as (height, width) pixels, within 1x1 .. 480x640."""
+    try:
+        h, w = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise UserError(f"--image_size must look like 480x640, got '{text}'") from None
+    if not (0 < h <= MAX_RECORD_IMAGE_SIZE[0] and 0 < w <= MAX_RECORD_IMAGE_SIZE[1]):
+        raise UserError(f"--image_size must be within 1x1 .. 480x640, got {h}x{w}")
+    return h, w
+
+
+def camera_names(text: str | None, task_name: str) -> tuple[str, ...]:
+    """``--cam_names`` (comma-separated, 'none', or None for the task's defaults) as camera
+    names of the task, each once."""
+    defaults = SIM_TASK_CONFIGS[task_name]["cam_names"]
+    if text is None:
+        return tuple(defaults)
+    if text.strip().lower() == "none":
+        return ()
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise UserError("--cam_names is empty; give camera names or 'none'")
+    for name in names:
+        if name not in defaults:
+            raise unknown_name_error("camera", name, defaults, "or 'none' for no images")
+    if len(set(names)) != len(names):
+        raise UserError(f"--cam_names lists a camera twice: {names}")
+    return tuple(names)
+
+
+def scene_looks(args: argparse.Namespace) -> SceneLooks:
+    """The scene looks of ``--no_shadows`` / ``--visual`` (``own`` when the command has no
+    ``--visual``), checked now (before any episode)."""
+    from trossen_arm_mujoco.sim.looks import SceneLooks, menagerie_meshes
+
+    looks = SceneLooks(shadows=not args.no_shadows, visual=getattr(args, "visual", "own"))
+    if looks.visual == "menagerie":
+        menagerie_meshes()  # fail now with the fix, not in a worker
+    return looks
+
+
+def dataset_folder(
+    root: str, data_dir: str, flag: str = "--data_dir", *, create: bool = True
+) -> Path:
+    """The dataset folder ``data_dir`` (relative to ``root`` unless absolute), checked and
+    created (unless ``create`` is False: then nothing is left behind) before any work.
+
+    A file, a symlink loop or a link to a missing path on the way (naming ``--root_dir``
+    when it lies in the root, else ``flag``, the flag that gave ``data_dir``), or a folder
+    the file system will not let this process write in
+    (:func:`~trossen_arm_mujoco.fileio.check_writable_dir`), is a one-line UserError."""
+    from trossen_arm_mujoco.data.reader import resolve_data_dir
+    from trossen_arm_mujoco.fileio import check_folder_path, check_writable_dir
+
+    folder = resolve_data_dir(root, data_dir)
+    if not Path(data_dir).expanduser().is_absolute():
+        check_folder_path(root, "--root_dir")
+    check_writable_dir(folder, flag)
+    if not create:
+        return folder
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:  # changed since the check
+        raise UserError(
+            f"cannot write to {flag} {folder}: {describe_os_error(exc)}; {os_error_hint(exc, flag)}"
+        ) from None
+    return folder
