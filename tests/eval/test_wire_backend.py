@@ -157,6 +157,7 @@ def test_a_camera_stream_that_stops_fails_the_episode(tmp_path, policies) -> Non
         (["--right_ip", "0.0.0.0"], "--right_ip '0.0.0.0' is not an IPv4 loopback"),
         (["--videos", "1"], "--backend wire runs one episode at a time"),
         (["--action_timeout", "0"], "--action_timeout must be in"),
+        (["--speed_limit_fraction", "1.5"], "--speed_limit_fraction must be in (0, 1]"),
     ],
 )
 def test_mistakes_are_one_line_exit_2(flags, expected, tmp_path, capsys) -> None:

@@ -22,7 +22,9 @@ control periods (deadlines passed with no action sent: the loop skips to the nex
 real control loop drops frames). An episode fails, with its reason in ``rollouts.json``,
 when the policy sends no action for ``action_timeout`` s, the camera stream stops (no image
 newer than ``STALE_S``) or an arm controller goes into its error state; a policy still stuck
-when the next episode starts ends the run with one line.
+when the next episode starts ends the run with one line. With ``speed_fraction`` each goal is
+first shortened to that share of the real speed limits (``eval.speed_clamp``); the number of
+shortened goals is in the timing block.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.runner import EvalSettings, PolicyCallError
 from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore, eval_info, stages_reached
+from trossen_arm_mujoco.eval.speed_clamp import SpeedClamp
 from trossen_arm_mujoco.eval.wire_env import WireEnv
 from trossen_arm_mujoco.eval.wire_link import (
     ArmPair,
@@ -98,6 +101,7 @@ class _Timing:
     obs_age: list[float]
     latency: list[float]
     missed: int = 0
+    shortened: int | None = None
 
     def summary(self) -> dict[str, Any]:
         def q(values: list[float], p: float) -> float | None:
@@ -106,17 +110,26 @@ class _Timing:
         return {"obs_age_ms": {"median": q(self.obs_age, 0.5), "p95": q(self.obs_age, 0.95)},
                 "action_latency_ms": {"median": q(self.latency, 0.5),
                                       "p95": q(self.latency, 0.95)},
-                "missed_periods": self.missed, "actions": len(self.latency)}  # fmt: skip
+                "missed_periods": self.missed, "actions": len(self.latency),
+                "shortened_goals": self.shortened}  # fmt: skip
 
 
 class WireEpisodeRunner:
     """The served kit (started unless ``link.connect``), its links, and the policy; runs
     episodes by index like ``runner.EpisodeRunner``."""
 
-    def __init__(self, settings: EvalSettings, link: KitLink, action_timeout: float) -> None:
+    def __init__(
+        self,
+        settings: EvalSettings,
+        link: KitLink,
+        action_timeout: float,
+        speed_fraction: float | None = None,
+    ) -> None:
         from trossen_arm_mujoco.eval.policies import make_policy
 
         self.settings, self.link, self.action_timeout = settings, link.checked(), action_timeout
+        self.speed_fraction = speed_fraction
+        self._measured: np.ndarray | None = None
         self.env = WireEnv(settings)
         self.period = 1.0 / self.env.fps
         self.kit = self.control = self.cameras = self.arms = self.policy = None
@@ -138,6 +151,7 @@ class WireEpisodeRunner:
     def _observe(self, status: dict[str, Any]) -> tuple[dict[str, Any], float, str | None]:
         """The observation, the time of the state it shows, and why it is unusable (None)."""
         pos, vel = self.arms.read()
+        self._measured = np.asarray(pos, dtype=np.float64)
         stamp = time.time()
         obs: dict[str, Any] = {
             "agent_pos": self.env.to_layout(pos), "velocity": self.env.to_layout(vel),
@@ -186,6 +200,7 @@ class WireEpisodeRunner:
             raise UserError(f"no image of the new scene on the camera stream within "
                             f"{FIRST_IMAGE_S:g} s (is serve --cameras running?)")  # fmt: skip
         timing, rewards, failure = _Timing([], []), [], None
+        clamp = SpeedClamp(self.speed_fraction) if self.speed_fraction else None
         t0 = time.monotonic()
         for k in range(self.env._max_episode_steps):
             deadline = t0 + k * self.period
@@ -206,13 +221,17 @@ class WireEpisodeRunner:
                 except TimeoutError:
                     failure = f"the policy sent no action for {self.action_timeout:g} s (step {k})"
                     break
-                self.arms.command(self.env.to_driver(action), GOAL_TIME_FACTOR * self.period)
+                goal, goal_time = self.env.to_driver(action), GOAL_TIME_FACTOR * self.period
+                if clamp is not None:
+                    goal = clamp(goal, self._measured, goal_time)
+                self.arms.command(goal, goal_time)
             except self.arms.errors as exc:  # the arm controller's error state (a fault)
                 failure = f"arm controller error at step {k}: {' '.join(str(exc).split())}"
                 break
             timing.latency.append(time.monotonic() - start)
             timing.obs_age.append(time.time() - stamp)
         end = self.control.request("end")
+        timing.shortened = None if clamp is None else clamp.shortened
         return self._score(index, seed, end, rewards, timing, failure), None
 
     def _call(
@@ -279,12 +298,14 @@ def evaluate_wire(
     link: KitLink,
     action_timeout: float = 2.0,
     on_episode: Callable[[EpisodeScore], None] | None = None,
+    speed_fraction: float | None = None,
 ) -> dict[str, Any]:
     """Run the evaluation through the served kit; returns ``eval_info.json``'s content
     (as ``runner.evaluate``) with a ``timing`` block: per episode and over all actions
-    (observation age and action latency, median and p95 ms; missed control periods)."""
+    (observation age and action latency, median and p95 ms; missed control periods; goals
+    shortened to ``speed_fraction`` of the speed limits, None when not asked)."""
     start = time.perf_counter()
-    runner = WireEpisodeRunner(settings, link, action_timeout)
+    runner = WireEpisodeRunner(settings, link, action_timeout, speed_fraction)
     scores: list[EpisodeScore] = []
     try:
         for i in range(settings.num_episodes):
@@ -296,7 +317,7 @@ def evaluate_wire(
         runner.close()
     run = {k: v for k, v in asdict(settings).items() if k != "extra"}
     run.update(num_workers=1, engine="local", backend="wire", kit=asdict(link),
-               action_timeout=action_timeout)  # fmt: skip
+               action_timeout=action_timeout, speed_fraction=speed_fraction)  # fmt: skip
     info = eval_info(settings.task, scores, time.perf_counter() - start, (), run)
     per = [s.analysis["timing"] for s in scores]
     info["timing"] = {

@@ -113,6 +113,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--action_timeout", type=float, default=2.0,
                    help="with --backend wire: seconds without an action before the episode "
                    "fails (default 2)")  # fmt: skip
+    p.add_argument("--speed_limit_fraction", type=float, default=None, metavar="F",
+                   help="with --backend wire: shorten each goal so that no joint is asked for "
+                   "more than F (0-1] of the real speed limits (default: send the policy's "
+                   "actions as they are; a jump faults the arm, as on the real kit)")  # fmt: skip
     add_overwrite(p, "replace an eval_info.json already in --output_dir")
     return p
 
@@ -182,7 +186,7 @@ def _kit_link(args: argparse.Namespace, workers: int):
     if args.backend != "wire":
         defaults = build_parser().parse_args(["--policy", "x"])
         for flag in ("connect", "left_ip", "right_ip", "camera_port", "control_port",
-                     "action_timeout"):  # fmt: skip
+                     "action_timeout", "speed_limit_fraction"):  # fmt: skip
             if getattr(args, flag) != getattr(defaults, flag):
                 raise UserError(f"--{flag} needs --backend wire")
         return None
@@ -191,6 +195,10 @@ def _kit_link(args: argparse.Namespace, workers: int):
                         "--num_workers, --engine and --videos")  # fmt: skip
     if not 0.05 <= args.action_timeout <= 600:
         raise UserError(f"--action_timeout must be in [0.05, 600] s, got {args.action_timeout}")
+    f = args.speed_limit_fraction
+    if f is not None and not 0.0 < f <= 1.0:
+        raise UserError(f"--speed_limit_fraction must be in (0, 1], got {f} (0.9: 90 % of the "
+                        "real arm's limits)")  # fmt: skip
     link = KitLink(args.left_ip, args.right_ip, camera_port=args.camera_port,
                    control_port=args.control_port, connect=args.connect)  # fmt: skip
     return link.checked()
@@ -253,7 +261,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.backend == "wire":
                 from trossen_arm_mujoco.eval.wire_backend import evaluate_wire
 
-                info = evaluate_wire(settings, link, args.action_timeout, on_episode=tick)
+                info = evaluate_wire(
+                    settings,
+                    link,
+                    args.action_timeout,
+                    on_episode=tick,
+                    speed_fraction=args.speed_limit_fraction,
+                )
             else:
                 info = evaluate(settings, workers, args.engine, on_episode=tick)
     except PolicyCallError as exc:  # the user's code raised: say where, then its traceback
