@@ -2,6 +2,10 @@
 
     MUJOCO_GL=egl python benchmarks/record_episode.py            # 600 steps, 4 cams, 480x640
     MUJOCO_GL=egl python benchmarks/record_episode.py --episode_len 150 --repeats 3   # quicker
+    MUJOCO_GL=egl python benchmarks/record_episode.py --sweep 100,200,400,600 \
+        --cam_names cam_high --height 120 --width 160 --no_shadows --json curve.json
+
+With ``--sweep L1,L2,...`` only the sweep runs (5. below).
 
 1. Records one episode exactly as ``trossen-mujoco record`` does (phase 1 without images,
    phase 2 rendering 4 cameras and streaming to HDF5, default compression) and times it.
@@ -24,13 +28,24 @@
    not counted) and the deflate CPU time per frame (ISA-L's at level 1 where ``isal`` is
    installed, zlib's otherwise: what the writer uses).
 
+5. Recording cost against episode length (``--sweep``): one episode recorded as ``record``
+   records it (both phases, the file written and closed) at each length, best of
+   ``--repeats``; wall and CPU seconds (all threads) of ``EpisodeRecorder.record`` alone, the
+   recorder's construction (models, GL context), a fixed cost, printed apart. ``--json``
+   writes the points, the settings, the date, CPU count and load average, for the docs' plot
+   (``docs/data/benchmark_curves.json``, ``tools/docs_plots.py``).
+
 Prints wall seconds, seconds per rendered step, the ratios, and peak RSS.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import datetime
+import json
 import os
+import platform
 import resource
 import tempfile
 import time
@@ -248,6 +263,35 @@ def compression_table(path: Path, out_dir: Path) -> list[tuple[str, float, float
     return rows
 
 
+def sweep(settings: RecordSettings, lengths: list[int], repeats: int, out: Path) -> list[dict]:
+    """One point per episode length: the best (least disturbed) wall and CPU seconds of
+    ``repeats`` recordings of attempt 0 at that length, and the file size (bytes)."""
+    points = []
+    for steps in lengths:
+        start = time.perf_counter()
+        recorder = EpisodeRecorder(dataclasses.replace(settings, episode_len=steps))
+        setup = time.perf_counter() - start
+        best_wall = best_cpu = float("inf")
+        for _ in range(repeats):
+            path = out / f"sweep_{steps}.hdf5"
+            wall, cpu = time.perf_counter(), time.process_time()
+            recorder.record(0, path, overwrite=True)
+            best_wall = min(best_wall, time.perf_counter() - wall)
+            best_cpu = min(best_cpu, time.process_time() - cpu)
+            size = path.stat().st_size
+            path.unlink()
+        recorder.close()
+        point = {"steps": steps, "wall_s": round(best_wall, 3), "cpu_s": round(best_cpu, 3),
+                 "setup_s": round(setup, 3), "bytes": size}  # fmt: skip
+        print(
+            f"  {steps:6d} steps: wall {best_wall:7.2f} s  CPU {best_cpu:7.2f} s  "
+            f"({best_wall / steps * 1e3:6.1f} ms/step; recorder setup {setup:.2f} s)  "
+            f"file {size / 1e6:.2f} MB  load average {os.getloadavg()[0]:.1f}"
+        )
+        points.append(point)
+    return points
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episode_len", type=int, default=600)
@@ -263,12 +307,50 @@ def main() -> None:
         metavar="L1,L2",
         help="also time one more rendered step between L1 and L2 steps (e.g. 40,120)",
     )
-    parser.add_argument("--repeats", type=int, default=3, help="runs per length (--marginal)")
-    args = parser.parse_args()
-    cams = list(STATIONARY_CAMERAS)
-    settings = RecordSettings(
-        episode_len=args.episode_len, cam_names=tuple(cams), height=args.height, width=args.width
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="runs per length (--marginal, --sweep)"
     )
+    parser.add_argument(
+        "--cam_names", default="all", help="comma-separated cameras, 'all' or 'none'"
+    )
+    parser.add_argument("--no_shadows", action="store_true", help="render without shadows")
+    parser.add_argument(
+        "--sweep", default="", metavar="L1,L2,...", help="only time recording at these lengths"
+    )
+    parser.add_argument("--json", default="", help="with --sweep: write the points here")
+    args = parser.parse_args()
+    names = {"all": STATIONARY_CAMERAS, "none": []}
+    cams = list(names.get(args.cam_names, args.cam_names.split(",")))
+    settings = RecordSettings(
+        episode_len=args.episode_len,
+        cam_names=tuple(cams),
+        height=args.height,
+        width=args.width,
+        shadows=not args.no_shadows,
+    )
+    if args.sweep:
+        lengths = [int(v) for v in args.sweep.split(",")]
+        setting = (
+            f"{len(cams)} camera(s) {','.join(cams)} at {args.height}x{args.width}, "
+            f"shadows {'off' if args.no_shadows else 'on'}, {DEFAULT_COMPRESSION} compression"
+            if cams
+            else "no cameras (state only)"
+        )
+        print(f"recording cost against episode length, {setting}, best of {args.repeats}:")
+        with tempfile.TemporaryDirectory() as tmp:
+            points = sweep(settings, lengths, args.repeats, Path(tmp))
+        if args.json:
+            record = {
+                "source": "benchmarks/record_episode.py --sweep",
+                "setting": setting,
+                "repeats": args.repeats,
+                "measured": datetime.date.today().isoformat(),
+                "machine": f"{os.cpu_count()} CPUs, {platform.processor() or platform.machine()}",
+                "load_average_end": round(os.getloadavg()[0], 1),
+                "points": points,
+            }
+            Path(args.json).write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+        return
     steps, frames = args.episode_len, args.episode_len * len(cams)
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -77,6 +77,39 @@ def plot_camera_loss(curve: dict[str, Any]) -> Path:
     return _save(fig, "camera_run_loss.png")
 
 
+def plot_recording_cost(cost: dict[str, Any]) -> Path:
+    """Seconds to record one episode (both phases and the file, best of the repeats) against
+    its length in steps: wall time as points joined by lines, CPU time dashed; one colour per
+    setting; a setting whose times are under a tenth of the slowest one's (state only) goes on
+    the right-hand axis, so that its line does not lie flat on zero."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.0, 4.2))
+    right = ax.twinx()
+    slowest = max(p["wall_s"] for s in cost["settings"] for p in s["points"])
+    for i, setting in enumerate(cost["settings"]):
+        small = max(p["wall_s"] for p in setting["points"]) < slowest / 10
+        axis = right if small else ax
+        steps = [p["steps"] for p in setting["points"]]
+        label = setting["setting"].replace(" compression", "") + (" (right axis)" if small else "")
+        axis.plot(steps, [p["wall_s"] for p in setting["points"]], "o-", color=f"C{i}",
+                  label=f"{label}: wall")  # fmt: skip
+        axis.plot(steps, [p["cpu_s"] for p in setting["points"]], "x--", color=f"C{i}",
+                  label=f"{label}: CPU")  # fmt: skip
+    ax.set_xlabel("episode length (steps at 50 Hz)")
+    ax.set_ylabel("seconds per episode (left-hand settings)")
+    right.set_ylabel("seconds per episode (right-hand settings)")
+    ax.set_ylim(bottom=0)
+    right.set_ylim(bottom=0)
+    ax.set_title("record: cost of one episode against its length")
+    ax.grid(alpha=0.3)
+    lines = ax.get_legend_handles_labels()
+    more = right.get_legend_handles_labels()
+    ax.legend(lines[0] + more[0], lines[1] + more[1], fontsize=7, loc="upper left")
+    fig.tight_layout()
+    return _save(fig, "recording_cost.png")
+
+
 def main() -> int:
     """Draw every plot; prints the files written."""
     import matplotlib
@@ -86,6 +119,7 @@ def main() -> int:
     for path in (
         plot_training_success(curves["training_success"]),
         plot_camera_loss(curves["camera_run_loss"]),
+        plot_recording_cost(curves["recording_cost"]),
     ):
         print(path.relative_to(ROOT))
     return 0

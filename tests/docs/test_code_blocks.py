@@ -32,6 +32,28 @@ def test_every_block_is_code_that_runs_data_or_marked():
     assert counts["runs"] >= 10, counts  # the tutorial, the gym pages, the concepts
 
 
+def test_every_cli_page_has_a_worked_example_that_runs():
+    cli_pages = [p for p in PAGES if p.parent.name == "cli" and p.name != "index.md"]
+    assert len(cli_pages) == 7
+    without = [p.name for p in cli_pages if not any(f.runs for f in docs_fences.fences(p))]
+    assert not without, f"CLI pages without a block CI runs: {without}"
+
+
+def test_blocks_that_run_reach_loopback_only():
+    """An address outside 127.0.0.0/8 (a real arm's) only ever appears in blocks marked
+    ``# needs: hardware``, which never run."""
+    address = re.compile(r"(?<![\d.])(\d{1,3})\.\d{1,3}\.\d{1,3}\.\d{1,3}(?![\d.])")
+    outside = [
+        f"{f.page}:{f.line}: {m.group(0)}"
+        for page in PAGES
+        for f in docs_fences.fences(page)
+        if f.language in docs_fences.CODE_LANGUAGES and f.needs != "hardware"
+        for m in address.finditer(f.text)
+        if m.group(1) != "127"
+    ]
+    assert not outside, f"non-loopback addresses in blocks not marked hardware: {outside}"
+
+
 def test_a_malformed_needs_mark_is_refused(tmp_path: Path):
     page = tmp_path / "page.md"
     page.write_text("```bash\n# needs: a gpu\nls\n```\n")

@@ -36,3 +36,21 @@ def test_plotted_runs_are_the_benchmark_tables_runs():
     for step, value in zip(loss["steps"], loss["loss"], strict=True):
         label = f"{step // 1000}k" if step >= 1000 else f"step {step}"
         assert f"{value:.3f} ({label})" in page, (step, value)
+
+
+def test_plotted_recording_cost_is_the_benchmark_table():
+    cost = json.loads((REPO / "docs" / "data" / "benchmark_curves.json").read_text())
+    page = (REPO / "docs" / "benchmarks.md").read_text(encoding="utf-8")
+    cost = cost["recording_cost"]
+    assert cost["source"].startswith("benchmarks/record_episode.py --sweep")
+    assert re.match(r"20\d\d-\d\d-\d\d, ", cost["measured"]), "when and where"
+    assert (REPO / "docs" / "images" / "benchmarks" / "recording_cost.png").is_file()
+    assert "images/benchmarks/recording_cost.png" in page
+    for setting in cost["settings"]:
+        assert len(setting["points"]) >= 3, setting["label"]
+        for p in setting["points"]:
+            row = (
+                f"| {setting['label']} | {p['steps']} | {p['wall_s']:.2f} | {p['cpu_s']:.2f} "
+                f"| {p['bytes'] / 1e6:.2f} |"
+            )
+            assert row in page, row

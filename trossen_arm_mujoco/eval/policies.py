@@ -14,6 +14,8 @@ Every policy has ``reset(env)`` (called after ``env.reset``) and ``act(observati
 from __future__ import annotations
 
 import importlib
+import os
+import sys
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -89,6 +91,9 @@ class FunctionPolicy:
 
     def __init__(self, spec: str):
         module, _, name = spec.partition(":")
+        here = os.getcwd()  # the console script does not put the current folder on sys.path
+        if here not in sys.path and "" not in sys.path:
+            sys.path.append(here)
         try:
             fn = getattr(importlib.import_module(module), name)
         except (ImportError, AttributeError) as exc:
