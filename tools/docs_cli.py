@@ -15,16 +15,13 @@ import importlib
 import sys
 from pathlib import Path
 
+from trossen_arm_mujoco.cli import SUBCOMMANDS
+
 #: subcommand -> module whose ``build_parser()`` defines its flags (record's parser lives in
 #: record_args so the flags are importable without the recording machinery)
 PARSER_MODULES: dict[str, str] = {
+    **SUBCOMMANDS,
     "record": "trossen_arm_mujoco.scripts.record_args",
-    "visualize": "trossen_arm_mujoco.scripts.visualize_eps",
-    "replay-real": "trossen_arm_mujoco.scripts.replay_episode_real",
-    "export": "trossen_arm_mujoco.scripts.export_dataset",
-    "eval": "trossen_arm_mujoco.scripts.eval_policy",
-    "serve": "trossen_arm_mujoco.scripts.serve",
-    "teleop": "trossen_arm_mujoco.scripts.teleop",
 }
 
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import base64
 import io
-import ipaddress
 import json
 import socket
 import subprocess
@@ -28,25 +27,12 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.real.preflight import check_loopback
 
 __all__ = ["ArmPair", "CameraReader", "ControlClient", "KitLink", "check_loopback", "start_kit"]
 
 #: Seconds to wait for a started ``serve`` to print its first line.
 START_TIMEOUT_S = 120.0
-
-
-def check_loopback(host: str, flag: str) -> str:
-    """``host`` when it is an IPv4 address in 127.0.0.0/8, else a one-line ``UserError``."""
-    try:
-        addr = ipaddress.ip_address(str(host).strip())
-    except ValueError:
-        addr = None
-    if not isinstance(addr, ipaddress.IPv4Address) or not addr.is_loopback:
-        raise UserError(
-            f"{flag} {host!r} is not an IPv4 loopback address: the wire backend talks to the "
-            "simulated kit on this machine only (127.0.0.0/8)"
-        )
-    return str(addr)
 
 
 @dataclass(frozen=True)

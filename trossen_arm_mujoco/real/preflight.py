@@ -11,7 +11,23 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
 
-__all__ = ["check_arm_ips", "check_ip", "recorded_dt"]
+__all__ = ["check_arm_ips", "check_ip", "check_loopback", "recorded_dt"]
+
+
+def check_loopback(ip: object, flag: str = "address") -> str:
+    """``ip`` normalized when it is an IPv4 address in 127.0.0.0/8, else a one-line
+    ``UserError`` naming ``flag``: the simulated kit (its arms, cameras and control channel)
+    is served, and talked to, on this machine only."""
+    try:
+        address = ipaddress.ip_address(str(ip).strip())
+    except ValueError:
+        address = None
+    if not isinstance(address, ipaddress.IPv4Address) or not address.is_loopback:
+        raise UserError(
+            f"{flag} {ip!r} is not an IPv4 loopback address: the simulated kit is served on "
+            "this machine only; use an address in 127.0.0.0/8, e.g. 127.0.0.2"
+        )
+    return str(address)
 
 
 def check_ip(ip: object, flag: str) -> str:

@@ -26,7 +26,6 @@ servers can be started and stopped many times in one process (tests, ``serve``, 
 from __future__ import annotations
 
 import importlib
-import ipaddress
 import logging
 import socket
 import threading
@@ -34,6 +33,7 @@ import time
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.real.preflight import check_loopback
 
 __all__ = [
     "INSTALL_HINT",
@@ -83,21 +83,6 @@ def require_sim_server() -> None:
             f"serving the kit needs the 'trossen_arm_sim' package, which cannot be imported "
             f"({exc}): {INSTALL_HINT}"
         ) from None
-
-
-def check_loopback(ip: str, flag: str = "address") -> str:
-    """``ip`` normalized when it is an IPv4 address in 127.0.0.0/8, else a one-line
-    ``UserError``: a served arm never listens beyond this machine."""
-    try:
-        address = ipaddress.ip_address(str(ip).strip())
-    except ValueError:
-        address = None
-    if not isinstance(address, ipaddress.IPv4Address) or not address.is_loopback:
-        raise UserError(
-            f"{flag} {ip!r} is not an IPv4 loopback address: the simulated kit is served on "
-            "this machine only; use an address in 127.0.0.0/8, e.g. 127.0.0.2"
-        )
-    return str(address)
 
 
 def shut(sock: socket.socket | None) -> None:
