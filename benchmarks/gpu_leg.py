@@ -35,6 +35,28 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 
+AV_STANDIN = '''"""Stand-in for PyAV written by gpu_leg.py --stub_av: importable, never decodes."""
+
+
+class _Absent:
+    def __getattr__(self, name):
+        return self
+
+    def __call__(self, *args, **kwargs):
+        raise ImportError("PyAV is not installed here (gpu_leg.py --stub_av): this dataset has "
+                          "videos; carry the av wheel instead")
+
+    def __or__(self, other):  # annotations such as ``av.codec.Codec | None``
+        return self
+
+    __ror__ = __or__
+
+
+def __getattr__(name):
+    return _Absent()
+'''
+AV_METADATA = "Metadata-Version: 2.1\nName: av\nVersion: 0.0.0\n"
+
 
 def _arg(args: list[str], flag: str, default: str) -> str:
     for i, a in enumerate(args):
@@ -109,8 +131,22 @@ def main() -> None:
     p.add_argument("--wheels", default="",
                    help="folder of wheels to install first (offline); a *.tar.xz there is an "
                    "unpacked wheel packed smaller, extracted as it is")  # fmt: skip
+    p.add_argument(
+        "--stub_av",
+        action="store_true",
+        help="write an importable stand-in for PyAV (state-only datasets; see above)",
+    )
     args = p.parse_args()
     env = dict(os.environ)
+    if args.stub_av:
+        stub = Path("/tmp/gpu_leg_av_standin/av")
+        stub.mkdir(parents=True, exist_ok=True)
+        (stub / "__init__.py").write_text(AV_STANDIN)
+        # LeRobot asks importlib.metadata whether av is installed before it imports it
+        meta = stub.parent / "av-0.0.0.dist-info"
+        meta.mkdir(exist_ok=True)
+        (meta / "METADATA").write_text(AV_METADATA)
+        env["PYTHONPATH"] = str(stub.parent) + os.pathsep + env.get("PYTHONPATH", "")
     if args.wheels and Path(args.wheels).is_dir():
         site = "/tmp/gpu_leg_site"
         wheels = sorted(str(w) for w in Path(args.wheels).glob("*.whl"))

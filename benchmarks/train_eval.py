@@ -127,6 +127,14 @@ def _train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
         n_action = 1
     if args.video_backend:
         extra.append(f"--dataset.video_backend={args.video_backend}")
+    if args.lr_schedule == "cosine":  # ACT's own optimizer settings, the rate decayed to the end
+        extra += [
+            "--use_policy_training_preset=false", "--optimizer.type=adamw",
+            f"--optimizer.lr={args.lr}", "--optimizer.weight_decay=0.0001",
+            "--optimizer.grad_clip_norm=10", "--scheduler.type=cosine_decay_with_warmup",
+            "--scheduler.num_warmup_steps=0", f"--scheduler.num_decay_steps={args.steps}",
+            f"--scheduler.peak_lr={args.lr}", f"--scheduler.decay_lr={args.lr_final}",
+        ]  # fmt: skip
     return [
         python, "-m", "lerobot.scripts.lerobot_train",
         "--dataset.repo_id=local/sim_dataset", f"--dataset.root={dataset}",
@@ -231,6 +239,12 @@ def build_parser() -> argparse.ArgumentParser:
                    "has no FFmpeg; default: LeRobot's)")  # fmt: skip
     p.add_argument("--save_freq", type=int, default=1000, help="checkpoint every N steps")
     p.add_argument("--lr", type=float, default=1e-4)
+    p.add_argument("--lr_schedule", choices=["constant", "cosine"], default="constant",
+                   help="constant: ACT's preset (the rate never decays, so the last checkpoint "
+                   "lands wherever the noise of the updates left it); cosine: decayed from --lr "
+                   "to --lr_final over --steps")  # fmt: skip
+    p.add_argument("--lr_final", type=float, default=1e-6,
+                   help="the rate at the last step with --lr_schedule cosine")  # fmt: skip
     p.add_argument("--dim_model", type=int, default=256)
     p.add_argument("--dim_feedforward", type=int, default=1024)
     p.add_argument("--n_encoder_layers", type=int, default=4)

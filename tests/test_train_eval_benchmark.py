@@ -44,7 +44,8 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
     assert not (work / "train").exists()  # only the phases asked for ran
 
     seeds = ["--train_seeds", "2", "--train_seed", "5"]
-    trained = _bench(work, "--phase", "train", *seeds, "--train_jobs", "2", *TINY)
+    trained = _bench(work, "--phase", "train", *seeds, "--train_jobs", "2", *TINY,
+                     "--lr_schedule", "cosine", "--lr_final", "3e-7")  # fmt: skip
     assert trained.returncode == 0, trained.stdout + trained.stderr
     for seed in (5, 6):
         assert (work / "train" / f"seed_{seed}" / "checkpoints" / "last" / "pretrained_model"
@@ -52,6 +53,12 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
         config = json.loads((work / "train" / f"seed_{seed}" / "checkpoints" / "last"
                              / "pretrained_model" / "train_config.json").read_text())  # fmt: skip
         assert config["seed"] == seed
+        # LeRobot took the decayed schedule with ACT's own optimizer settings
+        assert config["scheduler"]["type"] == "cosine_decay_with_warmup"
+        assert config["scheduler"]["num_decay_steps"] == 2
+        assert config["scheduler"]["decay_lr"] == pytest.approx(3e-7)
+        assert config["optimizer"]["lr"] == pytest.approx(1e-4)
+        assert config["optimizer"]["weight_decay"] == pytest.approx(1e-4)
     again = _bench(work, "--phase", "train", *seeds, *TINY)
     assert again.returncode == 0 and "already holds a checkpoint" in again.stdout
 
@@ -121,3 +128,36 @@ def test_gpu_leg_trains_the_plan_and_packs_each_checkpoint_for_the_trip(tmp_path
             capture_output=True, text=True, timeout=120,
         )  # fmt: skip
         assert check.returncode == 0 and "torch.float16" in check.stdout, check.stderr
+
+
+def test_gpu_leg_stand_in_for_pyav_lets_lerobot_train_import_and_refuses_to_decode(tmp_path):
+    """``gpu_leg.py --stub_av`` (a GPU machine without PyAV, state-only datasets): with the
+    stand-in first on the path, LeRobot's dataset and training modules import, and any use of
+    PyAV raises ImportError naming the fix instead of decoding nothing."""
+    python = _python()
+    sys.path.insert(0, str(SCRIPT.parent))
+    try:
+        import gpu_leg
+    finally:
+        sys.path.pop(0)
+    (tmp_path / "av").mkdir()
+    (tmp_path / "av" / "__init__.py").write_text(gpu_leg.AV_STANDIN)
+    (tmp_path / "av-0.0.0.dist-info").mkdir()
+    (tmp_path / "av-0.0.0.dist-info" / "METADATA").write_text(gpu_leg.AV_METADATA)
+    probe = (
+        "import av, lerobot.datasets.lerobot_dataset, lerobot.scripts.lerobot_train\n"
+        "from lerobot.utils.import_utils import require_package\n"
+        "import importlib.metadata as m; print('version', m.version('av'))\n"
+        "require_package('av', 'dataset')\n"
+        "print(av.__file__)\n"
+        "try:\n    av.open('x.mp4')\nexcept ImportError as e:\n    print('refused:', e)\n"
+    )
+    run = subprocess.run(
+        [python, "-c", probe], capture_output=True, text=True, timeout=300,
+        env={**os.environ, "PYTHONPATH": str(tmp_path)},
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert str(tmp_path / "av" / "__init__.py") in run.stdout
+    assert "refused: PyAV is not installed here" in run.stdout
+    assert "carry the av wheel" in run.stdout
+    assert "version 0.0.0" in run.stdout  # LeRobot's own check sees the stand-in
