@@ -2,7 +2,7 @@
 -> trossen-mujoco eval.
 
     TROSSEN_LEROBOT_PYTHON=~/.cache/trossen-arm-mujoco/lerobot-venv/bin/python \\
-        python benchmarks/train_eval.py --episodes 50 --steps 5000 --train_seeds 3
+        python benchmarks/train_eval.py --episodes 50 --inject_noise --train_seeds 3
 
 1. ``record``: ``trossen-mujoco record`` of ``--episodes`` scripted episodes of ``--task``
    (``--seed``), no camera by default (``--cam_names cam_high --image_size 96x128
@@ -231,7 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="CPU threads of each training run (default: the cores shared among the runs "
         "at a time; torch's own default oversubscribes the cores when runs share them)",
     )
-    p.add_argument("--steps", type=int, default=5000)
+    p.add_argument("--steps", type=int, default=7000)
     p.add_argument("--batch_size", type=int, default=16)
     p.add_argument("--num_workers", type=int, default=0, help="lerobot-train's data loaders")
     p.add_argument("--video_backend", default="",
@@ -239,10 +239,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "has no FFmpeg; default: LeRobot's)")  # fmt: skip
     p.add_argument("--save_freq", type=int, default=1000, help="checkpoint every N steps")
     p.add_argument("--lr", type=float, default=1e-4)
-    p.add_argument("--lr_schedule", choices=["constant", "cosine"], default="constant",
-                   help="constant: ACT's preset (the rate never decays, so the last checkpoint "
-                   "lands wherever the noise of the updates left it); cosine: decayed from --lr "
-                   "to --lr_final over --steps")  # fmt: skip
+    p.add_argument("--lr_schedule", choices=["constant", "cosine"], default="cosine",
+                   help="cosine (default): decayed from --lr to --lr_final over --steps; "
+                   "constant: ACT's preset, whose rate never decays, so the last checkpoint "
+                   "lands wherever the noise of the updates left it (one run's score moved "
+                   "between 52 %% and 92 %% from one saved checkpoint to the next)")  # fmt: skip
     p.add_argument("--lr_final", type=float, default=1e-6,
                    help="the rate at the last step with --lr_schedule cosine")  # fmt: skip
     p.add_argument("--dim_model", type=int, default=256)

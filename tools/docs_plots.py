@@ -39,20 +39,23 @@ def plot_training_success(curves: dict[str, Any]) -> Path:
     runs = curves["runs"]
     variants = list(dict.fromkeys(r["data"] for r in runs))
     markers = {"CPU": "o", "H100": "s"}
-    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    fig, ax = plt.subplots(figsize=(9.0, 6.0))
     for i, variant in enumerate(variants):
         for device, marker in markers.items():
             mine = [r for r in runs if r["data"] == variant and r["device"] == device]
             if not mine:
                 continue
-            x = [r["steps"] + (i - 1) * 180 + (r["seed"] - 1000) * 60 for r in mine]
+            x = [r["steps"] + (i - len(variants) / 2) * 90 + (r["seed"] - 1000) * 30
+                 for r in mine]  # fmt: skip
             y = [r["success"] for r in mine]
             low = [r["success"] - float(r["ci"][0]) for r in mine]
             err = [low, [float(r["ci"][1]) - r["success"] for r in mine]]
             ax.errorbar(x, y, yerr=err, fmt=marker, color=f"C{i}", capsize=3,
                         label=f"{variant} ({device})")  # fmt: skip
-    ax.set_xticks([2000, 5000])
-    ax.set_xlim(1000, 6000)
+    steps = sorted({r["steps"] for r in runs})
+    ax.set_xticks(steps)
+    ax.set_xticklabels([f"{k // 1000}k" for k in steps])
+    ax.set_xlim(steps[0] - 1000, steps[-1] + 1000)
     ax.set_ylim(0, 100)
     ax.set_xlabel("training steps")
     ax.set_ylabel("success over 50 episodes (%)")
