@@ -30,6 +30,7 @@ import signal
 import subprocess
 import sys
 import tarfile
+import tempfile
 import time
 from pathlib import Path
 
@@ -139,8 +140,8 @@ def main() -> None:
     args = p.parse_args()
     env = dict(os.environ)
     if args.stub_av:
-        stub = Path("/tmp/gpu_leg_av_standin/av")
-        stub.mkdir(parents=True, exist_ok=True)
+        stub = Path(tempfile.mkdtemp(prefix="gpu_leg_av_")) / "av"  # own folder per run
+        stub.mkdir()
         (stub / "__init__.py").write_text(AV_STANDIN)
         # LeRobot asks importlib.metadata whether av is installed before it imports it
         meta = stub.parent / "av-0.0.0.dist-info"
