@@ -2,7 +2,7 @@
 -> trossen-mujoco eval.
 
     TROSSEN_LEROBOT_PYTHON=~/.cache/trossen-arm-mujoco/lerobot-venv/bin/python \\
-        python benchmarks/train_eval.py --episodes 50 --inject_noise --train_seeds 3
+        python benchmarks/train_eval.py --inject_noise --train_seeds 3 --train_jobs 3
 
 1. ``record``: ``trossen-mujoco record`` of ``--episodes`` scripted episodes of ``--task``
    (``--seed``), no camera by default (``--cam_names cam_high --image_size 96x128
@@ -207,7 +207,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma list of phases to run, any subset of record,export,train,eval "
                    "(default: all)")  # fmt: skip
     p.add_argument("--task", default="sim_transfer_cube")
-    p.add_argument("--episodes", type=int, default=50)
+    p.add_argument("--episodes", type=int, default=200,
+                   help="scripted episodes to record (200: the recipe that met the goal, a mean of "
+                   "96 %% over three training runs; 50 scored a mean of 88.7 %%)")  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="recording seed")
     p.add_argument(
         "--inject_noise", action="store_true", help="record with the scripted plan's waypoint noise"
