@@ -55,6 +55,7 @@ def test_numpy_paths_compares_the_variants_and_checks_the_draws():
     assert "umath.clip" in done.stdout and "| 58 " in done.stdout
 
 
+@pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever runs pytest
 def test_train_step_profile_splits_an_act_step_into_its_parts(tmp_path):
     """Needs LeRobot (``TROSSEN_LEROBOT_PYTHON``, set by ``.ci/run``); a tiny model and data."""
     lerobot_python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")

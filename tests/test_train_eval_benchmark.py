@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever runs pytest
+
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "train_eval.py"
 TINY = [
     "--steps", "2", "--save_freq", "2", "--batch_size", "2", "--dim_model", "32",

@@ -30,6 +30,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever runs pytest
+
 pytest.importorskip("pyarrow")
 pytest.importorskip("av")
 
