@@ -2,7 +2,7 @@
 # The test command: installs what the tests need on a fresh Debian/Ubuntu machine (system
 # packages with apt-get, the [dev] extra with a CPU torch, a Python 3.12 venv with LeRobot
 # 0.6.1, the project and the LeRobot env plugin), then runs the whole suite on this Python and
-# again on 3.12 next to LeRobot. Already set up? MUJOCO_GL=egl python -m pytest -q -n auto
+# again on 3.12 next to LeRobot. Already set up? MUJOCO_GL=egl python -m pytest -q
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -64,13 +64,12 @@ fi
 "$LEROBOT_VENV/bin/python" -m pip install -q -e ".[dev,train,cameras]" -e plugins/lerobot_env_trossen
 export TROSSEN_LEROBOT_PYTHON="$LEROBOT_VENV/bin/python"
 
-# The suite on this Python (3.11 in CI), then again on 3.12 next to LeRobot 0.6.1, each spread
-# over the cores by pytest-xdist (one worker per core; PYTEST_WORKERS=N to choose; a test file
-# stays on one worker, so its module fixtures are built once). Run once, on this Python: the
-# documentation tests (they check the site) and the tests marked `once`, whose result does not
-# depend on the interpreter running pytest (LeRobot itself always runs in the 3.12 venv; the
-# 10-episode wall-clock eval through the wire).
-WORKERS="${PYTEST_WORKERS:-auto}"
-MUJOCO_GL=egl python -m pytest -q -n "$WORKERS" --dist loadfile
-MUJOCO_GL=egl "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider -n "$WORKERS" \
-    --dist loadfile --ignore=tests/docs -m "not once"
+# The suite on this Python (3.11 in CI), then again on 3.12 next to LeRobot 0.6.1. Run once, on
+# this Python: the documentation tests (they check the site) and the tests marked `once`, whose
+# result does not depend on the interpreter running pytest (LeRobot itself always runs in the
+# 3.12 venv; the 10-episode wall-clock eval through the wire). Not spread over the cores with
+# pytest-xdist: the served-kit tests measure wall-clock motion, and a neighbouring worker's load
+# made one of them miss its 0.03 rad home tolerance (2026-11-27).
+MUJOCO_GL=egl python -m pytest -q
+MUJOCO_GL=egl "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider --ignore=tests/docs \
+    -m "not once"
