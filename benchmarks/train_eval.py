@@ -208,8 +208,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default: all)")  # fmt: skip
     p.add_argument("--task", default="sim_transfer_cube")
     p.add_argument("--episodes", type=int, default=200,
-                   help="scripted episodes to record (200: the recipe that met the goal, a mean of "
-                   "96 %% over three training runs; 50 scored a mean of 88.7 %%)")  # fmt: skip
+                   help="scripted episodes to record (200: the amount whose runs met the goal; "
+                   "docs Benchmarks, 'The whole loop')")  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="recording seed")
     p.add_argument(
         "--inject_noise", action="store_true", help="record with the scripted plan's waypoint noise"
