@@ -6,7 +6,8 @@
 
 1. ``record``: ``trossen-mujoco record`` of ``--episodes`` scripted episodes of ``--task``
    (``--seed``), no camera by default (``--cam_names cam_high --image_size 96x128
-   --no_env_state`` for the image recipe);
+   --no_env_state`` for the image recipe, with ``--crop cam_high:217,243,150,200`` to see
+   the cube's spawn region instead of the whole frame);
 2. ``export``: ``trossen-mujoco export`` in the real kit's 14-value layout (state, velocity,
    environment_state = the object poses, action);
 3. ``train``: LeRobot's own ``lerobot-train`` with ACT (the settings below), once per training
@@ -216,6 +217,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--cam_names", default="none")
     p.add_argument("--image_size", default="96x128")
+    p.add_argument("--crop", default=None, metavar="CAMERA:TOP,LEFT,HEIGHT,WIDTH",
+                   help="record and evaluate this rectangle of the camera's 480x640 frame "
+                   "(trossen-mujoco record --crop; e.g. cam_high:217,243,150,200, the "
+                   "transfer cube's spawn region; default: whole frames)")  # fmt: skip
     p.add_argument("--fps", type=int, default=50, help="export (and eval) rate")
     p.add_argument(
         "--train_seeds",
@@ -317,6 +322,7 @@ def main(argv: list[str] | None = None) -> None:
     runs: dict[str, dict] = summary.setdefault("runs", {})
     data, dataset = work / "episodes", work / "dataset"
     seeds = [args.train_seed + k for k in range(args.train_seeds)]
+    crop = ["--crop", args.crop] if args.crop else []
 
     def save() -> None:
         tmp = summary_path.with_suffix(".json.tmp")
@@ -332,7 +338,7 @@ def main(argv: list[str] | None = None) -> None:
                 "--num_episodes", str(args.episodes), "--seed", str(args.seed),
                 "--cam_names", args.cam_names, "--image_size", args.image_size,
                 "--num_workers", "2", "--skip_failed",
-            ] + (["--inject_noise"] if args.inject_noise else []),
+            ] + (["--inject_noise"] if args.inject_noise else []) + crop,
                 work / "record.log")], env, 1)[0]  # fmt: skip
     if "export" in phases:
         if (dataset / "meta/info.json").exists():
@@ -382,7 +388,7 @@ def main(argv: list[str] | None = None) -> None:
                 "--num_episodes", str(args.eval_episodes),
                 "--num_workers", str(args.eval_workers), "--seed", str(args.eval_seed),
                 "--fps", str(args.fps), "--output_dir", str(out), "--overwrite",
-            ] + (length if args.eval_episode_length else []),
+            ] + (length if args.eval_episode_length else []) + crop,
                 work / f"eval_seed_{seed}.log")], env, 1)[0]  # fmt: skip
             run = runs.setdefault(str(seed), {})
             run["eval"] = took

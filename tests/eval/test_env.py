@@ -254,6 +254,20 @@ def test_render_shapes(make_env):
     assert quiet.render() is None
 
 
+def test_a_cropped_camera_shows_its_rectangle_of_the_frame(make_env):
+    crop = "cam_high:216,240,150,200"  # the transfer cube's spawn region
+    cropped = make_env(cam_names=("cam_high",), image_size=(30, 40), crops=(crop,))
+    whole = make_env(cam_names=("cam_high",), image_size=(480, 640))
+    assert cropped.crops == (crop,) and whole.crops == ()
+    image = cropped.reset(seed=0)[0]["pixels"]["cam_high"].astype(float)
+    full = whole.reset(seed=0)[0]["pixels"]["cam_high"].astype(float)
+    scaled = full[216:366, 240:440].reshape(30, 5, 40, 5, 3).mean(axis=(1, 3))
+    assert np.abs(image - scaled).mean() < 8.0  # the same rectangle, 5x smaller
+    assert np.abs(image - full[::16, ::16]).mean() > 20.0  # not the whole frame
+    with pytest.raises(UserError, match="valid cameras"):
+        make_env(cam_names=("cam_high",), crops=("cam_nope:0,0,10,10",))
+
+
 def test_task_name_and_description(make_env):
     for task in ("sim_transfer_cube", "sim_insertion"):
         env = make_env(task)

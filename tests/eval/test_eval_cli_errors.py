@@ -118,3 +118,19 @@ def test_a_run_writes_rollouts_json_and_prints_the_failures(tmp_path, capsys):
     assert out.splitlines()[-1] == (
         f"failed: 1 (furthest stage reached: lifted 1); wrote {out_dir / 'rollouts.json'}"
     )
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--crop", "cam_high:1,2,3"], "--crop must look like CAMERA:TOP,LEFT,HEIGHT,WIDTH"),
+        (["--crop", "cam_high:0,0,10,10", "--backend", "wire"], "--crop is for --backend sim"),
+    ],
+)
+def test_bad_crop_is_refused_before_the_first_episode(extra, message, tmp_path, capsys,
+                                                      monkeypatch):  # fmt: skip
+    _no_episode(monkeypatch)
+    args = ["--policy", "scripted", "--output_dir", str(tmp_path / "out"), *extra]
+    rc, out, err = _eval(args, capsys)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert rc == 2 and len(lines) == 1 and message in lines[0], err

@@ -492,3 +492,28 @@ def test_randomize_flag_stores_the_randomization(tmp_path, capsys):
     rc, out, _ = _run_cli(["--data_dir", "p", *args], capsys)
     assert rc == 1 and "randomized" not in out
     assert "randomization" not in load_episode(tmp_path / "p" / "episode_0.hdf5").attrs
+
+
+def test_crop_is_recorded_and_a_resume_with_another_crop_is_refused(tmp_path, capsys):
+    args = ["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "3"]
+    args += ["--cam_names", "cam_high", "--image_size", "12x16", "--no_shadows"]
+    crop = ["--crop", "cam_high:217,243,150,200"]
+    rc, _, err = _run_cli([*args, *crop], capsys)
+    assert rc == 1, err  # 3 steps: a failed episode
+    ep = load_episode(tmp_path / "d" / "episode_0.hdf5", load_images=True)
+    assert ep.attrs["crops"] == "cam_high:217,243,150,200"
+    assert ep.images["cam_high"].shape == (3, 12, 16, 3)
+    rc, _, err = _run_cli([*args, "--num_episodes", "2"], capsys)  # the same, uncropped
+    assert rc == 2 and "--crop cam_high:217,243,150,200 (this run: none)" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("crop", ["cam_high:1,2,3", "cam_high:0,0,500,10", "cam_top:0,0,10,10"])
+def test_bad_crop_is_one_line_exit_2(tmp_path, capsys, crop):
+    rc, out, err = _run_cli(
+        ["--data_dir", "d", "--root_dir", str(tmp_path), "--crop", crop, *FAST], capsys
+    )
+    assert rc == 2 and out == "", err
+    last = err.strip().splitlines()[-1]  # after the warning about the short --episode_len
+    assert last.startswith("error: ") and ("--crop" in last or "valid cameras" in last), err
+    assert "Traceback" not in err and not (tmp_path / "d").exists()

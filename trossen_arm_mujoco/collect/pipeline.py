@@ -39,6 +39,7 @@ from trossen_arm_mujoco.real.validate import (
 )
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization_record import record_to_json
@@ -106,6 +107,7 @@ class RecordSettings:
     randomize: bool = False
     shadows: bool = True  # the key light casts shadows in the images
     visual: str = "own"  # arm meshes: "own" or "menagerie" (sim.looks)
+    crops: tuple[str, ...] = ()  # --crop texts: cameras showing a rectangle (sim.camera_crop)
 
     def sampler_settings(self, flavour: str = "joint") -> SamplerSettings:
         """How the sampler of ``flavour`` is built: the joint flavour renders the cameras
@@ -119,7 +121,9 @@ class RecordSettings:
             height=self.height,
             width=self.width,
             randomize=self.randomize,
-            looks=SceneLooks(shadows=self.shadows, visual=self.visual),
+            looks=SceneLooks(
+                shadows=self.shadows, visual=self.visual, crops=parse_crops(self.crops)
+            ),
         )
 
 
@@ -339,6 +343,7 @@ class EpisodeRecorder:
             "speed_limited_values": int(self.last_speed_limited),
             "shadows": bool(s.shadows),
             "visual": s.visual,
+            **({"crops": ";".join(s.crops)} if s.crops else {}),
             **(extra_attrs or {}),
         }
         if self.last_randomization is not None:

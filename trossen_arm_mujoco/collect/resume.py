@@ -93,6 +93,8 @@ def format_indices(indices: list[int], noun: str = "episode") -> str:
 def _flag_value(flag: str, value: Any) -> str:
     if flag == "--cam_names":
         return ",".join(value) or "none"
+    if flag == "--crop":
+        return value or "none"
     if isinstance(value, bool):
         return "set" if value else "not set"
     return str(value)
@@ -114,6 +116,8 @@ def settings_differences(episode, settings: RecordSettings) -> list[str]:
         checks.append(("--randomize", "randomization" in attrs, settings.randomize))
     if "shadows" in attrs:
         checks.append(("--no_shadows", not attrs["shadows"], not settings.shadows))
+    if "schema_version" in attrs:  # files of this package name their crops (none: "")
+        checks.append(("--crop", str(attrs.get("crops", "")), ";".join(settings.crops)))
     if episode.camera_names and settings.cam_names:
         h, w = episode.image_shapes[episode.camera_names[0]][:2]
         checks.append(("--image_size", f"{h}x{w}", f"{settings.height}x{settings.width}"))

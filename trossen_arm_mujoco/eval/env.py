@@ -44,8 +44,10 @@ from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.inputs import reset_options
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS, REAL_KIT_LAYOUT
+from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
+from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
@@ -166,6 +168,9 @@ class KitPolicyEnv(gymnasium.Env):
         episode_length: steps per episode; default the task's recording length at this rate
             (12 s for the transfer, 8 s for the insertion).
         layout: ``kit14`` or ``vendor16``.
+        crops: ``--crop`` texts (``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, ``sim.camera_crop``): those
+            cameras show a rectangle of their 480x640 frame, as they were recorded; default
+            none.
         render_mode: ``rgb_array`` (``render()`` gives the observed cameras side by side, or
             ``cam_high`` at 240x320 when none is observed) or None.
 
@@ -186,6 +191,7 @@ class KitPolicyEnv(gymnasium.Env):
         episode_length: int | None = None,
         layout: str = "kit14",
         render_mode: str | None = "rgb_array",
+        crops: Sequence[str] = (),
     ):
         entry = registry.load(task)
         if entry.name not in bimanual_tasks():
@@ -214,7 +220,11 @@ class KitPolicyEnv(gymnasium.Env):
         self.task = entry.name
         self.cam_names = cams
         self.image_size = (h, w)
-        settings = SamplerSettings(camera_names=tuple(cams), height=h, width=w)
+        crop_list = parse_crops(crops)
+        self.crops = tuple(c.text() for c in crop_list)
+        settings = SamplerSettings(
+            camera_names=tuple(cams), height=h, width=w, looks=SceneLooks(crops=crop_list)
+        )
         self.sampler = registry.make_sampler(entry.name, settings, **overrides)
         self.scene = self.sampler.env
         probe = self.sampler.make_task()

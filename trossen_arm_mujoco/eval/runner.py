@@ -127,10 +127,11 @@ class EvalSettings:
     videos: int = 0
     output_dir: str = "eval"
     device: str = "cpu"
+    crops: tuple[str, ...] = ()
     extra: dict[str, Any] = field(default_factory=dict)
 
     def make_env(self) -> KitPolicyEnv:
-        """A ``KitPolicyEnv`` of these settings (task, cameras, image size, fps,
+        """A ``KitPolicyEnv`` of these settings (task, cameras, image size, crops, fps,
         episode length, layout), rendering ``rgb_array`` frames for the videos."""
         return KitPolicyEnv(
             self.task,
@@ -140,6 +141,7 @@ class EvalSettings:
             episode_length=self.episode_length,
             layout=self.layout,
             render_mode="rgb_array",
+            crops=self.crops,
         )
 
 

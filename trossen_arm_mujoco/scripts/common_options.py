@@ -43,6 +43,7 @@ __all__ = [
     "MAX_SEED",
     "add_cameras",
     "add_compression",
+    "add_crop",
     "add_data_dir",
     "add_engine",
     "add_episode_len",
@@ -178,6 +179,20 @@ def add_looks(p: _Parser, visual: bool = True) -> None:
         )
 
 
+def add_crop(p: _Parser) -> None:
+    """``--crop CAMERA:TOP,LEFT,HEIGHT,WIDTH`` (repeatable): a camera shows one rectangle of
+    its 480x640 frame (``sim.camera_crop``; ``scene_looks`` checks it)."""
+    p.add_argument(
+        "--crop",
+        action="append",
+        default=None,
+        metavar="CAMERA:TOP,LEFT,HEIGHT,WIDTH",
+        help="the camera shows this rectangle of its 480x640 frame, drawn at --image_size "
+        "(a crop of the workspace, e.g. cam_high:217,243,150,200 around the cube; "
+        "repeat for more cameras; default: whole frames)",
+    )
+
+
 def add_viewer(p: _Parser, what: str = "show the simulation in a live viewer") -> None:
     """``--viewer``: a live MuJoCo viewer (needs a display)."""
     p.add_argument("--viewer", action="store_true", help=what)
@@ -233,11 +248,16 @@ def camera_names(text: str | None, task_name: str) -> tuple[str, ...]:
 
 
 def scene_looks(args: argparse.Namespace) -> SceneLooks:
-    """The scene looks of ``--no_shadows`` / ``--visual`` (``own`` when the command has no
-    ``--visual``), checked now (before any episode)."""
+    """The scene looks of ``--no_shadows`` / ``--visual`` / ``--crop`` (``own`` and no crop
+    when the command lacks them), checked now (before any episode)."""
+    from trossen_arm_mujoco.sim.camera_crop import parse_crops
     from trossen_arm_mujoco.sim.looks import SceneLooks, menagerie_meshes
 
-    looks = SceneLooks(shadows=not args.no_shadows, visual=getattr(args, "visual", "own"))
+    looks = SceneLooks(
+        shadows=not args.no_shadows,
+        visual=getattr(args, "visual", "own"),
+        crops=parse_crops(getattr(args, "crop", None)),
+    )
     if looks.visual == "menagerie":
         menagerie_meshes()  # fail now with the fix, not in a worker
     return looks

@@ -53,6 +53,7 @@ from trossen_arm_mujoco.errors import (
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 from trossen_arm_mujoco.scripts.common_options import (
     add_cameras,
+    add_crop,
     add_engine,
     add_fps,
     add_image_size,
@@ -84,6 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_cameras(p, "observed cameras", "the checkpoint's, else none")
     add_image_size(p, "observed image size", default=None,
                    default_text="the checkpoint's, else 480x640")  # fmt: skip
+    add_crop(p)
     add_fps(p, "policy rate; 30 for data exported with --fps 30", "the task's, 50")
     p.add_argument("--episode_length", type=int, default=None,
                    help="steps per episode (default: the task's recording length, 12 s for "
@@ -126,6 +128,7 @@ def _settings(args: argparse.Namespace):
     from trossen_arm_mujoco.eval.policies import is_function_spec
     from trossen_arm_mujoco.eval.runner import EvalSettings, available_cpus
     from trossen_arm_mujoco.fileio import check_writable_dir
+    from trossen_arm_mujoco.sim.camera_crop import parse_crops
     from trossen_arm_mujoco.tasks import registry
 
     task = registry.canonical(args.task_name)
@@ -175,6 +178,7 @@ def _settings(args: argparse.Namespace):
         videos=args.videos,
         output_dir=str(out),
         device=args.device,
+        crops=tuple(c.text() for c in parse_crops(args.crop)),
     )
     return settings, workers
 
@@ -190,6 +194,8 @@ def _kit_link(args: argparse.Namespace, workers: int):
             if getattr(args, flag) != getattr(defaults, flag):
                 raise UserError(f"--{flag} needs --backend wire")
         return None
+    if args.crop:
+        raise UserError("--crop is for --backend sim (the served kit streams whole frames)")
     if workers > 1 or args.engine != "local" or args.videos:
         raise UserError("--backend wire runs one episode at a time on one kit: leave out "
                         "--num_workers, --engine and --videos")  # fmt: skip

@@ -23,6 +23,7 @@ from trossen_arm_mujoco.scripts.common_options import (
     MAX_EPISODES,
     add_cameras,
     add_compression,
+    add_crop,
     add_data_dir,
     add_engine,
     add_episode_len,
@@ -119,6 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_image_size(p)
     add_looks(p)
+    add_crop(p)
     return p
 
 
@@ -201,6 +203,8 @@ def record_options(args: argparse.Namespace) -> RecordOptions:
     cams = camera_names(args.cam_names, args.task_name)
     height, width = image_size(args.image_size)
     looks = scene_looks(args)
+    for crop in looks.crops:  # a camera of the task's scene, checked before any episode
+        camera_names(crop.camera, args.task_name)
     args.num_workers = num_workers(args)
 
     from trossen_arm_mujoco.collect.pipeline import RecordSettings
@@ -217,5 +221,6 @@ def record_options(args: argparse.Namespace) -> RecordOptions:
         randomize=args.randomize,
         shadows=looks.shadows,
         visual=looks.visual,
+        crops=tuple(c.text() for c in looks.crops),
     )
     return RecordOptions(settings, num_episodes, onscreen)

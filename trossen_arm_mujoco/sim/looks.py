@@ -6,6 +6,9 @@ this machine, found through ``TROSSEN_MENAGERIE_DIR``; nothing is copied into th
 Only visual geoms change: kinematics, inertia and every contact geom stay this project's own,
 so physics is the same whatever the look.
 
+Crops: a camera can show one rectangle of its 480x640 frame (``crops``; ``sim.camera_crop``),
+set in the compiled model as that camera's intrinsics.
+
 Shadows: every scene has one shadow-casting key light; ``shadows=False`` turns shadow
 casting off on every light of the loaded model (``model.light_castshadow``), which makes
 software-rendered pixel observations several times faster.
@@ -28,6 +31,7 @@ from pathlib import Path
 import mujoco
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.sim.camera_crop import CameraCrop, apply_crops
 
 __all__ = [
     "KEPT_OWN_MESHES",
@@ -82,16 +86,26 @@ class SceneLooks:
     Attributes:
         shadows: whether the key light casts shadows (False: no light does).
         visual: ``"own"`` or ``"menagerie"`` (needs ``TROSSEN_MENAGERIE_DIR``).
+        crops: cameras that show a rectangle of their frame (``sim.camera_crop``; a tuple
+            of ``CameraCrop``, one per camera at most); default none.
     """
 
     shadows: bool = True
     visual: str = "own"
+    crops: tuple[CameraCrop, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.shadows, bool):
             raise UserError(f"shadows must be True or False, got {self.shadows!r}")
         if self.visual not in VISUALS:
             raise unknown_name_error("visual", str(self.visual), VISUALS)
+        crops = tuple(self.crops or ())
+        if not all(isinstance(c, CameraCrop) for c in crops):
+            raise UserError("crops must be CameraCrop values (sim.camera_crop.parse_crop)")
+        cameras = [c.camera for c in crops]
+        if len(set(cameras)) != len(cameras):
+            raise UserError(f"one crop per camera, got {', '.join(cameras)}")
+        object.__setattr__(self, "crops", crops)
 
 
 def checked_looks(looks: SceneLooks | None) -> SceneLooks:
@@ -207,4 +221,5 @@ def compile_model(path: Path, looks: SceneLooks) -> mujoco.MjModel:
     else:
         model = mujoco.MjModel.from_xml_path(str(path))
     apply_shadows(model, looks.shadows)
+    apply_crops(model, looks.crops)
     return model

@@ -11,7 +11,9 @@ Options: ``--env.task`` (a Stationary AI kit task: ``sim_transfer_cube``, ``sim_
 ``--env.cam_names`` (comma list or ``none``; default the four kit cameras), ``--env.image_size``
 (``HxW``, like ``record``), ``--env.fps`` (policy rate; 30 for a dataset exported with
 ``--fps 30``), ``--env.episode_length`` (steps; default the task's recording length at that
-rate), ``--env.layout`` (``kit14``, the real kit's 14 values, or ``vendor16``).
+rate), ``--env.layout`` (``kit14``, the real kit's 14 values, or ``vendor16``), ``--env.crop``
+(``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, ``;`` between cameras: the rectangle of the 480x640 frame a
+dataset recorded with ``record --crop`` shows; default none).
 
 Observations and actions carry exactly the feature names and shapes ``trossen-mujoco export``
 writes (``observation.state``, ``observation.velocity``, ``observation.environment_state``,
@@ -37,6 +39,7 @@ from trossen_arm_mujoco.eval.env import (
     parse_cameras,
     parse_image_size,
 )
+from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.tasks import registry
 
 __all__ = ["TrossenEnvConfig"]
@@ -56,6 +59,7 @@ class TrossenEnvConfig(EnvConfig):
     cam_names: str = KIT_CAMERAS
     image_size: str = "480x640"
     layout: str = "kit14"
+    crop: str = ""
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
 
@@ -69,10 +73,14 @@ class TrossenEnvConfig(EnvConfig):
         self.task = name
         cams = parse_cameras(self.cam_names)
         size = parse_image_size(self.image_size)
+        parse_crops(self._crops())  # a bad --env.crop fails here, with the format
         self.features, self.features_map = {}, {}
         for env_key, (key, kind, shape) in feature_spec(name, cams, size, self.layout).items():
             self.features[env_key] = PolicyFeature(type=FeatureType[kind], shape=tuple(shape))
             self.features_map[env_key] = key
+
+    def _crops(self) -> list[str]:
+        return [c for c in (self.crop or "").split(";") if c.strip()]
 
     @property
     def package_name(self) -> str:
@@ -88,6 +96,7 @@ class TrossenEnvConfig(EnvConfig):
             "episode_length": self.episode_length,
             "layout": self.layout,
             "render_mode": "rgb_array",
+            "crops": tuple(self._crops()),
         }
 
     def create_envs(

@@ -1,0 +1,117 @@
+"""A camera that shows one rectangle of its full 480x640 frame: a crop of the workspace.
+
+A crop is given in pixels of the camera's full frame (``FRAME``, 480x640, the size its
+``fovy`` describes): ``CameraCrop("cam_high", top=217, left=243, height=150, width=200)``
+shows rows 217..366 and columns 243..442 of that frame. It is applied to the compiled model
+as the camera's intrinsics (``cam_sensorsize`` and ``cam_intrinsic``: the frustum of that
+rectangle), so any renderer draws the rectangle straight at the image size it is asked for,
+without rendering the full frame first: an image of ``--image_size 96x128`` of a 150x200
+crop is the rectangle of the full frame, scaled by 0.64. A policy trained on cropped
+images is deployed by cropping the real camera's full frame the same way.
+
+Why: in ``cam_high``'s full view the 25 mm cube of the transfer task spans about 10 of 640
+pixels, 2 pixels at 96x128; a 150x200 crop around the cube's spawn region keeps it at about 6
+pixels at the same image size (and the same rendering and training cost).
+
+Text form (``--crop``): ``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, e.g. ``cam_high:217,243,150,200``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.names import lookup_id
+
+__all__ = ["FRAME", "CameraCrop", "apply_crops", "parse_crop", "parse_crops"]
+
+#: (height, width) of the full frame a crop is given in, pixels (the cameras' 4:3 image).
+FRAME: tuple[int, int] = (480, 640)
+_FORMAT = (
+    "CAMERA:TOP,LEFT,HEIGHT,WIDTH in pixels of the 480x640 frame, e.g. cam_high:217,243,150,200"
+)
+
+
+@dataclass(frozen=True)
+class CameraCrop:
+    """The rectangle of ``camera``'s full 480x640 frame it shows (pixels; rows from the
+    top, columns from the left)."""
+
+    camera: str
+    top: int
+    left: int
+    height: int
+    width: int
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.camera, str) or not self.camera:
+            raise UserError(f"a crop needs a camera name, got {self.camera!r}")
+        for name in ("top", "left", "height", "width"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise UserError(f"crop {name} must be a whole number of pixels, got {value!r}")
+        if self.top < 0 or self.left < 0 or self.height < 1 or self.width < 1:
+            raise UserError(f"--crop {self.text()} must have top, left >= 0 and a positive size")
+        if self.top + self.height > FRAME[0] or self.left + self.width > FRAME[1]:
+            raise UserError(
+                f"--crop {self.text()} reaches past the {FRAME[0]}x{FRAME[1]} frame "
+                "(top + height <= 480, left + width <= 640)"
+            )
+
+    def text(self) -> str:
+        """The ``--crop`` text of this crop."""
+        return f"{self.camera}:{self.top},{self.left},{self.height},{self.width}"
+
+
+def parse_crop(text: str) -> CameraCrop:
+    """A ``CameraCrop`` from ``CAMERA:TOP,LEFT,HEIGHT,WIDTH``; a one-line UserError else."""
+    camera, sep, rest = str(text).partition(":")
+    parts = rest.split(",")
+    if not sep or len(parts) != 4:
+        raise UserError(f"--crop must look like {_FORMAT}; got '{text}'")
+    try:
+        top, left, height, width = (int(p) for p in parts)
+    except ValueError:
+        raise UserError(f"--crop must look like {_FORMAT}; got '{text}'") from None
+    return CameraCrop(camera.strip(), top, left, height, width)
+
+
+def parse_crops(texts: str | Sequence[str] | None) -> tuple[CameraCrop, ...]:
+    """Crops of ``--crop`` values (one text, or several; None or empty: no crop); one crop
+    per camera at most."""
+    if not texts:
+        return ()
+    if isinstance(texts, str):
+        texts = [texts]
+    crops = tuple(t if isinstance(t, CameraCrop) else parse_crop(t) for t in texts)
+    cameras = [c.camera for c in crops]
+    twice = sorted({c for c in cameras if cameras.count(c) > 1})
+    if twice:
+        raise UserError(f"one --crop per camera; {', '.join(twice)} has more than one")
+    return crops
+
+
+def apply_crops(model: mujoco.MjModel, crops: tuple[CameraCrop, ...]) -> None:
+    """Make each cropped camera of ``model`` show its rectangle (sets its sensor size and
+    intrinsics, in pixels of the full frame; its ``fovy`` gives the focal length). A camera
+    the model lacks is a UserError listing the model's cameras."""
+    for crop in crops:
+        cid = lookup_id(model, "camera", crop.camera)
+        if model.cam_sensorsize[cid].any():
+            raise UserError(
+                f"camera {crop.camera} already has a sensor size in the model; crop a camera "
+                "described by fovy"
+            )
+        focal = (FRAME[0] / 2) / math.tan(math.radians(float(model.cam_fovy[cid])) / 2)
+        model.cam_sensorsize[cid] = (crop.width, crop.height)
+        # principal point: the rectangle's centre, measured from the frame's centre
+        model.cam_intrinsic[cid] = (
+            focal,
+            focal,
+            crop.left + crop.width / 2 - FRAME[1] / 2,
+            crop.top + crop.height / 2 - FRAME[0] / 2,
+        )
