@@ -66,16 +66,18 @@ def plot_training_success(curves: dict[str, Any]) -> Path:
     return _save(fig, "training_success.png")
 
 
-def plot_camera_loss(curve: dict[str, Any]) -> Path:
-    """Training loss against steps of the one-camera run."""
+def plot_camera_loss(runs: list[dict[str, Any]]) -> Path:
+    """Training loss against steps of the one-camera runs (one line each, by its label)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.0, 3.4))
-    ax.plot(curve["steps"], curve["loss"], "o-")
+    for curve in runs:
+        ax.plot(curve["steps"], curve["loss"], "o-", label=curve["label"])
     ax.set_xlabel("training steps")
     ax.set_ylabel("training loss")
     ax.set_title("ACT, cam_high 96x128, no object pose")
     ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     return _save(fig, "camera_run_loss.png")
 
@@ -121,7 +123,7 @@ def main() -> int:
     curves = load()
     for path in (
         plot_training_success(curves["training_success"]),
-        plot_camera_loss(curves["camera_run_loss"]),
+        plot_camera_loss([curves["camera_run_loss"], curves["crop_run_loss"]]),
         plot_recording_cost(curves["recording_cost"]),
     ):
         print(path.relative_to(ROOT))

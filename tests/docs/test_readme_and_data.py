@@ -32,10 +32,12 @@ def test_plotted_runs_are_the_benchmark_tables_runs():
         quoted = f"{run['seed']}: {run['success']} % ({low}-{high})"
         quoted_bold = f"{run['seed']}: **{run['success']} %** ({low}-{high})"
         assert quoted in page or quoted_bold in page, quoted
-    loss = curves["camera_run_loss"]
-    for step, value in zip(loss["steps"], loss["loss"], strict=True):
-        label = f"{step // 1000}k" if step >= 1000 else f"step {step}"
-        assert f"{value:.3f} ({label})" in page, (step, value)
+    for key in ("camera_run_loss", "crop_run_loss"):
+        loss = curves[key]
+        assert loss["label"] and loss["measured"], key
+        for step, value in zip(loss["steps"], loss["loss"], strict=True):
+            label = f"{step // 1000}k" if step >= 1000 else f"step {step}"
+            assert f"{value:.3f} ({label})" in page, (key, step, value)
 
 
 def test_plotted_recording_cost_is_the_benchmark_table():
