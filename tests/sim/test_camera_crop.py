@@ -117,3 +117,5 @@ def test_one_crop_per_camera_and_known_cameras(xml):
     with pytest.raises(UserError, match="other"):  # the error lists the model's cameras
         apply_crops(model, (parse_crop("cam_high:0,0,10,10"),))
     assert parse_crops(None) == () and parse_crops("top:1,2,3,4")[0].text() == "top:1,2,3,4"
+    two = parse_crops("top:1,2,3,4;other:5,6,7,8")  # the form of the files' `crops` attribute
+    assert [c.text() for c in two] == ["top:1,2,3,4", "other:5,6,7,8"]

@@ -81,12 +81,12 @@ def parse_crop(text: str) -> CameraCrop:
 
 
 def parse_crops(texts: str | Sequence[str] | None) -> tuple[CameraCrop, ...]:
-    """Crops of ``--crop`` values (one text, or several; None or empty: no crop); one crop
-    per camera at most."""
+    """Crops of ``--crop`` values (one text, ``;`` between cameras, or several texts; None
+    or empty: no crop); one crop per camera at most."""
     if not texts:
         return ()
     if isinstance(texts, str):
-        texts = [texts]
+        texts = [t for t in texts.split(";") if t.strip()]
     crops = tuple(t if isinstance(t, CameraCrop) else parse_crop(t) for t in texts)
     cameras = [c.camera for c in crops]
     twice = sorted({c for c in cameras if cameras.count(c) > 1})

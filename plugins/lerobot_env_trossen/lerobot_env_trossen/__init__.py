@@ -73,14 +73,11 @@ class TrossenEnvConfig(EnvConfig):
         self.task = name
         cams = parse_cameras(self.cam_names)
         size = parse_image_size(self.image_size)
-        parse_crops(self._crops())  # a bad --env.crop fails here, with the format
+        parse_crops(self.crop)  # a bad --env.crop fails here, with the format
         self.features, self.features_map = {}, {}
         for env_key, (key, kind, shape) in feature_spec(name, cams, size, self.layout).items():
             self.features[env_key] = PolicyFeature(type=FeatureType[kind], shape=tuple(shape))
             self.features_map[env_key] = key
-
-    def _crops(self) -> list[str]:
-        return [c for c in (self.crop or "").split(";") if c.strip()]
 
     @property
     def package_name(self) -> str:
@@ -96,7 +93,7 @@ class TrossenEnvConfig(EnvConfig):
             "episode_length": self.episode_length,
             "layout": self.layout,
             "render_mode": "rgb_array",
-            "crops": tuple(self._crops()),
+            "crops": tuple(c.text() for c in parse_crops(self.crop)),
         }
 
     def create_envs(
