@@ -312,12 +312,30 @@ def main(argv: list[str] | None = None) -> None:
     python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
     if not python:
         _fail("set TROSSEN_LEROBOT_PYTHON to a Python >= 3.12 with LeRobot (bash .ci/run)")
-    work = Path(args.work_dir).resolve()
-    work.mkdir(parents=True, exist_ok=True)
+    work = Path(args.work_dir).expanduser().resolve()
+    if work.exists() and not work.is_dir():
+        _fail(f"--work_dir {work} is a file; give a folder (it is created when missing)")
+    try:
+        work.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        _fail(f"--work_dir {work}: cannot create it ({exc.strerror or exc})")
     env = {**os.environ, "MUJOCO_GL": "egl", "HF_HUB_OFFLINE": "1", "WANDB_MODE": "disabled"}
     cli = [python, "-m", "trossen_arm_mujoco.cli"]
     summary_path = work / "summary.json"
-    summary: dict = json.loads(summary_path.read_text()) if summary_path.exists() else {}
+    summary: dict = {}
+    if summary_path.exists():  # what earlier phases measured: merged into, never replaced
+        try:
+            summary = json.loads(summary_path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:  # truncated, not UTF-8, unreadable
+            why = exc.strerror if isinstance(exc, OSError) else " ".join(str(exc).split())
+            _fail(f"{summary_path} cannot be read as JSON ({why}); repair it, or move it away "
+                  "to start a new summary")  # fmt: skip
+        ok = isinstance(summary, dict)
+        kept = (summary.get("settings", {}), summary.get("runs", {})) if ok else ({}, {})
+        ok = ok and all(isinstance(part, dict) for part in kept)
+        if not ok or not all(isinstance(run, dict) for run in kept[1].values()):
+            _fail(f"{summary_path} is not a summary of this benchmark (a JSON object whose "
+                  "'settings' and 'runs' are objects); move it away to start anew")  # fmt: skip
     summary.setdefault("settings", {})[",".join(phases)] = vars(args)
     runs: dict[str, dict] = summary.setdefault("runs", {})
     data, dataset = work / "episodes", work / "dataset"

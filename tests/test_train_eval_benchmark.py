@@ -91,6 +91,48 @@ def test_bad_phases_and_missing_inputs_are_one_line(tmp_path):
     assert noeval.returncode != 0 and "run --phase train first" in noeval.stderr
 
 
+def _bench_without_lerobot(work: Path, *args: str) -> subprocess.CompletedProcess:
+    """The benchmark up to its first phase: TROSSEN_LEROBOT_PYTHON only has to be set."""
+    return subprocess.run(
+        [sys.executable, str(SCRIPT), "--work_dir", str(work), "--phase", "train", *args],
+        capture_output=True, text=True, timeout=120,
+        env={**os.environ, "TROSSEN_LEROBOT_PYTHON": sys.executable},
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("summary", "expected"),
+    [(b'{"settings": {}, "runs": {"5": {"train": ', "summary.json cannot be read as JSON ("),
+     (b"", "summary.json cannot be read as JSON (Expecting value"),
+     (b"\xff\xfe{}", "summary.json cannot be read as JSON ("),
+     (b"[1, 2]", "summary.json is not a summary of this benchmark"),
+     (b'{"runs": []}', "summary.json is not a summary of this benchmark"),
+     (b'{"runs": {"5": 3}}', "summary.json is not a summary of this benchmark")],
+)  # fmt: skip
+def test_a_broken_summary_is_one_line_and_left_as_it_is(tmp_path, summary, expected):
+    work = tmp_path / "w"
+    work.mkdir()
+    (work / "summary.json").write_bytes(summary)
+    run = _bench_without_lerobot(work)
+    assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and expected in lines[0], lines
+    assert (work / "summary.json").read_bytes() == summary  # never overwritten
+
+
+def test_a_file_as_work_dir_is_one_line(tmp_path):
+    given = tmp_path / "notes.txt"
+    given.write_text("mine\n")
+    for work, expected in ((given, f"error: --work_dir {given} is a file; give a folder"),
+                           (given / "sub", f"error: --work_dir {given / 'sub'}: cannot create "
+                            "it (")):  # fmt: skip
+        run = _bench_without_lerobot(work)
+        assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
+        lines = run.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(expected), lines
+    assert given.read_text() == "mine\n"
+
+
 def test_gpu_leg_trains_the_plan_and_packs_each_checkpoint_for_the_trip(tmp_path):
     """``benchmarks/gpu_leg.py`` (run with LeRobot's Python, as on a GPU machine): the plan's
     runs train at once; each last checkpoint comes back as a tar (float16 weights, cut into

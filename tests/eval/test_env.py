@@ -74,21 +74,22 @@ def test_spaces_contain_the_observations(make_env, layout, size, cams):
 
 @pytest.mark.parametrize("layout", ["kit14", "vendor16"])
 def test_observations_stay_inside_the_space_when_a_finger_overshoots(make_env, layout):
-    """Commanding the grippers fully open pushes the fingers ~0.1 mm past their range (soft
-    joint limits): the observation is clipped into its space, like the gym env's state."""
+    """A finger pressed ~0.1 mm past its range (MuJoCo's joint limits are soft): the
+    observation is clipped into its space, like the gym env's state."""
     env = make_env(layout=layout)
     env.reset(seed=0)
     space = env.observation_space
-    overshoot = False
-    for _ in range(4):
-        obs, *_ = env.step(env.action_high)
-        raw = env._to_layout(_qpos(env))
-        overshoot |= bool((raw > env.action_high).any())
-        assert space.contains(obs)
-        np.testing.assert_array_equal(
-            obs["agent_pos"], np.minimum(raw.astype(np.float32), space["agent_pos"].high)
-        )
-    assert overshoot  # the case this test is about did happen
+    scene = env.scene
+    for name in ("left/left_carriage_joint", "right/right_carriage_joint"):
+        joint = scene.model.joint(name)
+        scene.data.qpos[joint.qposadr[0]] = joint.range[1] + 1e-4
+    raw = env._to_layout(_qpos(env))
+    assert (raw > space["agent_pos"].high).any()  # the case this test is about
+    obs = env._observe()
+    assert space.contains(obs)
+    np.testing.assert_array_equal(
+        obs["agent_pos"], np.minimum(raw.astype(np.float32), space["agent_pos"].high)
+    )
 
 
 def test_feature_spec_names_what_the_env_observes():
@@ -162,7 +163,9 @@ def test_14_and_equivalent_16_value_actions_give_identical_qpos(make_env):
 
 
 def test_out_of_limit_actions_are_clipped_and_the_callers_array_kept(make_env):
-    over, at_limit = make_env(), make_env()
+    """With the controller's checks off, goals outside the joint ranges are clipped to them
+    (with them on, such a goal is a fault: tests/eval/test_controller_checks.py)."""
+    over, at_limit = make_env(controller_checks=False), make_env(controller_checks=False)
     over.reset(seed=1)
     at_limit.reset(seed=1)
     high = over.action_high.copy()
@@ -187,7 +190,7 @@ def test_out_of_limit_actions_are_clipped_and_the_callers_array_kept(make_env):
     ],
 )
 def test_bad_actions_raise_user_errors(make_env, action, match):
-    env = make_env()
+    env = make_env(controller_checks=False)  # checks on: NaN is the controller's fault
     with pytest.raises(UserError, match="reset"):
         env.step(START14)
     env.reset(seed=0)
@@ -204,7 +207,8 @@ def test_30_fps_rates_and_default_length(make_env):
     env.reset(seed=0)
     assert env.episode.policy_dt == pytest.approx(1 / 30)
     assert env.scene.model.opt.timestep == pytest.approx(1 / 510)
-    assert env.scene.n_substeps == 17
+    assert env.scene.n_substeps == 1  # the controllers tick every physics step
+    assert env.episode.n_ctrl_steps == 17
     assert env._max_episode_steps == 360  # the transfer's 12 s
     assert env.metadata["render_fps"] == 30
     native = make_env()

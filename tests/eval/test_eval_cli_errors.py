@@ -109,7 +109,7 @@ def test_a_run_writes_rollouts_json_and_prints_the_failures(tmp_path, capsys):
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     assert set(info["per_episode"][0]) == {
-        "episode_ix", "seed", "sum_reward", "max_reward", "success", "steps", "stages",
+        "episode_ix", "seed", "sum_reward", "max_reward", "success", "steps", "stages", "fault",
     }  # fmt: skip
     report = json.loads((out_dir / "rollouts.json").read_text())
     episode = report["episodes"][0]
@@ -124,7 +124,6 @@ def test_a_run_writes_rollouts_json_and_prints_the_failures(tmp_path, capsys):
     "extra, message",
     [
         (["--crop", "cam_high:1,2,3"], "--crop must look like CAMERA:TOP,LEFT,HEIGHT,WIDTH"),
-        (["--crop", "cam_high:0,0,10,10", "--backend", "wire"], "--crop is for --backend sim"),
     ],
 )
 def test_bad_crop_is_refused_before_the_first_episode(extra, message, tmp_path, capsys,

@@ -109,6 +109,9 @@ def test_lerobot_eval_runs_the_plugin_and_agrees_with_ours(trained):
     metrics = json.loads((theirs_dir / "eval_info.json").read_text())["per_task"][0]["metrics"]
     mine = json.loads((ours_dir / "eval_info.json").read_text())
     assert mine["run"]["cam_names"] == ["cam_high"]  # taken from the checkpoint
+    assert mine["deployment"]["sim_only"] is True  # its inputs hold the cube's exact pose
+    assert mine["deployment"]["settings_source"].endswith("info.json")  # through its dataset
+    assert mine["controller"]["checks"] is True
     assert [e["success"] for e in mine["per_episode"]] == metrics["successes"]
     assert [e["sum_reward"] for e in mine["per_episode"]] == metrics["sum_rewards"]
     assert [e["max_reward"] for e in mine["per_episode"]] == metrics["max_rewards"]
@@ -151,7 +154,8 @@ def test_checkpoint_for_other_cameras_is_one_line(trained):
     assert proc.returncode == 2
     lines = [x for x in proc.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
-    assert "observation.images.cam_high" in lines[0] and "Traceback" not in proc.stderr
+    assert "--cam_names cam_low contradicts the checkpoint, trained with cam_high" in lines[0]
+    assert "Traceback" not in proc.stderr
 
 
 def test_missing_lerobot_is_one_line(tmp_path):

@@ -50,7 +50,8 @@ def runs() -> dict[str, EpisodeScore]:
     """One transfer episode each: the scripted plan (600 steps), the right gripper opened
     early (after the lift, before the left grasps), and never closed (300 steps each)."""
     out = {}
-    runner = EpisodeRunner(EvalSettings(policy="scripted", seed=SEED))
+    # checks off: the broken policies snap the gripper open, which the controller refuses
+    runner = EpisodeRunner(EvalSettings(policy="scripted", seed=SEED, controller_checks=False))
     try:
         out["scripted"], _ = runner.run(0)
         scripted = runner.policy
@@ -90,7 +91,7 @@ def test_right_gripper_opened_early_fails_at_the_transfer(runs):
     release = a["release"]
     assert release is not None and abs(release["step"] - 250) <= 3
     assert not release["left_touching"]
-    assert release["left_gap_m"] > 0.08  # the left gripper was still open
+    assert release["left_gap_m"] > 0.075  # still open (the controller opens each finger to 0.04 m)
 
 
 def test_right_gripper_never_closed_fails_before_the_lift(runs):
@@ -111,7 +112,7 @@ def test_report_counts_failures_by_stage_and_compares_left_gaps(runs):
     assert agg["failed_by_stage_reached"]["lifted"] == 1
     assert agg["failed_by_stage_reached"][reached] >= 1
     medians = agg["median_left_gap_at_release_m"]
-    assert medians["failed"] > 0.08 > 0.03 > medians["succeeded"]
+    assert medians["failed"] > 0.075 > 0.03 > medians["succeeded"]
     assert [e["success"] for e in report["episodes"]] == [True, False, False]
     line = failure_line(report)
     assert line.startswith("failed: 2 (furthest stage reached: ") and "lifted 1" in line

@@ -131,7 +131,8 @@ def test_eval_info_blocks():
     eps = _episodes("sim_insertion", [(300.0, 4.0), (120.0, 3.0)])
     run = {"policy": "scripted", "seed": 100}
     info = eval_info("sim_insertion", eps, 3.0, ["videos/eval_episode_0.mp4"], run)
-    assert set(info) == {"task", "per_episode", "aggregated", "overall", "video_paths", "run"}
+    assert set(info) == {"task", "per_episode", "aggregated", "overall", "video_paths", "run",
+                         "controller"}  # fmt: skip
     assert info["task"] == "sim_insertion" and info["run"] == run
     agg = info["aggregated"]
     for key in ("pc_success", "avg_sum_reward", "avg_max_reward", "pc_success_ci95", "stages"):
@@ -141,10 +142,14 @@ def test_eval_info_blocks():
     assert agg["stages"] == {"grasped": 100.0, "contact": 100.0, "inserted": 50.0}
     assert info["per_episode"] == [
         {"episode_ix": 0, "seed": 100, "sum_reward": 300.0, "max_reward": 4.0, "success": True,
-         "steps": 600, "stages": {"grasped": True, "contact": True, "inserted": True}},
+         "steps": 600, "stages": {"grasped": True, "contact": True, "inserted": True},
+         "fault": None},
         {"episode_ix": 1, "seed": 101, "sum_reward": 120.0, "max_reward": 3.0, "success": False,
-         "steps": 600, "stages": {"grasped": True, "contact": True, "inserted": False}},
+         "steps": 600, "stages": {"grasped": True, "contact": True, "inserted": False},
+         "fault": None},
     ]  # fmt: skip
+    assert info["controller"] == {"checks": True, "faulted_episodes": 0, "faults_by_joint": {},
+                                  "faults_by_reason": {}, "peak_speed_fraction": {}}  # fmt: skip
     overall = info["overall"]  # lerobot-eval's top-level names
     for key in ("avg_sum_reward", "avg_max_reward", "pc_success", "n_episodes", "eval_s",
                 "eval_ep_s"):  # fmt: skip
@@ -182,4 +187,21 @@ def test_the_rollout_analysis_stays_out_of_eval_info():
     assert a == b
     row = eval_info("sim_transfer_cube", [b], 1.0)["per_episode"][0]
     assert set(row) == {"episode_ix", "seed", "sum_reward", "max_reward", "success", "steps",
-                        "stages"}  # fmt: skip
+                        "stages", "fault"}  # fmt: skip
+
+
+def test_the_controller_block_counts_faults_by_joint_and_reason():
+    from trossen_arm_mujoco.eval.scores import controller_summary
+
+    eps = _episodes("sim_transfer_cube", [(10.0, 1.0), (20.0, 2.0), (30.0, 4.0)])
+    speed = {"joint": "right_gripper", "kind": "speed", "asked": 0.2, "limit": 0.0875, "step": 3}
+    pos = {"joint": "left_joint_1", "kind": "position", "asked": 2.0, "limit": 1.57, "step": 9}
+    eps[0].fault, eps[1].fault = speed, pos
+    eps[0].peak_speed_fraction = {"right_gripper": 2.29, "left_joint_1": 0.5}
+    eps[2].peak_speed_fraction = {"right_gripper": 0.9, "left_joint_1": 0.7}
+    block = controller_summary(eps, checks=True)
+    assert block["faulted_episodes"] == 2
+    assert block["faults_by_joint"] == {"left_joint_1": 1, "right_gripper": 1}
+    assert block["faults_by_reason"] == {"position": 1, "speed": 1}
+    assert block["peak_speed_fraction"] == {"right_gripper": 2.29, "left_joint_1": 0.7}
+    assert controller_summary(eps, checks=False)["checks"] is False

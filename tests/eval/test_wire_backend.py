@@ -1,14 +1,20 @@
 """``eval --backend wire``: policies driven through the served kit (the ``trossen_arm`` driver
-and the ZMQ camera stream) in wall-clock time, on 127.0.0.131 .. 127.0.0.136 and free loopback
+and the ZMQ camera stream) in wall-clock time, on 127.0.0.131 .. 127.0.0.138 and free loopback
 ports only. The scripted transfer over 10 episodes (9 s each: it transfers by about 8 s) takes
-about 110 s; the other tests a few seconds each."""
+about 110 s; the other tests a few seconds each. The ``serve`` that eval starts stops with
+SIGTERM even where SIGINT is ignored, and dies with its parent, even one killed (SIGKILL)."""
 
 from __future__ import annotations
 
 import importlib
 import json
+import os
+import signal
 import socket
+import subprocess
+import sys
 import textwrap
+import time
 import uuid
 from pathlib import Path
 
@@ -36,6 +42,21 @@ def hold(obs):
         else:
             threading.Event().wait()  # never answers
     return obs["agent_pos"]
+
+
+def raises(obs):
+    STEPS.append(len(STEPS))
+    if len(STEPS) == 3:
+        raise ValueError("the policy broke")
+    return obs["agent_pos"]
+
+
+def text(obs):
+    return "left"
+
+
+def mapping(obs):
+    return {"left": obs["agent_pos"]}
 
 
 def stop_stream(obs):
@@ -175,3 +196,143 @@ def test_a_kit_that_is_not_there_is_one_line(tmp_path, capsys) -> None:
                           "--output_dir", str(tmp_path / "o")])  # fmt: skip
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and err[-1].startswith("error: no episode control channel on 127.0.0.1")
+
+
+@pytest.fixture
+def kit_here():
+    """A served kit in this process (no cameras) with its control channel, for ``--connect``:
+    (left address, right address, control port)."""
+    from trossen_arm_mujoco.twin.episode_control import EpisodeControl
+    from trossen_arm_mujoco.twin.kit_world import KitWorld
+    from trossen_arm_mujoco.twin.served_kit import ServedKit
+
+    left, right, port = "127.0.0.135", "127.0.0.136", free_port()
+    world = KitWorld()
+    kit = ServedKit(world, {"left": left, "right": right})
+    control = EpisodeControl(world, port)
+    try:
+        kit.start()
+        control.start()
+        yield left, right, port
+    finally:
+        control.stop()
+        kit.close()
+
+
+def policy_error(argv: list[str], capsys) -> tuple[int, str, str]:
+    """Run eval; (exit status, its one ``error:`` line, what follows it)."""
+    rc = eval_policy.cli(argv)
+    lines = capsys.readouterr().err.splitlines()
+    at = [i for i, line in enumerate(lines) if line.startswith("error:")]
+    assert len(at) == 1, lines
+    return rc, lines[at[0]], "\n".join(lines[at[0] + 1 :])
+
+
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [("raises", r"raised ValueError at episode 0 step \d+: the policy broke$"),
+     ("text", "raised ValueError at episode 0 step 0: could not convert string to float: "
+              "'left'$"),
+     ("mapping", "raised TypeError at episode 0 step 0: float\\(\\) argument must be")],
+)  # fmt: skip
+def test_a_policy_that_raises_ends_the_run_as_in_the_sim(
+    name, expected, tmp_path, policies, kit_here, capsys
+) -> None:
+    """Not an arm fault: one ``error:`` line naming the policy, episode and step, then the
+    policy's traceback, exit status 1, no eval_info.json (as ``--backend sim``)."""
+    import re
+
+    left, right, port = kit_here
+    spec = f"{policies.__name__}:{name}"
+    common = ["--policy", spec, "--num_episodes", "2", "--episode_length", "10"]
+    out = tmp_path / "wire"
+    rc, line, rest = policy_error(["--backend", "wire", "--connect", "--left_ip", left,
+                                   "--right_ip", right, "--control_port", str(port),
+                                   "--output_dir", str(out), *common], capsys)  # fmt: skip
+    assert rc == 1 and line.startswith(f"error: the policy {spec} raised "), line
+    assert re.search(expected, line), line
+    assert "Traceback" in rest and "arm controller error" not in rest
+    assert not (out / "eval_info.json").exists()
+    if name != "raises":  # the same line as the in-process eval (a step the wire may skip)
+        policies.STEPS.clear()
+        sim_rc, sim_line, _ = policy_error([*common, "--output_dir", str(tmp_path / "sim")], capsys)
+        assert (sim_rc, sim_line) == (rc, line)
+
+
+#: A stand-in for eval: starts the kit as eval does (``wire_link.start_kit``), prints the
+#: kit's pid, then waits to be killed. ``plain``: without the kernel's parent-death signal
+#: (only serve's own watch of its parent).
+PARENT = """
+import sys, time
+from trossen_arm_mujoco.eval import wire_link
+if sys.argv[4] == "plain":
+    wire_link._child_setup = lambda parent: None
+link = wire_link.KitLink(sys.argv[1], sys.argv[2], control_port=int(sys.argv[3]))
+kit = wire_link.start_kit(link, "sim_transfer_cube", (), (48, 64), 50.0)
+print(kit.pid, flush=True)
+time.sleep(600)
+"""
+
+
+def _gone(pid: int, timeout: float) -> bool:
+    """Whether process ``pid`` ends (or is a zombie) within ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                if f.read().rsplit(")", 1)[1].split()[0] == "Z":
+                    return True
+        except FileNotFoundError:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("how", ["linux", "plain"])
+def test_a_killed_eval_takes_its_kit_with_it(how) -> None:
+    """SIGKILL of the process that started the kit: the kit stops (on Linux the kernel's
+    SIGTERM; ``plain``: serve's own watch of its parent) and frees its ports."""
+    port = free_port()
+    parent = subprocess.Popen(
+        [sys.executable, "-c", PARENT, "127.0.0.137", "127.0.0.138", str(port), how],
+        stdout=subprocess.PIPE, text=True, env={**os.environ, "MUJOCO_GL": "egl"},
+    )  # fmt: skip
+    child = None
+    try:
+        child = int(parent.stdout.readline())
+        with socket.create_connection(("127.0.0.1", port), timeout=10):
+            pass  # the kit serves
+        parent.kill()
+        parent.wait(10)
+        assert _gone(child, 20), "the kit outlived the process that started it"
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", port))  # its control port is free again
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+            parent.wait()
+        if child is not None and not _gone(child, 0.1):
+            os.kill(child, signal.SIGKILL)
+
+
+def test_the_kit_stops_at_once_with_its_report_when_sigint_is_ignored() -> None:
+    """A background eval (``trap '' INT``): its kit inherits SIGINT ignored, and still stops
+    at once, with its last lines (the kit's report in the timing block)."""
+    from trossen_arm_mujoco.eval.wire_link import KitLink, start_kit, stop_kit
+
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        kit = start_kit(KitLink("127.0.0.137", "127.0.0.138", control_port=free_port()),
+                        "sim_transfer_cube", (), (48, 64), 50.0)  # fmt: skip
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    started = time.monotonic()
+    try:
+        lines = stop_kit(kit)
+    finally:
+        if kit.poll() is None:
+            kit.kill()
+            kit.wait()
+    assert time.monotonic() - started < 20 and kit.returncode == 0, lines
+    assert any(line.startswith("stopped (SIGTERM) after ") for line in lines), lines

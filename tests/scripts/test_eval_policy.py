@@ -55,7 +55,9 @@ def test_scripted_run_writes_eval_info(tmp_path, capsys):
     lines = out.strip().splitlines()
     assert lines[0].startswith("sim_transfer_cube: 2/2 succeeded, 100.0% (95% CI 34.2-100.0)")
     assert "stages: touched 100%, lifted 100%, transferred 100%" in lines[0]
-    assert lines[1] == f"wrote {out_dir / 'eval_info.json'}"
+    assert lines[1].startswith("arm controller checks: on, 0 faults; fastest asked: ")
+    assert lines[2].startswith("sim-only: the scripted policy plans from the objects' exact")
+    assert lines[3] == f"wrote {out_dir / 'eval_info.json'}"
     assert "error" not in err
     assert sorted(p.name for p in out_dir.iterdir()) == ["eval_info.json", "rollouts.json"]
 

@@ -168,6 +168,7 @@ def test_record_one_session_into_one_episode(served, tmp_path: Path) -> None:
         (["--replay", "x.hdf5"], "--replay needs --role leader"),
         (["--role", "leader"], "--role leader needs --replay"),
         (["--record", "d", "--role", "leader", "--replay", "x"], "--record needs --role follower"),
+        (["--parent_pid", "0"], "--parent_pid must be a process id (at least 1), got 0"),
         (["--record", "d", "--cam_names", "cam_nope"], "unknown camera 'cam_nope'"),
     ],
 )
@@ -183,6 +184,19 @@ def test_mistakes_are_one_line_exit_2(
     assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)] == handlers
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and expected in lines[0], err
+
+
+def test_a_parent_already_gone_stops_serve_before_it_serves(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``--parent_pid`` names a process that is not serve's parent (eval --backend wire's,
+    killed): serve stops as on a stop signal, exit 0, nothing served."""
+    pytest.importorskip("trossen_arm_sim")
+    handlers = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)]
+    rc = serve.main(["--left_ip", LEFT, "--right_ip", RIGHT, "--parent_pid", str(os.getpid())])
+    out = capsys.readouterr().out
+    assert rc == 0 and out == "stopped (its parent process ended) before serving began\n"
+    assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)] == handlers
 
 
 def test_missing_trossen_arm_sim_gives_the_install_hint(

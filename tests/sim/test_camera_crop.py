@@ -119,3 +119,25 @@ def test_one_crop_per_camera_and_known_cameras(xml):
     assert parse_crops(None) == () and parse_crops("top:1,2,3,4")[0].text() == "top:1,2,3,4"
     two = parse_crops("top:1,2,3,4;other:5,6,7,8")  # the form of the files' `crops` attribute
     assert [c.text() for c in two] == ["top:1,2,3,4", "other:5,6,7,8"]
+
+
+def test_cropping_a_whole_frame_gives_what_the_cropped_camera_draws(xml):
+    """A deployed policy's images (a whole frame, cut and averaged down by ``crop_frame``)
+    match the cropped camera's own render at the policy's size, as the served kit's whole
+    frames must for ``eval --backend wire``."""
+    from trossen_arm_mujoco.sim.camera_crop import crop_frame
+
+    full = render(mujoco.MjModel.from_xml_string(xml), "top", 480, 640).astype(np.uint8)
+    crop = parse_crop("top:90,150,150,200")
+    model = mujoco.MjModel.from_xml_string(xml)
+    apply_crops(model, (crop,))
+    drawn = render(model, "top", 96, 128)
+    made = crop_frame(full, crop, (96, 128))
+    assert made.shape == (96, 128, 3) and made.dtype == np.uint8
+    assert np.abs(made.astype(int) - drawn).mean() < 12.0  # tile edges fall on either pixel
+    other = crop_frame(full, parse_crop("top:300,40,150,200"), (96, 128))
+    assert np.abs(other.astype(int) - drawn).mean() > 20.0
+    # a frame streamed at half size: the rectangle is scaled with it
+    half = full.reshape(240, 2, 320, 2, 3).mean(axis=(1, 3)).astype(np.uint8)
+    assert np.abs(crop_frame(half, crop, (96, 128)).astype(int) - drawn).mean() < 12.0
+    assert crop_frame(full, None, (480, 640)) is full

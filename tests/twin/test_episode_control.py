@@ -4,6 +4,7 @@ score the world computed; bad requests get ``ok: false``, bad addresses one-line
 
 from __future__ import annotations
 
+import io
 import json
 import socket
 
@@ -11,7 +12,12 @@ import numpy as np
 import pytest
 
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.twin.episode_control import EpisodeControl
+from trossen_arm_mujoco.twin.episode_control import (
+    MAX_LINE,
+    EpisodeControl,
+    read_request,
+    skip_line,
+)
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 
 
@@ -98,13 +104,81 @@ def test_start_with_object_poses_and_reward_levels(channel) -> None:
         ('{"cmd": "start", "seed": 1.5}', "seed must be an int"),
         ('{"cmd": "start", "object_poses": {"ball": [0,0,0,1,0,0,0]}}', "unknown object 'ball'"),
         ('{"cmd": "start", "object_poses": {"box": [0, 0]}}', "7 finite numbers"),
+        ('{"cmd": "start", "object_poses": {"box": [1e30, 0, 0.05, 1, 0, 0, 0]}}',
+         "start: the pose of 'box': position [1e+30, 0.0, 0.05] is outside the task's "
+         "workspace [-0.8, 0.8] x [-0.8, 0.8] x [-0.1, 0.9] m"),
+        ('{"cmd": "start", "object_poses": {"box": [0, 0.1, -5, 1, 0, 0, 0]}}',
+         "outside the task's workspace"),
+        ('{"cmd": "start", "object_poses": {"box": [0, 0.1, 0.05, 0, 0, 0, 1e-9]}}',
+         "start: the pose of 'box' needs a non-zero quaternion"),
+        ("[" * 5000, "request nested deeper than 16 levels: refused"),
+        ('{"cmd": "start", "seed": 1, "x": ' + "[" * 17 + "]" * 17 + "}",
+         "nested deeper than 16"),
     ],
-)
+)  # fmt: skip
 def test_bad_requests_are_answered_not_fatal(channel, line: str, error: str) -> None:
     world, control, client = channel
     reply = client.send(line)
-    assert reply["ok"] is False and error in reply["error"]
-    assert client.ask(cmd="status")["ok"]  # the channel and the world go on
+    assert reply["ok"] is False and error in reply["error"], reply
+    assert "\n" not in reply["error"]
+    status = client.ask(cmd="status")
+    assert status["ok"] and not status["running"]  # the channel and the world go on, unstarted
+
+
+def test_brackets_inside_strings_do_not_count_as_nesting(channel) -> None:
+    world, control, client = channel
+    reply = client.send('{"cmd": "status", "note": "' + "[" * 100 + '"}')
+    assert reply["ok"] is True
+
+
+def test_an_over_long_line_is_refused_before_it_ends_and_then_dropped(channel) -> None:
+    """More than 64 KiB without a newline: refused as soon as the limit is passed (the reply
+    comes while the line is still unfinished), the rest is read to its newline and dropped,
+    and the next request is served."""
+    world, control, client = channel
+    client.sock.sendall(b"x" * (MAX_LINE + 10_000))  # no newline yet
+    reply = json.loads(client.file.readline())
+    assert reply == {"ok": False, "error": f"request line longer than {MAX_LINE} bytes: "
+                     "refused (one JSON object per line)"}  # fmt: skip
+    client.sock.sendall(b"y" * (3 * MAX_LINE) + b"\n")  # the rest of that line
+    assert client.ask(cmd="status")["ok"]
+
+
+class ChunkReader(io.RawIOBase):
+    """A stream of ``size`` bytes of ``fill`` then a newline and ``tail``, produced as read
+    (nothing held); counts the bytes read."""
+
+    def __init__(self, size: int, fill: bytes = b"[", tail: bytes = b"") -> None:
+        self.left, self.fill, self.tail, self.read_bytes = size, fill, tail, 0
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buf) -> int:
+        if self.left > 0:
+            n = min(len(buf), self.left)
+            buf[:n] = self.fill * n
+            self.left -= n
+        elif self.left == 0:
+            data = b"\n" + self.tail
+            n = len(data)
+            buf[:n] = data
+            self.left = -1
+        else:
+            return 0
+        self.read_bytes += n
+        return n
+
+
+def test_read_request_holds_at_most_the_limit_of_a_long_line() -> None:
+    raw = ChunkReader(32 * 1024 * 1024, tail=b'{"cmd": "status"}\n')  # a 32 MB line
+    reader = io.BufferedReader(raw)
+    line, too_long = read_request(reader)
+    assert too_long and len(line) == MAX_LINE  # refused after 64 KiB, not 32 MB
+    assert raw.read_bytes < 2 * MAX_LINE
+    skip_line(reader)  # the rest is dropped, a chunk at a time
+    assert read_request(reader) == (b'{"cmd": "status"}\n', False)
+    assert read_request(reader) is None
 
 
 def test_refusals_are_one_line_errors() -> None:

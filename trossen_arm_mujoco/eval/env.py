@@ -10,16 +10,28 @@ joint flavour (position actuators, like the real arms), at a chosen rate:
   float32 in the layout's order: ``kit14`` (the real kit's 14 values, default) or
   ``vendor16`` (the HDF5 files' 16), clipped into the observation space's bounds (joint
   ranges, velocity caps, the workspace box) as the gym env's state is.
-- action: joint targets in the same layout (rad; gripper m). Values outside the joint
-  limits are clipped to them; NaN or a wrong length is an error.
-- reward: the task's (0-4); ``info["is_success"]``: the task's success now;
-  ``info["stage"]``: the reward stage reached now. ``truncated`` after ``episode_length``
-  steps; the episode never terminates early (an episode's score is the best it reached, as
-  in the ACT paper's evaluation).
+- action: joint goals in the same layout (rad; gripper m), sent to the arms as the real
+  kit receives them from Trossen's LeRobot plugin: ``set_all_positions(goal, goal_time =
+  3 / fps)``, the driver's trajectory from the current setpoint toward the goal, its
+  setpoints fed to the position actuators every physics step (``real.arm_controller``).
+- the controller's checks (``controller_checks=True``, the default): every setpoint passes
+  the real arm controller's checks (``real.controller_checks``: finite, inside the joint
+  range, no faster than the joint's speed limit), the same code the served kit runs. The
+  first refused setpoint is a fault, as on the real arm: the episode terminates, failed;
+  ``info["fault"]`` says which joint, why, the speed or position asked, the limit and the
+  step. With the checks off nothing is refused (goals outside the joint range are clipped
+  to it, NaN or a wrong length is an error): the unconstrained score of the same motion.
+- reward: the task's (0-4); ``info["stage"]``: the reward stage reached now;
+  ``info["is_success"]``: with the checks on, True at the episode's last step when the
+  task succeeded at some step and the controller accepted every command (so LeRobot's
+  any-step rule scores a faulted episode as failed); with the checks off, the task's
+  success now. ``truncated`` after ``episode_length`` steps; the episode never terminates
+  early but on a fault (an episode's score is the best it reached, as in the ACT paper's
+  evaluation).
 
-Rates: at ``fps`` F the policy acts every 1/F s and the controllers tick at the same
-period; physics runs ``ceil((1/F) / 2 ms)`` steps per period (the scene's 2 ms at 50 fps,
-1/510 s at 30 fps), so every rate is a whole number of physics steps.
+Rates: at ``fps`` F the policy acts every 1/F s; physics runs ``ceil((1/F) / 2 ms)`` steps
+per period (the scene's 2 ms at 50 fps, 1/510 s at 30 fps), so every rate is a whole number
+of physics steps, and the controllers tick every physics step (the served kit's rate).
 
 Seeds: ``reset(seed=s)`` draws the episode (object poses) from a generator of its own
 stream (``episode_generator``), never one of the recording seeds ``record`` uses, so an
@@ -43,6 +55,7 @@ import numpy as np
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.inputs import reset_options
+from trossen_arm_mujoco.real.arm_controller import GOAL_TIME_FACTOR, KitController
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS, REAL_KIT_LAYOUT
 from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.sim.cameras import CameraSet
@@ -62,6 +75,7 @@ __all__ = [
     "feature_spec",
     "parse_cameras",
     "parse_image_size",
+    "controller_timing",
     "rate_timing",
 ]
 
@@ -96,6 +110,13 @@ def rate_timing(fps: float) -> dict[str, float]:
     period = 1.0 / float(fps)
     substeps = math.ceil(period / BASE_SIM_DT - 1e-9)
     return {"policy_dt": period, "ctrl_dt": period, "sim_dt": period / substeps}
+
+
+def controller_timing(fps: float) -> dict[str, float]:
+    """``rate_timing(fps)`` with the control period at the physics step: the driver's
+    trajectory reaches the actuators every physics step, as on the served kit."""
+    timing = rate_timing(fps)
+    return {**timing, "ctrl_dt": timing["sim_dt"]}
 
 
 def parse_image_size(text: str | Sequence[int]) -> tuple[int, int]:
@@ -173,10 +194,14 @@ class KitPolicyEnv(gymnasium.Env):
             none.
         render_mode: ``rgb_array`` (``render()`` gives the observed cameras side by side, or
             ``cam_high`` at 240x320 when none is observed) or None.
+        controller_checks: apply the real arm controller's checks to every setpoint (a
+            fault ends the episode, failed); False: the unconstrained score.
 
     Attributes (what LeRobot's evaluation reads): ``task`` (the task's name),
     ``task_description``, ``_max_episode_steps``, ``metadata["render_fps"]``; ``episode``
-    is the running ``Task`` (None before the first reset).
+    is the running ``Task`` (None before the first reset); ``controller`` is the kit's
+    :class:`~trossen_arm_mujoco.real.arm_controller.KitController` (its ``fault`` and
+    ``peak_fractions()`` describe the running episode).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -192,6 +217,7 @@ class KitPolicyEnv(gymnasium.Env):
         layout: str = "kit14",
         render_mode: str | None = "rgb_array",
         crops: Sequence[str] = (),
+        controller_checks: bool = True,
     ):
         entry = registry.load(task)
         if entry.name not in bimanual_tasks():
@@ -209,7 +235,7 @@ class KitPolicyEnv(gymnasium.Env):
         config = entry.load_config()
         native = 1.0 / float(config["policy_dt"])
         self.fps = float(native if fps is None else fps)
-        overrides = {} if fps is None else rate_timing(self.fps)
+        overrides = controller_timing(self.fps)
         record_len = int(entry.record.get("episode_len") or config.get("max_episode_steps"))
         if episode_length is None:
             episode_length = max(1, round(record_len * self.fps / native))
@@ -249,6 +275,12 @@ class KitPolicyEnv(gymnasium.Env):
             key: (self.observation_space[key].low, self.observation_space[key].high)
             for key in ("agent_pos", "velocity", "environment_state")
         }
+        self.controller = KitController(checks=controller_checks)
+        self.controller_checks = bool(controller_checks)
+        self._goal_time = GOAL_TIME_FACTOR / self.fps
+        self._ticks = int(probe.n_ctrl_steps)
+        self._tick_dt = float(overrides["ctrl_dt"])
+        self._reached = False
         self.episode = None
         self.n_steps = 0
         self._images: dict[str, np.ndarray] = {}
@@ -304,25 +336,43 @@ class KitPolicyEnv(gymnasium.Env):
         rng = episode_generator(seed)
         self.episode = self.sampler.next_task(rng, object_poses=poses)
         self.n_steps = 0
-        return self._observe(), self._info(self.episode.get_reward())
+        self._reached = False
+        obs = self._observe()
+        measured = obs["agent_pos"] if self.layout is REAL_KIT_LAYOUT else (
+            REAL_KIT_LAYOUT.from_vendor(obs["agent_pos"]))  # fmt: skip
+        self.controller.reset(measured.astype(np.float64))
+        return obs, self._info(self.episode.get_reward())
 
     def step(self, action):
         if self.episode is None:
             raise UserError("call reset() before step()")
-        a = np.array(action, dtype=float).reshape(-1)  # a copy: clipped below, in place
+        a = np.array(action, dtype=float).reshape(-1)
         if a.shape != (self.layout.size,):
             raise UserError(
                 f"action must have {self.layout.size} values (layout {self.layout_name}), "
                 f"got shape {np.shape(action)}"
             )
-        if not np.isfinite(a).all():
+        if not self.controller_checks and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        np.clip(a, self.action_low, self.action_high, out=a)
-        self.episode.advance(self.layout.joint_commands(a))
+        goal = a if self.layout is REAL_KIT_LAYOUT else REAL_KIT_LAYOUT.from_vendor(a)
+        ctl, task, scene = self.controller, self.episode, self.scene
+        ctl.command(goal, self._goal_time)
+        fault = None
+        for _ in range(self._ticks):
+            target, fault = ctl.tick(self._tick_dt)
+            if fault is not None:  # the arms stop in the error state: the episode ends
+                break
+            task.apply_action(REAL_KIT_LAYOUT.joint_commands(target))
+            scene.step(1)
+        task.finish_step()
         self.n_steps += 1
-        reward = float(self.episode.get_reward())
+        reward = float(task.get_reward())
+        self._reached = self._reached or reward >= self.max_reward
         truncated = self.n_steps >= self._max_episode_steps
-        return self._observe(), reward, False, truncated, self._info(reward)
+        info = self._info(reward, last=truncated or fault is not None)
+        if fault is not None:
+            info["fault"] = {**fault.as_dict(), "step": self.n_steps - 1}
+        return self._observe(), reward, fault is not None, truncated, info
 
     def render(self):
         """The observed cameras side by side (uint8 (H, n*W, 3)), or ``cam_high`` at
@@ -361,5 +411,9 @@ class KitPolicyEnv(gymnasium.Env):
             out["pixels"] = self._images
         return out
 
-    def _info(self, reward: float) -> dict[str, Any]:
-        return {"is_success": bool(reward >= self.max_reward), "stage": float(reward)}
+    def _info(self, reward: float, last: bool = False) -> dict[str, Any]:
+        if self.controller_checks:  # judged once the episode is over: no fault, then success
+            success = last and self._reached and self.controller.fault is None
+        else:
+            success = reward >= self.max_reward
+        return {"is_success": bool(success), "stage": float(reward)}

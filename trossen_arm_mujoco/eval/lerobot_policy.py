@@ -23,6 +23,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
 
 __all__ = [
+    "ENV_STATE_KEY",
     "LEROBOT_MISSING",
     "LeRobotPolicy",
     "check_checkpoint",
@@ -31,6 +32,9 @@ __all__ = [
     "feature_mismatch",
     "import_lerobot",
 ]
+
+#: The feature only the simulation has: the objects' exact poses.
+ENV_STATE_KEY = "observation.environment_state"
 
 LEROBOT_MISSING = (
     "evaluating a LeRobot checkpoint needs LeRobot 0.6 (Python >= 3.12): "
@@ -68,8 +72,9 @@ def checkpoint_dir(path: str | Path) -> Path:
 def checkpoint_features(path: str | Path) -> dict[str, Any]:
     """What a checkpoint's ``config.json`` says it observes, read without LeRobot: its
     cameras (``cam_names``), their (H, W) (``image_size``), the layout name of its action
-    (``layout``: ``kit14`` for 14 values, ``vendor16`` for 16). Keys are missing when the
-    config does not say."""
+    (``layout``: ``kit14`` for 14 values, ``vendor16`` for 16), and whether it observes
+    what no real kit can give (``sim_only``: ``observation.environment_state``, the objects'
+    exact poses). Keys are missing when the config does not say."""
     folder = checkpoint_dir(path)
     try:
         config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
@@ -85,6 +90,7 @@ def checkpoint_features(path: str | Path) -> dict[str, Any]:
         shape = inputs[prefix + cams[0]].get("shape") or []
         if len(shape) == 3:
             found["image_size"] = (int(shape[1]), int(shape[2]))
+    found["sim_only"] = ENV_STATE_KEY in inputs
     size = (outputs.get("action") or {}).get("shape") or []
     if list(size) == [14]:
         found["layout"] = "kit14"

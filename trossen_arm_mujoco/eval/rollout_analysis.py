@@ -12,12 +12,15 @@ Per episode (``RolloutRecorder.summary``)::
 
     stage_steps {stage: first step it was reached | null}, stage_times_s {stage: s | null},
     stopped {reached: furthest stage | null, missed: the next stage} (failed episodes only),
+    fault {joint, kind, asked, limit, reason, step}: the arm controller's fault that ended
+               the episode (only when one did),
     transfer:  release {step, time_s, left_gap_m, right_gap_m, left_touching} | null: the
                step at which the right fingers began opening after the cube was lifted
     insertion: end {left_gap_m, right_gap_m}: the finger openings at the last step
 
 Aggregated (``rollouts_report``): failed episodes counted by the furthest stage they reached
-(``"none"`` for none), and the median left-gap at release of failed and successful episodes.
+(``"none"`` for none), controller faults counted by joint and kind, and the median left-gap
+at release of failed and successful episodes.
 """
 
 from __future__ import annotations
@@ -161,6 +164,7 @@ def rollouts_report(task: str, scores: Sequence[EpisodeScore], fps: float) -> di
     and the aggregate (failed episodes by the furthest stage reached; the median left-finger
     gap at release, m, of failed and successful episodes)."""
     failed: dict[str, int] = {}
+    faults: dict[str, int] = {}
     gaps: dict[str, list[float]] = {"failed": [], "succeeded": []}
     episodes = []
     for s in scores:
@@ -169,6 +173,9 @@ def rollouts_report(task: str, scores: Sequence[EpisodeScore], fps: float) -> di
         if not s.success:
             reached = (a.get("stopped") or {}).get("reached") or "none"
             failed[reached] = failed.get(reached, 0) + 1
+        if s.fault:
+            key = f"{s.fault['joint']} {s.fault['kind']}"
+            faults[key] = faults.get(key, 0) + 1
         release = a.get("release")
         if release:
             gaps["succeeded" if s.success else "failed"].append(release["left_gap_m"])
@@ -177,6 +184,7 @@ def rollouts_report(task: str, scores: Sequence[EpisodeScore], fps: float) -> di
         "n_episodes": len(scores),
         "n_failed": sum(failed.values()),
         "failed_by_stage_reached": {k: failed[k] for k in order if k in failed},
+        "controller_faults": dict(sorted(faults.items())),
     }
     if LIFT_STAGE in STAGES.get(task, {}):
         aggregated["median_left_gap_at_release_m"] = {k: _median(v) for k, v in gaps.items()}
@@ -192,6 +200,10 @@ def failure_line(report: dict[str, Any]) -> str:
     else:
         by = ", ".join(f"{k} {n}" for k, n in agg["failed_by_stage_reached"].items())
         text = f"failed: {agg['n_failed']} (furthest stage reached: {by})"
+    faults = agg.get("controller_faults") or {}
+    if faults:
+        by = ", ".join(f"{k} {n}" for k, n in faults.items())
+        text += f"; arm controller faults: {sum(faults.values())} ({by})"
     medians = agg.get("median_left_gap_at_release_m") or {}
     shown = [f"{k} {v * 1e3:.1f} mm" for k, v in medians.items() if v is not None]
     if shown:

@@ -128,6 +128,8 @@ class EvalSettings:
     output_dir: str = "eval"
     device: str = "cpu"
     crops: tuple[str, ...] = ()
+    #: the arm controller's checks on every setpoint (a fault ends the episode, failed)
+    controller_checks: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
 
     def make_env(self) -> KitPolicyEnv:
@@ -142,6 +144,7 @@ class EvalSettings:
             layout=self.layout,
             render_mode="rgb_array",
             crops=self.crops,
+            controller_checks=self.controller_checks,
         )
 
 
@@ -173,18 +176,22 @@ class EpisodeRunner:
         frames = [] if index < s.videos else None
         if frames is not None:
             frames.append(env.render())
-        rewards, success = [], False
+        rewards, success, fault = [], False, None
         for t in range(env._max_episode_steps):
             action = self._call_policy(index, f"step {t}", self.policy.act, obs)
             obs, reward, terminated, truncated, info = env.step(action)
             self.recorder.record(env, reward)
             rewards.append(reward)
             success = success or bool(info["is_success"])
+            fault = info.get("fault", fault)
             if frames is not None:
                 frames.append(env.render())
             if terminated or truncated:
                 break
         best = float(max(rewards)) if rewards else 0.0
+        analysis = self.recorder.summary(success)
+        if fault is not None:
+            analysis["fault"] = fault
         score = EpisodeScore(
             episode_ix=index,
             seed=seed,
@@ -193,7 +200,9 @@ class EpisodeRunner:
             success=success,
             steps=len(rewards),
             stages=stages_reached(env.task, best),
-            analysis=self.recorder.summary(success),
+            fault=fault,
+            peak_speed_fraction=env.controller.peak_fractions(),
+            analysis=analysis,
         )
         video = None
         if frames:

@@ -10,6 +10,11 @@ and the ACT paper's: the best reward reached); its stages are the reward levels 
                    n_episodes, stages {name: pc}, eval_s, eval_ep_s}
     overall:      the aggregated numbers as lerobot-eval 0.6 names them at its top level
     video_paths:  the rollout videos
+    controller:   {checks, faulted_episodes, faults_by_joint, faults_by_reason,
+                   peak_speed_fraction {value: largest asked speed / its limit}}
+
+Each ``per_episode`` row also carries ``fault`` (the arm controller's fault that ended it:
+joint, kind, asked, limit, reason, step; null when none).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ __all__ = [
     "STAGES",
     "EpisodeScore",
     "aggregate",
+    "controller_summary",
     "eval_info",
     "stages_reached",
     "wilson_interval",
@@ -67,6 +73,12 @@ class EpisodeScore:
     success: bool
     steps: int
     stages: dict[str, bool] = field(default_factory=dict)
+    #: The arm controller's fault that ended the episode (``real.controller_checks.Fault.
+    #: as_dict()`` plus its ``step``), None when every command was accepted.
+    fault: dict[str, Any] | None = None
+    #: Largest speed asked of each of the 14 values (``left_joint_0`` ... ``right_gripper``)
+    #: as a fraction of its limit; None when not measured.
+    peak_speed_fraction: dict[str, float] | None = field(default=None, compare=False)
     #: What happened in the rollout (``eval.rollout_analysis``; ``rollouts.json``, not
     #: ``eval_info.json``); None when not recorded.
     analysis: dict[str, Any] | None = field(default=None, compare=False)
@@ -101,6 +113,30 @@ def aggregate(task: str, episodes: Sequence[EpisodeScore], seconds: float) -> di
     }
 
 
+def controller_summary(episodes: Sequence[EpisodeScore], checks: bool) -> dict[str, Any]:
+    """The ``controller`` block of ``eval_info.json``: whether the arm controller's checks
+    were on, how many episodes faulted, counted by joint and by reason (``speed``,
+    ``position``, ``non-finite``), and the largest speed asked of each value over all
+    episodes as a fraction of its limit."""
+    faults = [e.fault for e in episodes if e.fault]
+    by_joint: dict[str, int] = {}
+    by_reason: dict[str, int] = {}
+    for f in faults:
+        by_joint[f["joint"]] = by_joint.get(f["joint"], 0) + 1
+        by_reason[f["kind"]] = by_reason.get(f["kind"], 0) + 1
+    peak: dict[str, float] = {}
+    for e in episodes:
+        for key, value in (e.peak_speed_fraction or {}).items():
+            peak[key] = max(peak.get(key, 0.0), float(value))
+    return {
+        "checks": bool(checks),
+        "faulted_episodes": len(faults),
+        "faults_by_joint": dict(sorted(by_joint.items())),
+        "faults_by_reason": dict(sorted(by_reason.items())),
+        "peak_speed_fraction": {k: round(v, 4) for k, v in peak.items()},
+    }
+
+
 def eval_info(
     task: str,
     episodes: Sequence[EpisodeScore],
@@ -116,13 +152,16 @@ def eval_info(
     for e in episodes:
         row = asdict(e)
         row.pop("analysis", None)  # rollouts.json's; eval_info.json keeps lerobot-eval's keys
+        row.pop("peak_speed_fraction", None)  # aggregated in the controller block
         per_episode.append(row)
+    checks = bool((run or {}).get("controller_checks", True))
     return {
         "task": task,
         "per_episode": per_episode,
         "aggregated": agg,
         "overall": {**overall, "video_paths": list(video_paths)},
         "video_paths": list(video_paths),
+        "controller": controller_summary(episodes, checks),
         **({"run": run} if run else {}),
     }
 

@@ -21,10 +21,13 @@ without cameras), action latency (ms: observation read start to action sent), mi
 control periods (deadlines passed with no action sent: the loop skips to the next one, as a
 real control loop drops frames). An episode fails, with its reason in ``rollouts.json``,
 when the policy sends no action for ``action_timeout`` s, the camera stream stops (no image
-newer than ``STALE_S``) or an arm controller goes into its error state; a policy still stuck
-when the next episode starts ends the run with one line. With ``speed_fraction`` each goal is
-first shortened to that share of the real speed limits (``eval.speed_clamp``); the number of
-shortened goals is in the timing block.
+newer than ``STALE_S``) or an arm controller goes into its error state (only a driver call
+that raises counts as that fault); a policy still stuck when the next episode starts ends the
+run with one line. A policy that raises (or returns something that is not numbers) ends the
+run as under ``--backend sim``: a ``PolicyCallError`` naming the policy, episode and step
+(``eval`` prints it as one ``error:`` line, then the policy's traceback; exit status 1).
+With ``speed_fraction`` each goal is first shortened to that share of the real speed limits
+(``eval.speed_clamp``); the number of shortened goals is in the timing block.
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ from trossen_arm_mujoco.eval.wire_link import (
     start_kit,
     stop_kit,
 )
+from trossen_arm_mujoco.sim.camera_crop import FRAME, crop_frame, parse_crops
 
 __all__ = ["WireEpisodeRunner", "evaluate_wire"]
 
@@ -131,13 +135,17 @@ class WireEpisodeRunner:
         self.speed_fraction = speed_fraction
         self._measured: np.ndarray | None = None
         self.env = WireEnv(settings)
+        # cropped cameras: the kit streams whole frames, as real cameras do, and each crop is
+        # cut out here (sim.camera_crop.crop_frame), as a deployed policy's would be
+        self.crops = {c.camera: c for c in parse_crops(settings.crops)}
+        self.stream_size = FRAME if self.crops else tuple(self.env.image_size)
         self.period = 1.0 / self.env.fps
         self.kit = self.control = self.cameras = self.arms = self.policy = None
         self.kit_lines: list[str] = []
         try:
             if not link.connect:
                 self.kit = start_kit(link, self.env.task, self.env.cam_names,
-                                     self.env.image_size, self.env.fps)  # fmt: skip
+                                     self.stream_size, self.env.fps)  # fmt: skip
             self.control = ControlClient(link.host, link.control_port)
             if self.env.cam_names:
                 self.cameras = CameraReader(link.host, link.camera_port)
@@ -148,9 +156,12 @@ class WireEpisodeRunner:
             raise
         self.calls = _PolicyThread()
 
-    def _observe(self, status: dict[str, Any]) -> tuple[dict[str, Any], float, str | None]:
-        """The observation, the time of the state it shows, and why it is unusable (None)."""
-        pos, vel = self.arms.read()
+    def _observe(
+        self, status: dict[str, Any], pos: np.ndarray, vel: np.ndarray
+    ) -> tuple[dict[str, Any], float, str | None]:
+        """The observation of the arms' ``pos`` (rad, m) and ``vel`` (rad/s, m/s) just read,
+        the kit's ``status`` and the newest images; the time of the state it shows (wall
+        clock, s); why it is unusable (None)."""
         self._measured = np.asarray(pos, dtype=np.float64)
         stamp = time.time()
         obs: dict[str, Any] = {
@@ -167,11 +178,11 @@ class WireEpisodeRunner:
             if stamp - t > STALE_S:
                 why = f"camera stream stopped ({cam}: newest image {stamp - t:.1f} s old)"
                 return obs, stamp, why
-            if img.shape[:2] != self.env.image_size:
+            if img.shape[:2] != tuple(self.stream_size):
                 raise UserError(f"the stream's {cam} images are {img.shape[0]}x{img.shape[1]}, "
-                                f"the policy needs {self.env.image_size[0]}x"
-                                f"{self.env.image_size[1]}: serve --image_size")  # fmt: skip
-            pixels[cam] = img
+                                f"the policy needs {self.stream_size[0]}x"
+                                f"{self.stream_size[1]}: serve --image_size")  # fmt: skip
+            pixels[cam] = crop_frame(img, self.crops.get(cam), self.env.image_size)
             stamp = min(stamp, t)
         obs["pixels"] = pixels
         return obs, stamp, None
@@ -212,21 +223,26 @@ class WireEpisodeRunner:
             start = time.monotonic()
             status = self.control.request("status")
             rewards.append(float(status["reward"]))
+            try:  # only the arms' own calls: their errors are the controller's faults
+                pos, vel = self.arms.read()
+            except self.arms.errors as exc:
+                failure = _arm_fault(k, exc)
+                break
+            obs, stamp, failure = self._observe(status, pos, vel)
+            if failure is not None:
+                break
+            try:  # the policy's own errors end the run (PolicyCallError), as eval --backend sim
+                action = self._call(index, f"step {k}", self.policy.act, obs)
+            except TimeoutError:
+                failure = f"the policy sent no action for {self.action_timeout:g} s (step {k})"
+                break
+            goal, goal_time = self.env.to_driver(action), GOAL_TIME_FACTOR * self.period
+            if clamp is not None:
+                goal = clamp(goal, self._measured, goal_time)
             try:
-                obs, stamp, failure = self._observe(status)
-                if failure is not None:
-                    break
-                try:
-                    action = self._call(index, f"step {k}", self.policy.act, obs)
-                except TimeoutError:
-                    failure = f"the policy sent no action for {self.action_timeout:g} s (step {k})"
-                    break
-                goal, goal_time = self.env.to_driver(action), GOAL_TIME_FACTOR * self.period
-                if clamp is not None:
-                    goal = clamp(goal, self._measured, goal_time)
                 self.arms.command(goal, goal_time)
-            except self.arms.errors as exc:  # the arm controller's error state (a fault)
-                failure = f"arm controller error at step {k}: {' '.join(str(exc).split())}"
+            except self.arms.errors as exc:
+                failure = _arm_fault(k, exc)
                 break
             timing.latency.append(time.monotonic() - start)
             timing.obs_age.append(time.time() - stamp)
@@ -284,6 +300,11 @@ class WireEpisodeRunner:
         self.kit_lines = stop_kit(self.kit)
         self.kit = None
         self.env.close()
+
+
+def _arm_fault(step: int, exc: BaseException) -> str:
+    """The failure line of an arm controller in its error state (a driver call raised)."""
+    return f"arm controller error at step {step}: {' '.join(str(exc).split())}"
 
 
 def _wait_clear(event: threading.Event, timeout: float) -> bool:

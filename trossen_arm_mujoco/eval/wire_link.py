@@ -4,6 +4,10 @@ driver. Every address is checked to be IPv4 loopback (127.0.0.0/8) before it is 
 
 - :class:`KitLink` settings (addresses, ports) and :func:`start_kit` (``serve`` in a child
   process with ``--cameras`` and ``--control_port``; ``connect`` uses one already running).
+  The child dies with this process: on Linux the kernel sends it SIGTERM when its parent
+  ends (``PR_SET_PDEATHSIG``, even after a SIGKILL), and everywhere it watches its parent
+  (``serve --parent_pid``) and stops once it is gone. :func:`stop_kit` stops it with
+  SIGTERM, which its ``serve`` always handles (SIGINT may be ignored: a background job).
 - :class:`ControlClient`: the JSON-lines channel of ``twin.episode_control``.
 - :class:`CameraReader`: a ZeroMQ SUB socket on the stream of ``twin.camera_stream``; keeps
   the latest image per camera and its timestamp (wall-clock s of the state shown).
@@ -14,13 +18,18 @@ driver. Every address is checked to be IPv4 loopback (127.0.0.0/8) before it is 
 from __future__ import annotations
 
 import base64
+import ctypes
+import ctypes.util
 import io
 import json
+import os
+import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,6 +42,10 @@ __all__ = ["ArmPair", "CameraReader", "ControlClient", "KitLink", "check_loopbac
 
 #: Seconds to wait for a started ``serve`` to print its first line.
 START_TIMEOUT_S = 120.0
+#: Seconds a stopped ``serve`` may take to exit (and print its report) before it is killed.
+STOP_TIMEOUT_S = 30.0
+#: ``prctl`` option: the signal a process gets when its parent ends (linux/prctl.h).
+PR_SET_PDEATHSIG = 1
 
 
 @dataclass(frozen=True)
@@ -66,7 +79,9 @@ def start_kit(
     link: KitLink, task: str, cams: tuple[str, ...], size: tuple[int, int], fps: float
 ) -> subprocess.Popen:
     """``serve`` in a child process for ``link``, publishing ``cams`` at ``size`` and ``fps``;
-    returns once it serves. A child that exits first is a ``UserError`` with its last line."""
+    returns once it serves. A child that exits first is a ``UserError`` with its last line.
+    The child ends with this process (see the module doc); on Linux with the thread that
+    called this one, so call it from the thread that will :func:`stop_kit` it."""
     cmd = [sys.executable, "-m", "trossen_arm_mujoco.scripts.serve", "--task_name", task,
            "--left_ip", link.left_ip, "--right_ip", link.right_ip,
            "--control_port", str(link.control_port), "--control_host", link.host]  # fmt: skip
@@ -74,7 +89,9 @@ def start_kit(
         cmd += ["--cameras", ",".join(cams), "--image_size", f"{size[0]}x{size[1]}",
                 "--camera_fps", f"{fps:g}", "--camera_port", str(link.camera_port),
                 "--camera_host", link.host]  # fmt: skip
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    cmd += ["--parent_pid", str(os.getpid())]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_child_setup(os.getpid()))  # fmt: skip
     lines: list[str] = []
     errors: list[str] = []
     for stream, into in ((proc.stdout, lines), (proc.stderr, errors)):  # drained: never full
@@ -93,17 +110,44 @@ def start_kit(
     raise UserError(f"the served kit did not start within {START_TIMEOUT_S:.0f} s")
 
 
+def _child_setup(parent: int) -> Callable[[], None] | None:
+    """What the ``serve`` child runs between fork and exec (None where there is nothing to
+    do): SIGTERM back to its default action (an ignored one would stay ignored through
+    exec, and ``serve`` keeps ignored signals ignored), and on Linux the kernel asked to
+    send it SIGTERM when ``parent`` ends; a parent already gone ends the child at once.
+    Everything it needs is looked up here, before the fork."""
+    if os.name != "posix":  # no fork: nothing runs in between (and no preexec_fn)
+        return None
+    prctl = None
+    if sys.platform.startswith("linux"):
+        try:
+            prctl = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True).prctl
+        except (OSError, AttributeError):
+            prctl = None
+
+    def setup() -> None:
+        try:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        except ValueError:  # not Python's main thread: the inherited disposition stays
+            pass
+        if prctl is not None:
+            prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+        if os.getppid() != parent:  # the parent ended before the request took effect
+            os._exit(1)
+
+    return setup
+
+
 def stop_kit(proc: subprocess.Popen | None) -> list[str]:
-    """Stop a kit started by :func:`start_kit` (SIGINT, then kill after 30 s); the lines it
-    printed (its last ones: the camera stream's rate and frame age, its real-time factor)."""
+    """Stop a kit started by :func:`start_kit` (SIGTERM, then kill after
+    ``STOP_TIMEOUT_S``); the lines it printed (its last ones: the camera stream's rate and
+    frame age, its real-time factor)."""
     if proc is None:
         return []
     if proc.poll() is None:
-        import signal
-
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(signal.SIGTERM)  # SIGINT may be ignored (inherited: a background job)
         try:
-            proc.wait(30)
+            proc.wait(STOP_TIMEOUT_S)
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()

@@ -62,6 +62,7 @@ from trossen_arm_mujoco.errors import (
 )
 from trossen_arm_mujoco.export import lerobot_format as fmt
 from trossen_arm_mujoco.export import lerobot_stats as st
+from trossen_arm_mujoco.export.dataset_settings import INFO_KEY
 from trossen_arm_mujoco.export.deps import require
 from trossen_arm_mujoco.export.lerobot_plan import (
     DEFAULT_LAYOUT,
@@ -483,5 +484,6 @@ def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress:
         root / fmt.STATS_PATH, {key: st.to_lists(st.aggregate(s)) for key, s in stats.items()}
     )
     info = fmt.build_info(features, plan.fps, len(plan.episodes), total, len(plan.tasks))
+    info[INFO_KEY] = plan.settings().to_json()  # what a checkpoint trained on it carries
     fmt.write_json(root / fmt.INFO_PATH, info)
     return total

@@ -38,7 +38,9 @@ import numpy as np
 from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.data.schema import ENV_STATE_DIM
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.export.dataset_settings import DatasetSettings
 from trossen_arm_mujoco.robot.layout import LAYOUTS
+from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.tasks import registry
 
 __all__ = [
@@ -91,6 +93,20 @@ class ExportPlan:
     layout: str
     env_names: list[str] | None
     lengths: list[int]  # per episode
+    crops: str = ""  # the episodes' ``crops`` attribute (record --crop; "" for none)
+    task_name: str | None = None  # the registered task of the episodes, when they name one
+
+    def settings(self) -> DatasetSettings:
+        """What the dataset is made with (``export.dataset_settings``), for its info.json."""
+        shapes = list(self.image_shapes.values())
+        return DatasetSettings(
+            fps=int(self.fps),
+            layout=self.layout,
+            cam_names=tuple(self.cameras),
+            image_size=(int(shapes[0][0]), int(shapes[0][1])) if shapes else None,
+            crops=parse_crops(self.crops),
+            task=self.task_name,
+        )
 
 
 @dataclass(frozen=True)
@@ -305,6 +321,12 @@ def plan_export(
                 f"{has.path.name} has rewards but {lacks.path.name} has none (a vendor "
                 "recording?); export them separately"
             )
+        if _crops(ep) != _crops(first):
+            raise UserError(
+                f"{ep.path.name} was recorded with --crop {_crops(ep) or 'none'} but "
+                f"{first.path.name} with {_crops(first) or 'none'}; every episode of a dataset "
+                "needs the same crops"
+            )
         if env_state_names(ep) != env_names:
             raise UserError(
                 f"{ep.path.name} has env_state {_describe_env(ep)} but {first.path.name} has "
@@ -341,7 +363,27 @@ def plan_export(
         layout=layout,
         env_names=env_names,
         lengths=lengths,
+        crops=_crops(first),
+        task_name=_task_name(episodes),
     )
+
+
+def _crops(ep: Episode) -> str:
+    """An episode's ``crops`` attribute (``;``-joined ``--crop`` texts; "" for none)."""
+    value = ep.attrs.get("crops", "")
+    return value.decode() if isinstance(value, bytes) else str(value or "")
+
+
+def _task_name(episodes: list[Episode]) -> str | None:
+    """The registered task all ``episodes`` name, or None when they do not share one."""
+    names = {ep.attrs.get("task_name") for ep in episodes}
+    name = names.pop() if len(names) == 1 else None
+    if not isinstance(name, str) or not name:
+        return None
+    try:
+        return registry.load(name).name
+    except UserError:
+        return None
 
 
 def _describe_cams(ep: Episode) -> str:

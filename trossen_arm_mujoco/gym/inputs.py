@@ -7,7 +7,11 @@ what was expected.
   The fast path (``ActionMapper.__call__``) checks only a float ndarray of the right shape;
   anything else goes through ``action_array`` here.
 - ``reset(options=...)``: None or a dict of the keys of ``RESET_OPTIONS``; an unknown key
-  (the accepted ones listed) or a value of the wrong type is an ``InvalidInput``.
+  (the accepted ones listed) or a value of the wrong type is an ``InvalidInput``. An object
+  pose must be 7 finite numbers, its position inside the task's workspace box
+  (``workspace_low`` .. ``workspace_high`` of its config, the bounds of the ``env_state``
+  observation; ``DEFAULT_WORKSPACE`` when the caller gives none) and its quaternion of
+  non-zero norm (``object_pose``, also used by the served kit's control channel).
 
 ``InvalidInput`` is a ``UserError`` (one line; a command prints it without a traceback) and a
 ``ValueError`` (what gymnasium and numpy users catch for a bad value).
@@ -23,12 +27,15 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 
 __all__ = [
+    "DEFAULT_WORKSPACE",
+    "MIN_QUAT_NORM",
     "RESET_OPTIONS",
     "WRAPPER_OPTIONS",
     "InvalidInput",
     "action_array",
     "describe_space",
     "nonfinite_action",
+    "object_pose",
     "reset_options",
 ]
 
@@ -41,6 +48,15 @@ RESET_OPTIONS: dict[str, str] = {
 #: ignored: LeRobot's ``lerobot-eval`` marks a new rollout with ``lerobot_new_rollout`` (its
 #: ``FreezeAfterEpisodeEnd`` wrapper passes the options on to the env).
 WRAPPER_OPTIONS: frozenset[str] = frozenset({"lerobot_new_rollout"})
+#: Workspace box (low, high), world frame (m), an object's position must lie in when the
+#: caller does not give its task's: ``workspace_low`` / ``workspace_high`` of every shipped
+#: task config (``config/*.yaml``; tests/gym/test_object_pose_bounds.py keeps them equal).
+DEFAULT_WORKSPACE: tuple[tuple[float, float, float], tuple[float, float, float]] = (
+    (-0.8, -0.8, -0.1),
+    (0.8, 0.8, 0.9),
+)
+#: Smallest quaternion norm accepted in an object pose (a zero quaternion is no rotation).
+MIN_QUAT_NORM = 1e-6
 
 
 class InvalidInput(UserError, ValueError):
@@ -90,7 +106,48 @@ def nonfinite_action(a: np.ndarray, dim: int) -> InvalidInput:
     )
 
 
-def reset_options(options: Any, objects: Mapping[str, Any]) -> dict[str, np.ndarray] | None:
+def _box(low: np.ndarray, high: np.ndarray) -> str:
+    """``[-0.8, 0.8] x [-0.8, 0.8] x [-0.1, 0.9] m``: a box in words."""
+    return " x ".join(f"[{lo:g}, {hi:g}]" for lo, hi in zip(low, high)) + " m"
+
+
+def object_pose(pose: Any, what: str, workspace: tuple[Any, Any] | None = None) -> np.ndarray:
+    """``pose`` as a float64 (7,) [x, y, z (m, world), quat w, x, y, z], checked: an
+    ``InvalidInput`` starting with ``what`` (e.g. ``reset option object_poses['box']``) for a
+    value that is not 7 finite numbers, a position outside ``workspace`` ((low, high) (3,)
+    each, m; ``DEFAULT_WORKSPACE`` when None) or a quaternion of (near) zero norm. The
+    quaternion comes back normalized (as MuJoCo places it)."""
+    p = None
+    if not isinstance(pose, (str, bytes, Mapping)):
+        try:
+            p = np.array(pose, dtype=np.float64)  # a copy: normalized below
+        except (TypeError, ValueError, OverflowError):
+            p = None
+    if p is None or p.shape != (7,) or not np.isfinite(p).all():
+        raise InvalidInput(
+            f"{what} must be 7 finite numbers [x, y, z (m), quat w, x, y, z] with a non-zero "
+            f"quaternion, got {pose!r:.80}"
+        )
+    low, high = (np.asarray(b, dtype=np.float64) for b in (workspace or DEFAULT_WORKSPACE))
+    if not ((p[:3] >= low) & (p[:3] <= high)).all():
+        raise InvalidInput(
+            f"{what}: position {np.round(p[:3], 4).tolist()} is outside the task's workspace "
+            f"{_box(low, high)} (workspace_low .. workspace_high)"
+        )
+    scale = float(np.abs(p[3:]).max())  # scaled first: no overflow (1e308 components)
+    unit = p[3:] / scale if scale > 0 else p[3:]
+    if scale * float(np.linalg.norm(unit)) < MIN_QUAT_NORM:
+        raise InvalidInput(
+            f"{what} needs a non-zero quaternion (norm at least {MIN_QUAT_NORM:g}), got "
+            f"{p[3:].tolist()}; no rotation is [1, 0, 0, 0]"
+        )
+    p[3:] = unit / np.linalg.norm(unit)
+    return p
+
+
+def reset_options(
+    options: Any, objects: Mapping[str, Any], workspace: tuple[Any, Any] | None = None
+) -> dict[str, np.ndarray] | None:
     """``reset``'s ``options`` checked; returns the object poses to place (name -> float64
     (7,) [xyz m, quat wxyz]) or None.
 
@@ -98,6 +155,9 @@ def reset_options(options: Any, objects: Mapping[str, Any]) -> dict[str, np.ndar
         options: None, or a dict whose keys are among ``RESET_OPTIONS`` (and
             ``WRAPPER_OPTIONS``, ignored).
         objects: the scene's objects by name (the names ``object_poses`` may use).
+        workspace: (low, high), (3,) each (m, world): the box every object's position must
+            lie in (the task's ``workspace_low`` / ``workspace_high``); None:
+            ``DEFAULT_WORKSPACE``.
     """
     if options is None:
         return None
@@ -126,16 +186,5 @@ def reset_options(options: Any, objects: Mapping[str, Any]) -> dict[str, np.ndar
         if name not in objects:
             err = unknown_name_error("object of reset option object_poses", str(name), objects)
             raise InvalidInput(str(err))
-        p = None
-        if not isinstance(pose, (str, bytes)):
-            try:
-                p = np.asarray(pose, dtype=np.float64)
-            except (TypeError, ValueError):
-                p = None
-        if p is None or p.shape != (7,) or not np.isfinite(p).all() or not p[3:].any():
-            raise InvalidInput(
-                f"reset option object_poses[{name!r}] must be 7 finite numbers [x, y, z (m), "
-                f"quat w, x, y, z] with a non-zero quaternion, got {pose!r:.80}"
-            )
-        out[str(name)] = p
+        out[str(name)] = object_pose(pose, f"reset option object_poses[{name!r}]", workspace)
     return out

@@ -3,11 +3,9 @@
 It runs the single-arm model ``assets/wxai/wxai_follower.xml`` (timestep 0.002 s) with
 plain ``mujoco``. Like the real controller, a goal does not jump the arm: each
 ``set_all_positions`` starts a setpoint trajectory from the current setpoint (position,
-velocity, acceleration; continuous across commands) to the goal over ``goal_time``:
-
-- ``goal_time > 0.2 s``: quintic polynomial, zero velocity and acceleration at the goal;
-- ``0.002 s <= goal_time <= 0.2 s``: linear ramp;
-- shorter than one physics step (the control period): a step change.
+velocity, acceleration; continuous across commands) to the goal over ``goal_time``
+(``real.goal_trajectory``: quintic above 0.2 s, a linear ramp below, a step change below
+one physics step, the control period).
 
 (``trossen_arm`` documents the same rule with a 0.001 s step threshold.) The position
 actuators track that setpoint with their own gains, so the measured arm lags the
@@ -38,6 +36,7 @@ from trossen_arm_mujoco.real.driver import (
     NUM_ARM_VALUES,
     SLEEP_POSE,
 )
+from trossen_arm_mujoco.real.goal_trajectory import QUINTIC_MIN_GOAL_TIME, GoalTrajectory
 
 __all__ = [
     "ACTUATORS",
@@ -59,41 +58,6 @@ ACTUATORS: tuple[str, ...] = (*(f"joint_{i}" for i in range(6)), "gripper")
 #: Model and end-effector presets the twin accepts (it simulates the follower arm).
 SIM_MODELS: tuple[str, ...] = ("wxai_v0",)
 SIM_END_EFFECTORS: tuple[str, ...] = ("wxai_v0_follower", "wxai_v0_leader", "wxai_v0_base")
-
-#: Above this goal time the setpoint follows a quintic, below a linear ramp (s).
-QUINTIC_MIN_GOAL_TIME: float = 0.2
-
-
-class _Segment:
-    """Setpoint trajectory from ``(p0, v0, a0)`` to ``(goal, 0, 0)`` over ``duration`` s."""
-
-    def __init__(
-        self, p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, goal: np.ndarray, duration: float
-    ) -> None:
-        self.goal, self.duration = goal, duration
-        self.linear = duration <= QUINTIC_MIN_GOAL_TIME
-        self.p0 = p0
-        if self.linear:
-            self.rate = (goal - p0) / duration if duration > 0 else np.zeros_like(goal)
-            return
-        d, h = duration, goal - p0
-        c3 = (20 * h - 12 * v0 * d - 3 * a0 * d**2) / (2 * d**3)
-        c4 = (-30 * h + 16 * v0 * d + 3 * a0 * d**2) / (2 * d**4)
-        c5 = (12 * h - 6 * v0 * d - a0 * d**2) / (2 * d**5)
-        self.coef = np.stack([p0, v0, a0 / 2, c3, c4, c5])  # (6, 7)
-
-    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Setpoint position, velocity, acceleration at ``t`` s into the segment."""
-        zero = np.zeros_like(self.goal)
-        if t >= self.duration:
-            return self.goal, zero, zero
-        if self.linear:
-            return self.p0 + self.rate * t, self.rate, zero
-        c = self.coef
-        pos = c[0] + t * (c[1] + t * (c[2] + t * (c[3] + t * (c[4] + t * c[5]))))
-        vel = c[1] + t * (2 * c[2] + t * (3 * c[3] + t * (4 * c[4] + t * 5 * c[5])))
-        acc = 2 * c[2] + t * (6 * c[3] + t * (12 * c[4] + t * 20 * c[5]))
-        return pos, vel, acc
 
 
 class SimArmDriver:
@@ -132,7 +96,7 @@ class SimArmDriver:
         self.data.qpos[self._twin_qadr] = start[-1]
         self.data.ctrl[self._act] = np.clip(start, self._ctrl_lo, self._ctrl_hi)
         mujoco.mj_forward(m, self.data)
-        self._segment: _Segment | None = None
+        self._segment: GoalTrajectory | None = None
         self._seg_time = 0.0
         self._pending = 0.0
         self.configured = False
@@ -201,7 +165,7 @@ class SimArmDriver:
         goal = np.clip(goal, self._ctrl_lo, self._ctrl_hi)
         duration = float(goal_time) if goal_time >= self.timestep else 0.0
         p0, v0, a0 = self.setpoint()
-        self._segment = _Segment(p0, v0, a0, goal, duration)
+        self._segment = GoalTrajectory(p0, v0, a0, goal, duration)
         self._seg_time = 0.0
         if blocking:
             self.clock.sleep(float(goal_time))

@@ -23,7 +23,14 @@ kit's ZeroMQ camera stream, the kit scoring; ``eval_info.json`` gains a ``timing
 
 from __future__ import annotations
 
-__all__ = ["MAX_EPISODES", "build_parser", "cli", "main"]
+__all__ = [
+    "MAX_EPISODES",
+    "build_parser",
+    "cli",
+    "controller_line",
+    "deployment",
+    "main",
+]
 
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
@@ -52,6 +59,7 @@ from trossen_arm_mujoco.errors import (
 )
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 from trossen_arm_mujoco.scripts.common_options import (
+    DEFAULT_TASK,
     add_cameras,
     add_crop,
     add_engine,
@@ -60,7 +68,6 @@ from trossen_arm_mujoco.scripts.common_options import (
     add_num_episodes,
     add_overwrite,
     add_seed,
-    add_task_name,
 )
 
 #: Largest number of episodes one run takes.
@@ -77,7 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--policy", required=True,
                    help="'scripted', module:function, or a LeRobot checkpoint folder "
                    "(.../checkpoints/last/pretrained_model)")  # fmt: skip
-    add_task_name(p, "registered kit task")
+    p.add_argument("--task_name", default=None,
+                   help="registered kit task (default: the checkpoint's dataset's, else "
+                   f"{DEFAULT_TASK})")  # fmt: skip
     add_num_episodes(p, "episodes", 10)
     p.add_argument("--num_workers", type=int, default=1,
                    help="worker processes (default 1; at most the CPU count)")  # fmt: skip
@@ -119,6 +128,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --backend wire: shorten each goal so that no joint is asked for "
                    "more than F (0-1] of the real speed limits (default: send the policy's "
                    "actions as they are; a jump faults the arm, as on the real kit)")  # fmt: skip
+    p.add_argument("--controller_checks", default="on", choices=("on", "off", "both"),
+                   help="on (default): every action goes to the arms as the real kit takes "
+                   "it (the driver's trajectory toward the goal over 3/fps s) and the arm "
+                   "controller's checks (joint range, speed limit, finite) apply: a fault ends "
+                   "the episode as failed, counted by joint and reason; off: the same motion, "
+                   "nothing refused (the unconstrained score); both: on, then off, the two "
+                   "scores side by side (twice the time). --backend wire: always on, the "
+                   "served kit is the controller")  # fmt: skip
     add_overwrite(p, "replace an eval_info.json already in --output_dir")
     return p
 
@@ -131,7 +148,6 @@ def _settings(args: argparse.Namespace):
     from trossen_arm_mujoco.sim.camera_crop import parse_crops
     from trossen_arm_mujoco.tasks import registry
 
-    task = registry.canonical(args.task_name)
     if not 1 <= args.num_episodes <= MAX_EPISODES:
         raise UserError(f"--num_episodes must be in [1, {MAX_EPISODES}], got {args.num_episodes}")
     if not 0 <= args.seed <= 2**63 - 1 - args.num_episodes:
@@ -145,17 +161,28 @@ def _settings(args: argparse.Namespace):
     if workers > cpus:
         note(f"--num_workers {args.num_workers} > {cpus} CPUs; using {cpus}")
         workers = cpus
+    flags = {
+        "task": registry.canonical(args.task_name) if args.task_name else None,
+        "fps": args.fps,
+        "layout": args.layout,
+        "cam_names": parse_cameras(args.cam_names) if args.cam_names is not None else None,
+        "image_size": parse_image_size(args.image_size) if args.image_size else None,
+        "crops": tuple(c.text() for c in parse_crops(args.crop)) if args.crop else None,
+    }
     inferred: dict = {}
     if args.policy not in ("scripted",) and not is_function_spec(args.policy):
-        from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_features
+        from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_dir, checkpoint_features
+        from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings, reconcile
 
         inferred = checkpoint_features(args.policy)
-    cams = parse_cameras(args.cam_names) if args.cam_names is not None else (
+        carried, source = checkpoint_settings(checkpoint_dir(args.policy))
+        flags = reconcile(carried, source, flags)
+        inferred["settings_source"] = source if carried is not None else None
+    task = flags["task"] or DEFAULT_TASK
+    cams = flags["cam_names"] if flags["cam_names"] is not None else (
         inferred.get("cam_names", ())
     )  # fmt: skip
-    size = parse_image_size(args.image_size) if args.image_size else (
-        inferred.get("image_size", (480, 640))
-    )  # fmt: skip
+    size = flags["image_size"] or inferred.get("image_size", (480, 640))
     if args.videos and not _has_av():
         raise UserError("--videos needs PyAV: pip install 'trossen-arm-mujoco[video]'")
     out = Path(args.output_dir).expanduser()
@@ -172,13 +199,18 @@ def _settings(args: argparse.Namespace):
         seed=args.seed,
         cam_names=tuple(cams),
         image_size=tuple(size),
-        fps=args.fps,
+        fps=flags["fps"],
         episode_length=args.episode_length,
-        layout=args.layout or inferred.get("layout", "kit14"),
+        layout=flags["layout"] or inferred.get("layout", "kit14"),
         videos=args.videos,
         output_dir=str(out),
         device=args.device,
-        crops=tuple(c.text() for c in parse_crops(args.crop)),
+        crops=tuple(flags["crops"] or ()),
+        controller_checks=args.controller_checks != "off",
+        extra={
+            "settings_source": inferred.get("settings_source"),
+            "sim_only": inferred.get("sim_only", False),
+        },  # fmt: skip
     )
     return settings, workers
 
@@ -194,8 +226,11 @@ def _kit_link(args: argparse.Namespace, workers: int):
             if getattr(args, flag) != getattr(defaults, flag):
                 raise UserError(f"--{flag} needs --backend wire")
         return None
-    if args.crop:
-        raise UserError("--crop is for --backend sim (the served kit streams whole frames)")
+    if args.controller_checks != "on":
+        raise UserError(
+            f"--controller_checks {args.controller_checks} is for --backend sim: "
+            "through the wire the served kit is the controller and always checks"
+        )
     if workers > 1 or args.engine != "local" or args.videos:
         raise UserError("--backend wire runs one episode at a time on one kit: leave out "
                         "--num_workers, --engine and --videos")  # fmt: skip
@@ -284,6 +319,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     finally:
         bar.close()
+    if args.controller_checks == "both":
+        info["unconstrained"] = _unconstrained(settings, workers, args.engine)
+    info["deployment"] = deployment(settings, args.backend)
     path = write_eval_info(Path(settings.output_dir) / "eval_info.json", info)
     report = rollouts_report(settings.task, scores, env.fps)
     rollouts = write_rollouts(Path(settings.output_dir) / ROLLOUTS_FILE, report)
@@ -295,10 +333,92 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"(95% CI {lo:.1f}-{hi:.1f}); stages: {stages or 'none'}; avg max reward "
         f"{agg['avg_max_reward']:.2f}; {agg['eval_s']:.1f} s"
     )
+    print(controller_line(info["controller"]))
+    if info["deployment"]["sim_only"]:
+        print(f"sim-only: {info['deployment']['why']}")
+    if "unconstrained" in info:
+        free = info["unconstrained"]["aggregated"]
+        flo, fhi = free["pc_success_ci95"]
+        print(f"without the controller's checks: {free['pc_success']:.1f}% (95% CI "
+              f"{flo:.1f}-{fhi:.1f}) on the same seeds")  # fmt: skip
     print(f"wrote {path}" + (f" and {len(info['video_paths'])} video(s)" if info["video_paths"]
                              else ""))  # fmt: skip
     print(f"{failure_line(report)}; wrote {rollouts}")
     return 0
+
+
+def deployment(settings, backend: str) -> dict:
+    """The ``deployment`` block of ``eval_info.json``: whether the policy can run on a real
+    kit (``sim_only``: it observes what only the simulation has; None: cannot tell) and
+    why; where its
+    settings came from (``settings_source``). Through the wire, a sim-only policy's run is
+    not a deployment rehearsal, and the block says so."""
+    from trossen_arm_mujoco.eval.policies import is_function_spec
+
+    if settings.policy == "scripted":
+        sim_only, why = (
+            True,
+            ("the scripted policy plans from the objects' exact poses, which no real kit gives"),
+        )
+    elif is_function_spec(settings.policy):
+        sim_only, why = (
+            False,
+            (
+                "a module:function policy: this tool cannot tell whether it reads "
+                "environment_state (the objects' exact poses); it deploys only if it does not"
+            ),
+        )
+    elif settings.extra.get("sim_only"):
+        sim_only, why = (
+            True,
+            (
+                "the checkpoint observes observation.environment_state (the objects' exact "
+                "poses), which no real kit gives: it cannot run on hardware; train on joints and "
+                "cameras (train_eval --no_env_state) for a policy that deploys"
+            ),
+        )
+    else:
+        sim_only, why = False, "the checkpoint observes only what the real kit gives"
+    if sim_only and backend == "wire":
+        why += "; so this run through the wire is not a deployment rehearsal"
+    return {"sim_only": sim_only, "why": why,
+            "settings_source": settings.extra.get("settings_source")}  # fmt: skip
+
+
+def _unconstrained(settings, workers: int, engine: str) -> dict:
+    """The same evaluation with the controller's checks off: its aggregated and controller
+    blocks (``--controller_checks both``)."""
+    import dataclasses
+
+    from trossen_arm_mujoco.eval.runner import evaluate
+
+    free_settings = dataclasses.replace(settings, controller_checks=False, videos=0)
+    bar = tqdm(total=settings.num_episodes, desc="eval, checks off", unit="episode",
+               file=sys.stderr)  # fmt: skip
+    try:
+        free = evaluate(free_settings, workers, engine, on_episode=lambda _: bar.update(1))
+    finally:
+        bar.close()
+    return {"aggregated": free["aggregated"], "controller": free["controller"]}
+
+
+def controller_line(block: dict) -> str:
+    """One line of an ``eval_info.json`` controller block: checks, faults by joint and
+    reason, the largest asked speed as a fraction of its limit."""
+    peak = block.get("peak_speed_fraction") or {}
+    top = max(peak.items(), key=lambda kv: kv[1]) if peak else None
+    fastest = f"; fastest asked: {top[0]} at {top[1]:.2f} of its limit" if top else ""
+    if not block.get("checks", True):
+        return f"arm controller checks: off (nothing refused){fastest}"
+    n = block.get("faulted_episodes", 0)
+    if not n:
+        return f"arm controller checks: on, 0 faults{fastest}"
+    joints = ", ".join(f"{k} {v}" for k, v in block["faults_by_joint"].items())
+    reasons = ", ".join(f"{k} {v}" for k, v in block["faults_by_reason"].items())
+    return (
+        f"arm controller checks: on, {n} episode(s) faulted (by joint: {joints}; by "
+        f"reason: {reasons}){fastest}"
+    )
 
 
 def cli(argv: Sequence[str] | None = None) -> int:

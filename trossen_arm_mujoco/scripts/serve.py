@@ -16,9 +16,11 @@ client session (the first ``configure`` to the last ``cleanup``), or per ``--epi
 frames; cameras rendered at ``--fps``, the task's reward per step, one line per episode with
 its success. Ctrl-C, SIGTERM or SIGHUP stops serving: the episode under way is written and
 serve exits 0, however many more signals arrive meanwhile (they are reported, never cut the
-writing short). Every recorded step is on disk as it is recorded: an episode that a killed
-serve (SIGKILL, a crash) could not write is left in a hidden ``.serve_spool.<pid>-<id>.tmp``
-file, which the next ``serve --record`` into the folder publishes as its next episode.
+writing short); so does the end of the process ``--parent_pid`` names (``eval --backend
+wire`` starts serve with its own: a killed eval leaves no kit behind). Every recorded step
+is on disk as it is recorded: an episode that a killed serve (SIGKILL, a crash) could not
+write is left in a hidden ``.serve_spool.<pid>-<id>.tmp`` file, which the next ``serve
+--record`` into the folder publishes as its next episode.
 
 ``--cameras cam_high,... --control_port P`` rehearses a deployment (docs/rehearsal.md): the
 named cameras published over ZeroMQ in LeRobot's ZMQ camera protocol (``--camera_port``,
@@ -131,6 +133,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_rehearsal_flags(p)
     p.add_argument("--verbose", action="store_true", help="log every protocol request")
+    p.add_argument("--parent_pid", type=int, default=None, metavar="PID",
+                   help="stop serving (as on SIGTERM) once process PID is no longer serve's "
+                   "parent, e.g. killed; eval --backend wire passes its own")  # fmt: skip
     return p
 
 
@@ -168,6 +173,9 @@ def _parse_and_serve(argv: Sequence[str] | None, stops: StopSignals) -> int:
     args = build_parser().parse_args(argv)
     from trossen_arm_mujoco.twin.serving import require_sim_server
 
+    if args.parent_pid is not None and args.parent_pid < 1:
+        raise UserError(f"--parent_pid must be a process id (at least 1), got {args.parent_pid}")
+    stops.watch_parent(args.parent_pid)
     require_sim_server()
     logging.basicConfig(format="%(name)s: %(message)s")
     level = logging.INFO if args.verbose else logging.WARNING

@@ -7,7 +7,8 @@ as the camera's intrinsics (``cam_sensorsize`` and ``cam_intrinsic``: the frustu
 rectangle), so any renderer draws the rectangle straight at the image size it is asked for,
 without rendering the full frame first: an image of ``--image_size 96x128`` of a 150x200
 crop is the rectangle of the full frame, scaled by 0.64. A policy trained on cropped
-images is deployed by cropping the real camera's full frame the same way.
+images is deployed by cropping the real camera's full frame the same way (:func:`crop_frame`,
+which ``eval --backend wire`` applies to the whole frames the served kit streams).
 
 Why: in ``cam_high``'s full view the 25 mm cube of the transfer task spans about 10 of 640
 pixels, 2 pixels at 96x128; a 150x200 crop around the cube's spawn region keeps it at about 6
@@ -23,11 +24,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
+import numpy as np
+from PIL import Image
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 
-__all__ = ["FRAME", "CameraCrop", "apply_crops", "parse_crop", "parse_crops"]
+__all__ = ["FRAME", "CameraCrop", "apply_crops", "crop_frame", "parse_crop", "parse_crops"]
 
 #: (height, width) of the full frame a crop is given in, pixels (the cameras' 4:3 image).
 FRAME: tuple[int, int] = (480, 640)
@@ -115,3 +118,23 @@ def apply_crops(model: mujoco.MjModel, crops: tuple[CameraCrop, ...]) -> None:
             crop.left + crop.width / 2 - FRAME[1] / 2,
             crop.top + crop.height / 2 - FRAME[0] / 2,
         )
+
+
+def crop_frame(image: np.ndarray, crop: CameraCrop | None, size: Sequence[int]) -> np.ndarray:
+    """What a camera with ``crop`` shows at ``size`` (H, W), made from a whole frame the way
+    a deployed policy's images are: cut ``crop``'s rectangle out of ``image`` (uint8
+    ``(H0, W0, 3)``, any size of the 4:3 frame: the rectangle is scaled from 480x640 to it),
+    then average it down (or up) to ``size``. ``crop`` None: the whole frame, resized. The
+    frame already at ``size`` with no crop is returned as it is."""
+    h, w = int(size[0]), int(size[1])
+    if crop is None and image.shape[:2] == (h, w):
+        return image
+    if crop is not None:
+        sy, sx = image.shape[0] / FRAME[0], image.shape[1] / FRAME[1]
+        top, left = round(crop.top * sy), round(crop.left * sx)
+        image = image[top : top + max(1, round(crop.height * sy)),
+                      left : left + max(1, round(crop.width * sx))]  # fmt: skip
+        if image.shape[:2] == (h, w):
+            return np.ascontiguousarray(image)
+    resized = Image.fromarray(np.ascontiguousarray(image)).resize((w, h), Image.Resampling.BOX)
+    return np.asarray(resized, dtype=np.uint8)

@@ -36,6 +36,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from trossen_arm_mujoco.real.arm_controller import controller_target
 from trossen_arm_mujoco.real.gripper import GRIPPER_INDEX, GRIPPER_MAX
 from trossen_arm_mujoco.twin.commands import EFFORT, EXTERNAL_EFFORT, IDLE, POSITION, VELOCITY
 from trossen_arm_mujoco.twin.faults import (
@@ -118,9 +119,8 @@ class ArmAdapter:
             arm = self.world.arms[self.side]
             for j, (mode, (pos, vel, eff)) in enumerate(zip(modes, values)):
                 lim = self.limits[j]
-                hi = min(lim.position_max, GRIPPER_MAX) if j == GRIPPER_INDEX else lim.position_max
                 if mode == POSITION:
-                    arm.target[j] = min(max(pos, lim.position_min), hi)
+                    arm.target[j] = controller_target(pos, j, lim)
                 elif mode == VELOCITY:
                     goal = arm.target[j] + vel * dt
                     tol = lim.position_tolerance

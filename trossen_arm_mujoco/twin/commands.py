@@ -12,10 +12,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["EFFORT", "EXTERNAL_EFFORT", "IDLE", "POSITION", "VELOCITY", "ArmState"]
+# ``trossen_arm_sim.protocol.Mode`` values, defined with the controller's checks
+from trossen_arm_mujoco.real.controller_checks import (
+    EFFORT,
+    EXTERNAL_EFFORT,
+    IDLE,
+    POSITION,
+    VELOCITY,
+)
 
-#: ``trossen_arm_sim.protocol.Mode`` values (no optional import needed here).
-IDLE, POSITION, VELOCITY, EXTERNAL_EFFORT, EFFORT = 0, 1, 2, 3, 4
+__all__ = ["EFFORT", "EXTERNAL_EFFORT", "IDLE", "POSITION", "VELOCITY", "ArmState"]
 
 
 class ArmState:

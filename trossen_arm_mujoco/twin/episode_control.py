@@ -13,6 +13,13 @@ only). A client sends one JSON object per line and gets one JSON object per line
     {"cmd": "end"}                          ends the episode; replies its score
     {"cmd": "status"}                       the episode now (and the sim-only ground truth)
 
+A request line longer than ``MAX_LINE`` (64 KiB) is refused as soon as that much of it has
+arrived (the rest of it is read on to its newline and dropped, never held), one nested deeper
+than ``MAX_DEPTH`` before it is parsed; an object pose must be 7 finite numbers, its position
+in the task's workspace (``workspace_low`` .. ``workspace_high``), its quaternion non-zero
+(``gym.inputs.object_pose``). Each refusal is one ``{"ok": false, "error": "..."}`` line and
+the channel serves the next request.
+
 ``start`` puts both arms back at the task's initial pose (sim only: the world is reset,
 the clients stay connected; their next position command moves them on) and the objects at
 the episode's poses; scoring runs from the next frame. Replies of ``start``, ``end`` and
@@ -38,16 +45,26 @@ import queue
 import socket
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.gym.inputs import object_pose
 from trossen_arm_mujoco.twin.frame import Frame
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 from trossen_arm_mujoco.twin.serving import check_loopback, shut
 
-__all__ = ["EpisodeControl", "EpisodeTracker", "MAX_SEED"]
+__all__ = [
+    "MAX_DEPTH",
+    "MAX_LINE",
+    "MAX_SEED",
+    "EpisodeControl",
+    "EpisodeTracker",
+    "nesting_depth",
+    "read_request",
+    "skip_line",
+]
 
 log = logging.getLogger(__name__)
 
@@ -55,8 +72,11 @@ log = logging.getLogger(__name__)
 MAX_SEED = 2**63 - 1
 #: Seconds a request waits for the stepping thread to apply it.
 APPLY_TIMEOUT_S = 10.0
-#: Longest request line accepted (bytes).
+#: Longest request line accepted (bytes, newline included); a longer one is refused
+#: without being held whole.
 MAX_LINE = 1 << 16
+#: Deepest nesting of arrays and objects a request may have (a start request needs 3).
+MAX_DEPTH = 16
 
 
 class EpisodeTracker:
@@ -208,12 +228,16 @@ class EpisodeControl:
     def _serve(self, conn: socket.socket) -> None:
         reader = conn.makefile("rb")
         try:
-            for line in reader:
-                if len(line) > MAX_LINE:
-                    reply = {"ok": False, "error": "request line too long"}
+            while (got := read_request(reader)) is not None:
+                line, too_long = got
+                if too_long:  # refused at once; the rest of the line is then dropped
+                    reply = {"ok": False, "error": f"request line longer than {MAX_LINE} bytes: "
+                             "refused (one JSON object per line)"}  # fmt: skip
                 else:
                     reply = self.handle(line)
                 conn.sendall((json.dumps(reply) + "\n").encode())
+                if too_long:
+                    skip_line(reader)
         except OSError:
             pass
         finally:
@@ -223,9 +247,13 @@ class EpisodeControl:
     def handle(self, line: bytes | str) -> dict[str, Any]:
         """One request line -> its reply (``status`` at once; ``start`` and ``end`` applied
         by the stepping thread between two frames)."""
+        raw = line.encode() if isinstance(line, str) else line
+        if nesting_depth(raw, MAX_DEPTH) > MAX_DEPTH:
+            return {"ok": False, "error": f"request nested deeper than {MAX_DEPTH} levels: "
+                    "refused"}  # fmt: skip
         try:
-            request = json.loads(line)
-        except ValueError as exc:
+            request = json.loads(raw)
+        except (ValueError, RecursionError) as exc:
             return {"ok": False, "error": f"not a JSON line: {exc}"}
         if not isinstance(request, dict) or request.get("cmd") not in ("start", "end", "status"):
             return {"ok": False, "error": 'expected {"cmd": "start" | "end" | "status", ...}'}
@@ -264,12 +292,56 @@ def _start_args(request: dict[str, Any], world: KitWorld) -> tuple[int, int, dic
     names = list(world.object_poses())
     if not isinstance(raw, dict):
         raise UserError("start: object_poses must be {name: [x, y, z, qw, qx, qy, qz]}")
+    task = world.task
+    workspace = (task.ws_low, task.ws_high) if hasattr(task, "ws_low") else None
     poses = {}
     for name, pose in raw.items():
         if name not in names:
             raise UserError(f"start: unknown object '{name}'; objects: {', '.join(names)}")
-        p = np.asarray(pose, dtype=np.float64).reshape(-1)
-        if p.shape != (7,) or not np.isfinite(p).all():
-            raise UserError(f"start: the pose of '{name}' must be 7 finite numbers")
-        poses[name] = p
+        poses[name] = object_pose(pose, f"start: the pose of '{name}'", workspace)
     return seed, episode, poses
+
+
+def nesting_depth(line: bytes, stop: int) -> int:
+    """How deep the JSON arrays and objects of ``line`` nest (brackets inside strings not
+    counted), or ``stop`` + 1 as soon as it is deeper than ``stop``: checked before parsing,
+    so that no request can make the parser recurse past Python's limit."""
+    depth = deepest = 0
+    in_string = escaped = False
+    for byte in line:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif byte == 0x5C:  # backslash
+                escaped = True
+            elif byte == 0x22:  # closing quote
+                in_string = False
+        elif byte == 0x22:
+            in_string = True
+        elif byte in (0x5B, 0x7B):  # [ {
+            depth += 1
+            if depth > stop:
+                return stop + 1
+            deepest = max(deepest, depth)
+        elif byte in (0x5D, 0x7D):  # ] }
+            depth -= 1
+    return deepest
+
+
+def read_request(reader: BinaryIO, limit: int = MAX_LINE) -> tuple[bytes, bool] | None:
+    """The next request line of ``reader`` and whether it is too long (None at the end of
+    the stream). At most ``limit`` bytes of a line (its newline included) are read: of a
+    longer one, the first ``limit`` bytes come back with True (:func:`skip_line` drops the
+    rest)."""
+    line = reader.readline(limit)
+    if not line:
+        return None
+    # whole, or the stream's unended last line
+    return line, not (line.endswith(b"\n") or len(line) < limit)
+
+
+def skip_line(reader: BinaryIO, chunk: int = MAX_LINE) -> None:
+    """Read on to the end of the current line (its newline) or of the stream, ``chunk``
+    bytes at a time, keeping none of it."""
+    while (rest := reader.readline(chunk)) and not rest.endswith(b"\n"):
+        pass

@@ -15,10 +15,16 @@ is lost.
 for a blocking wait that only an exception can end): SIGINT, SIGTERM and SIGHUP are recorded,
 the command polls :attr:`StopSignals.requested` and runs its shutdown to the end; a repeated
 signal is reported (:meth:`StopSignals.new_repeats`) and changes nothing else.
+
+A process started by another one to serve it (``eval --backend wire`` starts ``serve``) can
+also be asked to stop once that parent is gone (:meth:`StopSignals.watch_parent`): a parent
+killed with SIGKILL sends no signal, and its child would otherwise serve on, holding its
+addresses and ports.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 import time
@@ -28,7 +34,7 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import Terminated, redeliver_if_in_finalizer
 
-__all__ = ["POLL_S", "STOP_SIGNALS", "StopSignals", "signal_name"]
+__all__ = ["PARENT_ENDED", "POLL_S", "STOP_SIGNALS", "StopSignals", "signal_name"]
 
 #: Signals that request a stop: Ctrl-C, ``kill``, a closed terminal.
 STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
@@ -36,6 +42,8 @@ STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
 )
 #: How often :meth:`StopSignals.wait` looks for a request (s).
 POLL_S: float = 0.05
+#: :attr:`StopSignals.reason` of a stop because the watched parent process ended.
+PARENT_ENDED = "its parent process ended"
 
 
 def signal_name(signum: int) -> str:
@@ -63,6 +71,7 @@ class StopSignals:
         self._previous: dict[int, Any] = {}
         self._raising = False
         self._reported = 1  # signals already reported (the first one is the request)
+        self._parent: int | None = None
 
     def install(self) -> StopSignals:
         """Handle the stop signals (main thread only; elsewhere a no-op). Again after
@@ -106,20 +115,34 @@ class StopSignals:
             raise KeyboardInterrupt if signum == signal.SIGINT else Terminated(signum)
         self.received.append(signum)
 
+    def watch_parent(self, pid: int | None) -> StopSignals:
+        """Also count as a stop request that process ``pid`` is no longer this process's
+        parent (it ended: the process was handed to another one); None: no watch."""
+        self._parent = None if pid is None else int(pid)
+        return self
+
+    @property
+    def parent_ended(self) -> bool:
+        """Whether the watched parent process (:meth:`watch_parent`) is gone."""
+        return self._parent is not None and os.getppid() != self._parent
+
     @property
     def requested(self) -> bool:
-        """Whether a stop signal arrived."""
-        return bool(self.received)
+        """Whether a stop signal arrived (or the watched parent process ended)."""
+        return bool(self.received) or self.parent_ended
 
     @property
     def reason(self) -> str:
-        """The first signal's name (``SIGINT``, ``SIGTERM``...); empty before one."""
-        return signal_name(self.received[0]) if self.received else ""
+        """The first signal's name (``SIGINT``, ``SIGTERM``...), else :data:`PARENT_ENDED`
+        once the watched parent is gone; empty before either."""
+        if self.received:
+            return signal_name(self.received[0])
+        return PARENT_ENDED if self.parent_ended else ""
 
     def wait(self, seconds: float | None = None) -> bool:
         """Sleep until a stop is requested (or ``seconds`` passed); returns :attr:`requested`."""
         end = None if seconds is None else time.monotonic() + seconds
-        while not self.received:
+        while not self.requested:
             left = POLL_S if end is None else min(POLL_S, end - time.monotonic())
             if left <= 0:
                 break

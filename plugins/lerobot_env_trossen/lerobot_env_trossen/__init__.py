@@ -13,7 +13,15 @@ Options: ``--env.task`` (a Stationary AI kit task: ``sim_transfer_cube``, ``sim_
 ``--fps 30``), ``--env.episode_length`` (steps; default the task's recording length at that
 rate), ``--env.layout`` (``kit14``, the real kit's 14 values, or ``vendor16``), ``--env.crop``
 (``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, ``;`` between cameras: the rectangle of the 480x640 frame a
-dataset recorded with ``record --crop`` shows; default none).
+dataset recorded with ``record --crop`` shows; default none), ``--env.controller_checks``
+(default true: every action reaches the arms as on the real kit, the driver's trajectory over
+3/fps s, and the arm controller's checks apply: a fault ends the episode as failed; false:
+the unconstrained score).
+
+With ``--policy.path`` a local checkpoint, every option above but ``episode_length`` and
+``controller_checks`` defaults to what the checkpoint was trained with (the settings its
+dataset carries, ``trossen_arm_mujoco.export.dataset_settings``); an option that contradicts
+them is refused, one that repeats them is accepted.
 
 Observations and actions carry exactly the feature names and shapes ``trossen-mujoco export``
 writes (``observation.state``, ``observation.velocity``, ``observation.environment_state``,
@@ -32,6 +40,7 @@ import gymnasium as gym
 from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import (
     KitPolicyEnv,
     bimanual_tasks,
@@ -60,10 +69,12 @@ class TrossenEnvConfig(EnvConfig):
     image_size: str = "480x640"
     layout: str = "kit14"
     crop: str = ""
+    controller_checks: bool = True
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        self._adopt_checkpoint_settings()
         name = registry.canonical(self.task or "")
         if name not in bimanual_tasks():
             raise ValueError(
@@ -78,6 +89,48 @@ class TrossenEnvConfig(EnvConfig):
         for env_key, (key, kind, shape) in feature_spec(name, cams, size, self.layout).items():
             self.features[env_key] = PolicyFeature(type=FeatureType[kind], shape=tuple(shape))
             self.features_map[env_key] = key
+
+    def _adopt_checkpoint_settings(self) -> None:
+        """Take the task, rate, layout, cameras, image size and crops from the evaluated
+        checkpoint (``--policy.path``; ``trossen_arm_mujoco.export.dataset_settings``): a
+        ``--env.*`` flag not given takes the checkpoint's value, one that contradicts it is
+        refused, one that repeats it is accepted."""
+        from lerobot.configs import parser
+
+        path = parser.get_path_arg("policy")
+        if not path:
+            return
+        from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_dir
+        from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings, reconcile
+
+        try:
+            folder = checkpoint_dir(path)
+        except UserError:
+            return  # not a local checkpoint (a hub id): LeRobot reports on it
+        carried, source = checkpoint_settings(folder)
+        if carried is None:
+            return
+
+        def given(flag: str):
+            return parser.parse_arg(f"env.{flag}") is not None
+
+        flags = {
+            "task": registry.canonical(self.task) if given("task") else None,
+            "fps": self.fps if given("fps") else None,
+            "layout": self.layout if given("layout") else None,
+            "cam_names": parse_cameras(self.cam_names) if given("cam_names") else None,
+            "image_size": parse_image_size(self.image_size) if given("image_size") else None,
+            "crops": tuple(c.text() for c in parse_crops(self.crop)) if given("crop") else None,
+        }
+        merged = reconcile(carried, source, flags)
+        self.task = merged["task"] or self.task
+        self.fps = int(merged["fps"] or self.fps)
+        self.layout = merged["layout"] or self.layout
+        if merged["cam_names"] is not None:
+            self.cam_names = ",".join(merged["cam_names"]) or "none"
+        if merged["image_size"]:
+            self.image_size = "x".join(str(v) for v in merged["image_size"])
+        self.crop = ";".join(merged["crops"] or ())
 
     @property
     def package_name(self) -> str:
@@ -94,6 +147,7 @@ class TrossenEnvConfig(EnvConfig):
             "layout": self.layout,
             "render_mode": "rgb_array",
             "crops": tuple(c.text() for c in parse_crops(self.crop)),
+            "controller_checks": bool(self.controller_checks),
         }
 
     def create_envs(

@@ -1,0 +1,206 @@
+"""What a dataset was made with, carried by the dataset and by every checkpoint trained on it.
+
+``trossen-mujoco export`` writes :class:`DatasetSettings` into the dataset's
+``meta/info.json`` under the key :data:`INFO_KEY`: the task, the rate (``fps``), the joint
+layout, the cameras, their image size and crops (``record --crop``). LeRobot keeps unknown
+keys of ``info.json``, so the dataset carries them wherever it goes.
+
+A checkpoint finds them (:func:`checkpoint_settings`) in its own folder first
+(:data:`CHECKPOINT_FILE`, written by :func:`write_checkpoint_settings`, e.g. by
+``benchmarks/train_eval.py`` once training ends, so the checkpoint stays self-contained when
+it is copied to another machine), else through the ``train_config.json`` ``lerobot-train``
+saves beside the weights: its ``dataset.root``'s ``meta/info.json``.
+
+Readers (``eval`` on both backends, the LeRobot env plugin, ``train_eval``) take their
+defaults from them; :func:`reconcile` refuses, in one line, a flag that contradicts them and
+accepts one that repeats them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.fileio import atomic_path
+from trossen_arm_mujoco.sim.camera_crop import CameraCrop, parse_crops
+
+__all__ = [
+    "CHECKPOINT_FILE",
+    "INFO_KEY",
+    "DatasetSettings",
+    "checkpoint_settings",
+    "read_dataset_settings",
+    "reconcile",
+    "write_checkpoint_settings",
+]
+
+#: Key of the settings in a dataset's ``meta/info.json``.
+INFO_KEY = "trossen_arm_mujoco"
+#: The settings file in a checkpoint folder (beside ``config.json``).
+CHECKPOINT_FILE = "trossen_settings.json"
+
+
+@dataclass(frozen=True)
+class DatasetSettings:
+    """What the episodes of a dataset were recorded and exported with.
+
+    Attributes:
+        fps: frames per second of the dataset (the policy's rate).
+        layout: joint layout of state and action (``kit14`` or ``vendor16``).
+        cam_names: cameras, in recording order (empty: state only).
+        image_size: (H, W) of every camera's images; None without cameras.
+        crops: the rectangle of its 480x640 frame each cropped camera shows.
+        task: the registered task the episodes are of (None: not one of ours).
+    """
+
+    fps: int
+    layout: str
+    cam_names: tuple[str, ...] = ()
+    image_size: tuple[int, int] | None = None
+    crops: tuple[CameraCrop, ...] = field(default=())
+    task: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready form (crops as their ``--crop`` texts)."""
+        return {
+            "fps": int(self.fps),
+            "layout": self.layout,
+            "cam_names": list(self.cam_names),
+            "image_size": list(self.image_size) if self.image_size else None,
+            "crops": [c.text() for c in self.crops],
+            "task": self.task,
+        }
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any], where: str) -> DatasetSettings:
+        """Parse :meth:`to_json`'s form; a one-line UserError naming ``where`` if it is not."""
+        try:
+            size = data.get("image_size")
+            settings = cls(
+                fps=int(data["fps"]),
+                layout=str(data["layout"]),
+                cam_names=tuple(str(c) for c in data.get("cam_names") or ()),
+                image_size=(int(size[0]), int(size[1])) if size else None,
+                crops=parse_crops(list(data.get("crops") or ())),
+                task=str(data["task"]) if data.get("task") else None,
+            )
+        except (KeyError, TypeError, ValueError, IndexError, UserError) as exc:
+            raise UserError(f"{where}: unreadable dataset settings ({exc}); export the "
+                            "dataset again with trossen-mujoco export") from None  # fmt: skip
+        if settings.fps <= 0:
+            raise UserError(f"{where}: dataset settings with fps {settings.fps}")
+        return settings
+
+    def crop_texts(self) -> tuple[str, ...]:
+        """The ``--crop`` texts of the crops."""
+        return tuple(c.text() for c in self.crops)
+
+
+def read_dataset_settings(root: str | Path) -> DatasetSettings | None:
+    """The settings a dataset folder's ``meta/info.json`` carries; None when it has none
+    (a dataset exported before they were written, or not by this package)."""
+    path = Path(root).expanduser() / "meta" / "info.json"
+    try:
+        info = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{path}: cannot read it ({exc})") from None
+    data = info.get(INFO_KEY) if isinstance(info, dict) else None
+    return DatasetSettings.from_json(data, str(path)) if isinstance(data, dict) else None
+
+
+def write_checkpoint_settings(folder: str | Path, settings: DatasetSettings) -> Path:
+    """Write ``settings`` into a checkpoint folder (atomically) as :data:`CHECKPOINT_FILE`."""
+    path = Path(folder) / CHECKPOINT_FILE
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(settings.to_json(), indent=2) + "\n", encoding="utf-8")
+    return path
+
+
+def checkpoint_settings(folder: str | Path) -> tuple[DatasetSettings | None, str]:
+    """The settings of the checkpoint in ``folder`` (the one holding ``config.json``) and
+    where they came from: its :data:`CHECKPOINT_FILE`, else its ``train_config.json``'s
+    dataset; ``(None, why)`` when neither says."""
+    folder = Path(folder)
+    own = folder / CHECKPOINT_FILE
+    if own.is_file():
+        try:
+            data = json.loads(own.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise UserError(f"{own}: cannot read it ({exc})") from None
+        if not isinstance(data, dict):
+            raise UserError(f"{own}: not a settings object; delete it or train again")
+        return DatasetSettings.from_json(data, str(own)), str(own)
+    train = folder / "train_config.json"
+    try:
+        config = json.loads(train.read_text(encoding="utf-8"))
+        root = (config.get("dataset") or {}).get("root")
+    except (OSError, ValueError, AttributeError):
+        return None, f"no {CHECKPOINT_FILE} and no readable train_config.json in {folder}"
+    if not root:
+        return None, f"{train} names no dataset root"
+    settings = read_dataset_settings(root)
+    if settings is None:
+        return None, f"its dataset {root} carries no settings (missing, or exported before them)"
+    return settings, f"{Path(root).expanduser() / 'meta' / 'info.json'}"
+
+
+def reconcile(
+    settings: DatasetSettings | None, source: str, flags: Mapping[str, Any]
+) -> dict[str, Any]:
+    """Check command-line ``flags`` (name -> value given, None when not given) against
+    ``settings``: a flag that contradicts them is a one-line UserError naming the flag, the
+    value the checkpoint was trained with and ``source``; returns the settings' value for
+    every flag (the flag's own where there are no settings).
+
+    Flag names: ``fps``, ``layout``, ``cam_names`` (tuple), ``image_size`` ((H, W)),
+    ``crops`` (tuple of ``--crop`` texts), ``task``.
+    """
+    if settings is None:
+        return dict(flags)
+    known = {
+        "fps": settings.fps,
+        "layout": settings.layout,
+        "cam_names": settings.cam_names,
+        "image_size": settings.image_size,
+        "crops": settings.crop_texts(),
+        "task": settings.task,
+    }
+    out: dict[str, Any] = {}
+    for name, given in flags.items():
+        want = known.get(name)
+        if given is None or want is None:
+            out[name] = want if given is None else given
+            continue
+        same = (
+            math.isclose(float(given), float(want))
+            if name == "fps"
+            else tuple(given) == tuple(want)
+            if isinstance(want, tuple)
+            else given == want
+        )
+        if not same:
+            raise UserError(
+                f"--{_FLAG.get(name, name)} {_show(name, given)} contradicts the checkpoint, "
+                f"trained with {_show(name, want)} ({source}); leave the flag out or give the "
+                "same value"
+            )
+        out[name] = want
+    return out
+
+
+_FLAG = {"crops": "crop", "task": "task_name"}
+
+
+def _show(name: str, value: Any) -> str:
+    if name == "image_size":
+        return "x".join(str(v) for v in value)
+    if isinstance(value, tuple):
+        return (";" if name == "crops" else ",").join(map(str, value)) if value else "none"
+    return f"{value:g}" if isinstance(value, float) else str(value)

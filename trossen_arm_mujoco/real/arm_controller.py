@@ -1,0 +1,135 @@
+"""The kit's two arm controllers as a policy meets them: each action is a goal the driver's
+trajectory moves toward, and every setpoint of that trajectory passes the controller's
+checks.
+
+On the real kit (and on the served kit, ``twin/``) a policy's action reaches an arm as
+``set_all_positions(goal, goal_time=GOAL_TIME_FACTOR / fps)`` (Trossen's LeRobot plugin):
+the driver streams the setpoints of :class:`~.goal_trajectory.GoalTrajectory` from the
+current setpoint toward the goal, each with its feedforward velocity, and the controller
+enters its error state on the first one its checks refuse
+(:class:`~.controller_checks.InputChecker`: non-finite, outside the joint range, faster
+than the joint's speed limit). :class:`KitController` is that path for in-process
+evaluation: :meth:`KitController.command` starts the trajectory of one action,
+:meth:`KitController.tick` gives the checked setpoint of each control tick and the first
+fault, and the largest speed asked of each value is kept as a fraction of its limit.
+
+Values are the real kit's 14 (``robot.layout.REAL_KIT_LAYOUT``): per arm, left then right,
+``joint_0`` .. ``joint_5`` (rad) and the gripper carriage (m). :func:`controller_target`
+is what a controller does with an accepted position command (shared with the served arm):
+clip it to the joint range, the gripper to :data:`~.gripper.GRIPPER_MAX`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+from trossen_arm_mujoco.real.controller_checks import (
+    LABELS,
+    POSITION,
+    Fault,
+    InputChecker,
+    JointLimit,
+    controller_limits,
+)
+from trossen_arm_mujoco.real.goal_trajectory import GOAL_TIME_FACTOR, GoalTrajectory
+from trossen_arm_mujoco.real.gripper import GRIPPER_INDEX, GRIPPER_MAX
+
+__all__ = ["GOAL_TIME_FACTOR", "SIDES", "VALUE_LABELS", "KitController", "controller_target"]
+
+#: The arms, in the order of the 14 values.
+SIDES: tuple[str, ...] = ("left", "right")
+#: Label of each of the 14 values (``left_joint_0`` .. ``right_gripper``), for faults and
+#: speed reports.
+VALUE_LABELS: tuple[str, ...] = tuple(f"{s}_{label}" for s in SIDES for label in LABELS)
+
+
+def controller_target(position: float, j: int, limit: JointLimit) -> float:
+    """What an arm controller aims joint ``j`` at for an accepted position command: the
+    command clipped to the joint range (the gripper also to ``GRIPPER_MAX``, as the real
+    controller clips it)."""
+    hi = min(limit.position_max, GRIPPER_MAX) if j == GRIPPER_INDEX else limit.position_max
+    return min(max(position, limit.position_min), hi)
+
+
+class KitController:
+    """Both arm controllers of the kit with the driver's trajectory (see the module doc).
+
+    Args:
+        limits: the 7 joint limits of each arm (default ``controller_limits()``).
+        checks: apply the controller's checks (False: the same trajectory, nothing
+            refused: the unconstrained score).
+
+    Attributes:
+        fault: the first fault since :meth:`reset` (None while every setpoint passed);
+            its ``joint`` is a :data:`VALUE_LABELS` entry.
+        fault_tick: how many ticks after :meth:`reset` it came (None when no fault).
+        peak_fraction: float64 ``(14,)`` largest speed asked of each value since
+            :meth:`reset`, as a fraction of its velocity limit (without tolerance).
+    """
+
+    def __init__(self, limits: Sequence[JointLimit] | None = None, checks: bool = True) -> None:
+        lims = list(limits) if limits is not None else controller_limits()
+        self.limits = lims
+        self.checks = bool(checks)
+        self.checker = InputChecker(lims)
+        self._vmax = np.array([lim.velocity_max for lim in lims] * 2)
+        self._modes = [POSITION] * len(lims)
+        self._trajectory = GoalTrajectory.hold(np.zeros(2 * len(lims)))
+        self._t = 0.0
+        self._ticks = 0
+        self.fault: Fault | None = None
+        self.fault_tick: int | None = None
+        self.peak_fraction = np.zeros(2 * len(lims))
+
+    def reset(self, measured: np.ndarray) -> None:
+        """A fresh episode: the setpoint holds ``measured`` (14,), no fault, no peak."""
+        self._trajectory = GoalTrajectory.hold(np.asarray(measured, dtype=np.float64))
+        self._t, self._ticks = 0.0, 0
+        self.fault, self.fault_tick = None, None
+        self.peak_fraction[:] = 0.0
+
+    def command(self, goal: np.ndarray, goal_time: float) -> None:
+        """Start moving toward ``goal`` (14,) from the current setpoint, arriving after
+        ``goal_time`` s (the driver's ``set_all_positions``)."""
+        p, v, a = self._trajectory.sample(self._t)
+        goal = np.asarray(goal, dtype=np.float64)
+        self._trajectory = GoalTrajectory(p, v, a, goal.copy(), float(goal_time))
+        self._t = 0.0
+
+    def tick(self, dt: float) -> tuple[np.ndarray, Fault | None]:
+        """Advance the trajectory ``dt`` s; the setpoint the arms aim at (14,: clipped as
+        :func:`controller_target`) and the fault this setpoint raised (None: accepted, or
+        checks off). After a fault, ``fault`` keeps the first one."""
+        self._t += dt
+        self._ticks += 1
+        pos, vel, _ = self._trajectory.sample(self._t)
+        with np.errstate(invalid="ignore"):
+            np.fmax(self.peak_fraction, np.abs(vel) / self._vmax, out=self.peak_fraction)
+        fault = self._check(pos, vel) if self.checks else None
+        if fault is not None and self.fault is None:
+            self.fault, self.fault_tick = fault, self._ticks
+        n = len(self.limits)
+        target = np.array([
+            controller_target(float(pos[i]), i % n, self.limits[i % n]) if np.isfinite(pos[i])
+            else 0.0
+            for i in range(2 * n)
+        ])  # fmt: skip
+        return target, fault
+
+    def peak_fractions(self) -> dict[str, float]:
+        """:attr:`peak_fraction` by value label (``left_joint_0`` ... ``right_gripper``)."""
+        return {k: float(v) for k, v in zip(VALUE_LABELS, self.peak_fraction)}
+
+    def _check(self, pos: np.ndarray, vel: np.ndarray) -> Fault | None:
+        n = len(self.limits)
+        for a, side in enumerate(SIDES):
+            values = [(float(pos[a * n + j]), float(vel[a * n + j]), 0.0) for j in range(n)]
+            fault = self.checker.check(self._modes, values)
+            if fault is not None:
+                return dataclasses.replace(
+                    fault, joint=f"{side}_{fault.joint}", reason=f"{side} arm {fault.reason}"
+                )
+        return None
