@@ -59,6 +59,25 @@ def mapping(obs):
     return {"left": obs["agent_pos"]}
 
 
+JUMPS = []
+
+
+def jump_reset():
+    JUMPS.clear()
+
+
+def jump(obs):
+    # hold still, then at step 5 ask the left joint_1 to jump by 1 rad
+    JUMPS.append(len(JUMPS))
+    q = [float(v) for v in obs["agent_pos"]]
+    if len(JUMPS) == 6:
+        q[1] += 1.0
+    return q
+
+
+jump.reset = jump_reset
+
+
 def stop_stream(obs):
     STEPS.append(len(STEPS))
     if len(STEPS) == 10:
@@ -336,3 +355,28 @@ def test_the_kit_stops_at_once_with_its_report_when_sigint_is_ignored() -> None:
             kit.wait()
     assert time.monotonic() - started < 20 and kit.returncode == 0, lines
     assert any(line.startswith("stopped (SIGTERM) after ") for line in lines), lines
+
+
+def test_a_joint_jump_faults_through_the_wire_as_in_process(tmp_path, policies, kit_here):
+    """The same controller checks: a 1 rad jump faults the served arm within one control
+    period of the step at which the in-process evaluation faults, named alike."""
+    left, right, port = kit_here
+    spec = f"{policies.__name__}:jump"
+    common = ["--policy", spec, "--num_episodes", "1", "--episode_length", "20",
+              "--cam_names", "none"]  # fmt: skip
+    wire_out, sim_out = tmp_path / "wire", tmp_path / "sim"
+    rc = eval_policy.cli(["--backend", "wire", "--connect", "--left_ip", left, "--right_ip",
+                          right, "--control_port", str(port), "--output_dir", str(wire_out),
+                          *common])  # fmt: skip
+    assert rc == 0
+    rc = eval_policy.cli([*common, "--output_dir", str(sim_out)])
+    assert rc == 0
+    wire = json.loads((wire_out / "eval_info.json").read_text())
+    sim = json.loads((sim_out / "eval_info.json").read_text())
+    wf, sf = wire["per_episode"][0]["fault"], sim["per_episode"][0]["fault"]
+    assert (wf["joint"], wf["kind"], wf["limit"]) == (sf["joint"], sf["kind"], sf["limit"]) == (
+        "left_joint_1", "speed", 3.375)
+    assert wf["asked"] == pytest.approx(sf["asked"], rel=0.01)
+    assert sf["step"] == 5 and 0 <= wf["step"] - sf["step"] <= 1
+    assert wire["controller"]["faults_by_joint"] == sim["controller"]["faults_by_joint"]
+    assert wire["controller"]["peak_speed_fraction"]["left_joint_1"] > 4.9

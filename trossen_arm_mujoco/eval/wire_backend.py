@@ -54,6 +54,8 @@ from trossen_arm_mujoco.eval.wire_link import (
     start_kit,
     stop_kit,
 )
+from trossen_arm_mujoco.real.arm_controller import KitController
+from trossen_arm_mujoco.real.controller_checks import fault_from_message
 from trossen_arm_mujoco.sim.camera_crop import FRAME, crop_frame, parse_crops
 
 __all__ = ["WireEpisodeRunner", "evaluate_wire"]
@@ -210,7 +212,10 @@ class WireEpisodeRunner:
         ):
             raise UserError(f"no image of the new scene on the camera stream within "
                             f"{FIRST_IMAGE_S:g} s (is serve --cameras running?)")  # fmt: skip
-        timing, rewards, failure = _Timing([], []), [], None
+        timing, rewards, failure, fault = _Timing([], []), [], None, None
+        # the speeds asked, as the driver's trajectory makes them (nothing refused here: the
+        # served kit is the controller)
+        shadow, last_command = KitController(checks=False), None
         clamp = SpeedClamp(self.speed_fraction) if self.speed_fraction else None
         t0 = time.monotonic()
         for k in range(self.env._max_episode_steps):
@@ -226,7 +231,7 @@ class WireEpisodeRunner:
             try:  # only the arms' own calls: their errors are the controller's faults
                 pos, vel = self.arms.read()
             except self.arms.errors as exc:
-                failure = _arm_fault(k, exc)
+                failure, fault = _arm_fault(k, exc)
                 break
             obs, stamp, failure = self._observe(status, pos, vel)
             if failure is not None:
@@ -239,16 +244,26 @@ class WireEpisodeRunner:
             goal, goal_time = self.env.to_driver(action), GOAL_TIME_FACTOR * self.period
             if clamp is not None:
                 goal = clamp(goal, self._measured, goal_time)
+            now = time.monotonic()
+            if last_command is None:
+                shadow.reset(self._measured)
+            else:
+                shadow.tick(now - last_command)
+            shadow.command(goal, goal_time)
+            shadow.tick(0.0)
+            last_command = now
             try:
                 self.arms.command(goal, goal_time)
             except self.arms.errors as exc:
-                failure = _arm_fault(k, exc)
+                failure, fault = _arm_fault(k, exc)
                 break
             timing.latency.append(time.monotonic() - start)
             timing.obs_age.append(time.time() - stamp)
         end = self.control.request("end")
         timing.shortened = None if clamp is None else clamp.shortened
-        return self._score(index, seed, end, rewards, timing, failure), None
+        score = self._score(index, seed, end, rewards, timing, failure, fault)
+        score.peak_speed_fraction = shadow.peak_fractions()
+        return score, None
 
     def _call(
         self, index: int, when: str, fn: Callable[..., Any], *args: Any, timeout: float = 0.0
@@ -269,7 +284,7 @@ class WireEpisodeRunner:
         raise PolicyCallError(f"the policy {self.settings.policy} raised {type(value).__name__} "
                               f"at episode {index} {when}: {value}") from value  # fmt: skip
 
-    def _score(self, index, seed, end, rewards, timing, failure) -> EpisodeScore:
+    def _score(self, index, seed, end, rewards, timing, failure, fault=None) -> EpisodeScore:
         task = self.env.task
         names = {str(int(level)): name for name, level in STAGES.get(task, {}).items()}
         times = {names[lv]: t for lv, t in end["stages"].items() if lv in names}
@@ -285,7 +300,7 @@ class WireEpisodeRunner:
         return EpisodeScore(
             episode_ix=index, seed=seed, sum_reward=float(sum(rewards)), max_reward=best,
             success=success, steps=len(timing.latency), stages=stages_reached(task, best),
-            analysis=analysis,
+            fault=fault, analysis=analysis,
         )  # fmt: skip
 
     def close(self) -> None:
@@ -302,9 +317,14 @@ class WireEpisodeRunner:
         self.env.close()
 
 
-def _arm_fault(step: int, exc: BaseException) -> str:
-    """The failure line of an arm controller in its error state (a driver call raised)."""
-    return f"arm controller error at step {step}: {' '.join(str(exc).split())}"
+def _arm_fault(step: int, exc: BaseException) -> tuple[str, dict[str, Any]]:
+    """The failure line of an arm controller in its error state (a driver call raised), and
+    the fault as ``eval_info.json`` counts it (joint, kind, asked, limit read back from the
+    controller's log; ``step``: the control period at which the driver reported it, one
+    after the command that caused it)."""
+    fault = fault_from_message(str(exc), getattr(exc, "side", ""))
+    fault["step"] = step
+    return f"arm controller error at step {step}: {' '.join(str(exc).split())}", fault
 
 
 def _wait_clear(event: threading.Event, timeout: float) -> bool:

@@ -18,6 +18,7 @@ driver. Every address is checked to be IPv4 loopback (127.0.0.0/8) before it is 
 from __future__ import annotations
 
 import base64
+import contextlib
 import ctypes
 import ctypes.util
 import io
@@ -29,13 +30,14 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.real.arm_controller import SIDES
 from trossen_arm_mujoco.real.preflight import check_loopback
 
 __all__ = ["ArmPair", "CameraReader", "ControlClient", "KitLink", "check_loopback", "start_kit"]
@@ -253,6 +255,19 @@ class CameraReader:
         self._ctx.term()
 
 
+@contextlib.contextmanager
+def _side_of_error(side: str, errors: tuple[type[BaseException], ...]) -> Iterator[None]:
+    """Tag an arm's error with the arm it came from (``exc.side``)."""
+    try:
+        yield
+    except errors as exc:
+        try:
+            exc.side = side  # type: ignore[attr-defined]
+        except AttributeError:  # an exception type without a __dict__
+            pass
+        raise
+
+
 class ArmPair:
     """Both arms through ``trossen_arm`` (``configure`` with the follower preset, position
     mode); :meth:`read` gives 14 values (left then right: 6 joints rad, gripper m)."""
@@ -289,16 +304,22 @@ class ArmPair:
                             ) from None  # fmt: skip
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
-        """Positions and velocities, 14 values each."""
-        pos = np.concatenate([np.asarray(d.get_all_positions()) for d in self.drivers])
-        vel = np.concatenate([np.asarray(d.get_all_velocities()) for d in self.drivers])
-        return pos, vel
+        """Positions and velocities, 14 values each. An arm's error names its side
+        (``exc.side``, ``left`` or ``right``)."""
+        pos, vel = [], []
+        for side, d in zip(SIDES, self.drivers):
+            with _side_of_error(side, self.errors):
+                pos.append(np.asarray(d.get_all_positions()))
+                vel.append(np.asarray(d.get_all_velocities()))
+        return np.concatenate(pos), np.concatenate(vel)
 
     def command(self, values14: np.ndarray, goal_time: float) -> None:
-        """Send 7 goal positions to each arm (non-blocking, reached after ``goal_time`` s)."""
-        for i, driver in enumerate(self.drivers):
+        """Send 7 goal positions to each arm (non-blocking, reached after ``goal_time`` s);
+        an arm's error names its side (``exc.side``)."""
+        for i, (side, driver) in enumerate(zip(SIDES, self.drivers)):
             goal = [float(v) for v in values14[7 * i : 7 * i + 7]]
-            driver.set_all_positions(goal, float(goal_time), False)
+            with _side_of_error(side, self.errors):
+                driver.set_all_positions(goal, float(goal_time), False)
 
     def close(self) -> None:
         """``cleanup()`` each arm's driver (errors ignored) and forget them."""

@@ -30,6 +30,7 @@ of :data:`VELOCITY_TOLERANCE_FRACTION` of each; effort limits of the URDF
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -53,6 +54,7 @@ __all__ = [
     "InputChecker",
     "JointLimit",
     "controller_limits",
+    "fault_from_message",
 ]
 
 #: ``trossen_arm.Mode`` values of a joint (``trossen_arm_sim.protocol.Mode``).
@@ -206,3 +208,43 @@ class InputChecker:
             float(speed),
             float(lim.velocity_max),
         )
+
+
+#: The reasons :class:`InputChecker` writes, as they reach a client in the controller's log.
+_REASONS = (
+    (re.compile(r"(joint_\d|gripper): (?:feedforward velocity|velocity command) ([-\d.e+]+) \S+ "
+                r"exceeds the velocity limit ([-\d.e+]+)"), "speed"),
+    (re.compile(r"(joint_\d|gripper): position command ([-\d.e+]+) \S+ is outside the joint "
+                r"limits \[([-\d.e+]+), ([-\d.e+]+)\]"), "position"),
+    (re.compile(r"(joint_\d|gripper): robot input with a non-finite value"), "non-finite"),
+    (re.compile(r"(joint_\d|gripper): effort command ([-\d.e+]+) \S+ exceeds the limit "
+                r"([-\d.e+]+)"), "effort"),
+    (re.compile(r"(joint_\d|gripper): the target runs ([-\d.e+]+) \S+ ahead of the setpoint"),
+     "lag"),
+)  # fmt: skip
+
+
+def fault_from_message(message: str, side: str = "") -> dict[str, Any]:
+    """The fields of a fault (``Fault.as_dict()`` without ``state``) read back from the
+    error message a driver raised (the controller's log carries the reason the checks
+    wrote); ``joint`` is ``<side>_<joint>`` when ``side`` is given. A message of another
+    kind gives ``kind`` ``"other"`` and the message as its reason."""
+    text = " ".join("".join(c for c in str(message) if c.isprintable() or c.isspace()).split())
+    out: dict[str, Any] = {"reason": text, "joint": "", "kind": "other", "asked": None,
+                           "limit": None}  # fmt: skip
+    for pattern, kind in _REASONS:
+        m = pattern.search(text)
+        if not m:
+            continue
+        joint = m.group(1)
+        out.update(joint=f"{side}_{joint}" if side else joint, kind=kind)
+        numbers = [float(g) for g in m.groups()[1:]]
+        if kind == "position":
+            pos, lo, hi = numbers
+            out.update(asked=pos, limit=lo if pos < lo else hi)
+        elif kind in ("speed", "effort"):
+            out.update(asked=numbers[0], limit=numbers[1])
+        elif kind == "lag":
+            out.update(asked=numbers[0])
+        break
+    return out
