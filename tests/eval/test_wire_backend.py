@@ -374,8 +374,11 @@ def test_a_joint_jump_faults_through_the_wire_as_in_process(tmp_path, policies, 
     wire = json.loads((wire_out / "eval_info.json").read_text())
     sim = json.loads((sim_out / "eval_info.json").read_text())
     wf, sf = wire["per_episode"][0]["fault"], sim["per_episode"][0]["fault"]
-    assert (wf["joint"], wf["kind"], wf["limit"]) == (sf["joint"], sf["kind"], sf["limit"]) == (
-        "left_joint_1", "speed", 3.375)
+    assert (
+        (wf["joint"], wf["kind"], wf["limit"])
+        == (sf["joint"], sf["kind"], sf["limit"])
+        == ("left_joint_1", "speed", 3.375)
+    )
     assert wf["asked"] == pytest.approx(sf["asked"], rel=0.01)
     assert sf["step"] == 5 and 0 <= wf["step"] - sf["step"] <= 1
     assert wire["controller"]["faults_by_joint"] == sim["controller"]["faults_by_joint"]
