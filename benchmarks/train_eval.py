@@ -14,7 +14,18 @@
    seed (``--train_seeds K``: seeds ``--train_seed``, ``--train_seed`` + 1, ...; same data),
    ``--train_jobs`` of them at a time (CPU unless ``--device``);
 4. ``eval``: ``trossen-mujoco eval`` of each run's last checkpoint over ``--eval_episodes``
-   evaluation seeds (a stream of its own: never a training episode).
+   evaluation seeds (a stream of its own: never a training episode), with the arm
+   controller's checks on and, beside it, off (``--controller_checks both``): each run's
+   faults and the largest speed it asked of each joint, as a fraction of its limit;
+5. ``wire`` (only when asked: ``--phase wire``): the same checkpoints and seeds through the
+   served kit (``trossen-mujoco eval --backend wire``), in wall-clock time; run it on an
+   otherwise idle machine.
+
+The checkpoints carry what they need: ACT's temporal ensembling (``--temporal_ensemble_coeff``,
+0.01 by default, one action per inference) is in their LeRobot config, and the dataset's
+settings (rate, layout, cameras, image size, crops) are written beside their weights
+(``trossen_settings.json``), so ``eval`` (both backends) and ``lerobot-eval`` take them with no
+flag.
 
 ``--phase`` runs any subset (``record,export`` here, ``train`` on a GPU machine, ``eval`` back
 here): each phase reads what the earlier ones left in ``--work_dir``. A phase whose output is
@@ -30,14 +41,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-PHASES = ("record", "export", "train", "eval")
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # its report module, run as a file
+from train_eval_report import losses, report, results  # noqa: E402
+
+PHASES = ("record", "export", "train", "eval", "wire")
+#: Phases run when ``--phase`` is not given (``wire`` needs an idle machine: asked for).
+DEFAULT_PHASES = ("record", "export", "train", "eval")
+#: ``export.dataset_settings``' ``INFO_KEY`` and ``CHECKPOINT_FILE`` (tests check they agree).
+SETTINGS_KEY, SETTINGS_FILE = "trossen_arm_mujoco", "trossen_settings.json"
 #: Thread-pool sizes a training run is given (torch reads OMP_NUM_THREADS at start).
 THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
@@ -52,16 +69,6 @@ def _cores() -> int:
 
 def _fail(message: str) -> None:
     sys.exit(f"error: {message}")
-
-
-def _wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
-    """95 % Wilson interval of a rate, in percent."""
-    if n <= 0:
-        return 0.0, 0.0
-    p, denom = successes / n, 1.0 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return 100.0 * max(0.0, centre - half), 100.0 * min(1.0, centre + half)
 
 
 class Job:
@@ -123,7 +130,7 @@ def _train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
                 seed: int) -> list[str]:  # fmt: skip
     n_action = args.n_action_steps or args.chunk_size
     extra = []
-    if args.temporal_ensemble_coeff is not None:
+    if args.temporal_ensemble_coeff:
         extra = [f"--policy.temporal_ensemble_coeff={args.temporal_ensemble_coeff}"]
         n_action = 1
     if args.video_backend:
@@ -157,56 +164,31 @@ def _train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
     ] + extra + _inputs_flag(args, dataset) + list(args.train_arg)  # fmt: skip
 
 
-def _losses(log: Path) -> list[float]:
-    """The ``loss:`` values lerobot-train logged, in order."""
-    return [
-        float(part.split(":")[1])
-        for line in log.read_text().splitlines()
-        for part in line.split()
-        if part.startswith("loss:")
-    ]
+def _carry_settings(dataset: Path, train: Path) -> None:
+    """Write the dataset's settings beside the weights of every checkpoint of one training
+    run: ``trossen_arm_mujoco.export.dataset_settings``' ``INFO_KEY`` of its info.json as
+    ``CHECKPOINT_FILE`` (plain JSON here: the train phase may run where the simulator is not
+    installed, see ``gpu_leg.py``)."""
+    info = json.loads((dataset / "meta" / "info.json").read_text())
+    settings = info.get(SETTINGS_KEY)
+    if not isinstance(settings, dict):
+        return
+    for model in sorted((train / "checkpoints").glob("*/pretrained_model")):
+        tmp = model / (SETTINGS_FILE + ".tmp")
+        tmp.write_text(json.dumps(settings, indent=2) + "\n")
+        tmp.replace(model / SETTINGS_FILE)
 
 
 def _checkpoint(train: Path) -> Path:
     return train / "checkpoints" / "last" / "pretrained_model"
 
 
-def _report(runs: dict[str, dict]) -> dict:
-    """Each run's success and interval, the mean and the worst (printed and returned)."""
-    rates, total, n = [], 0, 0
-    for seed, run in sorted(runs.items(), key=lambda kv: int(kv[0])):
-        res = run.get("result")
-        if not res:
-            continue
-        lo, hi = res["pc_success_ci95"]
-        print(f"training seed {seed}: success {res['pc_success']:.1f}% (95% CI {lo:.1f}-"
-              f"{hi:.1f}) over {res['n_episodes']} episodes; stages {res['stages']}; "
-              f"train {run.get('train', {}).get('cpu_s', float('nan')):.0f} s CPU")  # fmt: skip
-        rates.append(res["pc_success"])
-        total += round(res["pc_success"] * res["n_episodes"] / 100.0)
-        n += res["n_episodes"]
-    if not rates:
-        return {}
-    spread = {
-        "runs": len(rates),
-        "mean_pc_success": sum(rates) / len(rates),
-        "worst_pc_success": min(rates),
-        "best_pc_success": max(rates),
-        "pooled_pc_success_ci95": list(_wilson(total, n)),
-    }
-    lo, hi = spread["pooled_pc_success_ci95"]
-    print(f"over {len(rates)} training runs: mean {spread['mean_pc_success']:.1f}%, worst "
-          f"{spread['worst_pc_success']:.1f}%, best {spread['best_pc_success']:.1f}% "
-          f"(all {n} episodes pooled: 95% CI {lo:.1f}-{hi:.1f})")  # fmt: skip
-    return spread
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work_dir", default="train_eval_out")
-    p.add_argument("--phase", default=",".join(PHASES),
-                   help="comma list of phases to run, any subset of record,export,train,eval "
-                   "(default: all)")  # fmt: skip
+    p.add_argument("--phase", default=",".join(DEFAULT_PHASES),
+                   help="comma list of phases to run, any subset of record,export,train,eval,"
+                   "wire (default: record,export,train,eval)")  # fmt: skip
     p.add_argument("--task", default="sim_transfer_cube")
     p.add_argument("--episodes", type=int, default=200,
                    help="scripted episodes to record (200: the amount whose runs met the goal; "
@@ -267,8 +249,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--temporal_ensemble_coeff",
         type=float,
-        default=None,
-        help="ACT's temporal ensembling (then one action per inference)",
+        default=0.01,
+        help="ACT's temporal ensembling, in the checkpoint's config (one action per inference: "
+        "the averaged actions stay within the arms' speed limits; 0: off, --n_action_steps "
+        "actions per chunk; default 0.01)",
     )
     p.add_argument("--use_vae", default="false")
     p.add_argument(
@@ -391,9 +375,11 @@ def main(argv: list[str] | None = None) -> None:
             runs[str(seed)] = {
                 "train": {**took, "steps": args.steps, "device": args.device,
                           "jobs_at_once": at_once, "threads": threads},
-                "loss_curve": _losses(log),
+                "loss_curve": losses(log),
             }  # fmt: skip
             save()
+        for seed in seeds:  # the dataset's settings travel with each checkpoint
+            _carry_settings(dataset, work / "train" / f"seed_{seed}")
     if "eval" in phases:
         for seed in seeds:
             ckpt = _checkpoint(work / "train" / f"seed_{seed}")
@@ -405,14 +391,35 @@ def main(argv: list[str] | None = None) -> None:
                 "eval", "--policy", str(ckpt), "--task_name", args.task,
                 "--num_episodes", str(args.eval_episodes),
                 "--num_workers", str(args.eval_workers), "--seed", str(args.eval_seed),
-                "--fps", str(args.fps), "--output_dir", str(out), "--overwrite",
-            ] + (length if args.eval_episode_length else []) + crop,
+                "--output_dir", str(out), "--overwrite", "--controller_checks", "both",
+            ] + (length if args.eval_episode_length else []),
                 work / f"eval_seed_{seed}.log")], env, 1)[0]  # fmt: skip
             run = runs.setdefault(str(seed), {})
             run["eval"] = took
-            run["result"] = json.loads((out / "eval_info.json").read_text())["aggregated"]
+            run.update(results(out / "eval_info.json"))
             save()
-        summary["spread"] = _report({s: runs[s] for s in map(str, seeds) if s in runs})
+        summary["spread"] = report({s: runs[s] for s in map(str, seeds) if s in runs})
+        save()
+    if "wire" in phases:
+        for seed in seeds:
+            ckpt = _checkpoint(work / "train" / f"seed_{seed}")
+            if not ckpt.is_dir():
+                _fail(f"no checkpoint at {ckpt}: run --phase train first")
+            out = work / "wire" / f"seed_{seed}"
+            length = ["--episode_length", str(args.eval_episode_length)]
+            took = _run_jobs([(f"wire seed {seed}", cli + [
+                "eval", "--backend", "wire", "--policy", str(ckpt), "--task_name", args.task,
+                "--num_episodes", str(args.eval_episodes), "--seed", str(args.eval_seed),
+                "--output_dir", str(out), "--overwrite",
+            ] + (length if args.eval_episode_length else []),
+                work / f"wire_seed_{seed}.log")], env, 1)[0]  # fmt: skip
+            run = runs.setdefault(str(seed), {})
+            run["wire_eval"] = took
+            run["wire"] = results(out / "eval_info.json")
+            save()
+        summary["spread_wire"] = report(
+            {s: runs[s]["wire"] for s in map(str, seeds) if "wire" in runs.get(s, {})}, "wire"
+        )
         save()
     print(f"summary: {summary_path}")
 

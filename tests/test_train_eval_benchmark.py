@@ -17,6 +17,7 @@ import pytest
 pytestmark = pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever runs pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "train_eval.py"
+SETTINGS_FILE = "trossen_settings.json"
 TINY = [
     "--steps", "2", "--save_freq", "2", "--batch_size", "2", "--dim_model", "32",
     "--dim_feedforward", "64", "--n_encoder_layers", "1", "--chunk_size", "5",
@@ -77,7 +78,17 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
     assert spread["runs"] == 2
     assert spread["worst_pc_success"] == min(rates)
     assert spread["mean_pc_success"] == pytest.approx(sum(rates) / 2)
-    assert "over 2 training runs: mean" in scored.stdout
+    assert "over 2 training runs (in-process): mean" in scored.stdout
+    for run in summary["runs"].values():  # checks on, and off beside it; what it asked for
+        assert run["controller"]["checks"] is True and run["unconstrained"]["n_episodes"] == 2
+        assert set(run["controller"]["peak_speed_fraction"]) >= {"left_joint_0", "right_gripper"}
+        assert run["deployment"]["sim_only"] is True  # the default export: the cube's pose
+        assert run["deployment"]["settings_source"].endswith(SETTINGS_FILE)
+    from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings
+
+    carried, source = checkpoint_settings(work / "train" / "seed_5" / "checkpoints" / "last"
+                                          / "pretrained_model")  # fmt: skip
+    assert carried is not None and carried.fps == 50 and carried.layout == "kit14"
     assert "record" in summary and "export" in summary  # earlier phases kept in the summary
 
 
@@ -205,3 +216,17 @@ def test_gpu_leg_stand_in_for_pyav_lets_lerobot_train_import_and_refuses_to_deco
     assert "refused: PyAV is not installed here" in run.stdout
     assert "carry the av wheel" in run.stdout
     assert "version 0.0.0" in run.stdout  # LeRobot's own check sees the stand-in
+
+
+def test_the_settings_names_agree_with_the_package():
+    """train_eval writes the checkpoint settings in plain JSON (its train phase may run
+    without the simulator): its names are the package's."""
+    import importlib.util
+
+    from trossen_arm_mujoco.export import dataset_settings
+
+    spec = importlib.util.spec_from_file_location("train_eval_script", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.SETTINGS_KEY == dataset_settings.INFO_KEY
+    assert module.SETTINGS_FILE == dataset_settings.CHECKPOINT_FILE == SETTINGS_FILE

@@ -1,0 +1,84 @@
+"""What ``train_eval.py`` reports: each run's success with its 95 % Wilson interval, its
+faults and largest asked speeds, the spread over the runs, and the loss curve of a log."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+__all__ = ["losses", "report", "results", "wilson"]
+
+
+def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """95 % Wilson interval of a rate, in percent."""
+    if n <= 0:
+        return 0.0, 0.0
+    p, denom = successes / n, 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return 100.0 * max(0.0, centre - half), 100.0 * min(1.0, centre + half)
+
+
+def losses(log: Path) -> list[float]:
+    """The ``loss:`` values lerobot-train logged, in order."""
+    return [
+        float(part.split(":")[1])
+        for line in log.read_text().splitlines()
+        for part in line.split()
+        if part.startswith("loss:")
+    ]
+
+
+def results(path: Path) -> dict:
+    """What a summary keeps of one ``eval_info.json``: the score with the controller's checks
+    (``result``), without them (``unconstrained``, when run), the controller block (faults,
+    largest asked speeds) and whether the policy deploys."""
+    info = json.loads(path.read_text())
+    out = {"result": info["aggregated"], "controller": info.get("controller"),
+           "deployment": info.get("deployment")}  # fmt: skip
+    if "unconstrained" in info:
+        out["unconstrained"] = info["unconstrained"]["aggregated"]
+    if "timing" in info:
+        out["timing"] = {k: info["timing"].get(k) for k in (
+            "missed_periods", "actions", "obs_age_ms_median_of_episodes",
+            "action_latency_ms_median_of_episodes")}  # fmt: skip
+    return out
+
+
+def report(runs: dict[str, dict], label: str = "in-process") -> dict:
+    """Each run's success and interval, faults and largest asked speed, the mean and the
+    worst (printed and returned)."""
+    rates, total, n = [], 0, 0
+    for seed, run in sorted(runs.items(), key=lambda kv: int(kv[0])):
+        res = run.get("result")
+        if not res:
+            continue
+        lo, hi = res["pc_success_ci95"]
+        ctl = run.get("controller") or {}
+        peak = ctl.get("peak_speed_fraction") or {}
+        top = max(peak.items(), key=lambda kv: kv[1]) if peak else ("none", 0.0)
+        free = run.get("unconstrained")
+        freely = f"; checks off {free['pc_success']:.1f}%" if free else ""
+        print(f"training seed {seed} ({label}): success {res['pc_success']:.1f}% (95% CI "
+              f"{lo:.1f}-{hi:.1f}) over {res['n_episodes']} episodes{freely}; faults "
+              f"{ctl.get('faulted_episodes', 'n/a')}; fastest asked {top[0]} at {top[1]:.2f} "
+              f"of its limit; stages {res['stages']}; train "
+              f"{run.get('train', {}).get('cpu_s', float('nan')):.0f} s CPU")  # fmt: skip
+        rates.append(res["pc_success"])
+        total += round(res["pc_success"] * res["n_episodes"] / 100.0)
+        n += res["n_episodes"]
+    if not rates:
+        return {}
+    spread = {
+        "runs": len(rates),
+        "mean_pc_success": sum(rates) / len(rates),
+        "worst_pc_success": min(rates),
+        "best_pc_success": max(rates),
+        "pooled_pc_success_ci95": list(wilson(total, n)),
+    }
+    lo, hi = spread["pooled_pc_success_ci95"]
+    print(f"over {len(rates)} training runs ({label}): mean {spread['mean_pc_success']:.1f}%, "
+          f"worst {spread['worst_pc_success']:.1f}%, best {spread['best_pc_success']:.1f}% "
+          f"(all {n} episodes pooled: 95% CI {lo:.1f}-{hi:.1f})")  # fmt: skip
+    return spread
