@@ -20,7 +20,7 @@ def main() -> None:
     from trossen_arm_mujoco.eval.lerobot_policy import LeRobotPolicy
 
     checkpoint, seed, length = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
-    env = KitPolicyEnv("sim_transfer_cube", episode_length=length)
+    env = KitPolicyEnv("sim_transfer_cube", episode_length=length, controller_checks=False)
     policy = LeRobotPolicy(checkpoint, env)
     obs, _ = env.reset(seed=seed)
     policy.reset(env, seed)

@@ -36,6 +36,7 @@ from trossen_arm_mujoco.scripts.record_sim_episodes import cli as record_cli  # 
 ENV = "TROSSEN_LEROBOT_PYTHON"
 AGREE = Path(__file__).with_name("lerobot_agree.py")
 STEPS, SEED, EVAL_LEN = 30, 7, 25
+CROP = "cam_high:217,243,150,200"
 
 
 def _python() -> str:
@@ -74,10 +75,11 @@ def trained(tmp_path_factory) -> dict[str, Path]:
     python = _python()
     root = tmp_path_factory.mktemp("loop")
     out = {}
-    for name, cams in (("camera", "cam_high"), ("state", "none")):
+    for name, cams, crop in (("camera", "cam_high", []), ("state", "none", []),
+                             ("cropped", "cam_high", ["--crop", CROP])):  # fmt: skip
         rc = record_cli([
             "--data_dir", name, "--root_dir", str(root), "--num_episodes", "2",
-            "--episode_len", str(STEPS), "--cam_names", cams, "--image_size", "24x32",
+            "--episode_len", str(STEPS), "--cam_names", cams, "--image_size", "24x32", *crop,
         ])  # fmt: skip
         assert rc in (0, 1)  # 30 steps are too few to succeed: the episodes are kept
         dataset = root / f"ds_{name}"
@@ -120,7 +122,8 @@ def test_lerobot_eval_runs_the_plugin_and_agrees_with_ours(trained):
 
 def test_recorded_rollout_equals_our_loop(trained):
     """Same seed, same episode, same actions: lerobot-eval's recording (state-only policy)
-    holds the joint states our eval loop sees."""
+    holds the joint states our eval loop sees (the controller's checks off on both sides: the
+    3-step policy's first action is a jump the controller refuses)."""
     python, root = _python(), trained["root"]
     ckpt, out = trained["state"], root / "recorded"
     proc = _run([
@@ -128,6 +131,7 @@ def test_recorded_rollout_equals_our_loop(trained):
         "--env.type=trossen", "--env.task=sim_transfer_cube", "--env.cam_names=none",
         f"--env.episode_length={EVAL_LEN}", "--eval.n_episodes=1", "--eval.batch_size=1",
         f"--seed={SEED}", "--eval.recording=true", f"--output_dir={out}",
+        "--env.controller_checks=false",  # the untrained policy's first jump would end it
     ], root)  # fmt: skip
     assert proc.returncode == 0, proc.stderr[-3000:]
     import pyarrow.parquet as pq
@@ -174,3 +178,28 @@ def test_missing_lerobot_is_one_line(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip().startswith("error: ") and "LeRobot" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_a_cropped_checkpoint_evaluates_with_its_crop_on_both_backends(trained):
+    """Trained on a cropped dataset: eval needs no --crop (the checkpoint's dataset carries
+    it) and says which it used; through the wire the served kit streams whole 480x640 frames,
+    as real cameras do, and eval cuts the crop out of them."""
+    python, root = _python(), trained["root"]
+    ckpt = trained["cropped"]
+    common = ["--policy", str(ckpt), "--num_episodes", "1", "--episode_length", "8",
+              "--controller_checks", "off"]  # fmt: skip
+    sim = _run([python, "-m", "trossen_arm_mujoco.cli", "eval", *common, "--output_dir",
+                str(root / "crop_sim")], root)  # fmt: skip
+    assert sim.returncode == 0, sim.stderr[-3000:]
+    info = json.loads((root / "crop_sim" / "eval_info.json").read_text())
+    assert info["run"]["crops"] == [CROP] and info["run"]["image_size"] == [24, 32]
+    assert info["deployment"]["settings_source"].endswith("info.json")
+    wire = _run([python, "-m", "trossen_arm_mujoco.cli", "eval", "--backend", "wire",
+                 "--policy", str(ckpt), "--num_episodes", "1", "--episode_length", "8",
+                 "--left_ip", "127.0.0.151", "--right_ip", "127.0.0.152", "--camera_port",
+                 "47151", "--control_port", "47152", "--output_dir", str(root / "crop_wire")],
+                root, timeout=300)  # fmt: skip
+    assert wire.returncode == 0, wire.stderr[-3000:]
+    winfo = json.loads((root / "crop_wire" / "eval_info.json").read_text())
+    assert winfo["run"]["crops"] == [CROP] and winfo["aggregated"]["n_episodes"] == 1
+    assert any("cameras:" in line for line in winfo["timing"]["kit"]), winfo["timing"]
