@@ -191,3 +191,25 @@ def test_subprocess_exit_status_and_exact_stderr(tmp_path):
         "sim_transfer_cube\n"
     )
     assert not (tmp_path / "eval").exists()
+
+
+def test_a_full_disk_writes_no_half_result_and_says_so_in_one_line(tmp_path, capsys, monkeypatch):
+    """eval_info.json and rollouts.json are written both or neither: a disk that fills up
+    on the second leaves neither, and the run ends with one line (exit 2)."""
+    import errno
+
+    real_write = Path.write_text
+
+    def full(self, data, *args, **kwargs):
+        if "rollouts.json" in self.name:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real_write(self, data, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", full)
+    out_dir = tmp_path / "eval"
+    rc, _, err = _eval(["--policy", "scripted", "--num_episodes", "1", "--episode_length",
+                        "5", "--output_dir", str(out_dir)], capsys)  # fmt: skip
+    line = _one_error_line(err)
+    assert rc == 2 and "No space left on device" in line and "MB free" in line
+    assert "nothing of this run's results was written" in line
+    assert list(out_dir.iterdir()) == []  # no eval_info.json, no temporary file

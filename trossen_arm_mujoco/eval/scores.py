@@ -38,6 +38,7 @@ __all__ = [
     "wilson_interval",
     "write_eval_info",
     "write_json",
+    "write_results",
 ]
 
 #: Task -> stage name -> the reward that marks it (reached when max reward >= it).
@@ -169,6 +170,42 @@ def eval_info(
 def write_eval_info(path: Path, info: dict[str, Any]) -> Path:
     """Write ``info`` as JSON to ``path`` atomically (temp file, then rename)."""
     return write_json(path, info)
+
+
+def write_results(files: dict[Path, dict[str, Any]]) -> list[Path]:
+    """Write several JSON results all or none: each to a temporary file first, then all
+    published (renames need no space). A full disk (or any OS error while writing) removes
+    the temporary files and is one UserError naming the file and the free space; nothing is
+    half-written and no earlier result is replaced."""
+    import os
+    import shutil
+
+    from trossen_arm_mujoco.errors import UserError
+    from trossen_arm_mujoco.fileio import publish, temp_path
+
+    staged: list[tuple[Path, Path]] = []
+    try:
+        for path, info in files.items():
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = temp_path(path)
+            staged.append((tmp, path))
+            tmp.write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
+        for tmp, path in staged:
+            publish(tmp, path, overwrite=True)
+    except OSError as exc:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        where = staged[-1][1] if staged else next(iter(files))
+        try:
+            free = f"; {shutil.disk_usage(Path(where).parent).free / 1e6:.1f} MB free"
+        except OSError:
+            free = ""
+        why = os.strerror(exc.errno) if exc.errno else str(exc)
+        raise UserError(f"cannot write {where} ({why}{free}); nothing of this run's results "
+                        "was written: free some space or choose another --output_dir, then "
+                        "run it again") from None  # fmt: skip
+    return [path for _, path in staged]
 
 
 def write_json(path: Path, info: dict[str, Any]) -> Path:

@@ -261,10 +261,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         ROLLOUTS_FILE,
         failure_line,
         rollouts_report,
-        write_rollouts,
     )
     from trossen_arm_mujoco.eval.runner import VIDEO_DIR, PolicyCallError, evaluate
-    from trossen_arm_mujoco.eval.scores import write_eval_info
+    from trossen_arm_mujoco.eval.scores import write_results
 
     settings, workers = _settings(args)
     link = _kit_link(args, workers)  # --backend wire's addresses, checked before any episode
@@ -322,9 +321,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.controller_checks == "both":
         info["unconstrained"] = _unconstrained(settings, workers, args.engine)
     info["deployment"] = deployment(settings, args.backend)
-    path = write_eval_info(Path(settings.output_dir) / "eval_info.json", info)
     report = rollouts_report(settings.task, scores, env.fps)
-    rollouts = write_rollouts(Path(settings.output_dir) / ROLLOUTS_FILE, report)
+    path, rollouts = write_results({  # both or neither (a full disk: one line, nothing)
+        Path(settings.output_dir) / "eval_info.json": info,
+        Path(settings.output_dir) / ROLLOUTS_FILE: report,
+    })  # fmt: skip
     agg = info["aggregated"]
     lo, hi = agg["pc_success_ci95"]
     stages = ", ".join(f"{k} {v:.0f}%" for k, v in agg["stages"].items())
