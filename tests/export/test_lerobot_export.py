@@ -35,7 +35,7 @@ from trossen_arm_mujoco.data.schema import JOINT_NAMES  # noqa: E402
 from trossen_arm_mujoco.data.writer import EpisodeWriter  # noqa: E402
 from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
 from trossen_arm_mujoco.export import lerobot_format as fmt  # noqa: E402
-from trossen_arm_mujoco.export.lerobot import frame_values  # noqa: E402
+from trossen_arm_mujoco.export.lerobot import controller_actions, frame_values  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_plan import frame_map  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo  # noqa: E402
 from trossen_arm_mujoco.fileio import folder_lock  # noqa: E402
@@ -150,7 +150,9 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
         part = slice(20 * i, 20 * (i + 1))
         assert np.array_equal(state[part], ep.qpos[:, KIT14_FROM_16].astype(np.float32))
         assert np.array_equal(velocity[part], ep.qvel[:, KIT14_FROM_16].astype(np.float32))
-        assert np.array_equal(action[part], ep.action[:, KIT14_FROM_16].astype(np.float32))
+        assert np.array_equal(
+            action[part], controller_actions(ep.action)[:, KIT14_FROM_16].astype(np.float32)
+        )
         assert np.array_equal(env_state[part], ep.env_state.astype(np.float32))
         reward = np.float32(cols["next.reward"][20 * i : 20 * (i + 1)])
         assert np.array_equal(reward, ep.reward.astype(np.float32))
@@ -392,7 +394,7 @@ def test_vendor16_layout_keeps_the_files_16_values(recorded, tmp_path, capsys):
     cols = pq.read_table(out / "data/chunk-000/file-000.parquet").to_pydict()
     episodes = [load_episode(p) for _, p in list_episodes(recorded)]
     qpos = np.concatenate([ep.qpos for ep in episodes]).astype(np.float32)
-    action = np.concatenate([ep.action for ep in episodes]).astype(np.float32)
+    action = np.concatenate([controller_actions(ep.action) for ep in episodes]).astype(np.float32)
     assert np.array_equal(np.array(cols["observation.state"], dtype=np.float32), qpos)
     assert np.array_equal(np.array(cols["action"], dtype=np.float32), action)
 
@@ -488,7 +490,9 @@ def test_fps_30_resampling_against_a_hand_computation(tmp_path, capsys):
     tight = {"rtol": 1e-6, "atol": 1e-7}  # float32 rounding of the written values
     np.testing.assert_allclose(state, _hand(ep.qpos[:, KIT14_FROM_16], HAND_OBS), **tight)
     np.testing.assert_allclose(velocity, _hand(ep.qvel[:, KIT14_FROM_16], HAND_OBS), **tight)
-    np.testing.assert_allclose(action, _hand(ep.action[:, KIT14_FROM_16], HAND_ACTION), **tight)
+    np.testing.assert_allclose(
+        action, _hand(controller_actions(ep.action)[:, KIT14_FROM_16], HAND_ACTION), **tight
+    )
     # the ramps: state at t_k = k/30, action = the target for t_{k+1} = (k+1)/30
     np.testing.assert_allclose(state[:, 0], 0.3 * np.arange(6) / 30, **tight)
     np.testing.assert_allclose(action[:, 0], 0.5 * np.arange(1, 7) / 30, **tight)
@@ -788,3 +792,16 @@ def test_signal_mid_write_leaves_no_temporary_folder(tmp_path, sig, status, name
     else:
         assert lines[0].endswith(f"nothing was written to {out}")
         assert sorted(p.name for p in tmp_path.iterdir()) == ["eps"]
+
+
+def test_the_action_grippers_are_what_the_controller_executes():
+    """The recorder's fully open 0.044 m gripper is exported as the 0.04 m the arm
+    controller clips it to; everything else is the file's."""
+    action = np.zeros((3, 16))
+    action[:, [6, 7, 14, 15]] = [[0.044, 0.044, 0.03, 0.03], [0.02, 0.02, 0.044, 0.044],
+                                 [0.0, 0.0, 0.04, 0.04]]  # fmt: skip
+    action[:, 0] = [0.1, 0.2, 0.3]
+    out = controller_actions(action)
+    assert out[:, [6, 7, 14, 15]].max() == 0.04
+    assert out[0, 14] == 0.03 and out[2, 6] == 0.0 and list(out[:, 0]) == [0.1, 0.2, 0.3]
+    assert action[0, 6] == 0.044  # the caller's array is kept

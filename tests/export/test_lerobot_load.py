@@ -38,7 +38,7 @@ pytest.importorskip("av")
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode  # noqa: E402
 from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
 from trossen_arm_mujoco.export import lerobot_format as fmt  # noqa: E402
-from trossen_arm_mujoco.export.lerobot import frame_values  # noqa: E402
+from trossen_arm_mujoco.export.lerobot import controller_actions, frame_values  # noqa: E402
 from trossen_arm_mujoco.tasks import registry  # noqa: E402
 
 CHECK = Path(__file__).with_name("lerobot_check.py")
@@ -75,7 +75,9 @@ def _expected(data_dir: Path, tasks: list[str], out: Path, fps: int | None = Non
             assert np.array_equal(
                 values["observation.state"], np.float32(ep.qpos)[:, KIT14_FROM_16]
             )
-            assert np.array_equal(values["action"], np.float32(ep.action)[:, KIT14_FROM_16])
+            assert np.array_equal(
+                values["action"], np.float32(controller_actions(ep.action))[:, KIT14_FROM_16]
+            )
             assert np.array_equal(values["observation.environment_state"], np.float32(ep.env_state))
         arrays[f"state_{i}"] = values["observation.state"]
         arrays[f"velocity_{i}"] = values["observation.velocity"]

@@ -7,7 +7,8 @@ Per written frame ``k``:
   Trossen's LeRobot plugin for the kit (``bi_widowxai_follower_robot``) names them,
   ``left_joint_0.pos`` .. ``left_joint_5.pos``, ``left_left_carriage_joint.pos``, then
   ``right_...`` (rad; the carriage, the gripper, in m; the coupled second finger dropped);
-  or ``vendor16``, the HDF5 files' 16 values and names.
+  or ``vendor16``, the HDF5 files' 16 values and names. The action's grippers are as the
+  arm controller executes them, at most 0.04 m (:func:`controller_actions`).
 - ``observation.environment_state``: the episode's env_state, 7 values per object (xyz m,
   quat wxyz) named ``<object>_x`` .. ``<object>_qz``; left out for files without it
   (vendor recordings).
@@ -82,6 +83,7 @@ from trossen_arm_mujoco.fileio import (
     folder_lock,
     temp_path,
 )
+from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
 
 __all__ = ["REPO_ID_RE", "ExportSummary", "export_lerobot", "frame_values"]
 
@@ -352,11 +354,26 @@ def frame_values(
     return _values(episode, layout, episode_frames(episode, fps))
 
 
+#: The finger values of the HDF5 files' 16 (left 6, 7; right 14, 15).
+_FINGERS = [6, 7, 14, 15]
+
+
+def controller_actions(action16: np.ndarray) -> np.ndarray:
+    """The recorded actions ``(T, 16)`` as the arm controller executes them: each gripper
+    at most ``GRIPPER_MAX`` (0.04 m per finger; the controller clips the recorder's fully
+    open 0.044 m to it). A policy learns the opening the arm reaches, and its own small
+    errors around it stay inside the controller's 0.044 + 0.001 m position check (around
+    0.044 they do not: about half its open-gripper actions would fault)."""
+    out = np.array(action16, dtype=np.float64, copy=True)
+    out[..., _FINGERS] = np.minimum(out[..., _FINGERS], GRIPPER_MAX)
+    return out
+
+
 def _values(episode: Episode, layout: str, frames: FrameMap) -> dict[str, np.ndarray]:
     out = {
         "observation.state": frames.observations(fmt.layout_values(layout, episode.qpos)),
         "observation.velocity": frames.observations(fmt.layout_values(layout, episode.qvel)),
-        "action": frames.actions(fmt.layout_values(layout, episode.action)),
+        "action": frames.actions(fmt.layout_values(layout, controller_actions(episode.action))),
     }
     if episode.env_state is not None:
         out[fmt.ENV_STATE_KEY] = frames.poses(episode.env_state)
