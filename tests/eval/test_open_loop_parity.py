@@ -7,8 +7,9 @@ not succeed there, no policy imitating them could. Episodes are recorded state-o
 recording pipeline (``EpisodeRecorder.record``, as ``trossen-mujoco record --cam_names none``
 does) into HDF5 files, read back with the reader, and replayed:
 
-- at the recording rate (50 fps): the stored actions in the kit14 layout; the env's
-  trajectory must also follow the recorded one (joint positions and object poses);
+- at the recording rate (50 fps): the stored actions in the kit14 layout; the env's arms
+  must also follow the recorded trajectory (they trail it: the env sends each action
+  through the driver's trajectory, as the real kit takes it);
 - at the export rate of 30 fps: the actions resampled exactly as ``trossen-mujoco export
   --fps 30`` writes them (``export.lerobot.frame_values``), in the env at ``fps=30``
   (physics at 1/510 s), which is what a policy trained on a 30 fps export is evaluated in.
@@ -43,6 +44,10 @@ EXPORT_FPS = 30
 #: Largest deviation (m, rad) from the recorded trajectory at the recording rate: the files
 #: store float32, the physics is the same.
 TRAJECTORY_ATOL = 1e-5
+#: How closely the env, driving the arms through the driver's trajectory, follows the
+#: recorded trajectory (rad, m): median and largest joint deviation, largest object one
+#: (measured: 1e-4 .. 1e-3, 0.05 .. 0.10, 0.005).
+FOLLOW_MEDIAN, FOLLOW_MAX, OBJECTS_MAX = 0.005, 0.15, 0.02
 
 
 @pytest.fixture(scope="module")
@@ -132,8 +137,16 @@ def test_recorded_actions_succeed_open_loop_at_the_recording_rate(
     # observation t + 1 of the file is the state after action t
     qpos = np.array([s["qpos"] for s in trace[:-1]])
     env_state = np.array([s["env_state"] for s in trace[:-1]])
-    np.testing.assert_allclose(qpos, episode.qpos[1:], atol=TRAJECTORY_ATOL)
-    np.testing.assert_allclose(env_state, episode.env_state[1:], atol=TRAJECTORY_ATOL)
+    # the env sends each action as the real kit takes it (the driver's trajectory toward the
+    # goal over 3 periods, grippers opened to the controller's 0.04 m): the arms trail the
+    # recorded motion by about two periods, and follow it
+    lag = np.abs(qpos - episode.qpos[1:])
+    print(
+        f"{task} {attempt}: qpos deviation median {np.median(lag):.2e}, max {lag.max():.3f}; "
+        f"objects max {np.abs(env_state - episode.env_state[1:]).max():.3f}"
+    )
+    assert np.median(lag) < FOLLOW_MEDIAN and lag.max() < FOLLOW_MAX
+    assert np.abs(env_state - episode.env_state[1:]).max() < OBJECTS_MAX
 
 
 @pytest.mark.parametrize("task", TASKS)
