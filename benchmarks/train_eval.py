@@ -179,6 +179,25 @@ def _carry_settings(dataset: Path, train: Path) -> None:
         tmp.replace(model / SETTINGS_FILE)
 
 
+def _scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: bool) -> bool:
+    """Whether ``info_path`` already scores ``ckpt`` as this phase would (the same episodes
+    and seed, newer than the checkpoint's weights, with the unconstrained score when
+    ``both``): then the phase keeps it instead of evaluating again."""
+    try:
+        info = json.loads(info_path.read_text())
+        run = info["run"]
+        newer = info_path.stat().st_mtime > (ckpt / "model.safetensors").stat().st_mtime
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    return (
+        newer
+        and Path(run.get("policy", "")).resolve() == ckpt.resolve()
+        and run.get("num_episodes") == args.eval_episodes
+        and run.get("seed") == args.eval_seed
+        and (not both or "unconstrained" in info)
+    )
+
+
 def _checkpoint(train: Path) -> Path:
     return train / "checkpoints" / "last" / "pretrained_model"
 
@@ -387,6 +406,10 @@ def main(argv: list[str] | None = None) -> None:
                 _fail(f"no checkpoint at {ckpt}: run --phase train first")
             out = work / "eval" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
+            if _scored(out / "eval_info.json", ckpt, args, both=True):
+                print(f"eval seed {seed}: {out} already holds its scores")
+                runs.setdefault(str(seed), {}).update(results(out / "eval_info.json"))
+                continue
             took = _run_jobs([(f"eval seed {seed}", cli + [
                 "eval", "--policy", str(ckpt), "--task_name", args.task,
                 "--num_episodes", str(args.eval_episodes),
@@ -407,6 +430,10 @@ def main(argv: list[str] | None = None) -> None:
                 _fail(f"no checkpoint at {ckpt}: run --phase train first")
             out = work / "wire" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
+            if _scored(out / "eval_info.json", ckpt, args, both=False):
+                print(f"wire seed {seed}: {out} already holds its scores")
+                runs.setdefault(str(seed), {})["wire"] = results(out / "eval_info.json")
+                continue
             took = _run_jobs([(f"wire seed {seed}", cli + [
                 "eval", "--backend", "wire", "--policy", str(ckpt), "--task_name", args.task,
                 "--num_episodes", str(args.eval_episodes), "--seed", str(args.eval_seed),
