@@ -179,14 +179,28 @@ def _carry_settings(dataset: Path, train: Path) -> None:
         tmp.replace(model / SETTINGS_FILE)
 
 
+def _prepare(ckpt: Path, dataset: Path) -> None:
+    """Before a checkpoint is scored (here, where the simulator is installed): the arm
+    controller's limits in its saved postprocessor (``eval.controller_limits_step``), the
+    dataset's settings beside its weights."""
+    from trossen_arm_mujoco.eval.controller_limits_step import add_to_checkpoint
+
+    if add_to_checkpoint(ckpt):
+        print(f"{ckpt}: the arm controller's limits added to its postprocessor")
+    if not (ckpt / SETTINGS_FILE).exists() and (dataset / "meta" / "info.json").exists():
+        _carry_settings(dataset, ckpt.parent.parent.parent)
+
+
 def _scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: bool) -> bool:
     """Whether ``info_path`` already scores ``ckpt`` as this phase would (the same episodes
-    and seed, newer than the checkpoint's weights, with the unconstrained score when
-    ``both``): then the phase keeps it instead of evaluating again."""
+    and seed, newer than the checkpoint's weights and postprocessor, with the unconstrained
+    score when ``both``): then the phase keeps it instead of evaluating again."""
     try:
         info = json.loads(info_path.read_text())
         run = info["run"]
-        newer = info_path.stat().st_mtime > (ckpt / "model.safetensors").stat().st_mtime
+        made = max((ckpt / name).stat().st_mtime
+                   for name in ("model.safetensors", "policy_postprocessor.json"))  # fmt: skip
+        newer = info_path.stat().st_mtime > made
     except (OSError, ValueError, KeyError, TypeError):
         return False
     return (
@@ -404,6 +418,7 @@ def main(argv: list[str] | None = None) -> None:
             ckpt = _checkpoint(work / "train" / f"seed_{seed}")
             if not ckpt.is_dir():
                 _fail(f"no checkpoint at {ckpt}: run --phase train first")
+            _prepare(ckpt, dataset)
             out = work / "eval" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
             if _scored(out / "eval_info.json", ckpt, args, both=True):
@@ -428,6 +443,7 @@ def main(argv: list[str] | None = None) -> None:
             ckpt = _checkpoint(work / "train" / f"seed_{seed}")
             if not ckpt.is_dir():
                 _fail(f"no checkpoint at {ckpt}: run --phase train first")
+            _prepare(ckpt, dataset)
             out = work / "wire" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
             if _scored(out / "eval_info.json", ckpt, args, both=False):

@@ -167,6 +167,9 @@ class LeRobotPolicy:
         out = cfg.output_features.get("action")
         _raise_on_mismatch(path, inputs, None if out is None else out.shape, env)
         self.torch = torch
+        from trossen_arm_mujoco.eval.controller_limits_step import register
+
+        register()  # a checkpoint's postprocessor may hold the controller's limits
         self.policy = get_policy_class(cfg.type).from_pretrained(str(folder), config=cfg)
         self.policy.eval()
         self.pre, self.post = make_pre_post_processors(

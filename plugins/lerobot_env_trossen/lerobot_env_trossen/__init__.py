@@ -18,6 +18,10 @@ dataset recorded with ``record --crop`` shows; default none), ``--env.controller
 3/fps s, and the arm controller's checks apply: a fault ends the episode as failed; false:
 the unconstrained score).
 
+Importing the plugin also registers the postprocessor step ``trossen_arm_controller_limits``
+(``trossen_arm_mujoco.eval.controller_limits_step``), so a checkpoint that carries the arm
+controller's limits loads in every LeRobot tool (``lerobot-rollout`` on the real kit too).
+
 With ``--policy.path`` a local checkpoint, every option above but ``episode_length`` and
 ``controller_checks`` defaults to what the checkpoint was trained with (the settings its
 dataset carries, ``trossen_arm_mujoco.export.dataset_settings``); an option that contradicts
@@ -41,6 +45,7 @@ from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.controller_limits_step import register as register_controller_limits
 from trossen_arm_mujoco.eval.env import (
     KitPolicyEnv,
     bimanual_tasks,
@@ -52,6 +57,11 @@ from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.tasks import registry
 
 __all__ = ["TrossenEnvConfig"]
+
+# the arm controller's limits as a postprocessor step (a checkpoint prepared with
+# trossen_arm_mujoco.eval.controller_limits_step holds it): registered for every LeRobot tool
+# that imports this plugin (lerobot-eval, lerobot-rollout, lerobot-record)
+register_controller_limits()
 
 #: The kit's cameras, in the order ``record`` renders them.
 KIT_CAMERAS = "cam_high,cam_low,cam_left_wrist,cam_right_wrist"
