@@ -309,6 +309,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eval_episodes", type=int, default=50)
     p.add_argument("--eval_workers", type=int, default=2)
     p.add_argument("--eval_seed", type=int, default=0)
+    p.add_argument("--controller_checks", choices=("both", "on", "off"), default="both",
+                   help="eval's --controller_checks: both (default: the score with the arm "
+                   "controller's checks and, beside it, without), on, or off")  # fmt: skip
     p.add_argument(
         "--eval_episode_length",
         type=int,
@@ -421,7 +424,7 @@ def main(argv: list[str] | None = None) -> None:
             _prepare(ckpt, dataset)
             out = work / "eval" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
-            if _scored(out / "eval_info.json", ckpt, args, both=True):
+            if _scored(out / "eval_info.json", ckpt, args, both=args.controller_checks == "both"):
                 print(f"eval seed {seed}: {out} already holds its scores")
                 runs.setdefault(str(seed), {}).update(results(out / "eval_info.json"))
                 continue
@@ -429,7 +432,8 @@ def main(argv: list[str] | None = None) -> None:
                 "eval", "--policy", str(ckpt), "--task_name", args.task,
                 "--num_episodes", str(args.eval_episodes),
                 "--num_workers", str(args.eval_workers), "--seed", str(args.eval_seed),
-                "--output_dir", str(out), "--overwrite", "--controller_checks", "both",
+                "--output_dir", str(out), "--overwrite",
+                "--controller_checks", args.controller_checks,
             ] + (length if args.eval_episode_length else []),
                 work / f"eval_seed_{seed}.log")], env, 1)[0]  # fmt: skip
             run = runs.setdefault(str(seed), {})
