@@ -25,9 +25,10 @@ HOME[[6, 13]] = 0.02  # grippers half open
 def test_the_served_kit_checks_with_the_same_code():
     from trossen_arm_mujoco.twin import arm_adapter, faults
 
-    assert faults.InputChecker is controller_checks.InputChecker
-    assert faults.served_limits is controller_checks.controller_limits
+    assert arm_adapter.InputChecker is controller_checks.InputChecker
+    assert arm_adapter.controller_limits is controller_checks.controller_limits
     assert arm_adapter.controller_target is controller_target
+    assert faults.Fault is controller_checks.Fault
 
 
 def test_a_goal_becomes_a_linear_ramp_over_the_goal_time():

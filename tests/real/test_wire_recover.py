@@ -15,10 +15,10 @@ pytest.importorskip("trossen_arm_sim")
 pytest.importorskip("trossen_arm")
 
 from trossen_arm_mujoco.real.clock import WallClock  # noqa: E402
+from trossen_arm_mujoco.real.controller_checks import controller_limits as served_limits  # noqa: E402
 from trossen_arm_mujoco.real.driver import TrossenArmDriver  # noqa: E402
 from trossen_arm_mujoco.real.replay import ReplayConfig, make_drivers, replay  # noqa: E402
 from trossen_arm_mujoco.real.validate import validate_actions  # noqa: E402
-from trossen_arm_mujoco.twin.faults import served_limits  # noqa: E402
 from trossen_arm_mujoco.twin.kit_world import KitWorld  # noqa: E402
 from trossen_arm_mujoco.twin.served_kit import ServedKit  # noqa: E402
 

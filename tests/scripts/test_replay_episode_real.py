@@ -717,7 +717,7 @@ def test_wire_fault_mid_run_is_one_line_and_every_arm_goes_home(
     command-caused error state through the real driver, and takes both arms home."""
     pytest.importorskip("trossen_arm_sim")
     pytest.importorskip("trossen_arm")
-    from trossen_arm_mujoco.twin.faults import served_limits
+    from trossen_arm_mujoco.real.controller_checks import controller_limits as served_limits
 
     def narrow(kit: Any) -> None:
         limits = served_limits()

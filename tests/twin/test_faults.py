@@ -7,16 +7,22 @@ import math
 import numpy as np
 import pytest
 
-from trossen_arm_mujoco.real.validate import ArmLimits
-from trossen_arm_mujoco.twin.commands import EFFORT, EXTERNAL_EFFORT, IDLE, POSITION, VELOCITY
-from trossen_arm_mujoco.twin.faults import (
+from trossen_arm_mujoco.real.controller_checks import (
+    EFFORT,
+    EXTERNAL_EFFORT,
+    IDLE,
     JOINT_LIMIT_EXCEEDED,
+    POSITION,
     ROBOT_INPUT_INFINITE,
-    SETPOINT_LAG_S,
+    VELOCITY,
     InputChecker,
+)
+from trossen_arm_mujoco.real.controller_checks import controller_limits as served_limits
+from trossen_arm_mujoco.real.validate import ArmLimits
+from trossen_arm_mujoco.twin.faults import (
+    SETPOINT_LAG_S,
     lag_fault,
     pack_limits,
-    served_limits,
     unpack_limits,
 )
 

@@ -7,12 +7,12 @@ import pytest
 
 from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, POSITION, VELOCITY
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
 from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.twin.arm_adapter import ArmAdapter
-from trossen_arm_mujoco.twin.commands import EFFORT, EXTERNAL_EFFORT, POSITION, VELOCITY
 from trossen_arm_mujoco.twin.kit_world import KitWorld, kit_task_names
 
 GOAL = np.array([0.3, 0.6, 0.5, 0.2, -0.2, 0.3, 0.03])

@@ -37,17 +37,21 @@ from collections.abc import Sequence
 import numpy as np
 
 from trossen_arm_mujoco.real.arm_controller import controller_target
-from trossen_arm_mujoco.real.gripper import GRIPPER_INDEX, GRIPPER_MAX
-from trossen_arm_mujoco.twin.commands import EFFORT, EXTERNAL_EFFORT, IDLE, POSITION, VELOCITY
-from trossen_arm_mujoco.twin.faults import (
+from trossen_arm_mujoco.real.controller_checks import (
+    EFFORT,
+    EXTERNAL_EFFORT,
+    IDLE,
     JOINT_LIMIT_EXCEEDED,
     LABELS,
+    POSITION,
     UNITS,
+    VELOCITY,
     Fault,
     InputChecker,
     JointLimit,
-    served_limits,
+    controller_limits,
 )
+from trossen_arm_mujoco.real.gripper import GRIPPER_INDEX, GRIPPER_MAX
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 
 __all__ = ["MAX_VELOCITY_DT", "OUTPUT_TEMPERATURE_C", "ArmAdapter"]
@@ -66,7 +70,7 @@ class ArmAdapter:
     Args:
         world: the shared kit world.
         side: which arm.
-        limits: its 7 joint limits (default ``faults.served_limits()``).
+        limits: its 7 joint limits (default ``real.controller_checks.controller_limits()``).
     """
 
     num_joints = 7
@@ -75,7 +79,7 @@ class ArmAdapter:
         self, world: KitWorld, side: str, limits: Sequence[JointLimit] | None = None
     ) -> None:
         self.world, self.side = world, side
-        self.checker = InputChecker(limits if limits is not None else served_limits())
+        self.checker = InputChecker(limits if limits is not None else controller_limits())
         self._last_input: float | None = None
         with world.lock:
             world.arms[side].limits = self.limits  # the world checks the motion too

@@ -44,7 +44,8 @@ try:
 except ImportError:  # the optional package is missing: require_sim_server says so
     pass
 
-from trossen_arm_mujoco.twin.faults import Fault, pack_limits, unpack_limits  # noqa: E402
+from trossen_arm_mujoco.real.controller_checks import Fault  # noqa: E402
+from trossen_arm_mujoco.twin.faults import pack_limits, unpack_limits  # noqa: E402
 
 #: (event, text) -> None: "connect", "disconnect", "fault", "clear".
 EventHook = Callable[[str, str], None]

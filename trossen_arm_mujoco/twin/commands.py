@@ -14,14 +14,10 @@ import numpy as np
 
 # ``trossen_arm_sim.protocol.Mode`` values, defined with the controller's checks
 from trossen_arm_mujoco.real.controller_checks import (
-    EFFORT,
-    EXTERNAL_EFFORT,
     IDLE,
-    POSITION,
-    VELOCITY,
 )
 
-__all__ = ["EFFORT", "EXTERNAL_EFFORT", "IDLE", "POSITION", "VELOCITY", "ArmState"]
+__all__ = ["ArmState"]
 
 
 class ArmState:

@@ -1,12 +1,12 @@
-"""The served kit's faults: the arm controller's input checks (``real.controller_checks``,
-shared with in-process evaluation and re-exported here), the joint-limit payload of the
-wire protocol, and one check of the motion itself.
+"""The served kit's own faults: the joint-limit payload of the wire protocol, and one check
+of the motion itself. The arm controller's input checks are ``real.controller_checks``
+(shared with in-process evaluation).
 
 A real arm controller refuses robot inputs it must not follow: it enters an error state,
 idles its joints and answers every request with that state, so the ``trossen_arm`` driver
 raises on its next call, until ``configure(..., clear_error=True)`` clears it. The served
-arm does the same, for the inputs :class:`InputChecker` refuses (see
-``real.controller_checks``; velocity mode's integrated position is checked by the arm,
+arm does the same, for the inputs ``real.controller_checks.InputChecker`` refuses (see that
+module; velocity mode's integrated position is checked by the arm,
 see :mod:`.arm_adapter`).
 
 The check of the motion (:func:`lag_fault`, run by the world every control tick): the robot
@@ -18,7 +18,7 @@ in simulated time, not from when commands arrive, and only while the world keeps
 (``pacer.Pacer.on_time``): a world running late sees every trajectory of the client's wall
 clock too fast, so a busy machine does not trip it.
 
-The driver reads the limits (:func:`served_limits`, the controller's) with
+The driver reads the limits (``real.controller_checks.controller_limits``) with
 ``get_joint_limits()``; a client may replace them with ``set_joint_limits()``, as on the
 real controller, and the checks then use its values.
 """
@@ -33,39 +33,16 @@ from dataclasses import astuple
 import numpy as np
 
 from trossen_arm_mujoco.real.controller_checks import (
-    EFFORT_LIMITS,
-    EFFORT_TOLERANCE_FRACTION,
     JOINT_LIMIT_EXCEEDED,
     LABELS,
     POSITION,
-    ROBOT_INPUT_INFINITE,
     UNITS,
     VELOCITY,
-    VELOCITY_TOLERANCE_FRACTION,
     Fault,
-    InputChecker,
     JointLimit,
 )
-from trossen_arm_mujoco.real.controller_checks import controller_limits as served_limits
 
-__all__ = [
-    "EFFORT_LIMITS",
-    "EFFORT_TOLERANCE_FRACTION",
-    "JOINT_LIMIT_EXCEEDED",
-    "LABELS",
-    "ROBOT_INPUT_INFINITE",
-    "SETPOINT_LAG_S",
-    "UNITS",
-    "VELOCITY_TOLERANCE_FRACTION",
-    "Fault",
-    "InputChecker",
-    "JointLimit",
-    "lag_fault",
-    "lag_fault_of",
-    "pack_limits",
-    "served_limits",
-    "unpack_limits",
-]
+__all__ = ["SETPOINT_LAG_S", "lag_fault", "lag_fault_of", "pack_limits", "unpack_limits"]
 
 #: How far a target may run ahead of the rate-limited setpoint, in seconds of motion at
 #: the joint's speed limit (plus tolerance): 0.2 s is 0.75 rad for joint_0..2, 1.6 rad for

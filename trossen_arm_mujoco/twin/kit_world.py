@@ -31,12 +31,13 @@ import numpy as np
 from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
+from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, IDLE, Fault
 from trossen_arm_mujoco.robot.layout import ARM_JOINTS, KIT_LAYOUT, SIDES
 from trossen_arm_mujoco.sim.env import whole_ratio
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler
-from trossen_arm_mujoco.twin.commands import EFFORT, EXTERNAL_EFFORT, IDLE, ArmState
-from trossen_arm_mujoco.twin.faults import Fault, lag_fault_of
+from trossen_arm_mujoco.twin.commands import ArmState
+from trossen_arm_mujoco.twin.faults import lag_fault_of
 from trossen_arm_mujoco.twin.frame import Frame
 from trossen_arm_mujoco.twin.pacer import Pacer
 
