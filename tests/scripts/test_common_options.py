@@ -35,7 +35,7 @@ def actions(command: str) -> dict[str, argparse.Action]:
 @pytest.mark.parametrize(
     "flag, commands, default, kind",
     [
-        ("--task_name", ("record", "teleop", "serve", "eval"), "sim_transfer_cube", None),
+        ("--task_name", ("record", "teleop", "serve"), "sim_transfer_cube", None),
         ("--seed", ("record", "teleop", "serve", "eval"), 0, int),
         ("--root_dir", ("record", "teleop", "serve", "export"), ROOT_DIR, None),
         ("--cam_names", ("record", "teleop", "serve", "eval"), None, None),
@@ -55,6 +55,8 @@ def test_image_size_defaults():
     for command in ("record", "teleop", "serve"):
         assert actions(command)["--image_size"].default == "480x640"
     assert actions("eval")["--image_size"].default is None  # the checkpoint's
+    assert actions("eval")["--task_name"].default is None  # the checkpoint's, else the transfer
+    assert "else sim_transfer_cube)" in actions("eval")["--task_name"].help
 
 
 def test_data_dir_is_required_where_it_is_taken():
