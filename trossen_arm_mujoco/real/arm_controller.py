@@ -76,6 +76,11 @@ class KitController:
         self.checks = bool(checks)
         self.checker = InputChecker(lims)
         self._vmax = np.array([lim.velocity_max for lim in lims] * 2)
+        # controller_target as bounds, computed once (tick runs every physics step)
+        n = len(lims)
+        self._low = np.array([lim.position_min for lim in lims] * 2)
+        self._high = np.array([controller_target(lim.position_max, j % n, lim)
+                               for j, lim in enumerate(lims * 2)])  # fmt: skip
         self._modes = [POSITION] * len(lims)
         self._trajectory = GoalTrajectory.hold(np.zeros(2 * len(lims)))
         self._t = 0.0
@@ -111,12 +116,8 @@ class KitController:
         fault = self._check(pos, vel) if self.checks else None
         if fault is not None and self.fault is None:
             self.fault, self.fault_tick = fault, self._ticks
-        n = len(self.limits)
-        target = np.array([
-            controller_target(float(pos[i]), i % n, self.limits[i % n]) if np.isfinite(pos[i])
-            else 0.0
-            for i in range(2 * n)
-        ])  # fmt: skip
+        target = np.clip(np.nan_to_num(pos, nan=0.0, posinf=0.0, neginf=0.0), self._low,
+                         self._high)  # fmt: skip
         return target, fault
 
     def peak_fractions(self) -> dict[str, float]:
