@@ -48,6 +48,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # its report module, run as a file
+from train_eval_recipes import RECIPES, camera_settings_error  # noqa: E402
 from train_eval_report import losses, report, results  # noqa: E402
 
 PHASES = ("record", "export", "train", "eval", "wire")
@@ -219,6 +220,10 @@ def _checkpoint(train: Path) -> Path:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work_dir", default="train_eval_out")
+    p.add_argument("--recipe", choices=tuple(RECIPES), default="state",
+                   help="flag defaults: state (the joints and the object poses, 50 fps) or "
+                   "camera (the joints and cam_high only, as a real kit gives, 30 fps; see "
+                   "train_eval_recipes.py); flags given still win (default: state)")  # fmt: skip
     p.add_argument("--phase", default=",".join(DEFAULT_PHASES),
                    help="comma list of phases to run, any subset of record,export,train,eval,"
                    "wire (default: record,export,train,eval)")  # fmt: skip
@@ -321,8 +326,20 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The flags, over the defaults of ``--recipe``; camera settings checked (one line)."""
+    parser = build_parser()
+    recipe = parser.parse_known_args(argv)[0].recipe
+    parser.set_defaults(**RECIPES[recipe])
+    args = parser.parse_args(argv)
+    problem = camera_settings_error(args.cam_names, args.image_size, args.crop)
+    if problem:
+        _fail(problem)
+    return args
+
+
 def main(argv: list[str] | None = None) -> None:
-    args = build_parser().parse_args(argv)
+    args = parse_args(argv)
     phases = [x.strip() for x in args.phase.split(",") if x.strip()]
     unknown = sorted(set(phases) - set(PHASES))
     if unknown or not phases:
@@ -408,9 +425,10 @@ def main(argv: list[str] | None = None) -> None:
         print(f"train: {len(jobs)} run(s), {at_once} at a time, {threads} CPU thread(s) each")
         timings = _run_jobs([job for _, job in jobs], train_env, at_once)
         for (seed, (_, _, log)), took in zip(jobs, timings):
+            rate = round(args.steps / took["wall_s"], 2) if took["wall_s"] > 0 else None
             runs[str(seed)] = {
-                "train": {**took, "steps": args.steps, "device": args.device,
-                          "jobs_at_once": at_once, "threads": threads},
+                "train": {**took, "steps": args.steps, "steps_per_s": rate,
+                          "device": args.device, "jobs_at_once": at_once, "threads": threads},
                 "loss_curve": losses(log),
             }  # fmt: skip
             save()

@@ -46,6 +46,16 @@ def results(path: Path) -> dict:
     return out
 
 
+def _training(train: dict) -> str:
+    """A run's training cost: CPU seconds (and minutes) and steps per second of wall time."""
+    cpu = train.get("cpu_s")
+    if cpu is None:
+        return "training not measured here"
+    rate = train.get("steps_per_s")
+    steps = f", {rate:.2f} steps/s" if rate else ""
+    return f"train {cpu:.0f} s CPU ({cpu / 60:.1f} min){steps}"
+
+
 def report(runs: dict[str, dict], label: str = "in-process") -> dict:
     """Each run's success and interval, faults and largest asked speed, the mean and the
     worst (printed and returned)."""
@@ -63,8 +73,8 @@ def report(runs: dict[str, dict], label: str = "in-process") -> dict:
         print(f"training seed {seed} ({label}): success {res['pc_success']:.1f}% (95% CI "
               f"{lo:.1f}-{hi:.1f}) over {res['n_episodes']} episodes{freely}; faults "
               f"{ctl.get('faulted_episodes', 'n/a')}; fastest asked {top[0]} at {top[1]:.2f} "
-              f"of its limit; stages {res['stages']}; train "
-              f"{run.get('train', {}).get('cpu_s', float('nan')):.0f} s CPU")  # fmt: skip
+              f"of its limit; stages {res['stages']}; "
+              f"{_training(run.get('train') or {})}")  # fmt: skip
         rates.append(res["pc_success"])
         total += round(res["pc_success"] * res["n_episodes"] / 100.0)
         n += res["n_episodes"]

@@ -76,6 +76,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--n_decoder_layers", type=int, default=1)
     p.add_argument("--chunk_size", type=int, default=50)
     p.add_argument("--use_vae", action="store_true")
+    p.add_argument("--no_env_state", action="store_true",
+                   help="leave observation.environment_state out (the camera recipe)")
+    p.add_argument("--vision_backbone", default="resnet18", help="ACT's torchvision backbone")
     p.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = p.parse_args(argv)
     if not (args.dataset / "meta" / "info.json").is_file():
@@ -117,8 +120,22 @@ def build(args: argparse.Namespace):
         chunk_size=args.chunk_size,
         n_action_steps=args.chunk_size,
         optimizer_lr=args.lr,
+        vision_backbone=args.vision_backbone,
         normalization_mapping={k: mean_std for k in ("VISUAL", "STATE", "ENV", "ACTION")},
     )
+    if args.no_env_state:  # every other observation feature, as lerobot-train would
+        from lerobot.configs.types import FeatureType, PolicyFeature
+
+        config.input_features = {
+            key: PolicyFeature(
+                type=FeatureType.VISUAL if key.startswith("observation.images.") else
+                FeatureType.STATE,
+                shape=tuple(ft["shape"][::-1][:1] + ft["shape"][:2])
+                if key.startswith("observation.images.") else tuple(ft["shape"]),
+            )
+            for key, ft in meta.features.items()
+            if key == "observation.state" or key.startswith("observation.images.")
+        }
     policy = make_policy(config, ds_meta=meta)
     dataset = LeRobotDataset(
         repo_id,

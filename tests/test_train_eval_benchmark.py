@@ -230,3 +230,59 @@ def test_the_settings_names_agree_with_the_package():
     spec.loader.exec_module(module)
     assert module.SETTINGS_KEY == dataset_settings.INFO_KEY
     assert module.SETTINGS_FILE == dataset_settings.CHECKPOINT_FILE == SETTINGS_FILE
+
+
+def test_the_camera_recipe_runs_small_and_reports_its_cost(tmp_path):
+    """``--recipe camera`` end to end on 2 episodes and 2 steps: what the kit gives (the
+    joints and cam_high's crop at 60x80, 30 fps, no object pose), each run's success,
+    interval, CPU seconds and steps/s in summary.json."""
+    work = tmp_path / "cam"
+    run = _bench(work, "--recipe", "camera", "--episodes", "2", *TINY, "--eval_episodes", "1",
+                 "--eval_episode_length", "15", "--eval_workers", "1",
+                 "--controller_checks", "on")  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    info = json.loads((work / "dataset" / "meta" / "info.json").read_text())
+    assert info["fps"] == 30
+    assert info["features"]["observation.images.cam_high"]["shape"][:2] == [60, 80]
+    ckpt = work / "train" / "seed_1000" / "checkpoints" / "last" / "pretrained_model"
+    config = json.loads((ckpt / "config.json").read_text())
+    assert set(config["input_features"]) == {"observation.state", "observation.images.cam_high"}
+    assert config["optimizer_lr_backbone"] == pytest.approx(1e-4)
+    carried = json.loads((ckpt / SETTINGS_FILE).read_text())
+    assert carried["fps"] == 30 and "cam_high:217,243,150,200" in json.dumps(carried)
+    summary = json.loads((work / "summary.json").read_text())
+    got = summary["runs"]["1000"]
+    assert got["train"]["cpu_s"] > 0 and got["train"]["steps_per_s"] > 0
+    assert got["result"]["n_episodes"] == 1 and len(got["result"]["pc_success_ci95"]) == 2
+    assert got["deployment"]["sim_only"] is False  # nothing the kit lacks
+    assert "s CPU (" in run.stdout and "steps/s" in run.stdout
+
+
+@pytest.mark.parametrize(
+    ("flags", "expected"),
+    [(["--cam_names", "cam_top"], "--cam_names cam_top: the kit has no such camera; choose"),
+     (["--recipe", "camera", "--image_size", "24x32"], "--image_size 24x32 is below what the "
+      "image encoder resolves"),
+     (["--recipe", "camera", "--crop", "cam_high:400,0,100,100"], "--crop cam_high:400,0,100,"
+      "100 is outside the camera's 480x640 frame"),
+     (["--recipe", "camera", "--crop", "cam_low:0,0,10,10"], "camera 'cam_low' is not "
+      "observed")],
+)  # fmt: skip
+def test_camera_settings_are_checked_before_anything_runs(tmp_path, flags, expected):
+    run = _bench_without_lerobot(tmp_path / "w", *flags)
+    assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and expected in lines[0], lines
+    assert not (tmp_path / "w").exists()  # refused before the work folder was made
+
+
+def test_the_recipe_knows_the_kit_cameras():
+    import importlib.util
+
+    from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
+
+    path = SCRIPT.with_name("train_eval_recipes.py")
+    spec = importlib.util.spec_from_file_location("train_eval_recipes", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.KIT_CAMERAS == STATIONARY_CAMERAS

@@ -1,0 +1,88 @@
+"""The recipes of ``train_eval.py`` (``--recipe``) and the checks of their camera settings.
+
+A recipe is a set of flag defaults: ``--recipe camera`` is the camera recipe of the docs'
+Train and evaluate page, and any flag given on the command line still wins over it
+(``--recipe camera --steps 9000``).
+
+- ``state``: the script's own defaults (the 14 joint values plus the object poses, 50 fps).
+- ``camera``: what a real kit gives, nothing more: the 14 joint values and ``cam_high``, at
+  the real kit's layout (kit14) and rate (30 fps), no object pose. The camera shows a 150x200
+  crop of its 480x640 frame around the cube's spawn region, rendered straight at 60x80 (the
+  25 mm cube spans about 4 pixels); ACT with ResNet-18 trained from scratch (backbone at the
+  policy's rate), 200 noisy episodes, 4,500 steps of batch 16 with the rate decayed from 1e-4
+  to 1e-6: about 38 minutes of CPU per training run on the 2-core machine (docs Benchmarks,
+  "A camera policy the real kit can run").
+
+The camera settings are checked before anything runs (one line each): a camera the kit does
+not have, an image smaller than the encoder's stride (ResNet-18 sees a 32x32-pixel cell per
+feature; an image below 32 pixels in either dimension leaves the policy a single cell there,
+so it cannot tell where the cube is), a crop outside the camera's 480x640 frame or of a camera
+not observed. Plain Python: the train phase may run where the simulator is not installed.
+"""
+
+from __future__ import annotations
+
+#: The cameras of the real Stationary AI kit (Trossen's LeRobot plugin's names); the
+#: simulated kit renders the same four (a test checks the package agrees).
+KIT_CAMERAS = ("cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist")
+#: The camera's full frame, (height, width) pixels: what a crop is given in.
+FRAME = (480, 640)
+#: ResNet-18's output stride: one feature cell per 32x32 pixels of the input.
+ENCODER_STRIDE = 32
+#: The camera recipe's backbone rate flag (ResNet-18 from scratch learns at the policy's rate).
+BACKBONE_RATE = "--policy.optimizer_lr_backbone=1e-4"
+
+RECIPES: dict[str, dict] = {
+    "state": {},
+    "camera": {
+        "episodes": 200,
+        "inject_noise": True,
+        "cam_names": "cam_high",
+        "image_size": "60x80",
+        "crop": "cam_high:217,243,150,200",
+        "no_env_state": True,
+        "fps": 30,
+        "steps": 4500,
+        "train_arg": [BACKBONE_RATE],
+    },
+}
+
+
+def camera_settings_error(cam_names: str, image_size: str, crop: str | None) -> str | None:
+    """What is wrong with these camera settings, in one line (None: nothing).
+
+    ``cam_names``: comma-separated camera names or ``none``; ``image_size``: ``HxW`` pixels;
+    ``crop``: ``CAMERA:TOP,LEFT,HEIGHT,WIDTH`` in pixels of the 480x640 frame, or None.
+    """
+    names = [n.strip() for n in cam_names.split(",") if n.strip()]
+    if names == ["none"]:
+        names = []
+    unknown = [n for n in names if n not in KIT_CAMERAS]
+    if unknown:
+        return (f"--cam_names {','.join(unknown)}: the kit has no such camera; choose from "
+                f"{', '.join(KIT_CAMERAS)} (or none)")  # fmt: skip
+    if names:
+        try:
+            height, width = (int(v) for v in image_size.lower().split("x"))
+        except ValueError:
+            return f"--image_size must be HEIGHTxWIDTH in pixels, e.g. 60x80; got '{image_size}'"
+        if min(height, width) < ENCODER_STRIDE:
+            return (f"--image_size {image_size} is below what the image encoder resolves: "
+                    f"ResNet-18 sees one feature per {ENCODER_STRIDE}x{ENCODER_STRIDE} pixels, "
+                    f"so give at least {ENCODER_STRIDE} pixels each way (e.g. 60x80)")  # fmt: skip
+    if crop:
+        camera, _, rest = crop.partition(":")
+        try:
+            top, left, height, width = (int(v) for v in rest.split(","))
+        except ValueError:
+            return (f"--crop must be CAMERA:TOP,LEFT,HEIGHT,WIDTH in pixels of the 480x640 "
+                    f"frame, e.g. cam_high:217,243,150,200; got '{crop}'")  # fmt: skip
+        if camera not in names:
+            return (f"--crop {crop}: camera {camera!r} is not observed; add it to --cam_names "
+                    f"({cam_names})")  # fmt: skip
+        if min(top, left) < 0 or min(height, width) < 1 or top + height > FRAME[0] \
+                or left + width > FRAME[1]:  # fmt: skip
+            return (f"--crop {crop} is outside the camera's {FRAME[0]}x{FRAME[1]} frame "
+                    f"(top, left >= 0; top + height <= {FRAME[0]}; left + width <= "
+                    f"{FRAME[1]})")  # fmt: skip
+    return None
