@@ -63,6 +63,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("utils",),
     ("demo",),
     ("ee_sim_env", "sim_env", "scripted_policy"),
+    # the vendor's current Python API (src.controller: Controller, RobotType) over the robot layer
+    ("src",),
     # command lines
     ("scripts",),
     ("cli",),
