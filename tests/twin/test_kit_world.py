@@ -13,7 +13,7 @@ from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.twin.arm_adapter import ArmAdapter
-from trossen_arm_mujoco.twin.kit_world import KitWorld, kit_task_names
+from trossen_arm_mujoco.twin.kit_world import KitWorld
 
 GOAL = np.array([0.3, 0.6, 0.5, 0.2, -0.2, 0.3, 0.03])
 
@@ -57,7 +57,8 @@ def test_scene_is_records_episode(task: str, seed: int, index: int) -> None:
 
 
 def test_only_kit_tasks_and_whole_frame_rates() -> None:
-    assert set(kit_task_names()) == {"sim_transfer_cube", "sim_insertion"}
+    assert {"sim_transfer_cube", "sim_insertion"} <= set(registry.kit_names())
+    assert not {"reach", "push", "pick_place"} & set(registry.kit_names())
     with pytest.raises(UserError, match="not a Stationary AI"):
         KitWorld("reach")
     with pytest.raises(UserError, match="whole multiple.*e.g. --fps 250, 125, 100, 50"):

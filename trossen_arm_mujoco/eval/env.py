@@ -70,7 +70,6 @@ __all__ = [
     "LEROBOT_KEYS",
     "RENDER_CAMERA",
     "KitPolicyEnv",
-    "bimanual_tasks",
     "episode_generator",
     "feature_spec",
     "parse_cameras",
@@ -144,14 +143,6 @@ def parse_cameras(text: str | Sequence[str] | None) -> tuple[str, ...]:
     return () if names in (("none",), ("None",)) else names
 
 
-def bimanual_tasks() -> list[str]:
-    """Registered tasks this env serves (the kit's bimanual tasks)."""
-    from trossen_arm_mujoco.tasks.bimanual import BimanualSampler
-
-    return [n for n in registry.names() if issubclass(registry.load(n).sampler_class(),
-                                                      BimanualSampler)]  # fmt: skip
-
-
 def feature_spec(
     task: str, cam_names: Sequence[str], image_size: Sequence[int], layout: str = "kit14"
 ) -> dict[str, tuple[str, str, tuple[int, ...]]]:
@@ -208,7 +199,7 @@ class KitPolicyEnv(gymnasium.Env):
 
     def __init__(
         self,
-        task: str = "sim_transfer_cube",
+        task: str = registry.DEFAULT_TASK,
         *,
         cam_names: Sequence[str] = (),
         image_size: Sequence[int] = (480, 640),
@@ -220,10 +211,10 @@ class KitPolicyEnv(gymnasium.Env):
         controller_checks: bool = True,
     ):
         entry = registry.load(task)
-        if entry.name not in bimanual_tasks():
+        if entry.name not in registry.kit_names():
             raise UserError(
                 f"task '{entry.name}' is not a Stationary AI kit task; "
-                f"valid tasks: {', '.join(bimanual_tasks())}"
+                f"valid tasks: {', '.join(registry.kit_names())}"
             )
         self.layout = _layout(layout)
         self.layout_name = layout

@@ -21,12 +21,13 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from trossen_arm_mujoco.fileio import atomic_path
+from trossen_arm_mujoco.tasks import registry
 
 __all__ = [
     "STAGES",
@@ -41,13 +42,26 @@ __all__ = [
     "write_results",
 ]
 
+
+class _Stages(Mapping):
+    """Task -> stage name -> the reward that marks it, read from each task's declaration
+    (``TaskEntry.stages``); tasks without stages are not listed."""
+
+    def __getitem__(self, task: str) -> dict[str, float]:
+        found = registry.stages(task)
+        if not found:
+            raise KeyError(task)
+        return found
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([n for n in registry.names() if registry.stages(n)])
+
+    def __len__(self) -> int:
+        return len(list(iter(self)))
+
+
 #: Task -> stage name -> the reward that marks it (reached when max reward >= it).
-STAGES: dict[str, dict[str, float]] = {
-    # 1 right fingers touch the cube, 2 and it is off the table, 4 the left holds it up
-    "sim_transfer_cube": {"touched": 1.0, "lifted": 2.0, "transferred": 4.0},
-    # 2 both objects grasped and lifted, 3 peg touches socket, 4 peg touches the pin
-    "sim_insertion": {"grasped": 2.0, "contact": 3.0, "inserted": 4.0},
-}
+STAGES: Mapping[str, dict[str, float]] = _Stages()
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:

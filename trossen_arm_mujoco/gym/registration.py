@@ -1,4 +1,5 @@
-"""Gymnasium ids of every env, registered on ``import trossen_arm_mujoco``.
+"""Gymnasium ids of every env, registered on ``import trossen_arm_mujoco``: each task
+declares its ids (``TaskEntry.gym_ids``), those of installed packages included.
 
 Entry points are strings, so registering builds nothing and reads no file; calling
 ``register_envs`` again is harmless (ids already in ``gymnasium.registry`` are skipped).
@@ -24,20 +25,19 @@ from gymnasium.envs.registration import EnvSpec
 __all__ = ["ENV_IDS", "NAMESPACE", "TaskEnvSpec", "register_envs"]
 
 NAMESPACE = "TrossenMujoco"
-_ENV = "trossen_arm_mujoco.gym.env:TrossenMujocoEnv"
-_GOAL_ENV = "trossen_arm_mujoco.gym.goal_env:TrossenMujocoGoalEnv"
 
-#: env id -> (entry point, task name, extra kwargs)
-ENV_IDS: dict[str, tuple[str, str, dict[str, Any]]] = {
-    f"{NAMESPACE}/WXAIReach-v0": (_ENV, "reach", {}),
-    f"{NAMESPACE}/WXAIPush-v0": (_ENV, "push", {}),
-    f"{NAMESPACE}/WXAIPickPlace-v0": (_ENV, "pick_place", {}),
-    f"{NAMESPACE}/StationaryAITransferCube-v0": (_ENV, "sim_transfer_cube", {}),
-    f"{NAMESPACE}/StationaryAIInsertion-v0": (_ENV, "sim_insertion", {}),
-    f"{NAMESPACE}/WXAIReachGoal-v0": (_GOAL_ENV, "reach", {}),
-    f"{NAMESPACE}/WXAIPushGoal-v0": (_GOAL_ENV, "push", {}),
-    f"{NAMESPACE}/WXAIPickPlaceGoal-v0": (_GOAL_ENV, "pick_place", {}),
-}
+
+def _env_ids() -> dict[str, tuple[str, str, dict[str, Any]]]:
+    """Every task's ``gym_ids`` (``tasks.task_entry.TaskEntry``), shipped and installed."""
+    from trossen_arm_mujoco.tasks import registry
+    from trossen_arm_mujoco.tasks.task_entry import GYM_KINDS
+
+    return {env_id: (GYM_KINDS[kind], entry.name, {})
+            for entry in registry.ENTRIES for env_id, kind in entry.gym_ids.items()}  # fmt: skip
+
+
+#: env id -> (entry point, task name, extra kwargs), from the tasks' declarations.
+ENV_IDS: dict[str, tuple[str, str, dict[str, Any]]] = _env_ids()
 
 
 class TaskEnvSpec(EnvSpec):

@@ -25,6 +25,7 @@ from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.looks import SceneLooks, checked_looks, compile_model
 from trossen_arm_mujoco.sim.objects import FreeJointObject
+from trossen_arm_mujoco.sim.scene_edit import SceneEdit
 
 __all__ = ["MujocoEnv", "load_model", "load_physics", "whole_ratio"]
 
@@ -59,23 +60,28 @@ def _check_file(xml_path: str | Path) -> Path:
     return path
 
 
-def load_model(xml_path: str | Path, looks: SceneLooks | None = None) -> mujoco.MjModel:
+def load_model(
+    xml_path: str | Path, looks: SceneLooks | None = None, edit: SceneEdit | None = None
+) -> mujoco.MjModel:
     """Compiled model from an MJCF file (no GL), with one-line errors for missing/broken
     files. ``looks``: shadows and arm meshes (default ``SceneLooks()``: own meshes, shadows
-    on)."""
+    on); ``edit``: a task's own scene objects (``sim.scene_edit``; default none)."""
     path = _check_file(xml_path)
     looks = checked_looks(looks)
     try:
-        return compile_model(path, looks)
+        return compile_model(path, looks, edit)
     except UserError:
         raise
     except Exception as exc:
         raise UserError(f"cannot load model {path}: {_one_line(exc)}") from exc
 
 
-def load_physics(xml_path: str | Path, looks: SceneLooks | None = None) -> Physics:
+def load_physics(
+    xml_path: str | Path, looks: SceneLooks | None = None, edit: SceneEdit | None = None
+) -> Physics:
     """dm_control Physics from an MJCF file, with one-line errors for missing/broken files.
-    ``looks``: shadows and arm meshes (default ``SceneLooks()``: own meshes, shadows on).
+    ``looks``: shadows and arm meshes (default ``SceneLooks()``: own meshes, shadows on);
+    ``edit``: a task's own scene objects (``sim.scene_edit``; default none).
 
     Imports dm_control here (its import initializes the display of its GL backend), so only
     the dm_control front doors pay for it.
@@ -85,9 +91,9 @@ def load_physics(xml_path: str | Path, looks: SceneLooks | None = None) -> Physi
     from dm_control import mujoco as dm_mujoco
 
     try:
-        if looks == SceneLooks():
+        if looks == SceneLooks() and not edit:
             return dm_mujoco.Physics.from_xml_path(str(path))
-        model = dm_mujoco.wrapper.MjModel(compile_model(path, looks))
+        model = dm_mujoco.wrapper.MjModel(compile_model(path, looks, edit))
         return dm_mujoco.Physics.from_model(model)
     except UserError:
         raise
@@ -118,6 +124,8 @@ class MujocoEnv:
         table_height: height (m, world z) of the table top: every robot's arms are kept
             above ``table_height + floor_margin`` (``Robot.set_safety_floor``); None: no floor.
         floor_margin: the safety floor's height above the table top (m, >= 0).
+        edit: a task's own objects composed into the scene loaded from ``xml_path``
+            (``sim.scene_edit.SceneEdit``); default none.
     """
 
     def __init__(
@@ -138,13 +146,14 @@ class MujocoEnv:
         looks: SceneLooks | None = None,
         table_height: float | None = None,
         floor_margin: float = 0.0,
+        edit: SceneEdit | None = None,
     ):
         if physics is not None:
             model, data = physics.model.ptr, physics.data.ptr
         elif model is None:
             if xml_path is None:
                 raise UserError("MujocoEnv needs an xml_path or a physics (or a compiled model)")
-            model = load_model(xml_path, looks)
+            model = load_model(xml_path, looks, edit)
         if data is None:
             data = mujoco.MjData(model)
         self.physics = physics

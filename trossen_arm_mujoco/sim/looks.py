@@ -32,6 +32,7 @@ import mujoco
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.sim.camera_crop import CameraCrop, apply_crops
+from trossen_arm_mujoco.sim.scene_edit import SceneEdit, compile_composed, compose_spec
 
 __all__ = [
     "KEPT_OWN_MESHES",
@@ -210,9 +211,15 @@ def _is_own_visual(geom) -> bool:
     return cls is not None and cls.name == OWN_VISUAL_CLASS
 
 
-def compile_model(path: Path, looks: SceneLooks) -> mujoco.MjModel:
-    """Compile the MJCF at ``path`` with ``looks`` (mujoco errors propagate)."""
-    if looks.visual == "menagerie":
+def compile_model(path: Path, looks: SceneLooks, edit: SceneEdit | None = None) -> mujoco.MjModel:
+    """Compile the MJCF at ``path`` with ``looks`` and a task's ``edit`` (its own scene
+    objects, ``sim.scene_edit``; default none); mujoco errors propagate."""
+    if edit:
+        spec = compose_spec(path, edit)
+        if looks.visual == "menagerie" and use_menagerie_visuals(spec, menagerie_folder()) == 0:
+            raise UserError(f"{path.name} has no wxai arm to draw with the Menagerie meshes")
+        model = compile_composed(spec, path)
+    elif looks.visual == "menagerie":
         folder = menagerie_folder()
         spec = mujoco.MjSpec.from_file(str(path))
         if use_menagerie_visuals(spec, folder) == 0:

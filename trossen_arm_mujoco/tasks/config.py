@@ -33,6 +33,7 @@ from trossen_arm_mujoco.tasks.randomization_schema import (
 __all__ = [
     "CONFIG_DIR",
     "config_names",
+    "load_entry_config",
     "load_task_config",
     "merge_overrides",
     "merge_randomization",
@@ -143,10 +144,34 @@ def read_yaml(path: str | Path) -> dict[str, Any]:
 
 
 def merge_overrides(
-    name: str, defaults: Mapping[str, Any], overrides: Mapping[str, Any]
+    name: str,
+    defaults: Mapping[str, Any],
+    overrides: Mapping[str, Any],
+    keys: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """``defaults`` updated with ``overrides``; unknown keys and invalid values raise."""
-    return check_overrides(name, defaults, overrides)
+    return check_overrides(name, defaults, overrides, keys)
+
+
+def load_entry_config(entry: Any, **overrides: Any) -> dict[str, Any]:
+    """The config of a ``TaskEntry``, validated with its own ``keys`` and ``required``, with
+    keyword overrides applied. ``entry.config``: a shipped config's name (``config/<name>.yaml``),
+    the path of a YAML file, or a mapping of defaults (checked like a file)."""
+    config, keys, required = entry.config, dict(entry.keys), tuple(entry.required)
+    if isinstance(config, Mapping):
+        source = Source(f"config of task '{entry.name}' (package {entry.package})")
+        name, data = entry.name, config
+    elif isinstance(config, Path) or str(config).endswith((".yaml", ".yml")):
+        path = Path(config)
+        source, name, data = Source.file(path), path.stem, read_yaml(path)
+    else:
+        names = config_names()
+        if config not in names:
+            raise unknown_name_error("task config", str(config), names)
+        path = CONFIG_DIR / f"{config}.yaml"
+        source, name, data = Source.file(path), str(config), read_yaml(path)
+    defaults = check_file_config(name, source, data, keys, required)
+    return merge_overrides(name, defaults, overrides, keys)
 
 
 def load_task_config(name: str, **overrides: Any) -> dict[str, Any]:

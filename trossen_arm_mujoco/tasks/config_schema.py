@@ -163,18 +163,26 @@ def check_ranges(config: Mapping[str, Any], source: Source, changed: Any = None)
                 )
 
 
-def check_file_config(name: str, source: Source, data: Mapping[str, Any]) -> dict[str, Any]:
-    """A config file's mapping validated and converted: known keys only (``KEYS`` and
-    ``randomization``), the required ones of ``REQUIRED`` present, every value valid, every
-    range pair ordered; ``randomization`` completed with the defaults."""
-    valid = [*KEYS, RANDOMIZATION_KEY]
+def check_file_config(
+    name: str,
+    source: Source,
+    data: Mapping[str, Any],
+    keys: Mapping[str, Key] | None = None,
+    required: tuple[str, ...] = (),
+) -> dict[str, Any]:
+    """A config file's mapping validated and converted: known keys only (``KEYS``, the
+    task's own ``keys`` (its ``TaskEntry.keys``) and ``randomization``), the required ones of
+    ``REQUIRED`` and ``required`` present, every value valid, every range pair ordered;
+    ``randomization`` completed with the defaults."""
+    table = {**KEYS, **(keys or {})}
+    valid = [*table, RANDOMIZATION_KEY]
     for key in data:
         if not isinstance(key, str) or key not in valid:
             close = difflib.get_close_matches(str(key), valid, n=1)
             hint = f" (did you mean {close[0]}?)" if close else ""
             keys = ", ".join(sorted(valid))
             raise UserError(f"{source.where(str(key))}: unknown key{hint}; valid keys: {keys}")
-    missing = [k for k in (*REQUIRED["*"], *REQUIRED.get(name, ())) if k not in data]
+    missing = [k for k in (*REQUIRED["*"], *REQUIRED.get(name, ()), *required) if k not in data]
     if missing:
         raise UserError(
             f"{source.origin}: missing {source.label}(s) {', '.join(missing)}; add them "
@@ -183,7 +191,7 @@ def check_file_config(name: str, source: Source, data: Mapping[str, Any]) -> dic
     out: dict[str, Any] = {}
     for key, value in data.items():
         if key != RANDOMIZATION_KEY:
-            out[key] = KEYS[key].check(source.where(key), value)
+            out[key] = table[key].check(source.where(key), value)
     out[RANDOMIZATION_KEY] = check_randomization(
         source, default_randomization(), data.get(RANDOMIZATION_KEY)
     )
@@ -192,12 +200,16 @@ def check_file_config(name: str, source: Source, data: Mapping[str, Any]) -> dic
 
 
 def check_overrides(
-    name: str, defaults: Mapping[str, Any], overrides: Mapping[str, Any]
+    name: str,
+    defaults: Mapping[str, Any],
+    overrides: Mapping[str, Any],
+    keys: Mapping[str, Key] | None = None,
 ) -> dict[str, Any]:
     """``defaults`` (a checked config) updated with keyword ``overrides``, validated: only
-    the defaults' keys, each value valid (a vector as long as the default's), range pairs
-    still ordered."""
+    the defaults' keys, each value valid (a vector as long as the default's; ``keys``: the
+    task's own keys), range pairs still ordered."""
     source = Source.overrides(name)
+    table = {**KEYS, **(keys or {})}
     out = dict(defaults)
     for key, value in overrides.items():
         if key not in defaults:
@@ -206,9 +218,9 @@ def check_overrides(
         default = defaults[key]
         if key == RANDOMIZATION_KEY:
             out[key] = check_randomization(source, default, value)
-        elif key in KEYS:
-            vector = KEYS[key].kind == "vector"
-            out[key] = KEYS[key].check(where, value, length=len(default) if vector else None)
+        elif key in table:
+            vector = table[key].kind == "vector"
+            out[key] = table[key].check(where, value, length=len(default) if vector else None)
         else:
             out[key] = _check_fallback(where, default, value)
     check_ranges(out, source, changed=overrides)

@@ -28,8 +28,10 @@ from trossen_arm_mujoco.sim.contacts import ContactPartners
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 from trossen_arm_mujoco.tasks.sampler import uniform
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
 
 __all__ = [
+    "TASKS",
     "MAX_REWARD",
     "PEG_GEOM",
     "PEG_HALF",
@@ -189,3 +191,18 @@ class InsertionSampler(BimanualSampler):
         env.objects["peg"].set_pose(env.data, peg)
         env.objects["socket"].set_pose(env.data, socket)
         return self.task_cls(env, self.config)
+
+
+#: The task's declaration (``tasks.task_entry``): what every front door derives from.
+TASKS = (
+    TaskEntry(
+        "sim_insertion", InsertionTask, InsertionSampler, "insertion",
+        "Stationary AI: insert a peg (right arm) into a socket (left arm) above the table",
+        policy="trossen_arm_mujoco.policies.insertion:InsertionPolicy",
+        aliases=("insertion",),
+        record=record_defaults(400),
+        # 2 both objects grasped and lifted, 3 peg touches socket, 4 peg touches the pin
+        stages={"grasped": 2.0, "contact": 3.0, "inserted": 4.0},
+        gym_ids={"TrossenMujoco/StationaryAIInsertion-v0": "env"},
+    ),
+)  # fmt: skip

@@ -15,8 +15,9 @@ import numpy as np
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.push import PushSampler, PushTask, cube_rest_z
 from trossen_arm_mujoco.tasks.sampler import uniform
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry
 
-__all__ = ["PickPlaceSampler", "PickPlaceTask"]
+__all__ = ["TASKS", "PickPlaceSampler", "PickPlaceTask"]
 
 
 class PickPlaceTask(PushTask):
@@ -66,3 +67,14 @@ class PickPlaceSampler(PushSampler):
         z_air = uniform(rng, max(cube[2], low[2]), max(cube[2], high[2]))
         goal[2] = z_air if in_air else cube[2]
         return goal
+
+
+#: The task's declaration (``tasks.task_entry``): what every front door derives from.
+TASKS = (
+    TaskEntry(
+        "pick_place", PickPlaceTask, PickPlaceSampler, "pick_place",
+        "wxai: bring a cube to a goal on the table or in the air",
+        gym_ids={"TrossenMujoco/WXAIPickPlace-v0": "env",
+                 "TrossenMujoco/WXAIPickPlaceGoal-v0": "goal"},
+    ),
+)  # fmt: skip

@@ -16,8 +16,9 @@ from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry
 
-__all__ = ["CUBE", "MAX_GOAL_TRIES", "PushSampler", "PushTask", "cube_rest_z"]
+__all__ = ["TASKS", "CUBE", "MAX_GOAL_TRIES", "PushSampler", "PushTask", "cube_rest_z"]
 
 CUBE = ("cube", ("cube_joint", "cube"))
 MAX_GOAL_TRIES = 100
@@ -115,3 +116,12 @@ class PushSampler(SingleArmSampler):
         cube = self.place_cube(self.rng)
         goal = self.sample_goal(self.rng, cube)
         return None if goal is None else self.task_cls(env, self.config, goal=goal)
+
+
+#: The task's declaration (``tasks.task_entry``): what every front door derives from.
+TASKS = (
+    TaskEntry(
+        "push", PushTask, PushSampler, "push", "wxai: push a cube onto a goal on the table",
+        gym_ids={"TrossenMujoco/WXAIPush-v0": "env", "TrossenMujoco/WXAIPushGoal-v0": "goal"},
+    ),
+)  # fmt: skip

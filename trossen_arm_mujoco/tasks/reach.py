@@ -11,8 +11,9 @@ from typing import ClassVar
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry
 
-__all__ = ["ReachSampler", "ReachTask"]
+__all__ = ["TASKS", "ReachSampler", "ReachTask"]
 
 
 class ReachTask(SingleArmTask):
@@ -43,3 +44,12 @@ class ReachSampler(SingleArmSampler):
         self.perturb_arm(self.rng)
         target = uniform(self.rng, self.config["target_low"], self.config["target_high"])
         return self.task_cls(env, self.config, goal=target)
+
+
+#: The task's declaration (``tasks.task_entry``): what every front door derives from.
+TASKS = (
+    TaskEntry(
+        "reach", ReachTask, ReachSampler, "reach", "wxai: move the tool frame to a target",
+        gym_ids={"TrossenMujoco/WXAIReach-v0": "env", "TrossenMujoco/WXAIReachGoal-v0": "goal"},
+    ),
+)  # fmt: skip

@@ -1,151 +1,173 @@
 """Task registry: the ONE way every front door reaches a task.
 
-An entry names everything about a task: its task class (reward, success, description,
-observations), its sampler (scenes of both flavours, randomization), its YAML config, its
-scripted policy when it has one, and the recording defaults the record CLI starts from.
-``SIM_TASK_CONFIGS`` (``constants.py``) is derived from the entries that have a scripted
-policy. Classes are named by import path and imported on first use, and YAML configs are
-read only when a task is used (``load_config``, ``make_sampler``, ``RecordDefaults[name]``),
-so listing is cheap and a broken config fails only the commands that use its task.
+Every task is one ``TaskEntry`` (``tasks.task_entry``): its task class (reward, success,
+description, observations), its sampler (scene, scene objects, randomization), its config,
+its scripted policy when it has one, its recording defaults, its stages and its gymnasium
+ids. Entries come from two places, gathered once when this module is imported:
+
+- the shipped tasks: every module of ``trossen_arm_mujoco/tasks/`` that declares a
+  module-level ``TASKS`` tuple (adding a task = its module(s) and its config, nothing else);
+- installed packages: the entry-point group ``trossen_arm_mujoco.tasks``; each entry point
+  names a ``TaskEntry`` (or a tuple of them), e.g. in the package's ``pyproject.toml``::
+
+      [project.entry-points."trossen_arm_mujoco.tasks"]
+      my_lift = "my_trossen_task.task:TASK"
+
+An installed task that cannot be used (its entry point fails to import, two packages give
+one name, a required fact is missing) is left out and remembered (``problems()``): using it
+by name fails with that one line, naming the package. ``SIM_TASK_CONFIGS``
+(``constants.py``) is derived from the entries that have a scripted policy. Classes are
+named by import path and imported on first use, and configs are read only when a task is
+used (``load_config``, ``make_sampler``, ``RecordDefaults[name]``), so listing is cheap and a
+broken config fails only the commands that use its task.
 
     >>> from trossen_arm_mujoco.tasks import registry
     >>> from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
     >>> settings = SamplerSettings(command_mode="ee_delta")
     >>> sampler = registry.make_sampler("reach", settings, success_tolerance=0.03)
     >>> task = sampler.sample_task(seed=0)
-
-Adding a task = one task module (task + sampler), one scripted policy module (optional), one
-YAML file in ``config/``, one ``TaskEntry`` below (and a gym id in ``gym/registration.py``;
-config keys no task had before: a line each in ``tasks.config_schema.KEYS``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import importlib
-from dataclasses import dataclass, field
+import re
+from collections.abc import Iterable
+from importlib import metadata
+from pathlib import Path
 from typing import Any
 
-from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
-from trossen_arm_mujoco.tasks.config import load_task_config
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
 
 __all__ = [
     "ALIASES",
+    "DEFAULT_TASK",
     "ENTRIES",
+    "ENTRY_POINT_GROUP",
     "TASKS",
     "RecordDefaults",
     "TaskEntry",
     "canonical",
+    "kit_names",
     "load",
     "make_sampler",
     "names",
+    "problems",
+    "record_defaults",
     "scripted_names",
     "sim_task_configs",
+    "stages",
 ]
 
 #: Fields of ``SamplerSettings``: never task config keys.
 SETTING_NAMES = frozenset(f.name for f in dataclasses.fields(SamplerSettings))
+#: The entry-point group through which installed packages register tasks.
+ENTRY_POINT_GROUP = "trossen_arm_mujoco.tasks"
+#: The task the command lines and the kit front doors use when none is named.
+DEFAULT_TASK = "sim_transfer_cube"
+_OWN = "trossen_arm_mujoco"
+_TASKS_MARKER = re.compile(r"^TASKS\b", re.MULTILINE)
 
 
-def _import(path: str) -> Any:
-    module, _, attr = path.partition(":")
-    return getattr(importlib.import_module(module), attr)
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
-@dataclass(frozen=True)
-class TaskEntry:
-    """One registered task.
-
-    Attributes:
-        name: the task's name (what ``--task_name`` and ``load`` take).
-        task, sampler: import paths ``"module:Class"`` of the ``Task`` and ``TaskSampler``.
-        config: name of its YAML file in ``config/``.
-        description: one line for listings.
-        policy: import path of the scripted EE policy (``record``), "" when none.
-        aliases: other names accepted for it.
-        record: recording defaults (``num_episodes``, ``episode_len``, ``onscreen_render``,
-            ``inject_noise``, ``cam_names``) of tasks with a scripted policy.
-    """
-
-    name: str
-    task: str
-    sampler: str
-    config: str
-    description: str = ""
-    policy: str = ""
-    aliases: tuple[str, ...] = ()
-    record: dict[str, Any] = field(default_factory=dict)
-
-    def task_class(self) -> type:
-        """The task's ``Task`` subclass (imported on first use)."""
-        return _import(self.task)
-
-    def sampler_class(self) -> type:
-        """The task's ``TaskSampler`` subclass (imported on first use)."""
-        return _import(self.sampler)
-
-    def policy_class(self) -> type:
-        """The scripted policy class; a UserError when the task has none."""
-        if not self.policy:
-            raise UserError(f"task '{self.name}' has no scripted policy")
-        return _import(self.policy)
-
-    def load_config(self, **overrides: Any) -> dict[str, Any]:
-        """``config/<config>.yaml``, validated, with keyword overrides (an unknown key or an
-        invalid value, in the file or an override: a one-line UserError; see
-        ``tasks.config_schema``)."""
-        return load_task_config(self.config, **overrides)
+def _as_entries(obj: Any) -> list[TaskEntry] | None:
+    """``obj`` as a list of entries (a TaskEntry, or an iterable of them); None otherwise."""
+    if isinstance(obj, TaskEntry):
+        return [obj]
+    if isinstance(obj, Iterable) and not isinstance(obj, (str, bytes, dict)):
+        items = list(obj)
+        if items and all(isinstance(e, TaskEntry) for e in items):
+            return items
+    return None
 
 
-def _record_defaults(episode_len: int) -> dict[str, Any]:
-    return {
-        "num_episodes": 1,
-        "episode_len": episode_len,
-        "onscreen_render": False,
-        "inject_noise": False,
-        "cam_names": list(STATIONARY_CAMERAS),
-    }
+def _shipped() -> list[TaskEntry]:
+    """Entries of the modules of this package that declare ``TASKS`` (a static look at each
+    module's text first, so modules without tasks are not imported)."""
+    out: list[TaskEntry] = []
+    for path in sorted(Path(__file__).resolve().parent.glob("*.py")):
+        if path.stem == "registry" or not _TASKS_MARKER.search(path.read_text(encoding="utf-8")):
+            continue
+        out.extend(importlib.import_module(f"{__package__}.{path.stem}").TASKS)
+    return out
 
 
-_PKG = "trossen_arm_mujoco.tasks"
-_POL = "trossen_arm_mujoco.policies"
-ENTRIES: tuple[TaskEntry, ...] = (
-    TaskEntry(
-        "reach", f"{_PKG}.reach:ReachTask", f"{_PKG}.reach:ReachSampler", "reach",
-        "wxai: move the tool frame to a target",
-    ),
-    TaskEntry(
-        "push", f"{_PKG}.push:PushTask", f"{_PKG}.push:PushSampler", "push",
-        "wxai: push a cube onto a goal on the table",
-    ),
-    TaskEntry(
-        "pick_place", f"{_PKG}.pick_place:PickPlaceTask",
-        f"{_PKG}.pick_place:PickPlaceSampler", "pick_place",
-        "wxai: bring a cube to a goal on the table or in the air",
-    ),
-    TaskEntry(
-        "sim_transfer_cube", f"{_PKG}.transfer_cube:TransferCube",
-        f"{_PKG}.transfer_cube:TransferCubeSampler", "transfer_cube",
-        "Stationary AI: hand a cube from the right arm to the left",
-        policy=f"{_POL}.transfer_cube:PickAndTransferPolicy",
-        aliases=("transfer_cube",),
-        record=_record_defaults(600),
-    ),
-    TaskEntry(
-        "sim_insertion", f"{_PKG}.insertion:InsertionTask",
-        f"{_PKG}.insertion:InsertionSampler", "insertion",
-        "Stationary AI: insert a peg (right arm) into a socket (left arm) above the table",
-        policy=f"{_POL}.insertion:InsertionPolicy",
-        aliases=("insertion",),
-        record=_record_defaults(400),
-    ),
-)  # fmt: skip
+def _installed(broken: dict[str, str]) -> list[TaskEntry]:
+    """Entries of the installed packages' entry points; what cannot be used goes to
+    ``broken`` (name -> one line naming the package)."""
+    out: list[TaskEntry] = []
+    for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+        package = ep.dist.name if ep.dist is not None else ep.value.partition(":")[0]
+        fix = f"fix it or uninstall it (pip uninstall {package})"
+        try:
+            obj = ep.load()
+        except Exception as exc:  # any failure of a third party's import
+            broken[ep.name] = (
+                f"task '{ep.name}' of package {package}: its entry point {ep.value} fails to "
+                f"import ({_one_line(exc)}); {fix}"
+            )
+            continue
+        entries = _as_entries(obj)
+        if entries is None:
+            broken[ep.name] = (
+                f"task '{ep.name}' of package {package}: its entry point {ep.value} is a "
+                f"{type(obj).__name__}, not a TaskEntry (trossen_arm_mujoco.tasks.task_entry); "
+                f"{fix}"
+            )
+            continue
+        for entry in entries:
+            out.append(dataclasses.replace(entry, package=package))
+    return out
+
+
+def _gather() -> tuple[tuple[TaskEntry, ...], dict[str, str]]:
+    """(usable entries, problems: name -> one line), shipped entries first."""
+    broken: dict[str, str] = {}
+    candidates = [*_shipped(), *_installed(broken)]
+    owners: dict[str, list[TaskEntry]] = {}
+    for entry in candidates:
+        missing = entry.problems()
+        if missing:
+            broken[str(entry.name)] = (
+                f"task '{entry.name}' of package {entry.package}: {'; '.join(missing)}; "
+                f"complete its TaskEntry or uninstall the package (pip uninstall {entry.package})"
+            )
+            continue
+        for label in (entry.name, *entry.aliases):
+            owners.setdefault(label, []).append(entry)
+    for label, entries in owners.items():
+        packages = sorted({e.package for e in entries})
+        if len(entries) > 1:
+            others = [p for p in packages if p != _OWN] or packages
+            broken[label] = (
+                f"task '{label}' is registered by {len(entries)} entries of package(s) "
+                f"{', '.join(packages)}; keep one (pip uninstall {others[-1]}, or rename it)"
+            )
+    usable = tuple(
+        e
+        for e in candidates
+        if not e.problems() and all(len(owners[x]) == 1 for x in (e.name, *e.aliases))
+    )
+    return usable, broken
+
+
+ENTRIES, _BROKEN = _gather()
 
 #: name -> entry, and alias -> entry.
 TASKS: dict[str, TaskEntry] = {e.name: e for e in ENTRIES}
 ALIASES: dict[str, str] = {alias: e.name for e in ENTRIES for alias in e.aliases}
+
+
+def problems() -> dict[str, str]:
+    """Installed tasks left out: name -> the one-line reason (naming the package)."""
+    return dict(_BROKEN)
 
 
 def names() -> list[str]:
@@ -154,11 +176,23 @@ def names() -> list[str]:
 
 
 def canonical(name: str) -> str:
-    """The registered name of ``name`` (itself, or the task an alias points to)."""
+    """The registered name of ``name`` (itself, or the task an alias points to); a
+    UserError listing the installed names when unknown, or the task's problem when an
+    installed package gives it but it cannot be used."""
     name = ALIASES.get(name, name)
     if name not in TASKS:
-        raise unknown_name_error("task", name, sorted([*TASKS, *ALIASES]))
+        if name in _BROKEN:
+            raise UserError(_BROKEN[name])
+        raise unknown_name_error("task", name, sorted([*TASKS, *ALIASES]),
+                                 hint=_install_hint())  # fmt: skip
     return name
+
+
+def _install_hint() -> str:
+    hint = f"tasks of installed packages register through the entry-point group {ENTRY_POINT_GROUP}"
+    if _BROKEN:
+        hint += "; left out: " + "; ".join(_BROKEN.values())
+    return hint
 
 
 def load(name: str) -> TaskEntry:
@@ -171,9 +205,24 @@ def scripted_names() -> list[str]:
     return sorted(n for n, e in TASKS.items() if e.policy)
 
 
+def kit_names() -> list[str]:
+    """Tasks of the Stationary AI kit (sampler derived from ``BimanualSampler``): the ones
+    eval's kit env, a served kit and the LeRobot env plugin take."""
+    from trossen_arm_mujoco.tasks.bimanual import BimanualSampler
+
+    return [n for n in names() if issubclass(TASKS[n].sampler_class(), BimanualSampler)]
+
+
+def stages(name: str) -> dict[str, float]:
+    """Stage name -> the reward that marks it, of task ``name`` (empty when it has none or
+    is unknown)."""
+    entry = TASKS.get(ALIASES.get(name, name))
+    return dict(entry.stages) if entry is not None else {}
+
+
 def sim_task_configs() -> dict[str, dict[str, Any]]:
     """Recording defaults of every task with a scripted policy (static: no file is read)."""
-    return {e.name: dict(e.record) for e in ENTRIES if e.policy}
+    return {e.name: dict(e.record) for e in TASKS.values() if e.policy}
 
 
 class RecordDefaults(dict):

@@ -32,6 +32,7 @@ from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import EEDeltaController
 from trossen_arm_mujoco.robot.robot_view import RobotView
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene_edit import SceneEdit
 from trossen_arm_mujoco.tasks.randomization import SceneRandomizer
 from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_KEY, default_randomization
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
@@ -80,7 +81,8 @@ class TaskSampler:
             dm_control front doors); default: load the scene.
         seed: int or ``np.random.Generator``: the sampler's generator ``self.rng``.
 
-    Subclasses set ``task_cls``, ``robot_name``, ``arms`` and implement ``robot_config``,
+    Subclasses set ``task_cls``, ``robot_name``, ``arms`` (and ``scene_objects`` /
+    ``removed_objects`` for objects of their own) and implement ``robot_config``,
     ``objects`` and ``_sample_task``.
     """
 
@@ -90,6 +92,11 @@ class TaskSampler:
     arms: ClassVar[tuple[tuple[str, str], ...]] = ()
     #: cameras of the scene offered for image observations; the first is the default.
     cameras: ClassVar[tuple[str, ...]] = ()
+    #: the task's own objects, composed into the config's scene at load time
+    #: (``sim.scene_edit``): MJCF ``<body>`` fragments (text or file paths) ...
+    scene_objects: ClassVar[tuple[str | Path, ...]] = ()
+    #: ... and top-level bodies of that scene removed (e.g. the kit scene's ``box``).
+    removed_objects: ClassVar[tuple[str, ...]] = ()
 
     def __init__(
         self,
@@ -128,6 +135,12 @@ class TaskSampler:
                 )
             robot = self.ee_robot_config()
         floor_margin = settings.floor_margin
+        edit = self.scene_edit()
+        if physics is not None and edit:
+            raise UserError(
+                f"task sampler {type(self).__name__} adds scene objects: build its physics "
+                "with them (sim.env.load_physics(path, looks, sampler.scene_edit()))"
+            )
         self.env = MujocoEnv(
             None if physics is not None else Path(ASSETS_DIR) / self.config[scene_key],
             physics=physics,
@@ -141,6 +154,7 @@ class TaskSampler:
             looks=settings.looks,
             table_height=None if floor_margin is None else self.config.get("table_height"),
             floor_margin=0.0 if floor_margin is None else floor_margin,
+            edit=edit,
         )
         if (
             flavour == "joint"
@@ -174,6 +188,11 @@ class TaskSampler:
             arm_joints=arm_joints,
             robot_joints=robot_joints,
         )
+
+    @classmethod
+    def scene_edit(cls) -> SceneEdit:
+        """The task's own scene objects (``scene_objects``, ``removed_objects``)."""
+        return SceneEdit(tuple(cls.scene_objects), tuple(cls.removed_objects))
 
     @property
     def robot_view(self) -> RobotView:

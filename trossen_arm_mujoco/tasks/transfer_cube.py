@@ -18,8 +18,10 @@ from trossen_arm_mujoco.sim.contacts import ContactPartners
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 from trossen_arm_mujoco.tasks.sampler import uniform
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
 
 __all__ = [
+    "TASKS",
     "BOX_HALF_SIZE",
     "BOX_REST_Z",
     "BOX_X_RANGE",
@@ -114,3 +116,18 @@ class TransferCubeSampler(BimanualSampler):
     def _sample_task(self, env: MujocoEnv) -> TransferCube:
         env.objects["box"].set_pose(env.data, sample_cube_pose(self.rng))
         return self.task_cls(env, self.config)
+
+
+#: The task's declaration (``tasks.task_entry``): what every front door derives from.
+TASKS = (
+    TaskEntry(
+        "sim_transfer_cube", TransferCube, TransferCubeSampler, "transfer_cube",
+        "Stationary AI: hand a cube from the right arm to the left",
+        policy="trossen_arm_mujoco.policies.transfer_cube:PickAndTransferPolicy",
+        aliases=("transfer_cube",),
+        record=record_defaults(600),
+        # 1 right fingers touch the cube, 2 and it is off the table, 4 the left holds it up
+        stages={"touched": 1.0, "lifted": 2.0, "transferred": 4.0},
+        gym_ids={"TrossenMujoco/StationaryAITransferCube-v0": "env"},
+    ),
+)  # fmt: skip

@@ -35,13 +35,12 @@ from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, I
 from trossen_arm_mujoco.robot.layout import ARM_JOINTS, KIT_LAYOUT, SIDES
 from trossen_arm_mujoco.sim.env import whole_ratio
 from trossen_arm_mujoco.tasks import registry
-from trossen_arm_mujoco.tasks.bimanual import BimanualSampler
 from trossen_arm_mujoco.twin.commands import ArmState
 from trossen_arm_mujoco.twin.faults import lag_fault_of
 from trossen_arm_mujoco.twin.frame import Frame
 from trossen_arm_mujoco.twin.pacer import Pacer
 
-__all__ = ["COUPLED_FINGER", "DRIVER_JOINTS", "GROUPS", "KitWorld", "kit_task_names"]
+__all__ = ["COUPLED_FINGER", "DRIVER_JOINTS", "GROUPS", "KitWorld"]
 
 #: MJCF joints of the 7 driver values of one arm (unprefixed), and the coupled finger.
 DRIVER_JOINTS: tuple[str, ...] = (*ARM_JOINTS, "left_carriage_joint")
@@ -51,17 +50,11 @@ COUPLED_FINGER = "right_carriage_joint"
 GROUPS: tuple[str, ...] = ("left_arm", "left_gripper", "right_arm", "right_gripper")
 
 
-def kit_task_names() -> list[str]:
-    """Registered tasks of the Stationary AI kit (the ones a served kit can hold)."""
-    return [n for n in registry.names() if issubclass(registry.load(n).sampler_class(),
-                                                      BimanualSampler)]  # fmt: skip
-
-
 class KitWorld:
     """Both arms of the kit and a task's objects; see the module doc.
 
     Args:
-        task_name: a registered kit task (``kit_task_names``).
+        task_name: a registered kit task (``tasks.registry.kit_names``).
         base_seed: run seed: episode ``k`` uses ``episode_seed(base_seed, k)``.
         episode_index: the episode the world starts in.
         fps: frames per second of simulated time (the recording rate); default the task's.
@@ -71,17 +64,17 @@ class KitWorld:
 
     def __init__(
         self,
-        task_name: str = "sim_transfer_cube",
+        task_name: str = registry.DEFAULT_TASK,
         base_seed: int = 0,
         episode_index: int = 0,
         fps: float | None = None,
         object_poses: Mapping[str, np.ndarray] | None = None,
     ) -> None:
         entry = registry.load(task_name)
-        if not issubclass(entry.sampler_class(), BimanualSampler):
+        if entry.name not in registry.kit_names():
             raise UserError(
                 f"task '{entry.name}' is not a Stationary AI (two-arm) task; a served kit "
-                f"holds one of: {', '.join(kit_task_names())}"
+                f"holds one of: {', '.join(registry.kit_names())}"
             )
         config = entry.load_config()
         ctrl_dt = float(config.get("sim_dt") or 0.002)

@@ -55,10 +55,10 @@ def kit_for_episode(
     the episode's recorded start (``initial_env_state`` and ``object_names``, when present
     and matching the task), e.g. to replay the episode through the wire. Only faults and
     their clearing are reported through ``say``."""
-    from trossen_arm_mujoco.twin.kit_world import kit_task_names
+    from trossen_arm_mujoco.tasks import registry
 
     task = str(attrs.get("task_name", ""))
-    task = task if task in kit_task_names() else "sim_transfer_cube"
+    task = task if task in registry.kit_names() else registry.DEFAULT_TASK
     world = KitWorld(task)
     names, state = attrs.get("object_names"), attrs.get("initial_env_state")
     if names is not None and state is not None:

@@ -48,7 +48,6 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.controller_limits_step import register as register_controller_limits
 from trossen_arm_mujoco.eval.env import (
     KitPolicyEnv,
-    bimanual_tasks,
     feature_spec,
     parse_cameras,
     parse_image_size,
@@ -72,7 +71,7 @@ KIT_CAMERAS = "cam_high,cam_low,cam_left_wrist,cam_right_wrist"
 class TrossenEnvConfig(EnvConfig):
     """``--env.type=trossen`` (see the module docstring)."""
 
-    task: str | None = "sim_transfer_cube"
+    task: str | None = registry.DEFAULT_TASK
     fps: int = 50
     episode_length: int | None = None
     cam_names: str = KIT_CAMERAS
@@ -86,10 +85,10 @@ class TrossenEnvConfig(EnvConfig):
     def __post_init__(self) -> None:
         self._adopt_checkpoint_settings()
         name = registry.canonical(self.task or "")
-        if name not in bimanual_tasks():
+        if name not in registry.kit_names():
             raise ValueError(
                 f"--env.task={self.task} is not a Stationary AI kit task; "
-                f"valid: {', '.join(bimanual_tasks())}"
+                f"valid: {', '.join(registry.kit_names())}"
             )
         self.task = name
         cams = parse_cameras(self.cam_names)
