@@ -53,9 +53,9 @@ FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
 def replay_actions(steps: int) -> np.ndarray:
     """The fixed action array the replay "policy" plays: (steps, 14), a slow sway of every
     joint around the start pose, the grippers opening and closing."""
-    from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
+    from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, START_ARM_POSE
 
-    start = REAL_KIT_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
+    start = KIT14_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
     t = np.arange(steps)[:, None] * 0.02
     phase = np.linspace(0, np.pi, 14)[None, :]
     actions = start + 0.3 * np.sin(2 * np.pi * 0.5 * t + phase)

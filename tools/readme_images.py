@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 from trossen_arm_mujoco.assets import STATIONARY_CAMERAS  # noqa: E402
 from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings, episode_seed  # noqa: E402
 from trossen_arm_mujoco.images import write_png  # noqa: E402
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT  # noqa: E402
+from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT  # noqa: E402
 
 
 def main() -> None:
@@ -27,7 +27,7 @@ def main() -> None:
     actions, poses = rec.scripted_rollout(np.random.default_rng(episode_seed(0, 0)))
     task = rec.joint_sampler.sample_task(0, object_poses=poses)
     for t in range(args.step):
-        task.step(KIT_LAYOUT.joint_commands(actions[t]))
+        task.step(VENDOR16_LAYOUT.joint_commands(actions[t]))
     os.makedirs(args.out, exist_ok=True)
     for cam, img in rec.joint_env.render_images().items():
         path = os.path.join(args.out, f"{cam}.png")

@@ -213,7 +213,7 @@ def test_both_phases_see_the_same_randomized_scene():
 
 
 def test_stored_record_re_renders_the_episode_exactly(tmp_path):
-    from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+    from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
     from trossen_arm_mujoco.tasks import registry
     from trossen_arm_mujoco.tasks.randomization_record import record_from_json
 
@@ -233,7 +233,7 @@ def test_stored_record_re_renders_the_episode_exactly(tmp_path):
                 np.testing.assert_array_equal(qpos, ep.qpos[t].astype(np.float32))
                 image = sampler.env.render_images()["cam_high"]
                 np.testing.assert_array_equal(image, frames.read("cam_high", t))
-                task.step(KIT_LAYOUT.joint_commands(ep.action[t]))
+                task.step(VENDOR16_LAYOUT.joint_commands(ep.action[t]))
     finally:
         sampler.close()
 

@@ -15,10 +15,10 @@ from trossen_arm_mujoco.eval.env import (
     parse_image_size,
     rate_timing,
 )
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, START_ARM_POSE
 
 SIZE = (24, 32)
-START14 = REAL_KIT_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
+START14 = KIT14_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
 
 
 @pytest.fixture
@@ -67,7 +67,7 @@ def test_spaces_contain_the_observations(make_env, layout, size, cams):
         assert space.contains(obs)
     # the observation is the task's qpos in the layout's order (inside the joint ranges)
     qpos16 = _qpos(env)
-    expected = REAL_KIT_LAYOUT.from_vendor(qpos16) if size == 14 else qpos16
+    expected = KIT14_LAYOUT.from_vendor(qpos16) if size == 14 else qpos16
     expected = np.clip(expected.astype(np.float32), space["agent_pos"].low, space["agent_pos"].high)
     np.testing.assert_array_equal(obs["agent_pos"], expected)
 
@@ -151,13 +151,13 @@ def test_14_and_equivalent_16_value_actions_give_identical_qpos(make_env):
     for t in range(8):
         a14 = START14 + rng.uniform(-0.2, 0.2, 14)
         a14[[6, 13]] = 0.01 + 0.004 * t  # the grippers close step by step
-        a16 = REAL_KIT_LAYOUT.to_vendor(a14)
+        a16 = KIT14_LAYOUT.to_vendor(a14)
         assert a16[6] == a16[7] == a14[6] and a16[14] == a16[15] == a14[13]
         obs14, r14, *_ = kit.step(a14)
         obs16, r16, *_ = vendor.step(a16)
         np.testing.assert_array_equal(_qpos(kit), _qpos(vendor))
         np.testing.assert_array_equal(
-            obs14["agent_pos"], REAL_KIT_LAYOUT.from_vendor(obs16["agent_pos"])
+            obs14["agent_pos"], KIT14_LAYOUT.from_vendor(obs16["agent_pos"])
         )
         assert r14 == r16
 

@@ -31,7 +31,7 @@ from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings
 from trossen_arm_mujoco.data.reader import Episode, load_episode
 from trossen_arm_mujoco.eval.env import KitPolicyEnv
 from trossen_arm_mujoco.export.lerobot import frame_values
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 from trossen_arm_mujoco.tasks import registry
 
 TASKS = ("sim_transfer_cube", "sim_insertion")
@@ -123,11 +123,11 @@ def test_recorded_actions_succeed_open_loop_at_the_recording_rate(
     obs, _ = env.reset(seed=attempt, options={"object_poses": poses})
     # the same initial state: the arms at the recorded start, the objects at the recorded poses
     np.testing.assert_allclose(
-        obs["agent_pos"], REAL_KIT_LAYOUT.from_vendor(episode.qpos[0]), atol=TRAJECTORY_ATOL
+        obs["agent_pos"], KIT14_LAYOUT.from_vendor(episode.qpos[0]), atol=TRAJECTORY_ATOL
     )
     np.testing.assert_allclose(obs["environment_state"], episode.env_state[0], atol=1e-7)
 
-    actions = REAL_KIT_LAYOUT.from_vendor(episode.action)  # the env's kit14 layout
+    actions = KIT14_LAYOUT.from_vendor(episode.action)  # the env's kit14 layout
     trace = replay(env, actions, poses, seed=attempt)
     info = trace[-1]["info"]
     assert info["is_success"], (
@@ -177,7 +177,7 @@ def test_moving_an_object_makes_the_same_actions_fail(recordings, make_env, task
     """Control: success above depends on the initial state (not vacuous)."""
     episode = load_episode(recordings[task][0])
     env = make_env(task, episode_length=episode.num_steps)
-    actions = REAL_KIT_LAYOUT.from_vendor(episode.action)
+    actions = KIT14_LAYOUT.from_vendor(episode.action)
     for name in episode.attrs["object_names"]:
         poses = initial_poses(episode)
         poses[name][1] += 0.06  # 6 cm along y

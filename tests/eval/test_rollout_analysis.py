@@ -17,9 +17,9 @@ from trossen_arm_mujoco.eval.rollout_analysis import (
 from trossen_arm_mujoco.eval.runner import EpisodeRunner, EvalSettings
 from trossen_arm_mujoco.eval.scores import EpisodeScore
 from trossen_arm_mujoco.policies.transfer_cube import RIGHT_RELEASE
-from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN, REAL_KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN, KIT14_LAYOUT
 
-RIGHT_GRIPPER = REAL_KIT_LAYOUT.gripper_index("right")
+RIGHT_GRIPPER = KIT14_LAYOUT.gripper_index("right")
 SEED = 5
 
 

@@ -24,9 +24,9 @@ SCRIPTED = EvalSettings(policy="scripted", task="sim_transfer_cube", num_episode
 HOLD_MODULE = """
 import numpy as np
 
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, START_ARM_POSE
 
-POSE = REAL_KIT_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
+POSE = KIT14_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
 RESETS = []
 
 
@@ -163,9 +163,9 @@ from pathlib import Path
 
 import numpy as np
 
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, START_ARM_POSE
 
-POSE = REAL_KIT_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
+POSE = KIT14_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
 
 
 def act(observation):

@@ -11,7 +11,7 @@ import pytest
 
 from trossen_arm_mujoco.robot.floor_points import CYLINDER_SIDES, geom_points
 from trossen_arm_mujoco.robot.kinematics import Kinematics
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.safety_floor import SafetyFloor
 
@@ -294,7 +294,7 @@ def test_dm_control_joint_env_and_gym_env_clip_alike(make_env):
     worlds = [(u.scene.model, u.scene.data, u.task.robot),
               (dm_env.physics.model.ptr, dm_env.physics.data.ptr,
                dm_env.task.robot(dm_env.physics))]  # fmt: skip
-    groups = KIT_LAYOUT.groups  # both arms and grippers
+    groups = VENDOR16_LAYOUT.groups  # both arms and grippers
     start = {g: u.task.robot.view.get_move_group(g).get_qpos(u.scene.data) for g in groups}
     for model, data, robot in worlds:  # the same arms, at rest, holding
         for g, q in start.items():

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from trossen_arm_mujoco.robot.layout import (
-    KIT_LAYOUT,
+    KIT14_LAYOUT,
     LAYOUTS,
-    REAL_KIT_LAYOUT,
     START_ARM_POSE,
+    VENDOR16_LAYOUT,
     kit_joint_commands,
 )
 
@@ -35,47 +35,45 @@ PLUGIN_UNITS = ["rad"] * 6 + ["m"] + ["rad"] * 6 + ["m"]
 
 
 def test_real_kit_names_and_units_are_the_plugins():
-    assert list(REAL_KIT_LAYOUT.names) == PLUGIN_NAMES
-    assert list(REAL_KIT_LAYOUT.units) == PLUGIN_UNITS
-    assert REAL_KIT_LAYOUT.size == 14
+    assert list(KIT14_LAYOUT.names) == PLUGIN_NAMES
+    assert list(KIT14_LAYOUT.units) == PLUGIN_UNITS
+    assert KIT14_LAYOUT.size == 14
     assert set(LAYOUTS) == {"kit14", "vendor16"}
-    assert LAYOUTS["kit14"] is REAL_KIT_LAYOUT and LAYOUTS["vendor16"] is KIT_LAYOUT
+    assert LAYOUTS["kit14"] is KIT14_LAYOUT and LAYOUTS["vendor16"] is VENDOR16_LAYOUT
 
 
 def test_from_vendor_keeps_the_actuated_finger_and_drops_the_coupled_one():
     vendor = np.arange(16.0)
-    kit = REAL_KIT_LAYOUT.from_vendor(vendor)
+    kit = KIT14_LAYOUT.from_vendor(vendor)
     # the carriage value is left_carriage_joint: index 7 / 15 of the 16
     np.testing.assert_array_equal(kit, [0, 1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 15])
-    for name, value in zip(REAL_KIT_LAYOUT.names, kit, strict=True):
-        assert KIT_LAYOUT.names[int(value)] == name.removesuffix(".pos")
+    for name, value in zip(KIT14_LAYOUT.names, kit, strict=True):
+        assert VENDOR16_LAYOUT.names[int(value)] == name.removesuffix(".pos")
     batch = np.random.default_rng(0).normal(size=(3, 5, 16))
-    assert REAL_KIT_LAYOUT.from_vendor(batch).shape == (3, 5, 14)
+    assert KIT14_LAYOUT.from_vendor(batch).shape == (3, 5, 14)
     with pytest.raises(ValueError, match="16 values"):
-        REAL_KIT_LAYOUT.from_vendor(np.zeros(14))
+        KIT14_LAYOUT.from_vendor(np.zeros(14))
 
 
 def test_to_vendor_round_trip():
     kit = np.random.default_rng(1).normal(size=(4, 14))
-    vendor = REAL_KIT_LAYOUT.to_vendor(kit)
+    vendor = KIT14_LAYOUT.to_vendor(kit)
     assert vendor.shape == (4, 16)
-    np.testing.assert_array_equal(REAL_KIT_LAYOUT.from_vendor(vendor), kit)
+    np.testing.assert_array_equal(KIT14_LAYOUT.from_vendor(vendor), kit)
     # the coupled finger (6 / 14) repeats the gripper value
     np.testing.assert_array_equal(vendor[:, 6], kit[:, 6])
     np.testing.assert_array_equal(vendor[:, 14], kit[:, 13])
     start = np.array(START_ARM_POSE)  # both fingers equal: vendor -> kit -> vendor is exact
-    np.testing.assert_array_equal(
-        REAL_KIT_LAYOUT.to_vendor(REAL_KIT_LAYOUT.from_vendor(start)), start
-    )
+    np.testing.assert_array_equal(KIT14_LAYOUT.to_vendor(KIT14_LAYOUT.from_vendor(start)), start)
     with pytest.raises(ValueError, match="14 values"):
-        REAL_KIT_LAYOUT.to_vendor(np.zeros(16))
+        KIT14_LAYOUT.to_vendor(np.zeros(16))
 
 
 def test_kit_joint_commands_equal_for_14_and_16_values():
     vendor = np.random.default_rng(2).uniform(-1, 1, size=16)
     vendor[[6, 14]] = 123.0  # the coupled fingers are not commanded
     from_16 = kit_joint_commands(vendor)
-    from_14 = kit_joint_commands(REAL_KIT_LAYOUT.from_vendor(vendor))
+    from_14 = kit_joint_commands(KIT14_LAYOUT.from_vendor(vendor))
     assert list(from_16) == list(from_14) == [
         "left_arm", "left_gripper", "right_arm", "right_gripper",
     ]  # fmt: skip
@@ -86,3 +84,16 @@ def test_kit_joint_commands_equal_for_14_and_16_values():
     for bad in (np.zeros(15), np.zeros(17), np.zeros((2, 16)), np.float64(0.0)):
         with pytest.raises(ValueError, match="14 values .* or 16"):
             kit_joint_commands(bad)
+
+
+def test_layouts_are_named_after_their_keys_and_the_old_names_warn():
+    from trossen_arm_mujoco.robot import layout
+
+    assert LAYOUTS == {"kit14": KIT14_LAYOUT, "vendor16": VENDOR16_LAYOUT}
+    assert (KIT14_LAYOUT.size, VENDOR16_LAYOUT.size) == (14, 16)
+    for old, new in (("KIT_LAYOUT", VENDOR16_LAYOUT), ("REAL_KIT_LAYOUT", KIT14_LAYOUT)):
+        with pytest.warns(DeprecationWarning, match=f"{old} is deprecated"):
+            assert getattr(layout, old) is new
+    assert "KIT_LAYOUT" not in layout.__all__
+    with pytest.raises(AttributeError, match="KitLayout"):
+        layout.KitLayout  # noqa: B018 (the class was renamed, not aliased)

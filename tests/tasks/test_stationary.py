@@ -9,7 +9,7 @@ from trossen_arm_mujoco.constants import DT, GRIPPER_OPEN, START_ARM_POSE, STATI
 from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 from trossen_arm_mujoco.sim_env import TransferCubeTask
 from trossen_arm_mujoco.utils import make_sim_env
 
@@ -187,7 +187,7 @@ def test_joint_action_mapping():
 
 
 def test_joint_env_takes_the_real_kits_14_values():
-    """A 14-value action (REAL_KIT_LAYOUT) drives the joint env exactly as its 16 values."""
+    """A 14-value action (KIT14_LAYOUT) drives the joint env exactly as its 16 values."""
     rng = np.random.default_rng(0)
     start = np.array(START_ARM_POSE, dtype=float)
     actions = []
@@ -204,7 +204,7 @@ def test_joint_env_takes_the_real_kits_14_values():
         env.reset()
         qpos = []
         for a in actions:
-            ts = env.step(a if layout == "vendor16" else REAL_KIT_LAYOUT.from_vendor(a))
+            ts = env.step(a if layout == "vendor16" else KIT14_LAYOUT.from_vendor(a))
             qpos.append(ts.observation["qpos"])
         runs.append((np.array(qpos), env.physics.data.qpos.copy(), env.physics.data.ctrl.copy()))
         env.task.close()

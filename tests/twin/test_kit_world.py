@@ -9,7 +9,7 @@ from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, POSITION, VELOCITY
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.twin.arm_adapter import ArmAdapter
@@ -75,8 +75,8 @@ def test_position_mode_tracks_and_records_the_targets(world: KitWorld) -> None:
     np.testing.assert_allclose(pos[:6], GOAL[:6], atol=0.02)
     assert pos[6] == pytest.approx(GRIPPER_MAX, abs=0.002)
     action = world.action()
-    np.testing.assert_allclose(action[KIT_LAYOUT.arm("left")], GOAL[:6])
-    np.testing.assert_allclose(action[KIT_LAYOUT.fingers("left")], GRIPPER_MAX)
+    np.testing.assert_allclose(action[VENDOR16_LAYOUT.arm("left")], GOAL[:6])
+    np.testing.assert_allclose(action[VENDOR16_LAYOUT.fingers("left")], GRIPPER_MAX)
     right = world.measured("right")  # untouched: holds its start
     np.testing.assert_allclose(right[:3], [0.0, np.pi / 12, np.pi / 12], atol=0.01)
     table = left.output_table()  # the wire layout of the robot output, per joint

@@ -15,7 +15,7 @@ import pytest
 
 from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.real.validate import ArmLimits
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, START_ARM_POSE
 from trossen_arm_mujoco.twin.leader_trajectory import LeaderTrajectory
 from trossen_arm_mujoco.twin.leaders import (
     APPROACH_SPEED_FRACTION,
@@ -48,7 +48,7 @@ def make_episode(path, steps: int = 26) -> np.ndarray:
 
 def test_staged_leaders_rest_there_then_approach_the_episode(tmp_path):
     path = tmp_path / "episode_0.hdf5"
-    kit = REAL_KIT_LAYOUT.from_vendor(make_episode(path))
+    kit = KIT14_LAYOUT.from_vendor(make_episode(path))
     first = {"left": kit[0, 0:7], "right": kit[0, 7:14]}
     speed_limit = ArmLimits.from_mjcf().velocity
     stop, pairs = threading.Event(), []

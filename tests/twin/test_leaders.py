@@ -13,7 +13,7 @@ import pytest
 
 from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, START_ARM_POSE
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, START_ARM_POSE
 from trossen_arm_mujoco.twin.leader_server import LeaderArmServer
 from trossen_arm_mujoco.twin.leader_trajectory import load_leader_trajectory
 from trossen_arm_mujoco.twin.leaders import (
@@ -61,7 +61,7 @@ def test_trajectory_is_the_kit_layout_per_arm(episode):
     path, actions = episode
     traj = load_leader_trajectory(path)
     assert traj.positions.shape == (STEPS, 2, 7) and traj.dt == pytest.approx(0.02)
-    kit = REAL_KIT_LAYOUT.from_vendor(actions)
+    kit = KIT14_LAYOUT.from_vendor(actions)
     np.testing.assert_allclose(traj.positions[:, 0], kit[:, 0:7])
     np.testing.assert_allclose(traj.positions[:, 1], kit[:, 7:14])
     qpos = load_leader_trajectory(path, source="qpos")
@@ -80,7 +80,7 @@ def test_trajectory_is_the_kit_layout_per_arm(episode):
 
 def test_served_pair_plays_through_the_unmodified_driver(episode):
     path, actions = episode
-    kit = REAL_KIT_LAYOUT.from_vendor(actions)
+    kit = KIT14_LAYOUT.from_vendor(actions)
     stop, pairs, lines = threading.Event(), [], []
     thread = threading.Thread(
         target=serve_leaders,

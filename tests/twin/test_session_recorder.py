@@ -12,7 +12,7 @@ import pytest
 
 from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
 from trossen_arm_mujoco.twin.episode_spool import recover_spools
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 from trossen_arm_mujoco.twin.session_recorder import RecordOptions, SessionRecorder
@@ -56,7 +56,7 @@ def test_one_episode_per_session_with_images_reward_and_actions(tmp_path: Path) 
     second = load_episode(tmp_path / "episode_5.hdf5")
     assert second.num_steps == 10 and second.attrs["seed"] == episode_seed(3, 5)
     # the second session started from a fresh scene: the arm back at its start
-    assert second.qpos[0, KIT_LAYOUT.arm("left")][0] == pytest.approx(0.0, abs=0.01)
+    assert second.qpos[0, VENDOR16_LAYOUT.arm("left")][0] == pytest.approx(0.0, abs=0.01)
     assert len(stats.written) == 2 and not stats.errors
     assert lines[0].startswith("episode_4.hdf5: 20 steps (0.40 s), session ended; reward")
     assert not list(tmp_path.glob(".*.tmp"))  # no spool or temporary file left

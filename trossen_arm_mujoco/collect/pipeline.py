@@ -38,7 +38,7 @@ from trossen_arm_mujoco.real.validate import (
     validate_actions,
 )
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
-from trossen_arm_mujoco.robot.layout import EE_LAYOUT, KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.layout import EE_LAYOUT, SIDES, VENDOR16_LAYOUT
 from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
@@ -193,7 +193,9 @@ class EpisodeRecorder:
         #: Steps the scripted policy needs to finish the task (0 when it does not say).
         self.minimum_episode_len = int(getattr(self.policy_cls, "minimum_episode_len", 0))
         view = self.joint_sampler.env.robots[probe.robot_name].view
-        ranges = np.concatenate([view.get_move_group(g).joint_range for g in KIT_LAYOUT.groups])
+        ranges = np.concatenate(
+            [view.get_move_group(g).joint_range for g in VENDOR16_LAYOUT.groups]
+        )
         self.action_low, self.action_high = ranges[:, 0].copy(), ranges[:, 1].copy()
 
     @property
@@ -225,7 +227,7 @@ class EpisodeRecorder:
         self.last_randomization = self.ee_sampler.randomization
         poses = task.object_poses()
         policy = self.policy_cls(inject_noise=self.settings.inject_noise, rng=rng)
-        actions = np.empty((T, KIT_LAYOUT.size))
+        actions = np.empty((T, VENDOR16_LAYOUT.size))
         ts = TimeStep(task.policy_observation())
         for t in range(T):
             ee_action = np.asarray(policy(ts), dtype=float)
@@ -237,7 +239,7 @@ class EpisodeRecorder:
             # so the joint flavour squeezes the objects as the EE flavour did.
             for side in SIDES:
                 grip = ee_action[EE_LAYOUT.groups[f"{side}_gripper"]][0]
-                actions[t, KIT_LAYOUT.fingers(side)] = grip
+                actions[t, VENDOR16_LAYOUT.fingers(side)] = grip
         # The mocap weld can press a joint slightly past its (soft) limit; the joint flavour
         # and the real arm only accept targets within the limits, so record those.
         np.clip(actions, self.action_low, self.action_high, out=actions)
@@ -290,7 +292,7 @@ class EpisodeRecorder:
         obs = task.get_observation()
         for t in range(len(actions)):
             images = env.render_images() if writer is not None else {}
-            task.step(KIT_LAYOUT.joint_commands(actions[t]))
+            task.step(VENDOR16_LAYOUT.joint_commands(actions[t]))
             rewards[t] = task.get_reward()
             if writer is not None:
                 writer.append(

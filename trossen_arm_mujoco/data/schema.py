@@ -40,7 +40,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
 
 __all__ = [
     "ATTR_KINDS",
@@ -73,7 +73,7 @@ VENDOR_DT: float = 0.02
 SCHEMA_VERSION: int = 2
 
 #: Width of qpos, qvel and action vectors (two arms x (6 joints + 2 fingers)).
-NUM_JOINTS: int = KIT_LAYOUT.size
+NUM_JOINTS: int = VENDOR16_LAYOUT.size
 
 #: Width of env_state per object: position xyz (m) + orientation quaternion wxyz; the cube
 #: transfer has one object (7 values), peg insertion two (peg then socket, 14 values).
@@ -82,8 +82,8 @@ ENV_STATE_DIM: int = 7
 #: Joint labels and units in qpos/action order (plots, messages), from the kit layout:
 #: ``left_joint_0`` .. ``left_joint_5``, ``left_right_carriage_joint`` (index 6, the coupled
 #: finger), ``left_left_carriage_joint`` (index 7, the actuated one), then the right arm.
-JOINT_NAMES: tuple[str, ...] = KIT_LAYOUT.names
-JOINT_UNITS: tuple[str, ...] = KIT_LAYOUT.units
+JOINT_NAMES: tuple[str, ...] = VENDOR16_LAYOUT.names
+JOINT_UNITS: tuple[str, ...] = VENDOR16_LAYOUT.units
 
 #: Compression choices for the image datasets.
 COMPRESSIONS: tuple[str, ...] = ("none", "gzip", "lzf")

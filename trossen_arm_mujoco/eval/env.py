@@ -56,7 +56,7 @@ from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.inputs import reset_options
 from trossen_arm_mujoco.real.arm_controller import GOAL_TIME_FACTOR, KitController
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS, REAL_KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, LAYOUTS, VENDOR16_LAYOUT
 from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
@@ -250,11 +250,13 @@ class KitPolicyEnv(gymnasium.Env):
         self._max_episode_steps = int(episode_length)
         self.metadata = {**self.metadata, "render_fps": self.fps}
         view = self.scene.robots[probe.robot_name].view
-        ranges = np.concatenate([view.get_move_group(g).joint_range for g in KIT_LAYOUT.groups])
+        ranges = np.concatenate(
+            [view.get_move_group(g).joint_range for g in VENDOR16_LAYOUT.groups]
+        )
         low16, high16 = ranges[:, 0], ranges[:, 1]
-        if self.layout is REAL_KIT_LAYOUT:
-            self.action_low = REAL_KIT_LAYOUT.from_vendor(low16)
-            self.action_high = REAL_KIT_LAYOUT.from_vendor(high16)
+        if self.layout is KIT14_LAYOUT:
+            self.action_low = KIT14_LAYOUT.from_vendor(low16)
+            self.action_high = KIT14_LAYOUT.from_vendor(high16)
         else:
             self.action_low, self.action_high = low16.copy(), high16.copy()
         self.action_space = gymnasium.spaces.Box(
@@ -304,8 +306,8 @@ class KitPolicyEnv(gymnasium.Env):
         return gymnasium.spaces.Dict(spaces)
 
     def _to_layout(self, values16: np.ndarray) -> np.ndarray:
-        if self.layout is REAL_KIT_LAYOUT:
-            return REAL_KIT_LAYOUT.from_vendor(values16)
+        if self.layout is KIT14_LAYOUT:
+            return KIT14_LAYOUT.from_vendor(values16)
         return np.asarray(values16)
 
     # -- gymnasium API --------------------------------------------------------------------
@@ -329,8 +331,8 @@ class KitPolicyEnv(gymnasium.Env):
         self.n_steps = 0
         self._reached = False
         obs = self._observe()
-        measured = obs["agent_pos"] if self.layout is REAL_KIT_LAYOUT else (
-            REAL_KIT_LAYOUT.from_vendor(obs["agent_pos"]))  # fmt: skip
+        measured = obs["agent_pos"] if self.layout is KIT14_LAYOUT else (
+            KIT14_LAYOUT.from_vendor(obs["agent_pos"]))  # fmt: skip
         self.controller.reset(measured.astype(np.float64))
         return obs, self._info(self.episode.get_reward())
 
@@ -345,7 +347,7 @@ class KitPolicyEnv(gymnasium.Env):
             )
         if not self.controller_checks and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        goal = a if self.layout is REAL_KIT_LAYOUT else REAL_KIT_LAYOUT.from_vendor(a)
+        goal = a if self.layout is KIT14_LAYOUT else KIT14_LAYOUT.from_vendor(a)
         ctl, task, scene = self.controller, self.episode, self.scene
         ctl.command(goal, self._goal_time)
         fault = None
@@ -353,7 +355,7 @@ class KitPolicyEnv(gymnasium.Env):
             target, fault = ctl.tick(self._tick_dt)
             if fault is not None:  # the arms stop in the error state: the episode ends
                 break
-            task.apply_action(REAL_KIT_LAYOUT.joint_commands(target))
+            task.apply_action(KIT14_LAYOUT.joint_commands(target))
             scene.step(1)
         task.finish_step()
         self.n_steps += 1

@@ -23,7 +23,7 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, episode_generator
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 
 __all__ = ["FunctionPolicy", "Policy", "ScriptedPolicy", "is_function_spec", "make_policy"]
 
@@ -51,7 +51,7 @@ class ScriptedPolicy:
         from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings
 
         self.recorder = EpisodeRecorder(RecordSettings(task_name=task))
-        self._plan = np.zeros((0, REAL_KIT_LAYOUT.size))
+        self._plan = np.zeros((0, KIT14_LAYOUT.size))
         self._t = 0
 
     def reset(self, env: KitPolicyEnv, seed: int) -> None:

@@ -13,7 +13,7 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.runner import EvalSettings
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 
 __all__ = ["WireEnv"]
 
@@ -49,7 +49,7 @@ class WireEnv:
     def to_layout(self, values14: np.ndarray) -> np.ndarray:
         """14 driver values -> the env's layout (float32)."""
         v = np.asarray(values14, dtype=np.float64)
-        out = v if self.layout is REAL_KIT_LAYOUT else REAL_KIT_LAYOUT.to_vendor(v)
+        out = v if self.layout is KIT14_LAYOUT else KIT14_LAYOUT.to_vendor(v)
         return out.astype(np.float32)
 
     def to_driver(self, action: np.ndarray) -> np.ndarray:
@@ -59,7 +59,7 @@ class WireEnv:
             raise UserError(f"the policy's action must be {self.layout.size} finite values "
                             f"(layout {self.layout_name}), got {np.shape(action)}")  # fmt: skip
         np.clip(a, self.action_low, self.action_high, out=a)
-        return a if self.layout is REAL_KIT_LAYOUT else REAL_KIT_LAYOUT.from_vendor(a)
+        return a if self.layout is KIT14_LAYOUT else KIT14_LAYOUT.from_vendor(a)
 
     def close(self) -> None:
         """Release the scene source (its physics)."""

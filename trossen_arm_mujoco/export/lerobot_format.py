@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.export.deps import require
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, LAYOUTS
+from trossen_arm_mujoco.robot.layout import LAYOUTS, VENDOR16_LAYOUT
 
 __all__ = [
     "CHUNKS_SIZE",
@@ -126,7 +126,7 @@ class FileIndex:
 def layout_values(layout: str, values: np.ndarray) -> np.ndarray:
     """``(..., 16)`` values of the HDF5 files in ``layout`` (a key of ``LAYOUTS``)."""
     target = LAYOUTS[layout]
-    return np.asarray(values) if target is KIT_LAYOUT else target.from_vendor(values)
+    return np.asarray(values) if target is VENDOR16_LAYOUT else target.from_vendor(values)
 
 
 def build_features(

@@ -13,7 +13,7 @@ evaluation: :meth:`KitController.command` starts the trajectory of one action,
 :meth:`KitController.tick` gives the checked setpoint of each control tick and the first
 fault, and the largest speed asked of each value is kept as a fraction of its limit.
 
-Values are the real kit's 14 (``robot.layout.REAL_KIT_LAYOUT``): per arm, left then right,
+Values are the real kit's 14 (``robot.layout.KIT14_LAYOUT``): per arm, left then right,
 ``joint_0`` .. ``joint_5`` (rad) and the gripper carriage (m). :func:`controller_target`
 is what a controller does with an accepted position command (shared with the served arm):
 clip it to the joint range, the gripper to :data:`~.gripper.GRIPPER_MAX`.

@@ -41,7 +41,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
 
 __all__ = [
     "COMMAND_ERRORS",
@@ -147,9 +147,9 @@ def split_arms(row: Sequence[float] | np.ndarray) -> tuple[np.ndarray, np.ndarra
         (6 joints in rad, then the right-carriage finger travel in m).
     """
     row = np.asarray(row, dtype=np.float64)
-    if row.shape != (KIT_LAYOUT.size,):
-        raise ValueError(f"expected {KIT_LAYOUT.size} values, got shape {row.shape}")
-    left, right = (row[KIT_LAYOUT.driver_slice(side)].copy() for side in ("left", "right"))
+    if row.shape != (VENDOR16_LAYOUT.size,):
+        raise ValueError(f"expected {VENDOR16_LAYOUT.size} values, got shape {row.shape}")
+    left, right = (row[VENDOR16_LAYOUT.driver_slice(side)].copy() for side in ("left", "right"))
     return left, right
 
 

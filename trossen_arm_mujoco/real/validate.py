@@ -29,7 +29,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.real.sim_driver import ARM_XML
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
-from trossen_arm_mujoco.robot.layout import ARM_VALUES, KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import ARM_VALUES, VENDOR16_LAYOUT
 
 __all__ = [
     "ARMS",
@@ -175,7 +175,8 @@ def validate_actions(
     clipped_mask = excess > 0
     clipped = np.clip(actions, lower, upper)
 
-    commands = np.stack([clipped[:, KIT_LAYOUT.driver_slice(a)] for a in ARMS], axis=1)  # (T,2,7)
+    # (T, 2, 7): per arm the 7 driver values
+    commands = np.stack([clipped[:, VENDOR16_LAYOUT.driver_slice(a)] for a in ARMS], axis=1)
     if commands.shape[0] > 1:
         steps = np.abs(np.diff(commands, axis=0))  # (T-1, 2, 7), per command period
         peak = steps.max(axis=0) * fps

@@ -26,8 +26,8 @@ from trossen_arm_mujoco.robot.layout import (
     ARM_JOINTS,
     FINGER_JOINTS,
     GRIPPER_OPEN,
-    KIT_LAYOUT,
     START_ARM_POSE,
+    VENDOR16_LAYOUT,
 )
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 from trossen_arm_mujoco.robot.robot_view import RobotView
@@ -287,5 +287,5 @@ def stationary_ai_mocap_config() -> RobotConfig:
 
 
 def qpos16_to_dict(qpos: np.ndarray) -> dict[str, np.ndarray]:
-    """Split the 16-value kit layout into per-group joint vectors (``KIT_LAYOUT.split``)."""
-    return {g: v.copy() for g, v in KIT_LAYOUT.split(np.asarray(qpos, dtype=float)).items()}
+    """Split the 16-value kit layout into per-group joint vectors (``VENDOR16_LAYOUT.split``)."""
+    return {g: v.copy() for g, v in VENDOR16_LAYOUT.split(np.asarray(qpos, dtype=float)).items()}

@@ -1,18 +1,27 @@
-"""The 16-value qpos/action layout of the Stationary AI kit, defined once.
+"""The joint layouts of the Stationary AI kit, defined once: ``vendor16`` and ``kit14``.
+
+:class:`Vendor16Layout` (``VENDOR16_LAYOUT``, ``export --layout vendor16``) is the 16-value
+qpos/action layout of the vendor's HDF5 episodes and of the sim.
 
 Left arm then right arm; per arm 6 revolute joints (rad) then the two coupled finger joints
 (m, 0 closed .. 0.044 open): ``right_carriage_joint`` (coupled, index 6 / 14) and
 ``left_carriage_joint`` (actuated by the gripper, index 7 / 15). The recorded action uses
 the same layout, with the finger columns holding the gripper command.
 
-Users of the layout: the dm_control envs (observation slicing and action splitting), the
-dataset schema's labels, the recorder, the real replay (7 driver values per arm) and the
-gym adapter.
+:class:`Kit14Layout` (``KIT14_LAYOUT``, ``export --layout kit14``) is the real kit's 14
+values (per arm 6 joints and the gripper), as Trossen's LeRobot plugin and the driver take
+them.
+
+Users of the 16-value layout: the dm_control envs (observation slicing and action
+splitting), the dataset schema's labels, the recorder, the real replay (7 driver values per
+arm) and the gym adapter.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -23,14 +32,14 @@ __all__ = [
     "FINGER_JOINTS",
     "GRIPPER_CLOSED",
     "GRIPPER_OPEN",
-    "KIT_LAYOUT",
+    "KIT14_LAYOUT",
     "LAYOUTS",
-    "REAL_KIT_LAYOUT",
     "SIDES",
     "START_ARM_POSE",
+    "VENDOR16_LAYOUT",
     "EELayout",
-    "KitLayout",
-    "RealKitLayout",
+    "Kit14Layout",
+    "Vendor16Layout",
     "kit_joint_commands",
 ]
 
@@ -58,8 +67,9 @@ def _joint_commands(layout, action: np.ndarray) -> dict[str, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class KitLayout:
-    """Names, units and slices of the 16-value vector (and the per-arm 8-value blocks).
+class Vendor16Layout:
+    """The vendor's 16-value layout (``vendor16``): names, units and slices of the vector
+    (and the per-arm 8-value blocks).
 
     Attributes:
         names: 16 labels ``"<side>_<joint>"``, e.g. ``"left_joint_0"``,
@@ -119,13 +129,13 @@ class KitLayout:
         return _joint_commands(self, action)
 
 
-#: The layout of the Stationary AI kit (both arms).
-KIT_LAYOUT = KitLayout()
+#: The vendor's 16-value layout of the Stationary AI kit (both arms): qpos, HDF5 episodes.
+VENDOR16_LAYOUT = Vendor16Layout()
 
 
 @dataclass(frozen=True)
-class RealKitLayout:
-    """The real kit's 14-value layout: what Trossen's LeRobot plugin for the kit
+class Kit14Layout:
+    """The real kit's 14-value layout (``kit14``): what Trossen's LeRobot plugin for the kit
     (``bi_widowxai_follower_robot``) reads and commands, and what the real driver takes.
 
     Per arm, left then right: ``joint_0`` .. ``joint_5`` (rad), then the gripper as the
@@ -165,10 +175,10 @@ class RealKitLayout:
         return np.array([*range(0, 6), 7, *range(8, 14), 15])
 
     def from_vendor(self, values: np.ndarray) -> np.ndarray:
-        """``(..., 16)`` kit-layout values -> ``(..., 14)`` (a copy)."""
+        """``(..., 16)`` ``vendor16`` values -> ``(..., 14)`` (a copy)."""
         v = np.asarray(values)
-        if v.shape[-1:] != (KIT_LAYOUT.size,):
-            raise ValueError(f"expected {KIT_LAYOUT.size} values per row, got shape {v.shape}")
+        if v.shape[-1:] != (VENDOR16_LAYOUT.size,):
+            raise ValueError(f"expected {VENDOR16_LAYOUT.size} values per row, got shape {v.shape}")
         return v[..., self.vendor_index]
 
     def to_vendor(self, values: np.ndarray) -> np.ndarray:
@@ -177,7 +187,7 @@ class RealKitLayout:
         v = np.asarray(values)
         if v.shape[-1:] != (self.size,):
             raise ValueError(f"expected {self.size} values per row, got shape {v.shape}")
-        out = np.empty((*v.shape[:-1], KIT_LAYOUT.size), dtype=v.dtype)
+        out = np.empty((*v.shape[:-1], VENDOR16_LAYOUT.size), dtype=v.dtype)
         out[..., self.vendor_index] = v
         out[..., [6, 14]] = v[..., [6, 13]]
         return out
@@ -189,24 +199,27 @@ class RealKitLayout:
 
 
 #: The real kit's 14-value layout (LeRobot datasets and policies, the real driver).
-REAL_KIT_LAYOUT = RealKitLayout()
+KIT14_LAYOUT = Kit14Layout()
 
 #: Layouts of a joint action or state vector by name, as ``export --layout`` takes them:
 #: ``kit14`` (the real kit's, the default toward LeRobot) and ``vendor16`` (the HDF5 files').
-LAYOUTS: dict[str, RealKitLayout | KitLayout] = {"kit14": REAL_KIT_LAYOUT, "vendor16": KIT_LAYOUT}
+LAYOUTS: dict[str, Kit14Layout | Vendor16Layout] = {
+    "kit14": KIT14_LAYOUT,
+    "vendor16": VENDOR16_LAYOUT,
+}
 
 
 def kit_joint_commands(action: np.ndarray) -> dict[str, np.ndarray]:
     """Robot commands of a joint action in either layout: 16 values (the qpos layout) or 14
     (the real kit's). ``ValueError`` for any other length."""
     size = np.shape(action)[-1] if np.ndim(action) else 0
-    if np.ndim(action) == 1 and size == REAL_KIT_LAYOUT.size:
-        return REAL_KIT_LAYOUT.joint_commands(action)
-    if np.ndim(action) == 1 and size == KIT_LAYOUT.size:
-        return KIT_LAYOUT.joint_commands(action)
+    if np.ndim(action) == 1 and size == KIT14_LAYOUT.size:
+        return KIT14_LAYOUT.joint_commands(action)
+    if np.ndim(action) == 1 and size == VENDOR16_LAYOUT.size:
+        return VENDOR16_LAYOUT.joint_commands(action)
     raise ValueError(
-        f"a joint action of the kit has {REAL_KIT_LAYOUT.size} values (the real kit's layout) "
-        f"or {KIT_LAYOUT.size} (the qpos layout), got shape {np.shape(action)}"
+        f"a joint action of the kit has {KIT14_LAYOUT.size} values (the real kit's layout) "
+        f"or {VENDOR16_LAYOUT.size} (the qpos layout), got shape {np.shape(action)}"
     )
 
 
@@ -237,8 +250,26 @@ class EELayout:
 #: The layout of the end-effector (mocap) action.
 EE_LAYOUT = EELayout()
 
-#: Arm pose at episode start, 16 values in the kit layout.
+#: Arm pose at episode start, 16 values in the ``vendor16`` layout.
 START_ARM_POSE: list[float] = [
     0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
     0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
 ]  # fmt: skip
+
+#: Names this module had before the layouts were named after ``LAYOUTS``' keys, still
+#: importable (with a ``DeprecationWarning``): old name -> new name.
+_DEPRECATED: dict[str, str] = {"KIT_LAYOUT": "VENDOR16_LAYOUT", "REAL_KIT_LAYOUT": "KIT14_LAYOUT"}
+
+
+def __getattr__(name: str) -> Any:
+    """The deprecated names ``KIT_LAYOUT`` (now ``VENDOR16_LAYOUT``) and ``REAL_KIT_LAYOUT``
+    (now ``KIT14_LAYOUT``), with a ``DeprecationWarning``."""
+    new = _DEPRECATED.get(name)
+    if new is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        f"trossen_arm_mujoco.robot.layout.{name} is deprecated: use {new}",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return globals()[new]

@@ -6,7 +6,7 @@ Flavours of one task: ``"joint"`` (14 position actuators, as the real arms; conf
 The scripted policies act in the ``ee`` flavour; recordings are replayed in ``joint``.
 
 Observations (all float64, world frame): ``qpos`` (16) and ``qvel`` (16) in the kit layout
-(``robot.layout.KIT_LAYOUT``, rad / m, rad/s / m/s), ``env_state`` (7 per object: position
+(``robot.layout.VENDOR16_LAYOUT``, rad / m, rad/s / m/s), ``env_state`` (7 per object: position
 xyz m + quaternion wxyz, in ``objects`` order) and ``env_vel`` (6 per object: linear m/s,
 angular rad/s). ``policy_observation`` adds the tool poses ``mocap_pose_left`` /
 ``mocap_pose_right`` ([xyz, quat wxyz]; the commanded mocap pose in ``ee``, the ``ee_site``
@@ -29,7 +29,7 @@ from trossen_arm_mujoco.robot.configs import (
     stationary_ai_joint_config,
     stationary_ai_mocap_config,
 )
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT
+from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.observation import Part, indexed, joined
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
@@ -38,7 +38,7 @@ from trossen_arm_mujoco.tasks.task import Task
 __all__ = ["LAYOUT_GROUPS", "ROBOT_NAME", "BimanualSampler", "BimanualTask", "finger_geoms"]
 
 ROBOT_NAME = "stationary_ai"
-LAYOUT_GROUPS = tuple(KIT_LAYOUT.groups)
+LAYOUT_GROUPS = tuple(VENDOR16_LAYOUT.groups)
 
 
 def finger_geoms(model: mujoco.MjModel, side: str) -> set[int]:

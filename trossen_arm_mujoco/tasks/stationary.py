@@ -30,8 +30,8 @@ from trossen_arm_mujoco.robot.configs import (
 from trossen_arm_mujoco.robot.layout import (
     EE_LAYOUT,
     GRIPPER_OPEN,
-    KIT_LAYOUT,
-    REAL_KIT_LAYOUT,
+    KIT14_LAYOUT,
+    VENDOR16_LAYOUT,
     kit_joint_commands,
 )
 from trossen_arm_mujoco.sim.env import MujocoEnv
@@ -228,10 +228,10 @@ class TrossenAIStationaryEETask(StationaryTaskBase):
 class TrossenAIStationaryTask(StationaryTaskBase):
     """Bimanual task with joint position actuators (scene ``trossen_ai_scene_joint.xml``).
 
-    Action (16) in the qpos layout (``robot.layout.KIT_LAYOUT``): each arm's 6 joints and its
+    Action (16) in the qpos layout (``robot.layout.VENDOR16_LAYOUT``): each arm's 6 joints and its
     gripper (the actuated finger value, index 7 / 15) go to position actuators; the coupled
     finger values (index 6 / 14) are not commanded separately. An action of 14 values in the
-    real kit's layout (``robot.layout.REAL_KIT_LAYOUT``: per arm 6 joints, then the gripper,
+    real kit's layout (``robot.layout.KIT14_LAYOUT``: per arm 6 joints, then the gripper,
     index 6 / 13) gives the same commands. ``action_spec()`` describes the 16. Subclass it
     and override
     ``initialize_episode(physics)`` (e.g. inside ``physics.reset_context()`` set
@@ -253,10 +253,10 @@ class TrossenAIStationaryTask(StationaryTaskBase):
 
     def check_action_size(self, size: int) -> None:
         """UserError unless ``size`` is 14 (the real kit's layout) or 16 (the qpos layout)."""
-        if size not in (REAL_KIT_LAYOUT.size, KIT_LAYOUT.size):
+        if size not in (KIT14_LAYOUT.size, VENDOR16_LAYOUT.size):
             raise UserError(
-                f"action must have {REAL_KIT_LAYOUT.size} values (the real kit's layout) or "
-                f"{KIT_LAYOUT.size} (the qpos layout), got {size}"
+                f"action must have {KIT14_LAYOUT.size} values (the real kit's layout) or "
+                f"{VENDOR16_LAYOUT.size} (the qpos layout), got {size}"
             )
 
     def split_action(self, action: np.ndarray) -> dict[str, np.ndarray]:

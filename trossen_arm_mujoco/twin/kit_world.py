@@ -32,7 +32,7 @@ from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, IDLE, Fault
-from trossen_arm_mujoco.robot.layout import ARM_JOINTS, KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.layout import ARM_JOINTS, SIDES, VENDOR16_LAYOUT
 from trossen_arm_mujoco.sim.env import whole_ratio
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.twin.commands import ArmState
@@ -180,11 +180,11 @@ class KitWorld:
 
     def action(self) -> np.ndarray:
         """The commanded targets as a 16-value kit-layout action (gripper in both fingers)."""
-        out = np.empty(KIT_LAYOUT.size)
+        out = np.empty(VENDOR16_LAYOUT.size)
         for side in SIDES:
             t = self.arms[side].target
-            out[KIT_LAYOUT.arm(side)] = t[:6]
-            out[KIT_LAYOUT.fingers(side)] = t[6]
+            out[VENDOR16_LAYOUT.arm(side)] = t[:6]
+            out[VENDOR16_LAYOUT.fingers(side)] = t[6]
         return out
 
     # -- stepping -------------------------------------------------------------------------
@@ -207,7 +207,7 @@ class KitWorld:
         if self._batch is not None:
             self.robot.update_control(self._batch.commands(vector))
         else:
-            self.robot.update_control(KIT_LAYOUT.joint_commands(self.action()))
+            self.robot.update_control(VENDOR16_LAYOUT.joint_commands(self.action()))
         self.env.step(1)
 
     def _check_lag(self, side: str, arm: ArmState) -> None:

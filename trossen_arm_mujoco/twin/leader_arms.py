@@ -32,7 +32,7 @@ from trossen_arm_mujoco.real.driver import (
     import_trossen_arm,
     resolve_presets,
 )
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, SIDES
 
 __all__ = [
     "CONNECT_TIMEOUT_S",
@@ -157,7 +157,7 @@ class LeaderArms:
 
     def read(self) -> np.ndarray:
         """Both arms now: float64 ``(14,)`` in the kit's layout (left 7, right 7)."""
-        out = np.empty(REAL_KIT_LAYOUT.size)
+        out = np.empty(KIT14_LAYOUT.size)
         for i, side in enumerate(SIDES):
             driver = self.drivers.get(side)
             if driver is None:

@@ -17,7 +17,7 @@ import numpy as np
 from trossen_arm_mujoco.data.reader import load_episode
 from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.real.validate import ArmLimits
-from trossen_arm_mujoco.robot.layout import REAL_KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, SIDES
 
 __all__ = ["SOURCES", "LeaderTrajectory", "load_leader_trajectory"]
 
@@ -79,9 +79,9 @@ def load_leader_trajectory(
     if source not in SOURCES:
         raise unknown_name_error("replay source", source, SOURCES)
     episode = load_episode(path)
-    values = REAL_KIT_LAYOUT.from_vendor(episode.action if source == "action" else episode.qpos)
+    values = KIT14_LAYOUT.from_vendor(episode.action if source == "action" else episode.qpos)
     limits = ArmLimits.from_mjcf()
-    arms = np.stack([values[:, REAL_KIT_LAYOUT.arm(s).start : REAL_KIT_LAYOUT.arm(s).start + 7]
+    arms = np.stack([values[:, KIT14_LAYOUT.arm(s).start : KIT14_LAYOUT.arm(s).start + 7]
                      for s in SIDES], axis=1)  # fmt: skip
     arms = np.clip(arms, limits.driver_lower, limits.driver_upper)
     return LeaderTrajectory(arms, float(episode.dt), Path(path), source)

@@ -14,7 +14,7 @@ What is played (``source``):
     travel, which a grasped object blocks half open; a follower commanded with the blocked
     travel would barely squeeze. ``"qpos"``: the recorded follower joint positions instead
     (the measured fingers included). Per arm the 7 values are the real kit's layout
-    (``REAL_KIT_LAYOUT``: joints 0..5, then the ``left_carriage_joint`` finger), clipped to
+    (``KIT14_LAYOUT``: joints 0..5, then the ``left_carriage_joint`` finger), clipped to
     the arm's joint ranges.
 
 When it is played (deterministic for ``teleop``):

@@ -48,7 +48,7 @@ from trossen_arm_mujoco.real.validate import (
     TrajectoryError,
     validate_actions,
 )
-from trossen_arm_mujoco.robot.layout import KIT_LAYOUT, REAL_KIT_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, SIDES, VENDOR16_LAYOUT
 from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization_record import record_to_json
@@ -69,7 +69,7 @@ __all__ = [
 #: Speed limit (per second) of each of the 14 kit values: rad/s x6, gripper m/s, per arm.
 KIT_SPEED_LIMITS: np.ndarray = np.tile(np.asarray(VELOCITY_LIMITS, dtype=float), 2)
 #: The 12 arm-joint columns of the 14 kit values (tracking error is measured on them).
-ARM_COLUMNS: np.ndarray = np.r_[REAL_KIT_LAYOUT.arm("left"), REAL_KIT_LAYOUT.arm("right")]
+ARM_COLUMNS: np.ndarray = np.r_[KIT14_LAYOUT.arm("left"), KIT14_LAYOUT.arm("right")]
 
 
 class EpisodeControl(Protocol):
@@ -176,9 +176,11 @@ class TeleopRecorder:
         self.fps = 1.0 / self.policy_dt
         self.task_max_reward = float(probe.max_reward)
         view = self.sampler.env.robots[probe.robot_name].view
-        ranges = np.concatenate([view.get_move_group(g).joint_range for g in KIT_LAYOUT.groups])
-        self.low = REAL_KIT_LAYOUT.from_vendor(ranges[:, 0])
-        self.high = REAL_KIT_LAYOUT.from_vendor(ranges[:, 1])
+        ranges = np.concatenate(
+            [view.get_move_group(g).joint_range for g in VENDOR16_LAYOUT.groups]
+        )
+        self.low = KIT14_LAYOUT.from_vendor(ranges[:, 0])
+        self.high = KIT14_LAYOUT.from_vendor(ranges[:, 1])
         self.max_step = KIT_SPEED_LIMITS * self.policy_dt
         self.arm_limits = ArmLimits.from_mjcf()
         self.task = None
@@ -227,7 +229,7 @@ class TeleopRecorder:
         """The paced loop; returns its statistics, or None when discarded."""
         env = self.env
         obs = task.get_observation()
-        command = REAL_KIT_LAYOUT.from_vendor(np.asarray(obs["qpos"], dtype=float))
+        command = KIT14_LAYOUT.from_vendor(np.asarray(obs["qpos"], dtype=float))
         command = np.clip(command, self.low, self.high)
         clips, ramp_steps, errors = 0, -1, []
         ended_by = "episode_len"
@@ -244,14 +246,14 @@ class TeleopRecorder:
             command = (command + step).astype(dtype).astype(float)  # recorded as float32
             if ramp_steps < 0 and fast == 0:
                 ramp_steps = t
-            action = REAL_KIT_LAYOUT.to_vendor(command)
+            action = KIT14_LAYOUT.to_vendor(command)
             images = env.render_images() if spool.camera_names else {}
-            task.step(KIT_LAYOUT.joint_commands(action))
+            task.step(VENDOR16_LAYOUT.joint_commands(action))
             reward = float(task.get_reward())
             spool.append_step(obs["qpos"], obs["qvel"], action, reward, obs["env_state"], images)
             obs = task.get_observation()
             if ramp_steps >= 0:
-                follower = REAL_KIT_LAYOUT.from_vendor(np.asarray(obs["qpos"], dtype=float))
+                follower = KIT14_LAYOUT.from_vendor(np.asarray(obs["qpos"], dtype=float))
                 errors.append(follower[ARM_COLUMNS] - target[ARM_COLUMNS])
             if self.step_hook is not None:
                 self.step_hook(t, obs, env, images)
