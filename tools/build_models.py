@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the package, from the repo root
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # model_looks, beside this file
+import mobile_ai_model  # noqa: E402
 import model_looks as looks  # noqa: E402
 
 from trossen_arm_mujoco.fileio import write_text  # noqa: E402
@@ -926,6 +928,8 @@ FILES = {
     "stationary_ai/trossen_ai_insertion_scene.xml": trossen_ai_insertion_scene_xml,
     "stationary_ai/trossen_ai_insertion_scene_joint.xml": trossen_ai_insertion_scene_joint_xml,
 }
+# the Mobile AI, from its own facts, with this module's arm facts and MJCF pieces
+FILES.update(mobile_ai_model.files(SimpleNamespace(**globals())))
 
 
 def generate() -> dict[str, str]:
