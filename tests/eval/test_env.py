@@ -209,11 +209,12 @@ def test_30_fps_rates_and_default_length(make_env):
     assert env.scene.model.opt.timestep == pytest.approx(1 / 510)
     assert env.scene.n_substeps == 1  # the controllers tick every physics step
     assert env.episode.n_ctrl_steps == 17
-    assert env._max_episode_steps == 360  # the transfer's 12 s
+    assert env.episode_length == 360  # the transfer's 12 s
+    assert env._max_episode_steps == 360  # the same, under the name LeRobot's eval reads
     assert env.metadata["render_fps"] == 30
     native = make_env()
-    assert native.fps == 50 and native._max_episode_steps == 600
-    assert make_env("sim_insertion")._max_episode_steps == 400
+    assert native.fps == 50 and native.episode_length == 600
+    assert make_env("sim_insertion").episode_length == 400
 
 
 @pytest.mark.parametrize("fps", [0, 0.5, 501, float("nan"), "30"])

@@ -157,7 +157,7 @@ def test_exported_30fps_actions_succeed_open_loop_at_30fps(recordings, make_env,
     actions = values["action"]
     assert actions.shape == (episode.num_steps * EXPORT_FPS // NATIVE_FPS, 14)
     env = make_env(task, fps=EXPORT_FPS)
-    assert env._max_episode_steps == len(actions)  # the default length: every exported frame
+    assert env.episode_length == len(actions)  # the default length: every exported frame
     poses = initial_poses(episode)
 
     obs, _ = env.reset(seed=attempt, options={"object_poses": poses})

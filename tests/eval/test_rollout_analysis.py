@@ -55,7 +55,7 @@ def runs() -> dict[str, EpisodeScore]:
     try:
         out["scripted"], _ = runner.run(0)
         scripted = runner.policy
-        runner.env._max_episode_steps = 300
+        runner.env.episode_length = 300
         runner.policy = Broken(scripted, open_from=250)
         out["open_early"], _ = runner.run(0)
         runner.policy = Broken(scripted, open_from=0)

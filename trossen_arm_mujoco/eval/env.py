@@ -189,7 +189,9 @@ class KitPolicyEnv(gymnasium.Env):
             fault ends the episode, failed); False: the unconstrained score.
 
     Attributes (what LeRobot's evaluation reads): ``task`` (the task's name),
-    ``task_description``, ``_max_episode_steps``, ``metadata["render_fps"]``; ``episode``
+    ``task_description``, ``_max_episode_steps`` (``episode_length`` under the name LeRobot
+    reads), ``metadata["render_fps"]``; ``episode_length`` is the number of steps after
+    which an episode is truncated (what this package's runners and adapters read); ``episode``
     is the running ``Task`` (None before the first reset); ``controller`` is the kit's
     :class:`~trossen_arm_mujoco.real.arm_controller.KitController` (its ``fault`` and
     ``peak_fractions()`` describe the running episode).
@@ -247,7 +249,7 @@ class KitPolicyEnv(gymnasium.Env):
         probe = self.sampler.make_task()
         self.task_description = probe.get_task_description()
         self.max_reward = float(probe.max_reward)
-        self._max_episode_steps = int(episode_length)
+        self.episode_length = int(episode_length)
         self.metadata = {**self.metadata, "render_fps": self.fps}
         view = self.scene.robots[probe.robot_name].view
         ranges = np.concatenate(
@@ -361,7 +363,7 @@ class KitPolicyEnv(gymnasium.Env):
         self.n_steps += 1
         reward = float(task.get_reward())
         self._reached = self._reached or reward >= self.max_reward
-        truncated = self.n_steps >= self._max_episode_steps
+        truncated = self.n_steps >= self.episode_length
         info = self._info(reward, last=truncated or fault is not None)
         if fault is not None:
             info["fault"] = {**fault.as_dict(), "step": self.n_steps - 1}
@@ -384,6 +386,12 @@ class KitPolicyEnv(gymnasium.Env):
             self._render_cams.close()
             self._render_cams = None
         self.sampler.close()
+
+    @property
+    def _max_episode_steps(self) -> int:
+        """``episode_length``, under the name LeRobot's evaluation reads
+        (``env.call("_max_episode_steps")``); this package reads ``episode_length``."""
+        return self.episode_length
 
     # -- what a policy reads --------------------------------------------------------------
     def object_poses(self) -> dict[str, np.ndarray]:

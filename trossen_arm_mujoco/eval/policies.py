@@ -58,7 +58,7 @@ class ScriptedPolicy:
         """Plan the episode: run the task's scripted rollout on ``env``'s object poses
         (seeded like ``record``), resampled to the env's fps when it differs."""
         src_dt = self.recorder.policy_dt
-        native_len = int(round(env._max_episode_steps / env.fps / src_dt))
+        native_len = int(round(env.episode_length / env.fps / src_dt))
         self.recorder.settings = type(self.recorder.settings)(
             task_name=env.task, episode_len=max(native_len, 1)
         )

@@ -177,7 +177,7 @@ class EpisodeRunner:
         if frames is not None:
             frames.append(env.render())
         rewards, success, fault = [], False, None
-        for t in range(env._max_episode_steps):
+        for t in range(env.episode_length):
             action = self._call_policy(index, f"step {t}", self.policy.act, obs)
             obs, reward, terminated, truncated, info = env.step(action)
             self.recorder.record(env, reward)

@@ -218,7 +218,7 @@ class WireEpisodeRunner:
         shadow, last_command = KitController(checks=False), None
         clamp = SpeedClamp(self.speed_fraction) if self.speed_fraction else None
         t0 = time.monotonic()
-        for k in range(self.env._max_episode_steps):
+        for k in range(self.env.episode_length):
             deadline = t0 + k * self.period
             now = time.monotonic()
             if now > deadline + self.period:  # this period's deadline passed: skipped

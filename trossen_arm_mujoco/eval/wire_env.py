@@ -31,7 +31,7 @@ class WireEnv:
         self.task, self.task_description, self.fps = s.task, s.task_description, s.fps
         self.layout, self.layout_name = s.layout, s.layout_name
         self.cam_names, self.image_size = tuple(settings.cam_names), tuple(settings.image_size)
-        self._max_episode_steps, self.max_reward = s._max_episode_steps, s.max_reward
+        self.episode_length, self.max_reward = s.episode_length, s.max_reward
         self.action_low, self.action_high = s.action_low, s.action_high
         self._poses: dict[str, np.ndarray] = {}
 
