@@ -23,6 +23,7 @@ python -m pip install -q --upgrade pip
 # would pull the multi-GB CUDA build. TORCH_SPEC overrides it (e.g. a CUDA machine's pin).
 python -m pip install -q "${TORCH_SPEC:-torch==2.13.0}" || python -m pip install -q torch
 python -m pip install -q -e ".[dev,cameras,docs]"
+python -m pip install -q -e examples/my_trossen_task  # the example task package (tests/test_examples.py)
 
 # The documentation site, strictly (a warning or a broken link fails), into site/ (git-ignored);
 # tests/docs checks it (TROSSEN_DOCS_REQUIRED turns their "site not built" skip into a failure).

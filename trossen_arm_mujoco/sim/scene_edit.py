@@ -16,7 +16,7 @@ gives (``pos``, ``quat``), as MuJoCo's ``qpos0``.
 
 from __future__ import annotations
 
-import warnings
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -55,23 +55,46 @@ def _fragment_text(fragment: str | Path) -> tuple[str, str]:
     return str(fragment), "scene object fragment"
 
 
-def _fragment_spec(fragment: str | Path) -> mujoco.MjSpec:
+def _split(fragment: str | Path) -> tuple[str, str]:
+    """(assets, bodies) MJCF of a fragment, checked on its own (a one-line UserError naming
+    it when MuJoCo cannot read it)."""
     text, where = _fragment_text(fragment)
     head, sep, bodies = text.partition("</asset>")
     assets, bodies = (head + sep, bodies) if sep else ("", text)
     try:
-        return mujoco.MjSpec.from_string(
-            f"<mujoco>{assets}<worldbody>{bodies}</worldbody></mujoco>"
-        )
+        mujoco.MjSpec.from_string(f"<mujoco>{assets}<worldbody>{bodies}</worldbody></mujoco>")
     except Exception as exc:  # mujoco raises ValueError with its parser's message
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         raise UserError(f"cannot read {where}: {first}") from None
+    return assets, bodies
+
+
+_INCLUDE = re.compile(r"<include\s+file\s*=\s*[\"']([^\"']+)[\"']")
+
+
+def _includes(text: str, folder: Path, found: dict[str, bytes]) -> dict[str, bytes]:
+    """Every file ``text`` includes (recursively), by the name it is included as; MuJoCo
+    resolves includes relative to the main model's folder."""
+    for name in _INCLUDE.findall(text):
+        if name not in found:
+            data = (folder / name).read_bytes()
+            found[name] = data
+            _includes(data.decode("utf-8"), folder, found)
+    return found
 
 
 def compose_spec(path: Path, edit: SceneEdit) -> mujoco.MjSpec:
-    """The scene at ``path`` as an ``MjSpec`` with ``edit`` applied (keyframes are fixed
-    after compiling, by ``restore_keyframes``)."""
-    spec = mujoco.MjSpec.from_file(str(path))
+    """The scene at ``path`` as an ``MjSpec`` with ``edit`` applied: the fragments are
+    added as extra ``<asset>`` / ``<worldbody>`` sections of the scene's text (MJCF merges
+    repeated sections), the removed bodies deleted; keyframes are fixed after compiling
+    (``restore_keyframes``)."""
+    text = path.read_text(encoding="utf-8")
+    extra = "".join(f"{a}<worldbody>{b}</worldbody>" for a, b in map(_split, edit.add))
+    end = text.rindex("</mujoco>")
+    spec = mujoco.MjSpec.from_string(
+        text[:end] + extra + text[end:], include=_includes(text, path.parent, {})
+    )
+    spec.modelfiledir = str(path.parent)  # meshes and textures relative to the scene
     for name in edit.remove:
         body = spec.body(name)
         if body is None:
@@ -80,14 +103,6 @@ def compose_spec(path: Path, edit: SceneEdit) -> mujoco.MjSpec:
                 f"scene {path.name} has no body '{name}' to remove; top-level bodies: {valid}"
             )
         spec.delete(body)
-    for fragment in edit.add:
-        child = _fragment_spec(fragment)
-        for body in list(child.worldbody.bodies):
-            if spec.body(body.name) is not None:
-                raise UserError(
-                    f"scene {path.name} already has a body '{body.name}'; rename the scene object"
-                )
-            spec.worldbody.add_frame().attach_body(body, "", "")
     for key in spec.keys:  # sized again after compiling (restore_keyframes)
         key.qpos = []
         key.qvel = []
@@ -96,9 +111,7 @@ def compose_spec(path: Path, edit: SceneEdit) -> mujoco.MjSpec:
 
 def compile_composed(spec: mujoco.MjSpec, base: Path) -> mujoco.MjModel:
     """Compile a ``compose_spec`` result, keyframes restored from the scene at ``base``."""
-    with warnings.catch_warnings():  # attaching without a prefix: the model is never saved
-        warnings.simplefilter("ignore", UserWarning)
-        model = spec.compile()
+    model = spec.compile()
     restore_keyframes(model, mujoco.MjModel.from_xml_path(str(base)))
     return model
 
