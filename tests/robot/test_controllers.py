@@ -168,7 +168,13 @@ def test_ee_pose_ik_on_joint_kit_reaches_target():
 
 
 def test_controller_registry_and_errors():
-    assert set(CONTROLLERS) == {"joint_position", "joint_rel_position", "ee_pose", "ee_delta"}
+    assert set(CONTROLLERS) == {
+        "joint_position",
+        "joint_rel_position",
+        "ee_pose",
+        "ee_delta",
+        "base_velocity",
+    }
     model = mujoco.MjModel.from_xml_path(str(WXAI))
     view = wxai_config().build_view(model)
     with pytest.raises(UserError, match="unknown command mode 'velocity'.*ee_delta"):

@@ -6,6 +6,7 @@ from trossen_arm_mujoco.robot.arm_groups import (
     SimplyActuatedMoveGroup,
 )
 from trossen_arm_mujoco.robot.base_group import (
+    CarriedRobotBaseGroup,
     FreeJointRobotBaseGroup,
     ImmobileRobotBaseGroup,
     MocapRobotBaseGroup,
@@ -14,10 +15,12 @@ from trossen_arm_mujoco.robot.base_group import (
 from trossen_arm_mujoco.robot.configs import (
     JOINT_VELOCITY_LIMITS,
     RobotConfig,
+    mobile_ai_config,
     stationary_ai_joint_config,
     stationary_ai_mocap_config,
     wxai_config,
 )
+from trossen_arm_mujoco.robot.diff_drive import BaseVelocityLimits, DiffDriveBaseGroup
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
 from trossen_arm_mujoco.robot.move_group import MoveGroup
@@ -29,7 +32,10 @@ from trossen_arm_mujoco.robot.robot_view import RobotView
 __all__ = [
     "JOINT_VELOCITY_LIMITS",
     "ArmMoveGroup",
+    "BaseVelocityLimits",
     "BatchIKResult",
+    "CarriedRobotBaseGroup",
+    "DiffDriveBaseGroup",
     "FreeJointRobotBaseGroup",
     "GripperGroup",
     "IKResult",
@@ -45,6 +51,7 @@ __all__ = [
     "RobotKinematics",
     "RobotView",
     "SimplyActuatedMoveGroup",
+    "mobile_ai_config",
     "stationary_ai_joint_config",
     "stationary_ai_mocap_config",
     "wxai_config",

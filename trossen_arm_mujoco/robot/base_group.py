@@ -5,6 +5,9 @@
 - ``MocapRobotBaseGroup``: a mocap body (``mocap="true"``, a child of the worldbody) the
   robot hangs from: fixed during physics, teleported by setting ``pose``.
 - ``FreeJointRobotBaseGroup``: a body on a free joint; ``pose`` reads and writes its 7 qpos.
+- ``CarriedRobotBaseGroup``: a body rigidly carried by another base (an arm's base plate on a
+  mobile base): its pose follows the carrier and is not set on its own.
+(``diff_drive.DiffDriveBaseGroup``: a free-joint base driven by two wheels.)
 
 Poses are 4x4 homogeneous transforms of the base frame in the world (m); the 7-value form
 [x, y, z, qw, qx, qy, qz] is available through ``get_pose(data)``.
@@ -27,6 +30,7 @@ from trossen_arm_mujoco.robot.frames import (
 from trossen_arm_mujoco.robot.move_group import MoveGroup
 
 __all__ = [
+    "CarriedRobotBaseGroup",
     "FreeJointRobotBaseGroup",
     "ImmobileRobotBaseGroup",
     "MocapRobotBaseGroup",
@@ -179,3 +183,49 @@ class FreeJointRobotBaseGroup(RobotBaseGroup):
     def get_jacobian(self) -> np.ndarray:
         """(6, nv) Jacobian of the base body's origin (its free joint moves it)."""
         return frame_jacobian(self.model, self.data, "body", self.body_id)
+
+
+class CarriedRobotBaseGroup(RobotBaseGroup):
+    """A base rigidly carried by a moving body: an arm's mount on a mobile base.
+
+    No joint lies between the body and the first body above it that moves (on a free
+    joint); its pose is read from ``data.xpos``/``xmat`` (valid after ``mj_kinematics``) and
+    changes only with the carrier's (``Robot.set_world_pose`` moves the carrier; setting
+    this pose alone is a UserError).
+    """
+
+    def __init__(self, model, name: str, base_body: str):
+        super().__init__(model, name, base_body)
+        m = self.model
+        body = self.body_id
+        while body != 0:
+            if m.body_mocapid[body] >= 0:
+                raise UserError(
+                    f"move group '{name}': body '{m.body(body).name}' is a mocap body; use a "
+                    "mocap base"
+                )
+            types = m.jnt_type[m.body_jntadr[body] : m.body_jntadr[body] + m.body_jntnum[body]]
+            if len(types) and (len(types) > 1 or int(types[0]) != _FREE):
+                raise UserError(
+                    f"move group '{name}': base body '{base_body}' moves with the joints of "
+                    f"body '{m.body(body).name}'; a carried base hangs rigidly from a body on "
+                    "a free joint"
+                )
+            if len(types):
+                self.carrier_body_id = body
+                return
+            body = int(m.body_parentid[body])
+        raise UserError(
+            f"move group '{name}': base body '{base_body}' is fixed to the world; use an "
+            "immobile base (kind 'base')"
+        )
+
+    def get_transform(self, data):
+        return transform(data.xpos[self.body_id], data.xmat[self.body_id])
+
+    def set_transform(self, data, pose) -> None:
+        raise UserError(
+            f"move group '{self.name}' is carried by body "
+            f"'{self.model.body(self.carrier_body_id).name}': move that base instead "
+            "(robot.set_world_pose)"
+        )

@@ -15,12 +15,14 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.arm_groups import ArmMoveGroup, MocapArmGroup
 from trossen_arm_mujoco.robot.base_group import (
+    CarriedRobotBaseGroup,
     FreeJointRobotBaseGroup,
     ImmobileRobotBaseGroup,
     MocapRobotBaseGroup,
     RobotBaseGroup,
 )
 from trossen_arm_mujoco.robot.checks import check_velocity_limits, model_and_data
+from trossen_arm_mujoco.robot.diff_drive import BaseVelocityLimits, DiffDriveBaseGroup
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.layout import (
     ARM_JOINTS,
@@ -37,10 +39,14 @@ __all__ = [
     "BASE_KINDS",
     "GROUP_KINDS",
     "JOINT_VELOCITY_LIMITS",
+    "MOBILE_AI_BASE_HOME",
+    "MOBILE_AI_BASE_LIMITS",
+    "MOBILE_AI_WHEEL_RADIUS",
     "START_ARM",
     "START_FINGERS",
     "MoveGroupSpec",
     "RobotConfig",
+    "mobile_ai_config",
     "qpos16_to_dict",
     "stationary_ai_joint_config",
     "stationary_ai_mocap_config",
@@ -48,8 +54,15 @@ __all__ = [
 ]
 
 #: MoveGroupSpec kinds of base groups (the robot frame): fixed to the world, on a mocap
-#: body (teleportable), on a free joint.
-BASE_KINDS: tuple[str, ...] = ("base", "mocap_base", "free_joint_base")
+#: body (teleportable), on a free joint, carried by a moving body (an arm's mount on a mobile
+#: base), a wheeled differential-drive base.
+BASE_KINDS: tuple[str, ...] = (
+    "base",
+    "mocap_base",
+    "free_joint_base",
+    "carried_base",
+    "diff_drive_base",
+)
 GROUP_KINDS: tuple[str, ...] = ("arm", "mocap_arm", "gripper", *BASE_KINDS)
 
 START_ARM = list(START_ARM_POSE[:6])
@@ -83,6 +96,9 @@ class MoveGroupSpec:
         (mocap arms and bases take none). Joint-position controllers, and the IK modes of
         joint-actuated arms, move the control by at most ``velocity_limits * ctrl_dt`` a tick.
     rate_limit: False turns the rate limiting off while keeping ``velocity_limits`` on record.
+    wheel_radius, base_limits: of a "diff_drive_base" (``joints``: its free joint then the
+        left and right wheel hinges; ``actuators``: the two wheels' velocity actuators):
+        rolling radius (m) and ``BaseVelocityLimits`` (x.vel m/s, theta.vel rad/s).
     """
 
     kind: str
@@ -94,6 +110,8 @@ class MoveGroupSpec:
     base: str = ""
     velocity_limits: tuple[float, ...] | None = None
     rate_limit: bool = True
+    wheel_radius: float = 0.0
+    base_limits: BaseVelocityLimits | None = None
 
     def __post_init__(self) -> None:
         if self.velocity_limits is not None:
@@ -130,6 +148,18 @@ class MoveGroupSpec:
             if len(self.joints) != 1:
                 raise UserError(f"{name}: a free_joint_base takes its one free joint in joints")
             group = FreeJointRobotBaseGroup(model, name, self.joints[0])
+        elif self.kind == "carried_base":
+            group = CarriedRobotBaseGroup(model, name, self.base_body)
+        elif self.kind == "diff_drive_base":
+            if len(self.joints) != 3 or len(self.actuators) != 2:
+                raise UserError(
+                    f"{name}: a diff_drive_base takes its free joint and two wheel joints in "
+                    "joints, the two wheel actuators in actuators"
+                )
+            group = DiffDriveBaseGroup(
+                model, name, self.joints[0], self.joints[1:], self.actuators, self.wheel_radius
+            )
+            group.base_limits = self.base_limits
         else:
             raise unknown_name_error("move group kind", self.kind, GROUP_KINDS)
         group.set_velocity_limits(self.enforced_velocity_limits)
@@ -284,6 +314,47 @@ def stationary_ai_joint_config() -> RobotConfig:
 def stationary_ai_mocap_config() -> RobotConfig:
     """Stationary AI kit with mocap-driven arms (``trossen_ai_scene.xml``)."""
     return _stationary(mocap=True)
+
+
+#: Rolling radius of the Mobile AI's driven wheels (m): the axle height of the Mobile AI URDF
+#: (base_link 0.211 m above the floor, wheel joints 0.1259 m below it).
+MOBILE_AI_WHEEL_RADIUS = 0.0851
+#: The Mobile AI base at rest at the origin: base_joint [x, y, z, qw, qx, qy, qz] (base_link
+#: 0.211 m above the floor), then the two wheel angles (rad).
+MOBILE_AI_BASE_HOME = [0.0, 0.0, 0.211, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+#: The real base's command limits: trossen_slate's ``set_cmd_vel`` clips x.vel to +-1.0 m/s
+#: and theta.vel to +-1.0 rad/s (the SLATE's published top speed, 3.6 km/h, is 1.0 m/s).
+MOBILE_AI_BASE_LIMITS = BaseVelocityLimits(x_vel=1.0, theta_vel=1.0)
+
+
+def mobile_ai_config() -> RobotConfig:
+    """Mobile AI (``assets/mobile_ai/mobile_ai.xml`` and ``mobile_ai_scene.xml``).
+
+    Groups: ``base`` (the differential-drive base, command mode ``base_velocity``:
+    [x.vel m/s, theta.vel rad/s], within ``MOBILE_AI_BASE_LIMITS``), then as on the
+    Stationary AI ``left_base``/``left_arm``/``left_gripper`` and the right ones (joint
+    actuators, the arms' URDF speed limits); the arms' bases ride on the mobile base.
+    """
+    groups: dict[str, MoveGroupSpec] = {
+        "base": MoveGroupSpec(
+            "diff_drive_base",
+            ("base_joint", "left_wheel", "right_wheel"),
+            ("left_wheel", "right_wheel"),
+            wheel_radius=MOBILE_AI_WHEEL_RADIUS,
+            base_limits=MOBILE_AI_BASE_LIMITS,
+        )
+    }
+    init: dict[str, list[float]] = {"base": list(MOBILE_AI_BASE_HOME)}
+    modes: dict[str, str] = {"base": "base_velocity"}
+    for side in ("left", "right"):
+        arm = _arm_groups(f"{side}/", mocap=False, side=side)
+        arm[f"{side}_base"] = replace(arm[f"{side}_base"], kind="carried_base")
+        groups.update(arm)
+        init[f"{side}_arm"] = START_ARM
+        init[f"{side}_gripper"] = START_FINGERS
+        modes[f"{side}_arm"] = "joint_position"
+        modes[f"{side}_gripper"] = "joint_position"
+    return RobotConfig("mobile_ai", groups, init, modes)
 
 
 def qpos16_to_dict(qpos: np.ndarray) -> dict[str, np.ndarray]:

@@ -8,6 +8,8 @@ Command modes:
   joint-actuated arms reach it by IK.
 - ``ee_delta``: Cartesian tool-frame delta, (3,) [dx, dy, dz] (m) or (6,) with a rotation
   vector (rad), world frame, through differential IK.
+- ``base_velocity``: a differential-drive base's [x.vel (m/s), theta.vel (rad/s)], turned into
+  its two wheel speeds (``diff_drive.DiffDriveBaseGroup``); clipped like the real base.
 
 Rate limiting: a controller first works out the control ``target`` its command asks for, then
 ``limit`` moves the control currently applied (``group.get_ctrl(data)``) toward it by at most
@@ -33,6 +35,7 @@ import numpy as np
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.arm_groups import MocapArmGroup, SimplyActuatedMoveGroup
+from trossen_arm_mujoco.robot.diff_drive import DiffDriveBaseGroup
 from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.kinematics import Kinematics
 from trossen_arm_mujoco.robot.mjcf_frame import MJCFFrameMixin
@@ -40,6 +43,7 @@ from trossen_arm_mujoco.robot.move_group import MoveGroup
 
 __all__ = [
     "CONTROLLERS",
+    "BaseVelocityController",
     "Controller",
     "EEDeltaController",
     "EEPoseController",
@@ -282,9 +286,70 @@ class EEDeltaController(Controller):
         return self.kinematics.delta_step(data.qpos, cmd)
 
 
+class BaseVelocityController(Controller):
+    """``base_velocity``: [x.vel (m/s), theta.vel (rad/s)] of a differential-drive base; the
+    control is its two wheel speeds (rad/s, ``DiffDriveBaseGroup.wheel_speeds``).
+
+    Out-of-limit commands are clipped, as the real base does (trossen_slate's
+    ``set_cmd_vel`` clips to +-1.0 m/s and +-1.0 rad/s): each value to the group's
+    ``base_limits``; then a command whose wheel speeds would exceed the wheels' limit (their
+    actuators' ``ctrlrange``) is scaled down as a whole, keeping its curvature. Each command
+    changed so counts in ``clipped_commands``; ``last_clipped`` says whether the latest was.
+    A command holds until the next one (the real base stops after 300 ms without one; the
+    simulation does not time out).
+    """
+
+    command_mode = "base_velocity"
+
+    def __init__(self, group, model, ctrl_dt=None):
+        if not isinstance(group, DiffDriveBaseGroup):
+            raise UserError(f"{group.name}: base_velocity needs a differential-drive base group")
+        super().__init__(group, model, ctrl_dt)
+        self.clipped_commands = 0
+        self.last_clipped = False
+
+    @property
+    def command_dim(self) -> int:
+        """2: [x.vel (m/s), theta.vel (rad/s)]."""
+        return 2
+
+    def command_limits(self):
+        """(low, high) of a command: -+ the base limits [x.vel m/s, theta.vel rad/s] (+-inf
+        where the group has none)."""
+        limits = self.group.base_limits
+        high = np.full(2, np.inf) if limits is None else np.array([limits.x_vel, limits.theta_vel])
+        return -high, high
+
+    def executed(self, command) -> np.ndarray:
+        """(2,) the [x.vel, theta.vel] the base executes for ``command``: clipped to the base
+        limits, then scaled down as a whole where a wheel would exceed its speed limit."""
+        low, high = self.command_limits()
+        cmd = np.clip(np.asarray(command, dtype=float), low, high)
+        group = self.group
+        wheel_max = np.minimum(-group._ctrl_low, group._ctrl_high)
+        peak = float((np.abs(group.wheel_speeds(*cmd)) / wheel_max).max())
+        return cmd / peak if peak > 1.0 else cmd
+
+    def _check(self, command):
+        cmd = super()._check(command)
+        done = self.executed(cmd)
+        self.last_clipped = bool((done != cmd).any())
+        self.clipped_commands += self.last_clipped
+        return done
+
+    def _target(self, data, cmd):
+        return self.group.wheel_speeds(cmd[0], cmd[1])
+
+
 CONTROLLERS: dict[str, type[Controller]] = {
     c.command_mode: c
-    for c in (JointPosController, JointRelPosController, EEPoseController, EEDeltaController)
+    for c in (
+        JointPosController,
+        JointRelPosController,
+        EEPoseController,
+        EEDeltaController,
+        BaseVelocityController,
+    )
 }
 
 

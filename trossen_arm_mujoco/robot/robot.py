@@ -10,7 +10,7 @@ import numpy as np
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.arm_groups import MocapArmGroup
-from trossen_arm_mujoco.robot.base_group import ImmobileRobotBaseGroup
+from trossen_arm_mujoco.robot.base_group import CarriedRobotBaseGroup, ImmobileRobotBaseGroup
 from trossen_arm_mujoco.robot.checks import model_and_data
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import Controller, make_controller
@@ -145,7 +145,8 @@ class Robot:
         """Teleport the robot: put its primary base at ``pose`` (4x4, or 7 values
         [x, y, z, qw, qx, qy, qz], world frame, m); other bases move rigidly with it.
 
-        A mocap base moves its mocap body, a free-joint base writes its qpos; an immobile
+        A mocap base moves its mocap body, a free-joint base writes its qpos (a carried
+        base, an arm's mount on a mobile base, follows its carrier); an immobile
         base (fixed in the MJCF) raises a UserError. Kinematics is updated
         (``mj_kinematics``); velocities are left as they are.
         """
@@ -154,6 +155,9 @@ class Robot:
         bases = [self.view.get_move_group(n) for n in self.view.base_group_ids()]
         if not bases:
             raise UserError(f"robot '{self.config.name}' has no base group to move")
+        bases = [b for b in bases if not isinstance(b, CarriedRobotBaseGroup)]
+        if not bases:
+            raise UserError(f"robot '{self.config.name}': its bases are carried; move the carrier")
         for base in bases:
             if isinstance(base, ImmobileRobotBaseGroup):
                 base.set_transform(data, target)  # raises the immobile-base error
