@@ -36,6 +36,7 @@ import numpy as np  # noqa: E402
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode  # noqa: E402
 from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_video import ENCODERS  # noqa: E402
+from trossen_arm_mujoco.robot.lerobot_keys import image_key  # noqa: E402
 
 ENCODINGS = {
     "av1 yuv420p (default)": VideoSettings(),
@@ -75,7 +76,7 @@ def fidelity(root: Path, frames: dict[str, np.ndarray]) -> tuple[float, float, f
     """(min PSNR, mean PSNR, bytes per frame) over every camera's decoded frames."""
     psnrs, size, count = [], 0, 0
     for cam, source in frames.items():
-        files = sorted((root / "videos" / f"observation.images.{cam}").rglob("*.mp4"))
+        files = sorted((root / "videos" / image_key(cam)).rglob("*.mp4"))
         decoded = []
         for path in files:
             size += path.stat().st_size

@@ -86,14 +86,12 @@ def test_kit_joint_commands_equal_for_14_and_16_values():
             kit_joint_commands(bad)
 
 
-def test_layouts_are_named_after_their_keys_and_the_old_names_warn():
+def test_layouts_are_named_after_their_keys():
     from trossen_arm_mujoco.robot import layout
 
     assert LAYOUTS == {"kit14": KIT14_LAYOUT, "vendor16": VENDOR16_LAYOUT}
     assert (KIT14_LAYOUT.size, VENDOR16_LAYOUT.size) == (14, 16)
-    for old, new in (("KIT_LAYOUT", VENDOR16_LAYOUT), ("REAL_KIT_LAYOUT", KIT14_LAYOUT)):
-        with pytest.warns(DeprecationWarning, match=f"{old} is deprecated"):
-            assert getattr(layout, old) is new
-    assert "KIT_LAYOUT" not in layout.__all__
-    with pytest.raises(AttributeError, match="KitLayout"):
-        layout.KitLayout  # noqa: B018 (the class was renamed, not aliased)
+    assert type(KIT14_LAYOUT).__name__ == "Kit14Layout"
+    assert type(VENDOR16_LAYOUT).__name__ == "Vendor16Layout"
+    for old in ("KIT_LAYOUT", "REAL_KIT_LAYOUT", "KitLayout", "RealKitLayout"):
+        assert not hasattr(layout, old)  # renamed, no shim (tests/test_import_graph.py)

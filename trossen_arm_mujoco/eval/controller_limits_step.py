@@ -33,6 +33,7 @@ from trossen_arm_mujoco.fileio import atomic_path
 from trossen_arm_mujoco.real.arm_controller import controller_target
 from trossen_arm_mujoco.real.controller_checks import controller_limits
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
+from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY
 
 __all__ = ["POSTPROCESSOR_FILE", "REGISTRY_NAME", "add_to_checkpoint", "controller_bounds",
            "register"]  # fmt: skip
@@ -66,7 +67,7 @@ def add_to_checkpoint(folder: str | Path) -> bool:
     post, config = folder / POSTPROCESSOR_FILE, folder / "config.json"
     try:
         pipeline = json.loads(post.read_text(encoding="utf-8"))
-        action = json.loads(config.read_text(encoding="utf-8"))["output_features"]["action"]
+        action = json.loads(config.read_text(encoding="utf-8"))["output_features"][ACTION_KEY]
         size = int(action["shape"][0])
         steps: list[dict[str, Any]] = pipeline["steps"]
     except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:

@@ -57,6 +57,13 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.gym.inputs import reset_options
 from trossen_arm_mujoco.real.arm_controller import GOAL_TIME_FACTOR, KitController
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, LAYOUTS, VENDOR16_LAYOUT
+from trossen_arm_mujoco.robot.lerobot_keys import (
+    ACTION_KEY,
+    ENV_STATE_KEY,
+    STATE_KEY,
+    VELOCITY_KEY,
+    image_key,
+)
 from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
@@ -82,9 +89,9 @@ __all__ = [
 BASE_SIM_DT = 0.002
 #: Vector observation key -> LeRobot feature key (cameras: ``observation.images.<cam>``).
 LEROBOT_KEYS: dict[str, str] = {
-    "agent_pos": "observation.state",
-    "velocity": "observation.velocity",
-    "environment_state": "observation.environment_state",
+    "agent_pos": STATE_KEY,
+    "velocity": VELOCITY_KEY,
+    "environment_state": ENV_STATE_KEY,
 }
 #: Spawn key of the evaluation seed stream (``episode_generator``): ASCII "eval".
 EVAL_STREAM = 0x6576616C
@@ -152,13 +159,13 @@ def feature_spec(
     n_obj = len(registry.load(task).task_class().objects)
     h, w = image_size
     spec: dict[str, tuple[str, str, tuple[int, ...]]] = {
-        "action": ("action", "ACTION", (size,)),
+        "action": (ACTION_KEY, "ACTION", (size,)),
         "agent_pos": (LEROBOT_KEYS["agent_pos"], "STATE", (size,)),
         "velocity": (LEROBOT_KEYS["velocity"], "STATE", (size,)),
         "environment_state": (LEROBOT_KEYS["environment_state"], "ENV", (7 * n_obj,)),
     }
     for cam in cam_names:  # keyed by the feature itself: lerobot-eval --eval.recording needs it
-        key = f"observation.images.{cam}"
+        key = image_key(cam)
         spec[key] = (key, "VISUAL", (h, w, 3))
     return spec
 

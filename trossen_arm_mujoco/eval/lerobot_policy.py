@@ -21,6 +21,12 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
+from trossen_arm_mujoco.robot.lerobot_keys import (
+    ACTION_KEY,
+    ENV_STATE_KEY,
+    image_camera,
+    image_key,
+)
 
 __all__ = [
     "ENV_STATE_KEY",
@@ -32,9 +38,6 @@ __all__ = [
     "feature_mismatch",
     "import_lerobot",
 ]
-
-#: The feature only the simulation has: the objects' exact poses.
-ENV_STATE_KEY = "observation.environment_state"
 
 LEROBOT_MISSING = (
     "evaluating a LeRobot checkpoint needs LeRobot 0.6 (Python >= 3.12): "
@@ -83,15 +86,14 @@ def checkpoint_features(path: str | Path) -> dict[str, Any]:
     except (OSError, ValueError, AttributeError, TypeError) as exc:
         raise UserError(f"--policy {path}: cannot read its config.json ({exc})") from None
     found: dict[str, Any] = {}
-    prefix = "observation.images."
-    cams = [k[len(prefix) :] for k in inputs if k.startswith(prefix)]
+    cams = [cam for cam in map(image_camera, inputs) if cam is not None]
     found["cam_names"] = tuple(cams)
     if cams:
-        shape = inputs[prefix + cams[0]].get("shape") or []
+        shape = inputs[image_key(cams[0])].get("shape") or []
         if len(shape) == 3:
             found["image_size"] = (int(shape[1]), int(shape[2]))
-    found["sim_only"] = ENV_STATE_KEY in inputs
-    size = (outputs.get("action") or {}).get("shape") or []
+    found["sim_only"] = ENV_STATE_KEY in inputs  # what only the simulation has
+    size = (outputs.get(ACTION_KEY) or {}).get("shape") or []
     if list(size) == [14]:
         found["layout"] = "kit14"
     elif list(size) == [16]:
@@ -106,7 +108,7 @@ def check_checkpoint(path: str | Path, env: KitPolicyEnv) -> None:
     try:
         config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
         inputs = {k: tuple(v["shape"]) for k, v in (config.get("input_features") or {}).items()}
-        action = ((config.get("output_features") or {}).get("action") or {}).get("shape")
+        action = ((config.get("output_features") or {}).get(ACTION_KEY) or {}).get("shape")
     except (OSError, ValueError, AttributeError, TypeError, KeyError) as exc:
         raise UserError(f"--policy {path}: cannot read its config.json ({exc})") from None
     _raise_on_mismatch(path, inputs, action, env)
@@ -164,7 +166,7 @@ class LeRobotPolicy:
         cfg.pretrained_path = str(folder)
         cfg.device = device
         inputs = {k: tuple(f.shape) for k, f in cfg.input_features.items()}
-        out = cfg.output_features.get("action")
+        out = cfg.output_features.get(ACTION_KEY)
         _raise_on_mismatch(path, inputs, None if out is None else out.shape, env)
         self.torch = torch
         from trossen_arm_mujoco.eval.controller_limits_step import register

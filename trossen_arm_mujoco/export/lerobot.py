@@ -84,6 +84,7 @@ from trossen_arm_mujoco.fileio import (
     temp_path,
 )
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
+from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY, ENV_STATE_KEY, STATE_KEY, VELOCITY_KEY
 
 __all__ = ["REPO_ID_RE", "ExportSummary", "export_lerobot", "frame_values"]
 
@@ -371,12 +372,12 @@ def controller_actions(action16: np.ndarray) -> np.ndarray:
 
 def _values(episode: Episode, layout: str, frames: FrameMap) -> dict[str, np.ndarray]:
     out = {
-        "observation.state": frames.observations(fmt.layout_values(layout, episode.qpos)),
-        "observation.velocity": frames.observations(fmt.layout_values(layout, episode.qvel)),
-        "action": frames.actions(fmt.layout_values(layout, controller_actions(episode.action))),
+        STATE_KEY: frames.observations(fmt.layout_values(layout, episode.qpos)),
+        VELOCITY_KEY: frames.observations(fmt.layout_values(layout, episode.qvel)),
+        ACTION_KEY: frames.actions(fmt.layout_values(layout, controller_actions(episode.action))),
     }
     if episode.env_state is not None:
-        out[fmt.ENV_STATE_KEY] = frames.poses(episode.env_state)
+        out[ENV_STATE_KEY] = frames.poses(episode.env_state)
     out = {key: values.astype(np.float32) for key, values in out.items()}
     if episode.reward is not None:
         out["next.reward"] = episode.reward[frames.reward_index].astype(np.float32)

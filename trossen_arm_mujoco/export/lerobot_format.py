@@ -31,6 +31,14 @@ import numpy as np
 
 from trossen_arm_mujoco.export.deps import require
 from trossen_arm_mujoco.robot.layout import LAYOUTS, VENDOR16_LAYOUT
+from trossen_arm_mujoco.robot.lerobot_keys import (
+    ACTION_KEY,
+    ENV_STATE_KEY,
+    STATE_KEY,
+    VELOCITY_KEY,
+    image_key,
+    with_quantity,
+)
 
 __all__ = [
     "CHUNKS_SIZE",
@@ -79,12 +87,12 @@ ROBOT_TYPE = "trossen_ai_stationary"
 
 #: Joint vector features (in the export's layout): key -> the Episode attribute they hold.
 VECTOR_FEATURES: dict[str, str] = {
-    "observation.state": "qpos",
-    "observation.velocity": "qvel",
-    "action": "action",
+    STATE_KEY: "qpos",
+    VELOCITY_KEY: "qvel",
+    ACTION_KEY: "action",
 }
-#: Object poses (the episodes' env_state: xyz m + quat wxyz per object), when recorded.
-ENV_STATE_KEY = "observation.environment_state"
+# ENV_STATE_KEY (``robot.lerobot_keys``): object poses (the episodes' env_state: xyz m + quat
+# wxyz per object), when recorded.
 #: Per-frame bookkeeping columns every LeRobot dataset has.
 INDEX_FEATURES: dict[str, str] = {
     "timestamp": "float32",
@@ -100,9 +108,8 @@ STAT_NAMES: tuple[str, ...] = ("min", "max", "mean", "std", "count") + tuple(
 )
 
 
-def video_key(camera: str) -> str:
-    """Feature key of a camera: ``observation.images.<camera>``."""
-    return f"observation.images.{camera}"
+#: Feature key of a camera: ``observation.images.<camera>`` (``robot.lerobot_keys``).
+video_key = image_key
 
 
 @dataclass(frozen=True)
@@ -150,12 +157,12 @@ def build_features(
     """
     names = list(LAYOUTS[layout].names)
     # velocities are named after their joints with a ".vel" suffix (kit14: "left_joint_0.vel")
-    vel_names = [n[: -len(".pos")] + ".vel" if n.endswith(".pos") else n for n in names]
+    vel_names = with_quantity(names, "vel")
     features: dict[str, dict[str, Any]] = {
         key: {
             "dtype": "float32",
             "shape": [len(names)],
-            "names": vel_names if key == "observation.velocity" else names,
+            "names": vel_names if key == VELOCITY_KEY else names,
         }
         for key in VECTOR_FEATURES
     }

@@ -19,11 +19,11 @@ arm) and the gym adapter.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
+
+from trossen_arm_mujoco.robot.lerobot_keys import joint_value_names
 
 __all__ = [
     "ARM_JOINTS",
@@ -152,7 +152,7 @@ class Kit14Layout:
         """The 14 value names of the real kit, ``left_joint_0.pos`` ...
         ``right_left_carriage_joint.pos``."""
         arm = ARM_JOINTS + ("left_carriage_joint",)
-        return tuple(f"{side}_{joint}.pos" for side in SIDES for joint in arm)
+        return joint_value_names(f"{side}_{joint}" for side in SIDES for joint in arm)
 
     @property
     def units(self) -> tuple[str, ...]:
@@ -255,21 +255,3 @@ START_ARM_POSE: list[float] = [
     0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
     0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
 ]  # fmt: skip
-
-#: Names this module had before the layouts were named after ``LAYOUTS``' keys, still
-#: importable (with a ``DeprecationWarning``): old name -> new name.
-_DEPRECATED: dict[str, str] = {"KIT_LAYOUT": "VENDOR16_LAYOUT", "REAL_KIT_LAYOUT": "KIT14_LAYOUT"}
-
-
-def __getattr__(name: str) -> Any:
-    """The deprecated names ``KIT_LAYOUT`` (now ``VENDOR16_LAYOUT``) and ``REAL_KIT_LAYOUT``
-    (now ``KIT14_LAYOUT``), with a ``DeprecationWarning``."""
-    new = _DEPRECATED.get(name)
-    if new is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    warnings.warn(
-        f"trossen_arm_mujoco.robot.layout.{name} is deprecated: use {new}",
-        DeprecationWarning,
-        stacklevel=2,
-    )
-    return globals()[new]
