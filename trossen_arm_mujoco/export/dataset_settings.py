@@ -56,6 +56,8 @@ class DatasetSettings:
         image_size: (H, W) of every camera's images; None without cameras.
         crops: the rectangle of its 480x640 frame each cropped camera shows.
         task: the registered task the episodes are of (None: not one of ours).
+        state_extras: per-joint values ``observation.state`` has besides the positions:
+            ``"vel"``, ``"eff"`` (export ``--include_velocity`` / ``--include_effort``).
     """
 
     fps: int
@@ -64,6 +66,7 @@ class DatasetSettings:
     image_size: tuple[int, int] | None = None
     crops: tuple[CameraCrop, ...] = field(default=())
     task: str | None = None
+    state_extras: tuple[str, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready form (crops as their ``--crop`` texts)."""
@@ -74,6 +77,7 @@ class DatasetSettings:
             "image_size": list(self.image_size) if self.image_size else None,
             "crops": [c.text() for c in self.crops],
             "task": self.task,
+            "state_extras": list(self.state_extras),
         }
 
     @classmethod
@@ -88,6 +92,7 @@ class DatasetSettings:
                 image_size=(int(size[0]), int(size[1])) if size else None,
                 crops=parse_crops(list(data.get("crops") or ())),
                 task=str(data["task"]) if data.get("task") else None,
+                state_extras=tuple(str(e) for e in data.get("state_extras") or ()),
             )
         except (KeyError, TypeError, ValueError, IndexError, UserError) as exc:
             raise UserError(f"{where}: unreadable dataset settings ({exc}); export the "

@@ -8,7 +8,10 @@ Per written frame ``k``:
   ``left_joint_0.pos`` .. ``left_joint_5.pos``, ``left_left_carriage_joint.pos``, then
   ``right_...`` (rad; the carriage, the gripper, in m; the coupled second finger dropped);
   or ``vendor16``, the HDF5 files' 16 values and names. The action's grippers are as the
-  arm controller executes them, at most 0.04 m (:func:`controller_actions`).
+  arm controller executes them, at most 0.04 m (:func:`controller_actions`). With
+  ``include_velocity`` / ``include_effort`` the state also holds each joint's ``.vel`` /
+  ``.eff`` values after each arm's positions, as Trossen's plugin names them
+  (:mod:`.lerobot_state`; efforts derived with MuJoCo's actuator model, :mod:`.joint_efforts`).
 - ``observation.environment_state``: the episode's env_state, 7 values per object (xyz m,
   quat wxyz) named ``<object>_x`` .. ``<object>_qz``; left out for files without it
   (vendor recordings).
@@ -74,6 +77,7 @@ from trossen_arm_mujoco.export.lerobot_plan import (
     frame_map,
     plan_export,
 )
+from trossen_arm_mujoco.export.lerobot_state import state_extras, state_names, state_source
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo, VideoSettings
 from trossen_arm_mujoco.fileio import (
     FolderBusyError,
@@ -105,6 +109,7 @@ class ExportSummary:
     seconds: float
     source_fps: int
     layout: str
+    state_extras: tuple[str, ...] = ()  # "vel", "eff": per-joint values in the state
 
 
 def _prepare_output(output: Path, overwrite: bool) -> None:
@@ -149,6 +154,8 @@ def export_lerobot(
     progress: bool = True,
     layout: str = DEFAULT_LAYOUT,
     fps: int | None = None,
+    include_velocity: bool = False,
+    include_effort: bool = False,
 ) -> ExportSummary:
     """Write the episodes of ``data_dir`` as a LeRobot v3.0 dataset in ``output``.
 
@@ -168,6 +175,8 @@ def export_lerobot(
             values) or ``"vendor16"`` (the HDF5 files' 16).
         fps: frames per second to write, a whole number up to the recording rate (None: the
             recording rate); below it the episodes are resampled (module docstring).
+        include_velocity, include_effort: add each joint's ``.vel`` (rad/s, m/s) / ``.eff``
+            (Nm, N) values to ``observation.state`` (kit14 only; module docstring).
 
     Raises:
         UserError: missing folder, no episodes, a corrupt or inconsistent episode, a
@@ -181,7 +190,8 @@ def export_lerobot(
     found = list_episodes(data_dir)
     if not found:
         raise UserError(f"no episode_<k>.hdf5 files in {data_dir}; record episodes first")
-    plan = plan_export([load_episode(path) for _, path in found], task, layout, fps)
+    extras = state_extras(include_velocity, include_effort)
+    plan = plan_export([load_episode(path) for _, path in found], task, layout, fps, extras)
     video = video or VideoSettings()
     if plan.cameras:
         video.check_available()
@@ -217,6 +227,7 @@ def export_lerobot(
         seconds=time.perf_counter() - start,
         source_fps=plan.source_fps,
         layout=plan.layout,
+        state_extras=plan.state_extras,
     )
 
 
@@ -337,7 +348,10 @@ class _DataFiles:
 
 
 def frame_values(
-    episode: Episode, layout: str = DEFAULT_LAYOUT, fps: int | None = None
+    episode: Episode,
+    layout: str = DEFAULT_LAYOUT,
+    fps: int | None = None,
+    extras: tuple[str, ...] = (),
 ) -> dict[str, np.ndarray]:
     """What an export writes for ``episode`` per frame, before any encoding.
 
@@ -347,12 +361,13 @@ def frame_values(
         env_state); ``next.reward``: float32 ``(K,)`` (episodes with rewards);
         ``image_index``: int64 ``(K,)``, the source step whose images frame ``k`` shows.
         ``K`` frames at ``fps`` (None: the recording rate); see the module docstring.
+        ``extras`` (``"vel"``, ``"eff"``) widen the state (``lerobot_state.state_names``).
 
     Raises:
         UserError: an unknown layout, a bad ``fps``, an episode too short for ``fps``.
     """
     check_layout(layout)
-    return _values(episode, layout, episode_frames(episode, fps))
+    return _values(episode, layout, episode_frames(episode, fps), extras)
 
 
 #: The finger values of the HDF5 files' 16 (left 6, 7; right 14, 15).
@@ -370,9 +385,14 @@ def controller_actions(action16: np.ndarray) -> np.ndarray:
     return out
 
 
-def _values(episode: Episode, layout: str, frames: FrameMap) -> dict[str, np.ndarray]:
+def _values(
+    episode: Episode, layout: str, frames: FrameMap, extras: tuple[str, ...] = ()
+) -> dict[str, np.ndarray]:
+    state = state_source(episode, layout, extras) if extras else None
     out = {
-        STATE_KEY: frames.observations(fmt.layout_values(layout, episode.qpos)),
+        STATE_KEY: frames.observations(
+            fmt.layout_values(layout, episode.qpos) if state is None else state
+        ),
         VELOCITY_KEY: frames.observations(fmt.layout_values(layout, episode.qvel)),
         ACTION_KEY: frames.actions(fmt.layout_values(layout, controller_actions(episode.action))),
     }
@@ -391,7 +411,7 @@ def _frame_columns(
     """Per-frame values of episode ``i`` for every non-video feature, and the source step
     of each frame's images."""
     frames = frame_map(ep.num_steps, plan.source_fps, plan.fps)
-    cols = _values(ep, plan.layout, frames)
+    cols = _values(ep, plan.layout, frames, plan.state_extras)
     image_index = cols.pop("image_index")
     if plan.with_reward:
         cols["next.success"] = ep.reward[frames.reward_index] >= plan.max_reward[i]
@@ -436,8 +456,9 @@ def _encode_camera(
 def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress: bool) -> int:
     """Write the whole dataset into ``root``; returns the number of frames."""
     infos = {cam: video.info(h, w, plan.fps) for cam, (h, w, _) in plan.image_shapes.items()}
+    names = state_names(plan.layout, plan.state_extras) if plan.state_extras else None
     features = fmt.build_features(
-        plan.image_shapes, infos, plan.with_reward, plan.layout, plan.env_names
+        plan.image_shapes, infos, plan.with_reward, plan.layout, plan.env_names, names
     )
     schema = fmt.data_schema(features)
     data = _DataFiles(root, schema)

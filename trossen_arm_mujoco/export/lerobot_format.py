@@ -142,6 +142,7 @@ def build_features(
     with_reward: bool,
     layout: str = "kit14",
     env_names: list[str] | None = None,
+    state_names: list[str] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """The ``features`` of info.json, in column order.
 
@@ -154,6 +155,8 @@ def build_features(
             size and names.
         env_names: names of the ``observation.environment_state`` values (None: no such
             feature).
+        state_names: names of the ``observation.state`` values when they are more than the
+            layout's positions (``export.lerobot_state``: with velocities, efforts).
     """
     names = list(LAYOUTS[layout].names)
     # velocities are named after their joints with a ".vel" suffix (kit14: "left_joint_0.vel")
@@ -166,6 +169,12 @@ def build_features(
         }
         for key in VECTOR_FEATURES
     }
+    if state_names is not None:
+        features[STATE_KEY] = {
+            "dtype": "float32",
+            "shape": [len(state_names)],
+            "names": list(state_names),
+        }
     if env_names is not None:
         features[ENV_STATE_KEY] = {
             "dtype": "float32",

@@ -39,6 +39,7 @@ from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.data.schema import ENV_STATE_DIM
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings
+from trossen_arm_mujoco.export.lerobot_state import check_state_extras
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 from trossen_arm_mujoco.sim.camera_crop import parse_crops
 from trossen_arm_mujoco.tasks import registry
@@ -79,6 +80,8 @@ class ExportPlan:
         env_names: names of the ``observation.environment_state`` values (None: the
             episodes have no env_state).
         lengths: per episode, the frames written.
+        state_extras: per-joint values added to ``observation.state`` after each arm's
+            positions, in the LeRobot plugin's order: ``"vel"``, ``"eff"`` (``.lerobot_state``).
     """
 
     episodes: list[Episode]
@@ -95,6 +98,7 @@ class ExportPlan:
     lengths: list[int]  # per episode
     crops: str = ""  # the episodes' ``crops`` attribute (record --crop; "" for none)
     task_name: str | None = None  # the registered task of the episodes, when they name one
+    state_extras: tuple[str, ...] = ()  # "vel", "eff": added to observation.state
 
     def settings(self) -> DatasetSettings:
         """What the dataset is made with (``export.dataset_settings``), for its info.json."""
@@ -106,6 +110,7 @@ class ExportPlan:
             image_size=(int(shapes[0][0]), int(shapes[0][1])) if shapes else None,
             crops=parse_crops(self.crops),
             task=self.task_name,
+            state_extras=self.state_extras,
         )
 
 
@@ -287,15 +292,18 @@ def plan_export(
     task: str | None,
     layout: str = DEFAULT_LAYOUT,
     fps: Real | str | None = None,
+    state_extras: tuple[str, ...] = (),
 ) -> ExportPlan:
     """Check ``episodes`` (at least one) for export; ``task`` overrides every description,
-    ``layout`` is the joint layout written and ``fps`` the rate (None: the recording rate).
+    ``layout`` is the joint layout written and ``fps`` the rate (None: the recording rate);
+    ``state_extras`` the per-joint values added to the state (``"vel"``, ``"eff"``; kit14 only).
 
     Raises:
         UserError: mixed rates, cameras, rewards or objects; no task to describe an episode
             with; an unknown layout; a bad ``fps``; an episode too short for ``fps``.
     """
     check_layout(layout)
+    state_extras = check_state_extras(layout, state_extras)
     first = episodes[0]
     rate = source_fps(first)
     out_fps = output_fps(fps, rate)
@@ -365,6 +373,7 @@ def plan_export(
         lengths=lengths,
         crops=_crops(first),
         task_name=_task_name(episodes),
+        state_extras=state_extras,
     )
 
 

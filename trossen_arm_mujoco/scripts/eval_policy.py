@@ -177,6 +177,12 @@ def _settings(args: argparse.Namespace):
         inferred = checkpoint_features(args.policy)
         carried, source = checkpoint_settings(checkpoint_dir(args.policy))
         flags = reconcile(carried, source, flags)
+        if carried is not None and carried.state_extras:  # export --include_velocity/_effort
+            raise UserError(
+                f"the checkpoint's observation.state has per-joint {'/'.join(carried.state_extras)}"
+                f" values ({source}); eval gives policies the joint positions only: train on an "
+                "export without --include_velocity / --include_effort"
+            )
         inferred["settings_source"] = source if carried is not None else None
     task = flags["task"] or DEFAULT_TASK
     cams = flags["cam_names"] if flags["cam_names"] is not None else (

@@ -79,6 +79,19 @@ def build_parser() -> argparse.ArgumentParser:
         "rates are resampled (the real kit runs at 30; default: the recording rate, 50)",
     )
     p.add_argument(
+        "--include_velocity",
+        action="store_true",
+        help="add each joint's velocity to observation.state as Trossen's LeRobot plugin "
+        "names it (left_joint_0.vel .. after each arm's positions; rad/s, m/s; kit14 only)",
+    )
+    p.add_argument(
+        "--include_effort",
+        action="store_true",
+        help="add each joint's effort to observation.state as the plugin names it "
+        "(left_joint_0.eff ..; Nm, N), derived from the recording with MuJoCo's actuator "
+        "model (kit14 only)",
+    )
+    p.add_argument(
         "--vcodec",
         default="libsvtav1",
         choices=("libsvtav1", "h264"),
@@ -128,12 +141,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         overwrite=args.overwrite,
         layout=args.layout,
         fps=args.fps,
+        include_velocity=args.include_velocity,
+        include_effort=args.include_effort,
     )
     rate = summary.frames / max(summary.seconds, 1e-9)
     cams = ", ".join(summary.cameras) or "none"
     resampled = ""
     if summary.fps != summary.source_fps:
         resampled = f" (resampled from {summary.source_fps} fps)"
+    if summary.state_extras:
+        added = ", ".join(f"<joint>.{e}" for e in summary.state_extras)
+        resampled += f", the state with {added}"
     print(
         f"exported {summary.episodes} episode(s), {summary.frames} frames at {summary.fps} fps"
         f"{resampled} (cameras: {cams}), layout {summary.layout}, to {summary.output} in "

@@ -1,0 +1,73 @@
+"""Joint efforts of recorded kit episodes, derived with MuJoCo's actuator model.
+
+The HDF5 episodes hold joint positions, velocities and targets (``qpos``, ``qvel``,
+``action``), not forces. The effort of each joint at step ``t`` is what the simulation's
+actuators apply at the recorded state: ``qfrc_actuator`` of the kit's joint scene with
+``qpos[t]``, ``qvel[t]`` and the control in effect then, the previous step's target
+``action[t - 1]`` (at ``t = 0`` the joints themselves: the recorder starts holding still).
+That is each position servo's ``kp (target - q) - kv qdot`` within its force range, plus the
+gravity compensation the arms' actuators carry (``actuatorgravcomp``): the motor's total
+effort, as the real arm reports it (gravity, friction and load included; Nm for the arm
+joints, N for the gripper carriages).
+
+It equals the recorded simulation's own actuator force wherever the arm controller had
+reached the step's target (the joint speed limits let it within one step, as for the
+scripted policies' motions); a target it was still approaching, or held up by the safety
+floor, gives the force toward the target instead.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import mujoco
+import numpy as np
+
+from trossen_arm_mujoco.assets import asset_path
+from trossen_arm_mujoco.robot.configs import stationary_ai_joint_config
+from trossen_arm_mujoco.robot.layout import LAYOUTS
+
+__all__ = ["KIT_SCENE", "derived_efforts"]
+
+#: The joint-actuated kit scene whose actuators the efforts are of.
+KIT_SCENE = "stationary_ai/trossen_ai_scene_joint.xml"
+
+_VENDOR16 = LAYOUTS["vendor16"]
+
+
+@lru_cache(maxsize=1)
+def _kit() -> tuple[mujoco.MjModel, np.ndarray, np.ndarray, dict[str, tuple]]:
+    """(model, qpos addresses, dof addresses of the 16 values, group id -> (group, slice))."""
+    model = mujoco.MjModel.from_xml_path(str(asset_path(KIT_SCENE)))
+    view = stationary_ai_joint_config().build_view(model)
+    qpos_idx = np.empty(_VENDOR16.size, dtype=int)
+    dof_idx = np.empty(_VENDOR16.size, dtype=int)
+    groups = {}
+    for name, where in _VENDOR16.groups.items():
+        group = view.get_move_group(name)
+        qpos_idx[where] = group.qpos_idx
+        dof_idx[where] = group.dof_idx
+        groups[name] = group
+    return model, qpos_idx, dof_idx, groups
+
+
+def derived_efforts(qpos: np.ndarray, qvel: np.ndarray, action: np.ndarray) -> np.ndarray:
+    """Joint efforts ``(T, 16)`` (Nm; N for the finger joints) of an episode's ``(T, 16)``
+    qpos (rad / m), qvel (rad/s / m/s) and action (targets), in the files' 16-value layout;
+    see the module docstring. The coupled finger's value is its share of the gripper force
+    (0 where only gravity compensation acts on it)."""
+    model, qpos_idx, dof_idx, groups = _kit()
+    data = mujoco.MjData(model)
+    qpos, qvel, action = (np.asarray(a, dtype=np.float64) for a in (qpos, qvel, action))
+    out = np.empty_like(qpos)
+    for t in range(qpos.shape[0]):
+        data.qpos[qpos_idx] = qpos[t]
+        data.qvel[dof_idx] = qvel[t]
+        target = action[t - 1] if t > 0 else qpos[0]
+        for name, group in groups.items():
+            values = target[_VENDOR16.groups[name]]
+            # a gripper's control is its actuated finger (the second of the two values)
+            group.set_ctrl(data, values[-1:] if group.ctrl_dim == 1 else values)
+        mujoco.mj_forward(model, data)
+        out[t] = data.qfrc_actuator[dof_idx]
+    return out
