@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from trossen_arm_mujoco import cli
+from trossen_arm_mujoco.tasks import registry
 
 REPO = Path(__file__).resolve().parents[2]
 #: A checkpoint config trained on cam_low at 48x64, 14-value actions.
@@ -186,9 +187,10 @@ def test_subprocess_exit_status_and_exact_stderr(tmp_path):
     )  # fmt: skip
     assert done.returncode == 2
     assert done.stdout == ""
+    kit = ", ".join(registry.kit_names())  # the shipped ones and installed packages'
+    assert kit.count("sim_insertion, sim_transfer_cube") == 1
     assert done.stderr == (
-        "error: task 'reach' is not a Stationary AI kit task; valid tasks: sim_insertion, "
-        "sim_transfer_cube\n"
+        f"error: task 'reach' is not a Stationary AI kit task; valid tasks: {kit}\n"
     )
     assert not (tmp_path / "eval").exists()
 

@@ -3,7 +3,7 @@ were doing, written as ``rollouts.json`` next to ``eval_info.json``.
 
 A :class:`RolloutRecorder` is fed the env after every step of an episode (``EpisodeRunner``
 does it); it reads the sim through the running task (``env.episode``): the task's reward,
-the task's own contact checks (``TransferCubeReward.touching``) and the grippers' finger
+the task's own contact check (``BimanualTask.left_touches_object``) and the grippers' finger
 opening (``GripperGroup.inter_finger_dist``, m: 0 closed, about 0.088 fully open). Steps are
 0-based action indices: step ``k`` is the state after the policy's ``k``-th action, at
 ``(k + 1) / fps`` s after the reset.
@@ -79,13 +79,13 @@ class RolloutRecorder:
             self._readers = (
                 view.get_move_group("left_gripper"),
                 view.get_move_group("right_gripper"),
-                getattr(task.reward_fn, "touching", None),  # the transfer's contact check
+                task.left_touches_object,  # the task's own contact check
                 task.data,
             )
-        left, right, touching, data = self._readers
+        left, right, touching, _ = self._readers
         self.rewards.append(float(reward))
         self.gaps.append((left.inter_finger_dist, right.inter_finger_dist))
-        self.left_touch.append(bool(touching(data)[1]) if touching is not None else False)
+        self.left_touch.append(bool(touching()))
 
     def _time(self, step: int | None) -> float | None:
         return None if step is None else round((step + 1) / self.fps, 6)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 from trossen_arm_mujoco.constants import SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.schema import GZIP_LEVEL
-from trossen_arm_mujoco.errors import ArgumentParser, UserError, unknown_name_error
+from trossen_arm_mujoco.errors import ArgumentParser, UserError
 from trossen_arm_mujoco.scripts.common_options import (
     MAX_EPISODE_LEN,
     MAX_EPISODES,
@@ -181,11 +181,14 @@ class RecordOptions:
 def record_options(args: argparse.Namespace) -> RecordOptions:
     """The parsed flags checked together; ``args.task_name`` becomes the registered name
     (aliases accepted) and ``args.num_workers`` is capped at the CPUs (with a warning)."""
-    from trossen_arm_mujoco.tasks.registry import ALIASES
+    from trossen_arm_mujoco.tasks.registry import canonical
 
-    args.task_name = ALIASES.get(args.task_name, args.task_name)  # a registered alias
+    args.task_name = canonical(args.task_name)  # an alias, an installed package's task
     if args.task_name not in SIM_TASK_CONFIGS:
-        raise unknown_name_error("task", args.task_name, SIM_TASK_CONFIGS)
+        raise UserError(
+            f"task '{args.task_name}' has no scripted policy to record; tasks with one: "
+            f"{', '.join(sorted(SIM_TASK_CONFIGS))}"
+        )
     config = SIM_TASK_CONFIGS[args.task_name]
     num_episodes = config["num_episodes"] if args.num_episodes is None else args.num_episodes
     episode_len = config["episode_len"] if args.episode_len is None else args.episode_len

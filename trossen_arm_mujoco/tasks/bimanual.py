@@ -120,6 +120,11 @@ class BimanualTask(Task):
         obs["mocap_pose_right"] = self.tool_pose("right")
         return obs
 
+    def left_touches_object(self) -> bool:
+        """Whether the left fingers touch the task's object now (eval's rollout analysis
+        reads it at a hand-over's release); False for a task that does not say."""
+        return False
+
     def judge_success(self) -> bool:
         """The reward is ``max_reward`` (one reward evaluation per ``score``)."""
         return self.current_reward() >= self.max_reward

@@ -100,6 +100,10 @@ class TransferCube(BimanualTask):
         """Sparse 0-4 (see ``TransferCubeReward``)."""
         return self.reward_fn(self.data)
 
+    def left_touches_object(self) -> bool:
+        """Whether the left fingers touch the cube now (``TransferCubeReward.touching``)."""
+        return self.reward_fn.touching(self.data)[1]
+
     def get_task_description(self) -> str:
         """The handover in words (the same for every episode)."""
         return "pick up the red cube with the right arm and hand it over to the left arm"
