@@ -116,7 +116,7 @@ TABLE_HALF = (0.4, 0.6, 0.02)
 TABLE_POS = (1.2, 0.0)
 CUBE_HALF = 0.025
 CUBE_HOME = (0.95, 0.15)
-TARGET_HOME = (0.95, -0.15)
+TARGET_HOME = (0.95, 0.0)
 
 #: qpos of the home keyframe: the base at rest at the origin.
 BASE_HOME = (0.0, 0.0, BASE_LINK_HEIGHT, 1.0, 0.0, 0.0, 0.0)
