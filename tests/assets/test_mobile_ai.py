@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from trossen_arm_mujoco.assets import MOBILE_AI_CAMERAS, MOBILE_AI_TABLE_TOP
 from trossen_arm_mujoco.constants import ASSETS_DIR, START_ARM_POSE
 from trossen_arm_mujoco.names import names_of
 from trossen_arm_mujoco.robot.configs import MOBILE_AI_BASE_HOME, MOBILE_AI_WHEEL_RADIUS
@@ -16,6 +17,7 @@ from trossen_arm_mujoco.robot.configs import MOBILE_AI_BASE_HOME, MOBILE_AI_WHEE
 ASSETS = Path(ASSETS_DIR) / "mobile_ai"
 MODELS = ["mobile_ai.xml", "mobile_ai_scene.xml"]
 CAMERAS = ["cam_high", "cam_left_wrist", "cam_right_wrist"]
+assert list(MOBILE_AI_CAMERAS) == CAMERAS
 CASTERS = ["front_left", "front_right", "rear_left", "rear_right"]
 
 
@@ -83,6 +85,7 @@ def test_wheels_facts_and_six_floor_contacts():
 def test_scene_table_and_cube():
     model, data = load("mobile_ai_scene.xml")
     top = data.geom_xpos[model.geom("table").id][2] + model.geom("table").size[2]
+    assert top == pytest.approx(MOBILE_AI_TABLE_TOP)
     cube = model.body("cube").id
     assert data.xpos[cube][2] - model.geom("cube").size[2] == pytest.approx(top)
     assert model.jnt_qposadr[model.joint("cube_joint").id] == 33

@@ -9,11 +9,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from trossen_arm_mujoco.assets import MOBILE_AI_TABLE_TOP
 from trossen_arm_mujoco.constants import ASSETS_DIR
 from trossen_arm_mujoco.robot import Robot, mobile_ai_config
 
 SCENE = Path(ASSETS_DIR) / "mobile_ai" / "mobile_ai_scene.xml"
-TABLE_TOP = 0.75
+TABLE_TOP = MOBILE_AI_TABLE_TOP
 #: The tool frame pointing down (its x axis, the fingers' direction, along world -z).
 DOWN = np.array([np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0])
 OPEN, GRASP = 0.044, 0.015  # finger travel (m): open, closed on the 50 mm cube

@@ -7,7 +7,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["ASSETS_DIR", "STATIONARY_CAMERAS", "STATIONARY_TABLE_TOP", "asset_path"]
+__all__ = [
+    "ASSETS_DIR",
+    "MOBILE_AI_CAMERAS",
+    "MOBILE_AI_TABLE_TOP",
+    "STATIONARY_CAMERAS",
+    "STATIONARY_TABLE_TOP",
+    "asset_path",
+]
 
 #: Folder of the shipped models.
 ASSETS_DIR: str = str(Path(__file__).resolve().parent)
@@ -18,6 +25,12 @@ STATIONARY_CAMERAS: tuple[str, ...] = ("cam_high", "cam_low", "cam_left_wrist", 
 #: Height (m, world z) of the table top of the Stationary AI kit scenes (the tasks' configs
 #: say so as ``table_height``); custom dm_control tasks keep their arms above it.
 STATIONARY_TABLE_TOP: float = 0.02
+
+#: Cameras of the Mobile AI (``mobile_ai/mobile_ai.xml`` and its scene), in recording order.
+MOBILE_AI_CAMERAS: tuple[str, ...] = ("cam_high", "cam_left_wrist", "cam_right_wrist")
+
+#: Height (m, world z) of the table top of ``mobile_ai/mobile_ai_scene.xml``.
+MOBILE_AI_TABLE_TOP: float = 0.75
 
 
 def asset_path(relative: str | Path) -> Path:
