@@ -34,6 +34,7 @@ def _run(name: str, *args: str) -> subprocess.CompletedProcess:
     [
         ("wxai_pick_place.py", r"picked the cube and placed it (\d\.\d+) m from the target"),
         ("stationary_ai_pick_place.py", r"the right arm placed it (\d\.\d+) m from the target"),
+        ("mobile_ai_pick_place.py", r"the right arm placed it (\d\.\d+) m from the target"),
     ],
 )
 def test_pick_place_places_the_cube(name, sentence):
@@ -41,7 +42,10 @@ def test_pick_place_places_the_cube(name, sentence):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     found = re.search(sentence, proc.stdout)
     assert found, proc.stdout
-    assert float(found.group(1)) <= 0.02  # SUCCESS_DISTANCE of both scripts
+    assert float(found.group(1)) <= 0.02  # SUCCESS_DISTANCE of the scripts
+    if name.startswith("mobile"):
+        drove = re.search(r"drove (\d\.\d+) m to the table", proc.stdout)
+        assert drove and abs(float(drove.group(1)) - 0.3) < 0.01, proc.stdout
     assert proc.stderr == ""
 
 

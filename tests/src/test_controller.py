@@ -149,6 +149,21 @@ def test_stationary_ai_arms_by_site_with_vendor_names():
     np.testing.assert_array_equal(data.ctrl[right.arm.actuator_ids], right_ctrl)
 
 
+def test_mobile_ai_arm_rides_the_base():
+    """A Mobile AI arm by the vendor's site name; its reach is measured from its first joint,
+    wherever the base has driven."""
+    model, data = _scene("mobile_ai/mobile_ai_scene.xml")
+    right = Controller(model, data, "mobile_ai", ee_site_name="follower_right_ee_site")
+    assert right.arm.joint_names == [f"right/joint_{i}" for i in range(6)]
+    assert right.robot.safety_floor.floor_z == pytest.approx(0.75)
+    target = data.site_xpos[right.ee_site_id] + np.array([0.1, 0.05, -0.15])
+    for _ in range(600):
+        right.set_ee_pose(target, DOWN)
+        mujoco.mj_step(model, data)
+    assert np.linalg.norm(data.site_xpos[right.ee_site_id] - target) < 0.01
+    assert not right.out_of_reach
+
+
 @pytest.mark.parametrize(
     ("kwargs", "words"),
     [
@@ -158,7 +173,7 @@ def test_stationary_ai_arms_by_site_with_vendor_names():
         ),
         ({"ee_site_name": "tool"}, "unknown end-effector site of WXAI 'tool'; valid"),
         ({"arm_joint_names": ["joint_1", "joint_2"]}, "do not match this arm's joints"),
-        ({"robot_type": RobotType.MOBILE_AI}, "the Mobile AI model is not available yet"),
+        ({"robot_type": RobotType.MOBILE_AI}, "unknown end-effector site of MOBILE_AI 'ee_site'"),
     ],
 )
 def test_bad_arguments_are_one_line(wxai, kwargs, words):

@@ -78,10 +78,12 @@ def play(
     arms: Mapping[str, Controller],
     plan: Sequence[Waypoint],
     after_step: Callable[[], bool] | None = None,
+    tick: Callable[[], None] | None = None,
 ) -> None:
     """Run ``plan``: per physics step, one ``set_ee_pose`` per arm, then ``mj_step``.
 
-    ``after_step`` (the viewer's sync) returns False to stop early.
+    ``tick`` runs before each ``mj_step`` (other controllers: a mobile base's); ``after_step``
+    (the viewer's sync) returns False to stop early.
     """
     current = {name: arm.get_ee_pose()[0] for name, arm in arms.items()}
     quats = {name: DOWNWARD for name in arms}
@@ -95,6 +97,8 @@ def play(
             a = k / wp.steps
             for name, arm in arms.items():
                 arm.set_ee_pose(start[name] + a * (goal[name] - start[name]), quats[name])
+            if tick is not None:
+                tick()
             mujoco.mj_step(model, data)
             if after_step is not None and not after_step():
                 return

@@ -52,18 +52,21 @@ class Controller:
 
     Args:
         model, data: the compiled scene and its state (a joint-actuated scene of this
-            project: ``assets/wxai/scene_*.xml``, ``assets/stationary_ai/*_scene_joint.xml``).
+            project: ``assets/wxai/scene_*.xml``, ``assets/stationary_ai/*_scene_joint.xml``,
+            ``assets/mobile_ai/mobile_ai_scene.xml``).
         robot_type: ``RobotType`` member or its value (``"wxai"``).
         ee_site_name: the arm's tool-frame site: ``"ee_site"`` on the WidowX AI; on the
             kits ``"left/ee_site"`` / ``"right/ee_site"`` (or the vendor's
-            ``"follower_left_ee_site"``), which chooses the arm.
+            ``"follower_left_ee_site"``), which chooses the arm. The Mobile AI's base is not
+            driven here (``robot.configs.mobile_ai_config``: ``base_velocity``).
         arm_joint_names, gripper_joint_names: None for the arm's own; given, they must name
             that arm's six joints in order and its gripper's finger joint(s) (project or
             vendor names); this layer always drives the whole arm.
         ik_scale: fraction of the pose error corrected per call (0-1).
         ik_damping: damping of the least squares (m; 0-0.1), against singularities.
         table_height: the safety floor (m, world z) the arm is held above; default the
-            robot type's table top (WXAI 0.0, STATIONARY_AI 0.02); None: no floor.
+            robot type's table top (WXAI 0.0, STATIONARY_AI 0.02, MOBILE_AI 0.75); None: no
+            floor.
     """
 
     def __init__(

@@ -21,11 +21,12 @@ from trossen_arm_mujoco.assets import STATIONARY_TABLE_TOP
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.configs import (
     RobotConfig,
+    mobile_ai_config,
     stationary_ai_joint_config,
     wxai_config,
 )
 
-__all__ = ["RobotType", "RobotTypeError", "arm_config", "to_project_name"]
+__all__ = ["MOBILE_AI_TABLE_TOP", "RobotType", "RobotTypeError", "arm_config", "to_project_name"]
 
 
 class RobotTypeError(UserError, ValueError):
@@ -48,18 +49,14 @@ class RobotType(Enum):
         )
 
 
-def _mobile_ai_config() -> RobotConfig:
-    raise UserError(
-        "the Mobile AI model is not available yet in this project; use RobotType.WXAI or "
-        "RobotType.STATIONARY_AI"
-    )
-
+#: Table-top height (m, world z) of the Mobile AI scene (``assets/mobile_ai/mobile_ai_scene.xml``).
+MOBILE_AI_TABLE_TOP = 0.75
 
 #: robot type -> (its joint-actuated robot config, table-top height (m, world z) of its scenes)
 _ROBOTS: dict[RobotType, tuple[Callable[[], RobotConfig], float | None]] = {
     RobotType.WXAI: (wxai_config, 0.0),
     RobotType.STATIONARY_AI: (stationary_ai_joint_config, STATIONARY_TABLE_TOP),
-    RobotType.MOBILE_AI: (_mobile_ai_config, None),
+    RobotType.MOBILE_AI: (mobile_ai_config, MOBILE_AI_TABLE_TOP),
 }
 
 
@@ -92,8 +89,10 @@ def arm_config(
     """(config, arm group id, gripper group id) of the arm whose tool frame is ``ee_site_name``
     (a site of ``model``, this project's or the vendor's name).
 
-    The config keeps that arm's base, arm and gripper groups, in ``joint_position`` mode. A
-    site that is no arm's tool frame is a one-line ``UserError`` listing the tool frames.
+    The config keeps that arm's base, arm and gripper groups, in ``joint_position`` mode (the
+    Mobile AI's wheeled base is not among them: drive it with ``robot.configs.mobile_ai_config``
+    and its ``base_velocity`` controller). A site that is no arm's tool frame is a one-line
+    ``UserError`` listing the tool frames.
     """
     full = _ROBOTS[robot_type][0]()
     site = to_project_name(ee_site_name)
