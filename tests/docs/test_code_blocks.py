@@ -41,7 +41,7 @@ def test_every_cli_page_has_a_worked_example_that_runs():
 
 def test_blocks_that_run_reach_loopback_only():
     """An address outside 127.0.0.0/8 (a real arm's) only ever appears in blocks marked
-    ``# needs: hardware``, which never run."""
+    ``<!-- needs: hardware (...) -->``, which never run."""
     address = re.compile(r"(?<![\d.])(\d{1,3})\.\d{1,3}\.\d{1,3}\.\d{1,3}(?![\d.])")
     outside = [
         f"{f.page}:{f.line}: {m.group(0)}"
@@ -56,12 +56,28 @@ def test_blocks_that_run_reach_loopback_only():
 
 def test_a_malformed_needs_mark_is_refused(tmp_path: Path):
     page = tmp_path / "page.md"
-    page.write_text("```bash\n# needs: a gpu\nls\n```\n")
-    with pytest.raises(ValueError, match="page.md:2: write '# needs: hardware"):
+    page.write_text("<!-- needs: a gpu -->\n```bash\nls\n```\n")
+    with pytest.raises(ValueError, match="page.md:1: write <!-- needs: hardware"):
         docs_fences.fences(page)
-    page.write_text("```bash\n# needs: hardware  (leader arms)\nls\n```\n")
+    page.write_text("<!-- needs: hardware (leader arms) -->\n\n```bash\nls\n```\n")
+    with pytest.raises(ValueError, match="page.md:1: a needs mark goes on the line right before"):
+        docs_fences.fences(page)
+    page.write_text("```bash\n# needs: hardware  (leader arms)\nls\n```\n")  # readers saw it
+    with pytest.raises(ValueError, match="page.md:2: move the mark out of the block"):
+        docs_fences.fences(page)
+    page.write_text("text\n<!-- needs: hardware (leader arms) -->\n```bash\nls\n```\n")
     [fence] = docs_fences.fences(page)
-    assert (fence.needs, fence.reason, fence.runs) == ("hardware", "leader arms", False)
+    assert (fence.needs, fence.reason, fence.runs, fence.text) == (
+        "hardware",
+        "leader arms",
+        False,
+        "ls\n",
+    )
+    page.write_text(
+        "- a list item:\n\n  <!-- needs: long-run (minutes) -->\n  ```bash\n  ls\n  ```\n"
+    )
+    [fence] = docs_fences.fences(page)
+    assert (fence.needs, fence.text) == ("long-run", "ls\n")
 
 
 @pytest.mark.parametrize(
@@ -92,7 +108,15 @@ def test_page_code_runs(page: Path, tmp_path: Path):
     assert time.monotonic() - start < 120, "keep the site's runnable blocks small"
 
 
-def test_marks_are_shown_on_the_built_page(site: Path):
-    html = (site / "cli" / "teleop.html").read_text(encoding="utf-8")
-    text = re.sub(r"<[^>]+>", "", html)  # the highlighter splits the comment into spans
-    assert "# needs: hardware  (leader arms" in text
+def test_marks_are_hidden_on_the_built_pages(site: Path):
+    """The needs marks are HTML comments: no built page shows one (the highlighter splits a
+    code comment into spans, so the check reads the text with the tags removed)."""
+    marked = [p for p in PAGES if any(f.needs for f in docs_fences.fences(p))]
+    assert len(marked) >= 10
+    for page in marked:
+        built = site / page.relative_to(docs_fences.DOCS).with_suffix(".html")
+        html = re.sub(r"<!--.*?-->", "", built.read_text(encoding="utf-8"), flags=re.DOTALL)
+        text = re.sub(r"<[^>]+>", "", html)
+        assert "needs: hardware" not in text and "needs: long-run" not in text, built
+    teleop = (site / "cli" / "teleop.html").read_text(encoding="utf-8")
+    assert "<!-- needs: hardware (leader arms" in teleop  # the mark is there, as a comment

@@ -24,6 +24,60 @@ def test_readme_is_a_short_front_door():
     assert not missing, missing
 
 
+def section(text: str, start: str, end: str) -> str:
+    """The text from ``start`` up to ``end`` (both must be there), without the docs tests'
+    needs marks (HTML comments) and with the README's ``docs/`` link prefix dropped."""
+    assert start in text and end in text[text.index(start) :], (start, end)
+    part = text[text.index(start) :]
+    part = part[: part.index(end)]
+    part = re.sub(r"^ *<!-- needs: .*-->\n", "", part, flags=re.MULTILINE)
+    return part.replace("](docs/", "](")
+
+
+def test_home_page_opens_as_the_readme():
+    """The docs home page starts with the README's two commands and describes the test
+    command in the README's words (tools/run_tests.sh: what it installs, the site it builds,
+    the legs it runs)."""
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    home = (REPO / "docs" / "index.md").read_text(encoding="utf-8")
+    first = 'pip install ".[video]" && trossen-mujoco record'
+    assert section(home, "```bash\n", "```\n\n") == section(readme, "```bash\n", "```\n\n")
+    assert first in section(home, "```bash\n", "```\n\n")
+    tests_part = section(readme, "**Run the tests**", "The demo dataset lands")
+    assert tests_part == section(home, "**Run the tests**", "The demo dataset lands")
+    script = (REPO / "tools" / "run_tests.sh").read_text(encoding="utf-8")
+    assert (
+        "mkdocs build --strict" in script
+        and "builds the\ndocumentation site strictly" in tests_part
+    )
+    assert "chromium" in script and "Chromium" in tests_part
+    assert '-e ".[dev,cameras,docs]"' in script and "`[dev,cameras,docs]`" in tests_part
+    assert "--ignore=tests/docs" in script and "less the documentation tests" in tests_part
+
+
+def test_why_this_project_quotes_the_measured_figures():
+    """README and home page carry the same side-by-side with Trossen's package and gym-aloha,
+    and every figure in it is one the Benchmarks or Rehearsal page reports."""
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    home = (REPO / "docs" / "index.md").read_text(encoding="utf-8")
+    why = section(readme, "## Why this project", "\n## ")
+    assert why == section(home, "## Why this project", "\n## ")
+    assert readme.index("## Why this project") > readme.index("bash tools/run_tests.sh")
+    for other in (
+        "github.com/TrossenRobotics/trossen_arm_mujoco",
+        "github.com/huggingface/gym-aloha",
+    ):
+        assert other in why
+    measured = "\n".join(
+        (REPO / "docs" / page).read_text(encoding="utf-8")
+        for page in ("benchmarks.md", "rehearsal.md")
+    )
+    figures = re.findall(r"\d+(?:\.\d+)? (?:min \d+ s\b|s\b|MB\b|%)|\d+\.\d+", why)
+    assert len(figures) >= 8, figures
+    missing = [f for f in figures if f not in measured]
+    assert not missing, f"figures not on the Benchmarks or Rehearsal page: {missing}"
+
+
 def test_plotted_runs_are_the_benchmark_tables_runs():
     curves = json.loads((REPO / "docs" / "data" / "benchmark_curves.json").read_text())
     page = (REPO / "docs" / "benchmarks.md").read_text(encoding="utf-8")
