@@ -54,9 +54,10 @@ WHEEL_DIAG = (0.00165792997375718, 0.00291162000439156, 0.00165792997375718)
 #: URDF wheel joint limits: effort (N m), velocity (rad/s, 4 pi).
 WHEEL_EFFORT = 4.0
 WHEEL_MAX_SPEED = 12.566370614359172
-#: Velocity servo gain of the wheel actuators (N m s/rad): own choice (not published); the
-#: torque saturates at WHEEL_EFFORT for speed errors above 0.2 rad/s.
-WHEEL_KV = 20.0
+#: Velocity servo gain of the wheel actuators (N m s/rad): own choice (not published), stiff
+#: enough that rolling holds the wheels within 0.002 rad/s of their command (20 left 0.01 and
+#: a 1 % slow turn); the torque saturates at WHEEL_EFFORT for speed errors above 0.04 rad/s.
+WHEEL_KV = 100.0
 #: URDF caster swivel joints in base_link (x, y, z); axis z, then the caster wheel at
 #: (-0.0345, 0, -0.066) in the swivel (axis y): the caster wheel's rolling radius is its
 #: axle height, 0.211 - 0.107 - 0.066 = 0.038 m.

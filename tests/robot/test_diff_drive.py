@@ -24,7 +24,8 @@ from trossen_arm_mujoco.robot.diff_drive import BaseVelocityLimits, DiffDriveBas
 MOBILE = Path(ASSETS_DIR) / "mobile_ai" / "mobile_ai.xml"
 CTRL_DT = 0.02
 #: Stated accuracy of the base's speed on a flat floor, relative to the command (measured:
-#: 0.3 %, the tyres' 0.2-0.5 mm contact penetration shortening the rolling radius).
+#: 0.2-0.4 % slow, mostly the tyres' 0.2-0.5 mm contact penetration shortening the rolling
+#: radius).
 SPEED_TOL = 0.01
 
 
@@ -85,7 +86,7 @@ def test_stop_holds_the_base_still(robot):
     base = robot.view.get_move_group("base")
     measured_velocity(robot, (0.6, 0.3))
     robot.update_control({"base": (0.0, 0.0)})
-    run(robot, 2.0)
+    run(robot, 3.0)  # the base brakes in about 0.7 s, then rocks on its casters a little
     assert np.abs(base.get_base_velocity(robot.view.data)).max() < 1e-3
     robot.hold()  # the no-op control of the base is zero wheel speed
     np.testing.assert_array_equal(base.ctrl, [0.0, 0.0])
