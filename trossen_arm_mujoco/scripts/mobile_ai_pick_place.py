@@ -29,13 +29,12 @@ from dataclasses import replace
 import mujoco
 import numpy as np
 
-from trossen_arm_mujoco.assets import asset_path
+from trossen_arm_mujoco.assets import MOBILE_AI_TABLE_TOP, asset_path
 from trossen_arm_mujoco.errors import run_cli
 from trossen_arm_mujoco.robot.configs import mobile_ai_config
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.scripts.ik_demo import Waypoint, demo_parser, play, show, use_viewer
 from trossen_arm_mujoco.src.controller import Controller, RobotType
-from trossen_arm_mujoco.src.robot_types import MOBILE_AI_TABLE_TOP
 
 __all__ = ["DRIVE", "SUCCESS_DISTANCE", "BaseDriver", "cli", "drive", "main", "plan"]
 

@@ -17,7 +17,7 @@ from enum import Enum
 
 import mujoco
 
-from trossen_arm_mujoco.assets import STATIONARY_TABLE_TOP
+from trossen_arm_mujoco.assets import MOBILE_AI_TABLE_TOP, STATIONARY_TABLE_TOP
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.configs import (
     RobotConfig,
@@ -26,7 +26,7 @@ from trossen_arm_mujoco.robot.configs import (
     wxai_config,
 )
 
-__all__ = ["MOBILE_AI_TABLE_TOP", "RobotType", "RobotTypeError", "arm_config", "to_project_name"]
+__all__ = ["RobotType", "RobotTypeError", "arm_config", "to_project_name"]
 
 
 class RobotTypeError(UserError, ValueError):
@@ -48,9 +48,6 @@ class RobotType(Enum):
             + ", ".join(f"RobotType.{m.name} ({m.value!r})" for m in cls)
         )
 
-
-#: Table-top height (m, world z) of the Mobile AI scene (``assets/mobile_ai/mobile_ai_scene.xml``).
-MOBILE_AI_TABLE_TOP = 0.75
 
 #: robot type -> (its joint-actuated robot config, table-top height (m, world z) of its scenes)
 _ROBOTS: dict[RobotType, tuple[Callable[[], RobotConfig], float | None]] = {
