@@ -26,6 +26,7 @@ from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.export.joint_efforts import derived_efforts
 from trossen_arm_mujoco.robot.layout import LAYOUTS
+from trossen_arm_mujoco.robot.lerobot_keys import with_quantity
 
 __all__ = ["STATE_EXTRAS", "check_state_extras", "state_extras", "state_names", "state_source"]
 
@@ -69,7 +70,7 @@ def state_names(layout: str, extras: Sequence[str] = ()) -> list[str]:
         pos = names[side * _PER_ARM : (side + 1) * _PER_ARM]
         out += pos
         for suffix in extras:
-            out += [n[: -len(".pos")] + f".{suffix}" for n in pos]
+            out += with_quantity(pos, suffix)
     return out
 
 
