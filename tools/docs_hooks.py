@@ -2,10 +2,12 @@
 
 A page line ``<!-- cli-flags: <command> -->`` becomes the flag table of that
 ``trossen-mujoco`` subcommand, generated from its argparse parser (``tools/docs_cli.py``).
+Each highlighted code block carries its text for the copy button (``data-copy``).
 """
 
 from __future__ import annotations
 
+import html
 import re
 import sys
 from pathlib import Path
@@ -16,6 +18,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from docs_cli import PARSER_MODULES, flags_markdown  # noqa: E402
 
 _MARKER = re.compile(r"^<!-- cli-flags: ([\w-]+) -->$", re.MULTILINE)
+_BLOCK = re.compile(
+    r'<div class="((?:[\w-]+ )*highlight)">(<pre\b.*?<code\b[^>]*>(.*?)</code>)', re.DOTALL
+)  # pages' fences and mkdocstrings' signatures ("doc-signature highlight")
 
 
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
@@ -32,3 +37,18 @@ def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
         return flags_markdown(command)
 
     return _MARKER.sub(table, markdown)
+
+
+def on_page_content(content: str, page: Any, config: Any, files: Any) -> str:
+    """Give each highlighted code block its text as ``data-copy``, which Material's copy
+    button copies as is. Without it the button copies the block's rendered text
+    (``innerText``), and the lines drawn as blocks of their own (a long line wraps with a
+    hanging indent: ``docs/stylesheets/extra.css``) would come out with an empty line between
+    each, breaking every ``\\`` continuation."""
+
+    def carry(match: re.Match[str]) -> str:
+        classes, block, code = match.groups()
+        text = html.unescape(re.sub(r"<[^>]+>", "", code)).rstrip()
+        return f'<div class="{classes}" data-copy="{html.escape(text)}">{block}'
+
+    return _BLOCK.sub(carry, content)

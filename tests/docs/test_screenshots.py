@@ -81,7 +81,7 @@ def test_page_renders_with_title_and_navigation(
 # prints. Per code block (<pre><code>; Material's scroll container is the <code>): scroll and
 # client widths, the block's box, the boxes of the text's line fragments (one laid out past the
 # block's edge is cut off from view) and those under the copy button floating over its corner.
-_MEASURE_JS = """
+_MEASURE_JS = r"""
 function measureBlocks(doc, limit) {
   var codes = Array.prototype.slice.call(doc.querySelectorAll("article pre > code"), 0, limit);
   return codes.map(function (code) {
@@ -97,11 +97,14 @@ function measureBlocks(doc, limit) {
         return r.left < b.right && r.right > b.left && r.top < b.bottom && r.bottom > b.top;
       });
     }
+    // what Material 9's copy button copies: an ancestor's data-copy, else the rendered text
+    var holder = code.closest("[data-copy]");
+    var copied = (holder ? holder.getAttribute("data-copy") : code.innerText).replace(/\s+$/, "");
     var edges = function (r) { return [r.left, r.top, r.right, r.bottom]; };
     return {text: code.textContent, scroll: code.scrollWidth, client: code.clientWidth,
             pre_scroll: code.parentNode.scrollWidth, pre_client: code.parentNode.clientWidth,
             box: edges(box), lines: rects.map(edges), button: Boolean(nav),
-            under_button: under.map(edges)};
+            under_button: under.map(edges), copied: copied};
   });
 }
 function report(result) {
@@ -165,7 +168,8 @@ def measure(browser: str, page: Path, profile: Path, *flags: str) -> Any:
 
 
 def cut_off(block: dict) -> list[str]:
-    """Why a measured block hides part of its text (empty when all of it is in view)."""
+    """Why a measured block hides part of its text or copies other text (empty when all of
+    it is in view and its copy button copies it as written)."""
     left, _, right, _ = block["box"]
     why = []
     if block["scroll"] > block["client"] or block["pre_scroll"] > block["pre_client"]:
@@ -177,6 +181,8 @@ def cut_off(block: dict) -> list[str]:
         )
     if block["under_button"]:
         why.append(f"{len(block['under_button'])} line fragments under the copy button")
+    if block["copied"] != block["text"].rstrip():
+        why.append(f"the copy button copies {block['copied'][:80]!r}, not the text shown")
     return why
 
 
@@ -218,7 +224,8 @@ def test_home_page_first_command_is_fully_visible(site: Path, browser: str, tmp_
 
 def test_no_code_block_of_the_site_is_cut_off_at_1280_px(site: Path, browser: str, tmp_path: Path):
     """Every built page, each in a 1280 px frame of one page: every code block shows all of
-    its text (it wraps; nothing scrolls out of view or hides under the copy button)."""
+    its text (it wraps; nothing scrolls out of view or hides under the copy button) and its
+    copy button copies that text as written."""
     pages = sorted(p for p in site.rglob("*.html") if p.name != "404.html")
     frames = "".join(
         f'<iframe src="{p.resolve().as_uri()}" style="display:block;border:0;width:1280px;'
