@@ -150,3 +150,25 @@ def test_lerobot_loads_the_export_with_both_flags(recording, tmp_path):
     assert np.array_equal(vel, np.float32(ep.qvel)[:, :6])
     info = json.loads((out / "meta" / "info.json").read_text())
     assert info["trossen_arm_mujoco"]["state_extras"] == ["vel", "eff"]
+
+
+def test_eval_refuses_a_checkpoint_trained_on_the_wider_state(tmp_path, capsys):
+    from trossen_arm_mujoco.export.dataset_settings import write_checkpoint_settings
+    from trossen_arm_mujoco.scripts.eval_policy import cli as eval_cli
+
+    folder = tmp_path / "pretrained_model"
+    folder.mkdir()
+    (folder / "config.json").write_text(
+        json.dumps(
+            {
+                "input_features": {"observation.state": {"type": "STATE", "shape": [42]}},
+                "output_features": {"action": {"type": "ACTION", "shape": [14]}},
+            }
+        )
+    )
+    settings = DatasetSettings(fps=50, layout="kit14", state_extras=("vel", "eff"))
+    write_checkpoint_settings(folder, settings)
+    rc = eval_cli(["--policy", str(folder), "--output_dir", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert "per-joint vel/eff values" in err[0] and "--include_velocity" in err[0]
