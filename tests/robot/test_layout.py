@@ -89,7 +89,7 @@ def test_kit_joint_commands_equal_for_14_and_16_values():
 def test_layouts_are_named_after_their_keys():
     from trossen_arm_mujoco.robot import layout
 
-    assert LAYOUTS == {"kit14": KIT14_LAYOUT, "vendor16": VENDOR16_LAYOUT}
+    assert LAYOUTS["kit14"] is KIT14_LAYOUT and LAYOUTS["vendor16"] is VENDOR16_LAYOUT
     assert (KIT14_LAYOUT.size, VENDOR16_LAYOUT.size) == (14, 16)
     assert type(KIT14_LAYOUT).__name__ == "Kit14Layout"
     assert type(VENDOR16_LAYOUT).__name__ == "Vendor16Layout"
