@@ -79,11 +79,12 @@ def play(
     plan: Sequence[Waypoint],
     after_step: Callable[[], bool] | None = None,
     tick: Callable[[], None] | None = None,
-) -> None:
+) -> bool:
     """Run ``plan``: per physics step, one ``set_ee_pose`` per arm, then ``mj_step``.
 
     ``tick`` runs before each ``mj_step`` (other controllers: a mobile base's); ``after_step``
-    (the viewer's sync) returns False to stop early.
+    (the viewer's sync) returns False to stop early. Returns whether the plan was played to
+    its end.
     """
     current = {name: arm.get_ee_pose()[0] for name, arm in arms.items()}
     quats = {name: DOWNWARD for name in arms}
@@ -101,8 +102,9 @@ def play(
                 tick()
             mujoco.mj_step(model, data)
             if after_step is not None and not after_step():
-                return
+                return False
         current = goal
+    return True
 
 
 def show(

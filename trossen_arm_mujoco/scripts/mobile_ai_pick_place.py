@@ -163,8 +163,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     def run(after_step=None) -> None:
         if drive(model, data, driver, after_step):
             homes = {side: arm.get_ee_pose()[0] for side, arm in arms.items()}
-            play(model, data, arms, plan(start, target, homes), after_step, tick=driver.tick)
-            result.append(report(data, cube, target, driver))
+            steps = plan(start, target, homes)
+            if play(model, data, arms, steps, after_step, tick=driver.tick):
+                result.append(report(data, cube, target, driver))
 
     result: list[int] = []
     if not use_viewer(args.headless):
@@ -177,6 +178,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             arm.robot.compute_control()
 
     show(model, data, run, hold, lookat=(0.8, 0.0, 0.8), distance=2.2)
+    if not result:
+        print("the viewer was closed before the demo finished")
     return result[0] if result else 0
 
 

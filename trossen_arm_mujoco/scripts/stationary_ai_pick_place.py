@@ -116,14 +116,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     result = []
 
     def run(after_step):
-        play(model, data, arms, plan(), after_step)
-        result.append(report(data, cube))
+        if play(model, data, arms, plan(), after_step):
+            result.append(report(data, cube))
 
     def hold():
         for arm in arms.values():
             arm.robot.compute_control()
 
     show(model, data, run, hold, lookat=(0.0, 0.0, 0.1), distance=1.4)
+    if not result:
+        print("the viewer was closed before the demo finished")
     return result[0] if result else 0
 
 

@@ -96,10 +96,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     result = []
 
     def run(after_step):
-        play(model, data, {"arm": robot}, plan, after_step)
-        result.append(report(data, cube))
+        if play(model, data, {"arm": robot}, plan, after_step):
+            result.append(report(data, cube))
 
     show(model, data, run, robot.robot.compute_control, lookat=(0.35, 0.0, 0.05))
+    if not result:
+        print("the viewer was closed before the demo finished")
     return result[0] if result else 0
 
 
