@@ -73,3 +73,35 @@ def test_bad_flag_is_one_line():
     assert proc.stderr.strip().splitlines() == [
         "error: unrecognized arguments: --fast (see 'wxai_pick_place.py --help')"
     ]
+
+
+def test_follow_target_cube_can_be_picked_and_dragged_like_in_the_viewer():
+    """What the viewer does on double-click and Ctrl + right-drag: a ray from the eye hits the
+    cube (a visible geom of the mocap body), and a perturbation moves the mocap body; the arm
+    then follows it."""
+    import mujoco
+    import numpy as np
+
+    from trossen_arm_mujoco.scripts.wxai_follow_target import CENTER, follow_scene, track
+    from trossen_arm_mujoco.src.controller import Controller
+
+    model, data, mocap = follow_scene()
+    geom = np.zeros(1, dtype=np.int32)
+    eye = CENTER + np.array([0.6, 0.3, 0.2])  # in front of the arm
+    visible = np.ones(mujoco.mjNGROUP, dtype=np.uint8)  # the viewer's default geom groups 0-2
+    visible[3:] = 0
+    dist = mujoco.mj_ray(model, data, eye, CENTER - eye, visible, 1, -1, geom)
+    assert dist > 0 and model.geom(geom[0]).name == "target_cube"
+    body = int(model.geom_bodyid[geom[0]])
+    pert = mujoco.MjvPerturb()
+    pert.select = body
+    pert.active = mujoco.mjtPertBit.mjPERT_TRANSLATE
+    pert.refpos[:] = CENTER + np.array([0.05, 0.08, -0.05])
+    pert.refquat[:] = data.xquat[body]
+    mujoco.mjv_applyPerturbPose(model, data, pert, 1)
+    assert np.allclose(data.mocap_pos[mocap], pert.refpos)
+    robot = Controller(model, data, "wxai", ik_scale=1.0)
+    for _ in range(1000):
+        error = track(robot, data, mocap)
+        mujoco.mj_step(model, data)
+    assert error < 0.002
