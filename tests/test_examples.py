@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -88,3 +89,19 @@ def test_the_example_task_packages_own_tests_pass():
         capture_output=True, text=True, timeout=300, cwd=TASK_PACKAGE,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_the_tutorial_shows_the_example_package_verbatim():
+    """docs/writing-a-task.md's code blocks headed ``# my_trossen_task/<file>`` are excerpts
+    of that file, character for character (the page is the example's code)."""
+    page = (REPO / "docs" / "writing-a-task.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n# (my_trossen_task/\w+\.py)\n(.*?)\n```", page, re.S)
+    assert {name for name, _ in blocks} == {"my_trossen_task/task.py", "my_trossen_task/policy.py"}
+    for name, text in blocks:
+        source = (TASK_PACKAGE / name).read_text(encoding="utf-8")
+        assert text in source, f"the block of {name} differs from the file"
+    shown = "".join(text for _, text in blocks)
+    for name in ("class LiftPuckReward", "class LiftPuckSampler", "TASK = TaskEntry("):
+        assert name in shown
+    toml = re.search(r"```toml\n(.*?)\n```", page, re.S).group(1)
+    assert toml == (TASK_PACKAGE / "pyproject.toml").read_text(encoding="utf-8").rstrip()

@@ -60,8 +60,9 @@ JOINT_WAVES = ((0.35, 5.0), (0.2, 4.0), (0.2, 3.5), (0.4, 3.0), (0.4, 4.5), (0.8
 def _task_class(flavour: str) -> type:
     """The cube transfer's dm_control task class in ``flavour``, from the task registry."""
     from trossen_arm_mujoco.tasks.dm_tasks import dm_task_class
+    from trossen_arm_mujoco.tasks.registry import DEFAULT_TASK
 
-    return dm_task_class("sim_transfer_cube", flavour)
+    return dm_task_class(DEFAULT_TASK, flavour)
 
 
 # ----------------------------------------------------------------------------- motion

@@ -40,7 +40,7 @@ def resolve_asset(xml_file: str) -> str:
 def make_sim_env(
     task_class: type,
     xml_file: str | None = None,
-    task_name: str = "sim_transfer_cube",
+    task_name: str = registry.DEFAULT_TASK,
     onscreen_render: bool = False,
     cam_list: Sequence[str] | None = None,
     *,
@@ -88,7 +88,10 @@ def make_sim_env(
             )
         task_kwargs["randomize"] = True
     xml = resolve_asset(xml_file or task_class.DEFAULT_XML)
-    physics = load_physics(xml, SceneLooks(shadows=shadows, visual=visual))
+    edit = None  # a registered task's own scene objects (TaskSampler.scene_objects)
+    if issubclass(task_class, RegisteredTaskMixin) and task_class.task_name:
+        edit = registry.load(task_class.task_name).sampler_class().scene_edit()
+    physics = load_physics(xml, SceneLooks(shadows=shadows, visual=visual), edit)
     task = task_class(
         random=random,
         onscreen_render=onscreen_render,

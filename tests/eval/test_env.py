@@ -16,6 +16,7 @@ from trossen_arm_mujoco.eval.env import (
     rate_timing,
 )
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, START_ARM_POSE
+from trossen_arm_mujoco.tasks import registry
 
 SIZE = (24, 32)
 START14 = KIT14_LAYOUT.from_vendor(np.asarray(START_ARM_POSE))
@@ -287,7 +288,8 @@ def test_single_arm_task_is_refused_with_the_valid_tasks():
     message = str(err.value)
     assert "\n" not in message
     assert "'reach'" in message
-    assert "valid tasks: sim_insertion, sim_transfer_cube" in message
+    assert f"valid tasks: {', '.join(registry.kit_names())}" in message
+    assert "sim_insertion, sim_transfer_cube" in message
 
 
 def test_unknown_camera_and_layout_are_user_errors():

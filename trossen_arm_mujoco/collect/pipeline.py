@@ -96,7 +96,7 @@ def episode_seed(base_seed: int, attempt: int) -> int:
 class RecordSettings:
     """What every episode of a run shares."""
 
-    task_name: str = "sim_transfer_cube"
+    task_name: str = registry.DEFAULT_TASK
     episode_len: int = 600
     inject_noise: bool = False
     cam_names: tuple[str, ...] = ()

@@ -35,6 +35,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv
 from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
 from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
+from trossen_arm_mujoco.tasks.registry import DEFAULT_TASK
 
 __all__ = [
     "ENGINES",
@@ -116,7 +117,7 @@ class EvalSettings:
     """What every episode of an evaluation shares (the CLI's flags)."""
 
     policy: str = "scripted"
-    task: str = "sim_transfer_cube"
+    task: str = DEFAULT_TASK
     num_episodes: int = 10
     seed: int = 0
     cam_names: tuple[str, ...] = ()

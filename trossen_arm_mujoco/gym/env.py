@@ -110,7 +110,7 @@ class TrossenMujocoEnv(gymnasium.Env):
 
     def __init__(
         self,
-        task: str = "reach",
+        task: str = registry.DEFAULT_ARM_TASK,
         *,
         obs_type: str = "state",
         action_mode: str = "joint_position",

@@ -26,7 +26,7 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
 
     goal_env = True
 
-    def __init__(self, task: str = "reach", **kwargs: Any):
+    def __init__(self, task: str = registry.DEFAULT_ARM_TASK, **kwargs: Any):
         if not registry.load(task).task_class().goal_conditioned:
             goal_tasks = [
                 n for n in registry.names() if registry.load(n).task_class().goal_conditioned

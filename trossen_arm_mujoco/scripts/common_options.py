@@ -29,6 +29,7 @@ from trossen_arm_mujoco.errors import (
     os_error_hint,
     unknown_name_error,
 )
+from trossen_arm_mujoco.tasks import registry
 
 if TYPE_CHECKING:
     from trossen_arm_mujoco.sim.looks import SceneLooks
@@ -65,7 +66,7 @@ __all__ = [
 ]
 
 #: The task every command starts from when ``--task_name`` is not given.
-DEFAULT_TASK = "sim_transfer_cube"
+DEFAULT_TASK = registry.DEFAULT_TASK
 #: Camera image size of the recording commands, HEIGHTxWIDTH pixels (also the largest:
 #: MAX_RECORD_IMAGE_SIZE, height and width).
 DEFAULT_IMAGE_SIZE = "480x640"

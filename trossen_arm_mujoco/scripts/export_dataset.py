@@ -30,7 +30,7 @@ from collections.abc import Sequence
 from trossen_arm_mujoco.data.reader import resolve_data_dir
 from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
 from trossen_arm_mujoco.robot.layout import LAYOUTS
-from trossen_arm_mujoco.scripts.common_options import add_data_dir, add_root_dir
+from trossen_arm_mujoco.scripts.common_options import DEFAULT_TASK, add_data_dir, add_root_dir
 
 FORMATS = ("lerobot",)
 
@@ -44,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--format", default="lerobot", choices=FORMATS, help="dataset format (default: lerobot)"
     )
-    add_data_dir(p, "episode folder", example="sim_transfer_cube")
+    add_data_dir(p, "episode folder", example=DEFAULT_TASK)
     add_root_dir(p)
     p.add_argument(
         "--output",

@@ -44,6 +44,7 @@ from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
 
 __all__ = [
     "ALIASES",
+    "DEFAULT_ARM_TASK",
     "DEFAULT_TASK",
     "ENTRIES",
     "ENTRY_POINT_GROUP",
@@ -68,6 +69,8 @@ SETTING_NAMES = frozenset(f.name for f in dataclasses.fields(SamplerSettings))
 ENTRY_POINT_GROUP = "trossen_arm_mujoco.tasks"
 #: The task the command lines and the kit front doors use when none is named.
 DEFAULT_TASK = "sim_transfer_cube"
+#: The task the gymnasium env classes use when none is named (a single-arm one).
+DEFAULT_ARM_TASK = "reach"
 _OWN = "trossen_arm_mujoco"
 _TASKS_MARKER = re.compile(r"^TASKS\b", re.MULTILINE)
 

@@ -135,12 +135,7 @@ class TaskSampler:
                 )
             robot = self.ee_robot_config()
         floor_margin = settings.floor_margin
-        edit = self.scene_edit()
-        if physics is not None and edit:
-            raise UserError(
-                f"task sampler {type(self).__name__} adds scene objects: build its physics "
-                "with them (sim.env.load_physics(path, looks, sampler.scene_edit()))"
-            )
+        edit = self.scene_edit()  # a given physics was built with it (utils.make_sim_env)
         self.env = MujocoEnv(
             None if physics is not None else Path(ASSETS_DIR) / self.config[scene_key],
             physics=physics,

@@ -93,7 +93,7 @@ class TeleopSettings:
         shadows, visual: scene looks.
     """
 
-    task_name: str = "sim_transfer_cube"
+    task_name: str = registry.DEFAULT_TASK
     episode_len: int = 600
     cam_names: tuple[str, ...] = ()
     height: int = 480

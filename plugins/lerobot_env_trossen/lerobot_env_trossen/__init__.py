@@ -7,7 +7,8 @@ LeRobot's own scripts (``lerobot-eval``, ``lerobot-train``) and registers ``Tros
         --env.type=trossen --env.task=sim_transfer_cube --env.cam_names=none \\
         --eval.n_episodes=50 --eval.batch_size=2 --seed=1000
 
-Options: ``--env.task`` (a Stationary AI kit task: ``sim_transfer_cube``, ``sim_insertion``),
+Options: ``--env.task`` (a Stationary AI kit task, ``tasks.registry.kit_names()``: the shipped
+``sim_transfer_cube``, ``sim_insertion`` and those of installed task packages),
 ``--env.cam_names`` (comma list or ``none``; default the four kit cameras), ``--env.image_size``
 (``HxW``, like ``record``), ``--env.fps`` (policy rate; 30 for a dataset exported with
 ``--fps 30``), ``--env.episode_length`` (steps; default the task's recording length at that
