@@ -28,9 +28,13 @@ total steps/s, speedup and efficiency per worker count.
    ``scripted``; replaces 1-3): ``eval.runner.evaluate`` over ``--episodes`` episodes of
    ``--episode_length`` steps at each worker count, with its thread split (each worker's
    torch and BLAS get max(1, cores // workers) threads). Prints episodes/s in the steady
-   state (from the arrival of the first result of every worker to the last: spawning the
-   workers and loading the policy excluded) and over the whole call, and the steady ratio
-   against the first count (goal: 2 workers >= 1.7x one)::
+   state (over the second half of the results, when every worker is running: spawning the
+   workers and loading the policy excluded) and over the whole call, and both ratios
+   against the first count (goal: 2 workers >= 1.7x one over the whole call). The counts
+   run one after the other in this process, so a later count's parent finds torch and
+   LeRobot imported; ``--fresh`` runs each count in a new process instead (each whole call
+   pays its imports, as a ``trossen-mujoco eval`` run does). ``--controller_checks off``
+   lets an untrained checkpoint (whose first action faults) run its episodes to the end::
 
        python benchmarks/eval_throughput.py --policy .../pretrained_model --workers 1,2
 """
@@ -38,8 +42,11 @@ total steps/s, speedup and efficiency per worker count.
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing
 import os
+import subprocess
+import sys
 import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -197,14 +204,28 @@ def policy_rates(args, workers: int) -> tuple[float, float]:
         policy=args.policy, task=args.task, num_episodes=args.episodes,
         cam_names=found.get("cam_names", ()), image_size=found.get("image_size", (480, 640)),
         episode_length=args.episode_length, layout=found.get("layout", "kit14"),
-        output_dir=os.devnull,
+        output_dir=os.devnull, controller_checks=args.controller_checks == "on",
     )  # fmt: skip
     arrivals: list[float] = []
     t0 = time.perf_counter()
     evaluate(settings, workers, on_episode=lambda _: arrivals.append(time.perf_counter()))
     whole = args.episodes / (time.perf_counter() - t0)
-    first = min(workers, args.episodes) - 1  # every worker has finished one episode
-    steady = (len(arrivals) - 1 - first) / max(arrivals[-1] - arrivals[first], 1e-9)
+    half = len(arrivals) // 2  # every worker is running by then (the caller from the start)
+    steady = (len(arrivals) - 1 - half) / max(arrivals[-1] - arrivals[half], 1e-9)
+    return steady, whole
+
+
+def fresh_rates(args, workers: int) -> tuple[float, float]:
+    """``policy_rates`` in a new Python process (nothing imported yet: the whole call pays
+    every import, as a ``trossen-mujoco eval`` run does)."""
+    argv = [sys.executable, __file__, "--policy", args.policy, "--task", args.task,
+            "--episodes", str(args.episodes), "--episode_length", str(args.episode_length),
+            "--controller_checks", args.controller_checks, "--rates_of", str(workers)]  # fmt: skip
+    run = subprocess.run(argv, capture_output=True, text=True)
+    line = next((x for x in run.stdout.splitlines() if x.startswith("RATES ")), None)
+    if run.returncode != 0 or line is None:
+        raise SystemExit(f"--fresh: the run of {workers} worker(s) failed: {run.stderr[-2000:]}")
+    steady, whole = json.loads(line[len("RATES ") :])
     return steady, whole
 
 
@@ -212,16 +233,19 @@ def policy_table(args, counts: list[int]) -> None:
     from trossen_arm_mujoco.eval.runner import available_cpus, threads_per_worker
 
     cpus = available_cpus()
+    where = "each count in a new process" if args.fresh else "the counts in one process"
     print(f"policy throughput: {args.policy}, {args.task}, {args.episodes} episodes of "
-          f"{args.episode_length} steps; {cpus} usable CPUs, load average "
-          f"{os.getloadavg()[0]:.1f} (other processes share these cores)")  # fmt: skip
-    print(f"  {'workers':>7}  {'threads':>7}  {'episodes/s':>10}  {'(whole)':>8}  {'ratio':>6}")
+          f"{args.episode_length} steps, controller checks {args.controller_checks}, {where}; "
+          f"{cpus} usable CPUs, load average {os.getloadavg()[0]:.1f} (other processes "
+          "share these cores)")  # fmt: skip
+    print(f"  {'workers':>7}  {'threads':>7}  {'episodes/s':>10}  {'(whole)':>8}  "
+          f"{'ratio':>6}  {'(whole)':>7}")  # fmt: skip
     base = None
     for n in counts:
-        steady, whole = policy_rates(args, n)
-        base = base or steady
+        steady, whole = (fresh_rates if args.fresh else policy_rates)(args, n)
+        base = base or (steady, whole)
         print(f"  {n:>7}  {threads_per_worker(n, cpus):>7}  {steady:>10.3f}  {whole:>8.3f}  "
-              f"{steady / base:>6.2f}", flush=True)  # fmt: skip
+              f"{steady / base[0]:>6.2f}  {whole / base[1]:>7.2f}", flush=True)  # fmt: skip
 
 
 def main(argv=None) -> None:
@@ -239,6 +263,12 @@ def main(argv=None) -> None:
     )
     p.add_argument("--episodes", type=int, default=8, help="episodes per --policy run")
     p.add_argument("--episode_length", type=int, default=100, help="steps per episode")
+    p.add_argument("--controller_checks", choices=("on", "off"), default="on",
+                   help="the arm controller's checks in --policy runs (off: an untrained "
+                   "checkpoint's episodes run to the end)")  # fmt: skip
+    p.add_argument("--fresh", action="store_true",
+                   help="run each --policy worker count in a new process")  # fmt: skip
+    p.add_argument("--rates_of", type=int, default=0, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     from trossen_arm_mujoco.eval.env import parse_cameras, parse_image_size
 
@@ -250,6 +280,8 @@ def main(argv=None) -> None:
     if args.policy is not None:
         if args.episodes < 2 * max(counts) or args.episode_length < 1:
             p.error("--episodes must be at least twice the largest --workers count")
+        if args.rates_of:  # one count, for --fresh's parent
+            return print("RATES " + json.dumps(policy_rates(args, args.rates_of)), flush=True)
         return policy_table(args, counts)
 
     actions = replay_actions(args.steps)

@@ -8,24 +8,30 @@ written as mp4 (``videos/eval_episode_<i>.mp4``). The scores go to ``eval_info.j
 (``eval.scores``); what happened in each rollout (stage times, the grippers) rides on each
 score as ``EpisodeScore.analysis`` (``eval.rollout_analysis``).
 
+N > 1 local workers are this process and N - 1 spawned ones (``eval.episode_pool``): the
+spawned ones start first, this one builds its runner while they do (a torch and LeRobot it
+imported before cost nothing again), and every worker takes the next episode when it is
+free, so one slow to start (importing torch and LeRobot: about 5 s of CPU) runs fewer
+episodes instead of idling the others at the end. Which process runs an episode does not
+change its score.
+
 Threads: with N local workers on C usable cores (``available_cpus``), each worker's torch and
 its OpenMP / MKL / OpenBLAS pools get ``max(1, C // N)`` threads (``threads_per_worker``):
-the variables are in the worker's environment before it imports numpy or torch, and
-``torch.set_num_threads`` runs before the policy is built. Without the limit every worker's
-torch would use every core, and two workers ran slower than one.
+the variables are in a spawned worker's environment before it imports numpy or torch, and
+``torch.set_num_threads`` runs before the policy is built (in this process too, whose torch
+thread count is put back afterwards). Without the limit every worker's torch would use every
+core, and two workers ran slower than one.
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import sys
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +39,7 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv
+from trossen_arm_mujoco.eval.episode_pool import run_episodes
 from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
 from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
 from trossen_arm_mujoco.tasks.registry import DEFAULT_TASK
@@ -235,52 +242,34 @@ class EpisodeRunner:
 
 
 # -- local worker processes -------------------------------------------------------------
-_RUNNER: EpisodeRunner | None = None
-#: A user error building the worker's runner, raised again by its first task (an error in
-#: the pool's initializer would break the pool: a traceback and "a worker died").
-_INIT_ERROR: UserError | None = None
-
-
-def _init_worker(settings: EvalSettings, threads: int) -> None:
-    global _RUNNER, _INIT_ERROR
-    os.environ.setdefault("MUJOCO_GL", "egl")
+@contextmanager
+def _torch_threads_kept() -> Iterator[None]:
+    """This process's torch intra-op thread count as it was before the block (torch's
+    default for the restored environment when the block imported torch): the caller runs
+    episodes as one of the workers, with a worker's share of the cores."""
+    before = sys.modules["torch"].get_num_threads() if "torch" in sys.modules else None
     try:
-        _RUNNER = EpisodeRunner(settings, threads)
-    except UserError as exc:
-        _INIT_ERROR = exc
-
-
-def _run_in_worker(index: int) -> tuple[EpisodeScore, str | None]:
-    if _INIT_ERROR is not None:
-        raise UserError(str(_INIT_ERROR))
-    assert _RUNNER is not None
-    return _RUNNER.run(index)
+        yield
+    finally:
+        if "torch" in sys.modules:
+            default = int(os.environ.get("OMP_NUM_THREADS") or available_cpus())
+            sys.modules["torch"].set_num_threads(before or default)
 
 
 def _local(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore, str | None]]:
-    indices = range(settings.num_episodes)
     if workers <= 1:
         runner = EpisodeRunner(settings)
         try:
-            for i in indices:
+            for i in range(settings.num_episodes):
                 yield runner.run(i)
         finally:
             runner.close()
         return
-    ctx = multiprocessing.get_context("spawn")
     threads = threads_per_worker(workers)
-    with (
-        thread_env(threads),
-        ProcessPoolExecutor(
-            workers, mp_context=ctx, initializer=_init_worker, initargs=(settings, threads)
-        ) as pool,
-    ):
-        try:
-            yield from pool.map(_run_in_worker, indices)
-        except BrokenProcessPool:
-            raise UserError(
-                "an evaluation worker died (out of memory?); rerun with fewer --num_workers"
-            ) from None
+    make_runner = partial(EpisodeRunner, settings, threads)
+    with _torch_threads_kept(), thread_env(threads):
+        for _, result in run_episodes(make_runner, settings.num_episodes, workers):
+            yield result
 
 
 def _ray(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore, str | None]]:
