@@ -148,8 +148,13 @@ def _recorded_episodes_replay_at_50_fps(tmp_path_factory: pytest.TempPathFactory
                 if "real_replay_checked" not in f.attrs:
                     continue  # not written by the recorder (hand-made test files)
                 checked, actions = bool(f.attrs["real_replay_checked"]), f["action"][()]
+                layout = f.attrs.get("layout", "vendor16")
         except OSError:
             continue  # a deliberately corrupt file
+        if layout == "mobileai":  # the Mobile AI's: the arms' 14 values, then the base's 2
+            from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
+
+            actions = KIT14_LAYOUT.to_vendor(actions[:, :14])
         try:
             validate_actions(actions, 50.0)
         except TrajectoryError as exc:

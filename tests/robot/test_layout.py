@@ -8,6 +8,7 @@ import pytest
 from trossen_arm_mujoco.robot.layout import (
     KIT14_LAYOUT,
     LAYOUTS,
+    MOBILEAI_LAYOUT,
     START_ARM_POSE,
     VENDOR16_LAYOUT,
     kit_joint_commands,
@@ -38,8 +39,26 @@ def test_real_kit_names_and_units_are_the_plugins():
     assert list(KIT14_LAYOUT.names) == PLUGIN_NAMES
     assert list(KIT14_LAYOUT.units) == PLUGIN_UNITS
     assert KIT14_LAYOUT.size == 14
-    assert set(LAYOUTS) == {"kit14", "vendor16"}
+    assert set(LAYOUTS) == {"kit14", "vendor16", "mobileai"}
     assert LAYOUTS["kit14"] is KIT14_LAYOUT and LAYOUTS["vendor16"] is VENDOR16_LAYOUT
+    assert LAYOUTS["mobileai"] is MOBILEAI_LAYOUT
+
+
+def test_mobileai_is_the_kits_14_then_the_base():
+    # Trossen's mobileai_robot: the bimanual arms' features, then {"x.vel", "theta.vel"}
+    # (lerobot_robot_trossen/mobileai.py, _base_ft)
+    assert list(MOBILEAI_LAYOUT.names) == PLUGIN_NAMES + ["x.vel", "theta.vel"]
+    assert list(MOBILEAI_LAYOUT.units) == PLUGIN_UNITS + ["m/s", "rad/s"]
+    action = np.arange(16.0)
+    commands = MOBILEAI_LAYOUT.commands(action)
+    np.testing.assert_array_equal(commands["left_arm"], range(6))
+    np.testing.assert_array_equal(commands["left_gripper"], [6])
+    np.testing.assert_array_equal(commands["right_arm"], range(7, 13))
+    np.testing.assert_array_equal(commands["right_gripper"], [13])
+    np.testing.assert_array_equal(commands["base"], [14, 15])
+    np.testing.assert_array_equal(MOBILEAI_LAYOUT.from_vendor(action), action)
+    with pytest.raises(ValueError, match="16 values"):
+        MOBILEAI_LAYOUT.commands(np.zeros(14))
 
 
 def test_from_vendor_keeps_the_actuated_finger_and_drops_the_coupled_one():

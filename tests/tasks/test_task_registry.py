@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.layout import LAYOUTS
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
@@ -13,7 +14,14 @@ from trossen_arm_mujoco.tasks.task import Task
 
 def test_names():
     shipped = [n for n in registry.names() if registry.load(n).package == "trossen_arm_mujoco"]
-    assert shipped == ["pick_place", "push", "reach", "sim_insertion", "sim_transfer_cube"]
+    assert shipped == [
+        "mobile_pick_place",
+        "pick_place",
+        "push",
+        "reach",
+        "sim_insertion",
+        "sim_transfer_cube",
+    ]
     assert registry.names() == sorted(registry.TASKS)  # installed packages' tasks included
 
 
@@ -40,9 +48,13 @@ def test_sim_task_configs_are_derived_from_the_registry():
 def test_scripted_entries_have_policy_and_ee_flavour(name):
     entry = registry.load(name)
     policy = entry.policy_class()
-    assert callable(policy) and hasattr(policy, "generate_trajectory")
     assert policy.minimum_episode_len <= entry.record["episode_len"]
-    assert "ee_scene" in entry.load_config()
+    layout = getattr(policy, "action_layout", "ee")
+    if layout == "ee":  # an end-effector policy: record's mocap rollout, then the joint replay
+        assert callable(policy) and hasattr(policy, "generate_trajectory")
+        assert "ee_scene" in entry.load_config()
+    else:  # a joint policy (the Mobile AI's): recorded as it acts, in a layout of LAYOUTS
+        assert layout in LAYOUTS and callable(policy)
 
 
 def test_task_without_policy_says_so():

@@ -32,6 +32,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from trossen_arm_mujoco.collect.joint_policy import JointPolicyRecorder, make_recorder
 from trossen_arm_mujoco.collect.local_pool import WorkerPool
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
 from trossen_arm_mujoco.collect.progress import Progress
@@ -154,14 +155,14 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-_WORKER: EpisodeRecorder | None = None
+_WORKER: EpisodeRecorder | JointPolicyRecorder | None = None
 
 
 def _worker_init(settings: RecordSettings) -> None:
     global _WORKER
     _ignore_sigint()
     os.environ.setdefault("MUJOCO_GL", "egl")
-    _WORKER = EpisodeRecorder(settings)
+    _WORKER = make_recorder(settings)
 
 
 def _worker_record(job: tuple[int, str, bool]) -> EpisodeOutcome:
@@ -405,7 +406,7 @@ class DatasetRecorder:
 
     def _run_here(self, jobs: Sequence[Job], report: RunReport) -> None:
         self._staging()
-        recorder = EpisodeRecorder(self.settings, step_hook=self.step_hook)
+        recorder = make_recorder(self.settings, step_hook=self.step_hook)
         try:
             for job in jobs:
                 if self.done:

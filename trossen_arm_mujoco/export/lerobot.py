@@ -69,13 +69,13 @@ from trossen_arm_mujoco.export import lerobot_stats as st
 from trossen_arm_mujoco.export.dataset_settings import INFO_KEY
 from trossen_arm_mujoco.export.deps import require
 from trossen_arm_mujoco.export.lerobot_plan import (
-    DEFAULT_LAYOUT,
     ExportPlan,
     FrameMap,
-    check_layout,
     episode_frames,
     frame_map,
     plan_export,
+    recorded_layout,
+    resolve_layout,
 )
 from trossen_arm_mujoco.export.lerobot_state import state_extras, state_names, state_source
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo, VideoSettings
@@ -88,6 +88,7 @@ from trossen_arm_mujoco.fileio import (
     temp_path,
 )
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
+from trossen_arm_mujoco.robot.layout import MOBILEAI_LAYOUT, SIDES
 from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY, ENV_STATE_KEY, STATE_KEY, VELOCITY_KEY
 
 __all__ = ["REPO_ID_RE", "ExportSummary", "export_lerobot", "frame_values"]
@@ -152,7 +153,7 @@ def export_lerobot(
     video: VideoSettings | None = None,
     overwrite: bool = False,
     progress: bool = True,
-    layout: str = DEFAULT_LAYOUT,
+    layout: str | None = None,
     fps: int | None = None,
     include_velocity: bool = False,
     include_effort: bool = False,
@@ -172,7 +173,9 @@ def export_lerobot(
         overwrite: replace an existing dataset in ``output``.
         progress: show a progress bar over episodes on stderr.
         layout: joint layout of state, velocity and action: ``"kit14"`` (the real kit's 14
-            values) or ``"vendor16"`` (the HDF5 files' 16).
+            values), ``"vendor16"`` (the HDF5 files' 16) or ``"mobileai"`` (the Mobile AI's
+            14 arm values then ``x.vel``, ``theta.vel``); None: ``mobileai`` for the Mobile
+            AI's recordings, else ``kit14`` (``lerobot_plan.resolve_layout``).
         fps: frames per second to write, a whole number up to the recording rate (None: the
             recording rate); below it the episodes are resampled (module docstring).
         include_velocity, include_effort: add each joint's ``.vel`` (rad/s, m/s) / ``.eff``
@@ -349,7 +352,7 @@ class _DataFiles:
 
 def frame_values(
     episode: Episode,
-    layout: str = DEFAULT_LAYOUT,
+    layout: str | None = None,
     fps: int | None = None,
     extras: tuple[str, ...] = (),
 ) -> dict[str, np.ndarray]:
@@ -362,11 +365,13 @@ def frame_values(
         ``image_index``: int64 ``(K,)``, the source step whose images frame ``k`` shows.
         ``K`` frames at ``fps`` (None: the recording rate); see the module docstring.
         ``extras`` (``"vel"``, ``"eff"``) widen the state (``lerobot_state.state_names``).
+        ``layout`` None: the one that fits the episode (``lerobot_plan.resolve_layout``).
 
     Raises:
-        UserError: an unknown layout, a bad ``fps``, an episode too short for ``fps``.
+        UserError: an unknown layout or one that does not fit the episode, a bad ``fps``,
+            an episode too short for ``fps``.
     """
-    check_layout(layout)
+    layout = resolve_layout([episode], layout)
     return _values(episode, layout, episode_frames(episode, fps), extras)
 
 
@@ -374,14 +379,18 @@ def frame_values(
 _FINGERS = [6, 7, 14, 15]
 
 
-def controller_actions(action16: np.ndarray) -> np.ndarray:
+def controller_actions(action16: np.ndarray, recorded: str = "vendor16") -> np.ndarray:
     """The recorded actions ``(T, 16)`` as the arm controller executes them: each gripper
     at most ``GRIPPER_MAX`` (0.04 m per finger; the controller clips the recorder's fully
     open 0.044 m to it). A policy learns the opening the arm reaches, and its own small
     errors around it stay inside the controller's 0.044 + 0.001 m position check (around
-    0.044 they do not: about half its open-gripper actions would fault)."""
+    0.044 they do not: about half its open-gripper actions would fault). ``recorded``: the
+    layout of the rows (``vendor16``, or ``mobileai``: grippers at 6 and 13)."""
     out = np.array(action16, dtype=np.float64, copy=True)
-    out[..., _FINGERS] = np.minimum(out[..., _FINGERS], GRIPPER_MAX)
+    fingers = _FINGERS
+    if recorded == "mobileai":
+        fingers = [MOBILEAI_LAYOUT.gripper_index(side) for side in SIDES]
+    out[..., fingers] = np.minimum(out[..., fingers], GRIPPER_MAX)
     return out
 
 
@@ -394,7 +403,9 @@ def _values(
             fmt.layout_values(layout, episode.qpos) if state is None else state
         ),
         VELOCITY_KEY: frames.observations(fmt.layout_values(layout, episode.qvel)),
-        ACTION_KEY: frames.actions(fmt.layout_values(layout, controller_actions(episode.action))),
+        ACTION_KEY: frames.actions(
+            fmt.layout_values(layout, controller_actions(episode.action, recorded_layout(episode)))
+        ),
     }
     if episode.env_state is not None:
         out[ENV_STATE_KEY] = frames.poses(episode.env_state)
@@ -522,7 +533,9 @@ def _write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress:
     fmt.write_json(
         root / fmt.STATS_PATH, {key: st.to_lists(st.aggregate(s)) for key, s in stats.items()}
     )
-    info = fmt.build_info(features, plan.fps, len(plan.episodes), total, len(plan.tasks))
+    info = fmt.build_info(
+        features, plan.fps, len(plan.episodes), total, len(plan.tasks), plan.layout
+    )
     info[INFO_KEY] = plan.settings().to_json()  # what a checkpoint trained on it carries
     fmt.write_json(root / fmt.INFO_PATH, info)
     return total

@@ -50,6 +50,7 @@ __all__ = [
     "INDEX_FEATURES",
     "INFO_PATH",
     "QUANTILES",
+    "MOBILE_ROBOT_TYPE",
     "ROBOT_TYPE",
     "STATS_PATH",
     "STAT_NAMES",
@@ -82,8 +83,9 @@ INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"
 TASKS_PATH = "meta/tasks.parquet"
 
-#: Robot type recorded in info.json.
+#: Robot type recorded in info.json (the Mobile AI's exports: ``MOBILE_ROBOT_TYPE``).
 ROBOT_TYPE = "trossen_ai_stationary"
+MOBILE_ROBOT_TYPE = "trossen_ai_mobile"
 
 #: Joint vector features (in the export's layout): key -> the Episode attribute they hold.
 VECTOR_FEATURES: dict[str, str] = {
@@ -202,12 +204,14 @@ def build_info(
     total_episodes: int,
     total_frames: int,
     total_tasks: int,
+    layout: str = "kit14",
 ) -> dict[str, Any]:
-    """The content of ``meta/info.json``."""
+    """The content of ``meta/info.json`` (``robot_type`` from the ``layout``: the Mobile
+    AI's for ``mobileai``, else the Stationary AI's)."""
     has_video = any(ft["dtype"] == "video" for ft in features.values())
     return {
         "codebase_version": CODEBASE_VERSION,
-        "robot_type": ROBOT_TYPE,
+        "robot_type": MOBILE_ROBOT_TYPE if layout == "mobileai" else ROBOT_TYPE,
         "fps": int(fps),
         "features": features,
         "total_episodes": int(total_episodes),

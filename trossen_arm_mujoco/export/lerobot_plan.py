@@ -55,11 +55,15 @@ __all__ = [
     "frame_map",
     "output_fps",
     "plan_export",
+    "recorded_layout",
+    "resolve_layout",
     "source_fps",
 ]
 
-#: The layout written unless asked otherwise: the real kit's 14 values.
+#: The layout written unless asked otherwise: the real kit's 14 values (the Mobile AI's
+#: recordings: ``mobileai``, ``resolve_layout``).
 DEFAULT_LAYOUT = "kit14"
+MOBILEAI, VENDOR16 = "mobileai", "vendor16"
 #: Suffixes of an object's 7 pose values in ``observation.environment_state`` names.
 POSE_COMPONENTS: tuple[str, ...] = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
@@ -287,22 +291,59 @@ def env_state_names(episode: Episode) -> list[str] | None:
     return [f"{obj}_{part}" for obj in objects for part in POSE_COMPONENTS]
 
 
+def recorded_layout(episode: Episode) -> str:
+    """The layout of an episode's 16-value rows: its ``layout`` attribute (``mobileai`` for
+    the Mobile AI's recordings, ``collect.joint_policy``), else ``vendor16``."""
+    value = episode.attrs.get("layout", VENDOR16)
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def resolve_layout(episodes: list[Episode], layout: str | None) -> str:
+    """The layout to write: ``layout``, or (None) the one that fits the episodes: ``mobileai``
+    for Mobile AI recordings, else ``kit14``. A UserError for episodes recorded in different
+    layouts, and for a layout that does not fit them (the Mobile AI's 16 values export only
+    as ``mobileai``; the kit's never as ``mobileai``)."""
+    recorded = {recorded_layout(ep) for ep in episodes}
+    if len(recorded) > 1:
+        raise UserError(
+            f"the episodes are recorded in different layouts ({', '.join(sorted(recorded))}); "
+            "export each robot's episodes separately"
+        )
+    stored = recorded.pop()
+    if stored not in LAYOUTS:
+        raise unknown_name_error(f"{episodes[0].path.name}: recorded layout", stored, LAYOUTS)
+    mobile = stored == MOBILEAI
+    if layout is None:
+        return MOBILEAI if mobile else DEFAULT_LAYOUT
+    check_layout(layout)
+    if mobile != (layout == MOBILEAI):
+        fits = MOBILEAI if mobile else f"{DEFAULT_LAYOUT} or {VENDOR16}"
+        raise UserError(
+            f"--layout {layout} does not fit episodes recorded in the {stored} layout "
+            f"({'the Mobile AI' if mobile else 'the Stationary AI kit'}); use --layout {fits} "
+            "or leave the flag out"
+        )
+    return layout
+
+
 def plan_export(
     episodes: list[Episode],
     task: str | None,
-    layout: str = DEFAULT_LAYOUT,
+    layout: str | None = None,
     fps: Real | str | None = None,
     state_extras: tuple[str, ...] = (),
 ) -> ExportPlan:
     """Check ``episodes`` (at least one) for export; ``task`` overrides every description,
-    ``layout`` is the joint layout written and ``fps`` the rate (None: the recording rate);
-    ``state_extras`` the per-joint values added to the state (``"vel"``, ``"eff"``; kit14 only).
+    ``layout`` is the joint layout written (None: the one that fits the episodes,
+    ``resolve_layout``) and ``fps`` the rate (None: the recording rate); ``state_extras`` the
+    per-joint values added to the state (``"vel"``, ``"eff"``; kit14 only).
 
     Raises:
-        UserError: mixed rates, cameras, rewards or objects; no task to describe an episode
-            with; an unknown layout; a bad ``fps``; an episode too short for ``fps``.
+        UserError: mixed rates, cameras, rewards, objects or layouts; no task to describe an
+            episode with; an unknown layout or one that does not fit; a bad ``fps``; an
+            episode too short for ``fps``.
     """
-    check_layout(layout)
+    layout = resolve_layout(episodes, layout)
     state_extras = check_state_extras(layout, state_extras)
     first = episodes[0]
     rate = source_fps(first)

@@ -34,11 +34,13 @@ __all__ = [
     "GRIPPER_OPEN",
     "KIT14_LAYOUT",
     "LAYOUTS",
+    "MOBILEAI_LAYOUT",
     "SIDES",
     "START_ARM_POSE",
     "VENDOR16_LAYOUT",
     "EELayout",
     "Kit14Layout",
+    "MobileAILayout",
     "Vendor16Layout",
     "kit_joint_commands",
 ]
@@ -201,11 +203,68 @@ class Kit14Layout:
 #: The real kit's 14-value layout (LeRobot datasets and policies, the real driver).
 KIT14_LAYOUT = Kit14Layout()
 
+
+@dataclass(frozen=True)
+class MobileAILayout(Kit14Layout):
+    """The Mobile AI's 16 values (``mobileai``), as Trossen's LeRobot plugin for it
+    (``mobileai_robot``) reads and commands them: the two arms' 14 values as
+    :class:`Kit14Layout` (0:14), then the base's ``x.vel`` (m/s, forward) and ``theta.vel``
+    (rad/s, counter-clockwise seen from above) (14:16): measured in the state, commanded in
+    the action. Mobile episodes are recorded in this layout (HDF5 attribute ``layout``)."""
+
+    size: int = 16
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """``left_joint_0.pos`` ... ``right_left_carriage_joint.pos``, ``x.vel``,
+        ``theta.vel``."""
+        return KIT14_LAYOUT.names + BASE_VALUES
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """``rad`` / ``m`` for the arms' values, then ``m/s`` and ``rad/s``."""
+        return KIT14_LAYOUT.units + ("m/s", "rad/s")
+
+    @property
+    def base(self) -> slice:
+        """The base's [x.vel, theta.vel]: 14:16."""
+        return slice(14, 16)
+
+    def from_vendor(self, values: np.ndarray) -> np.ndarray:
+        """Mobile episodes are stored in this layout already: ``(..., 16)`` values as they
+        are (a copy)."""
+        v = np.asarray(values)
+        if v.shape[-1:] != (self.size,):
+            raise ValueError(f"expected {self.size} values per row, got shape {v.shape}")
+        return v.copy()
+
+    def to_vendor(self, values: np.ndarray) -> np.ndarray:
+        """Not defined: the Stationary AI's 16 values have no base."""
+        raise ValueError("the mobileai layout has no vendor16 equivalent (it has a base)")
+
+    def commands(self, action: np.ndarray) -> dict[str, np.ndarray]:
+        """A (16,) action as robot commands: 6 joint targets per arm, one gripper target per
+        gripper, ``base`` [x.vel, theta.vel]."""
+        a = np.asarray(action, dtype=float)
+        if a.shape != (self.size,):
+            raise ValueError(f"a Mobile AI action has {self.size} values, got shape {a.shape}")
+        out = _joint_commands(self, a[:14])
+        out["base"] = a[self.base]
+        return out
+
+
+#: The base's two values in Trossen's ``mobileai_robot`` (trossen_slate's velocities).
+BASE_VALUES: tuple[str, ...] = ("x.vel", "theta.vel")
+#: The Mobile AI's 16-value layout (its recordings, LeRobot datasets and policies).
+MOBILEAI_LAYOUT = MobileAILayout()
+
 #: Layouts of a joint action or state vector by name, as ``export --layout`` takes them:
-#: ``kit14`` (the real kit's, the default toward LeRobot) and ``vendor16`` (the HDF5 files').
+#: ``kit14`` (the real kit's, the default toward LeRobot), ``vendor16`` (the HDF5 files')
+#: and ``mobileai`` (the Mobile AI's, chosen for its recordings).
 LAYOUTS: dict[str, Kit14Layout | Vendor16Layout] = {
     "kit14": KIT14_LAYOUT,
     "vendor16": VENDOR16_LAYOUT,
+    "mobileai": MOBILEAI_LAYOUT,
 }
 
 

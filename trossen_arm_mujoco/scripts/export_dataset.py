@@ -65,11 +65,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--layout",
-        default="kit14",
+        default=None,
         choices=tuple(LAYOUTS),
         help="joint layout of state, velocity and action: kit14 = the real kit's 14 values "
         "(left_joint_0.pos .. left_left_carriage_joint.pos, then right_; Trossen's LeRobot "
-        "plugin), vendor16 = the HDF5 files' 16 (default: kit14)",
+        "plugin), vendor16 = the HDF5 files' 16, mobileai = the Mobile AI's 14 arm values "
+        "then x.vel, theta.vel (default: mobileai for Mobile AI recordings, else kit14)",
     )
     p.add_argument(
         "--fps",

@@ -1,0 +1,212 @@
+"""Recording of a task whose scripted policy acts in joint space (one phase).
+
+A policy that declares ``action_layout`` (a key of ``robot.layout.LAYOUTS`` other than
+``"ee"``; the Mobile AI's ``mobile_pick_place`` policy: ``"mobileai"``) gives each step's
+action in that layout, the way a policy trained on the real robot's data does. Such an
+episode is recorded as it is acted: the task's joint flavour renders the requested cameras,
+the policy acts on the task's observation, the env steps, and every step is streamed to the
+episode file (no end-effector rollout, no replay). The policy is made with the episode's
+task (``policy_cls(task, inject_noise=..., rng=...)``): it may read the task's robot (its
+kinematics, for IK) but never steps it.
+
+The file is the usual schema (``data.schema``) with root attribute ``layout`` naming the
+layout of its 16-value ``qpos``, ``qvel`` and ``action`` rows, from the task's
+``recorded_state()``: for ``mobileai`` the arms' 14 values in the real kit's layout, then the
+base's [x.vel m/s, theta.vel rad/s] (measured in ``qpos`` and ``qvel``, commanded in
+``action``). ``real_replay_checked``: the arms' targets pass the real-arm check at the
+recording rate and the base's commands are within the real base's limits.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from trossen_arm_mujoco.collect.pipeline import (
+    EpisodeOutcome,
+    EpisodeRecorder,
+    RecordSettings,
+    StepHook,
+    episode_seed,
+)
+from trossen_arm_mujoco.data.schema import SCHEMA
+from trossen_arm_mujoco.data.writer import EpisodeWriter
+from trossen_arm_mujoco.real.validate import ArmLimits, TrajectoryError, validate_actions
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, LAYOUTS
+from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.randomization_record import record_to_json
+
+__all__ = ["JointPolicyRecorder", "is_joint_policy", "make_recorder"]
+
+
+def is_joint_policy(policy_cls: type) -> bool:
+    """Whether a scripted policy acts in a joint layout (recorded in one phase)."""
+    return getattr(policy_cls, "action_layout", "ee") != "ee"
+
+
+def make_recorder(
+    settings: RecordSettings, step_hook: StepHook | None = None
+) -> EpisodeRecorder | JointPolicyRecorder:
+    """The recorder of ``settings.task_name``: ``JointPolicyRecorder`` for a joint-space
+    scripted policy, else the two-phase ``EpisodeRecorder``."""
+    policy_cls = registry.load(settings.task_name).policy_class()
+    if is_joint_policy(policy_cls):
+        return JointPolicyRecorder(settings, step_hook)
+    return EpisodeRecorder(settings, step_hook)
+
+
+class JointPolicyRecorder:
+    """Records episodes of a task with a joint-space scripted policy (module docstring).
+
+    The same interface as ``collect.pipeline.EpisodeRecorder`` (``record``, ``close``,
+    ``settings``, ``joint_env``, ``policy_dt``, ``fps``, ``max_reward``,
+    ``minimum_episode_len``).
+
+    Args:
+        settings: ``collect.pipeline.RecordSettings`` of the run.
+        step_hook: called after each step with (t, observation, ``MujocoEnv``).
+    """
+
+    def __init__(self, settings: RecordSettings, step_hook: StepHook | None = None):
+        self.entry = registry.load(settings.task_name)
+        self.policy_cls = self.entry.policy_class()
+        self.layout_name = str(self.policy_cls.action_layout)
+        if self.layout_name not in LAYOUTS:
+            raise ValueError(
+                f"policy {self.policy_cls.__name__}: action_layout {self.layout_name!r} is not "
+                f"one of {sorted(LAYOUTS)}"
+            )
+        self.layout = LAYOUTS[self.layout_name]
+        self.settings = settings
+        self.step_hook = step_hook
+        self.arm_limits = ArmLimits.from_mjcf()
+        self.last_speed_limited = 0
+        self.sampler = registry.make_sampler(self.entry.name, settings.sampler_settings())
+        probe = self.sampler.make_task()
+        self.policy_dt = probe.policy_dt
+        self.fps = 1.0 / self.policy_dt
+        self.max_reward = float(probe.max_reward)
+        self.minimum_episode_len = int(getattr(self.policy_cls, "minimum_episode_len", 0))
+        self.task = None
+
+    @property
+    def joint_env(self):
+        """The recorded world (``sim.env.MujocoEnv``)."""
+        return self.sampler.env
+
+    def record(
+        self,
+        attempt: int,
+        path: Path,
+        overwrite: bool = False,
+        progress: Callable[[], None] | None = None,
+        extra_attrs: dict | None = None,
+        create_folder: bool = True,
+    ) -> EpisodeOutcome:
+        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``; an
+        ``EpisodeOutcome``. Arguments as ``EpisodeRecorder.record``."""
+        s = self.settings
+        seed = episode_seed(s.base_seed, attempt)
+        rng = np.random.default_rng(seed)
+        task = self.task = self.sampler.next_task(rng)
+        env = self.sampler.env
+        poses = {name: obj.get_pose(env.data) for name, obj in env.objects.items()}
+        policy = self.policy_cls(task, inject_noise=s.inject_noise, rng=rng)
+        dtype = SCHEMA.array("action").dtype
+        attrs = {
+            "task_name": self.entry.name,
+            "seed": seed,
+            "base_seed": int(s.base_seed),
+            "attempt": int(attempt),
+            "inject_noise": bool(s.inject_noise),
+            "dt": self.policy_dt,
+            "layout": self.layout_name,
+            "initial_env_state": np.concatenate(list(poses.values())),
+            "object_names": list(poses),
+            "success": False,
+            "real_replay_fps": self.fps,
+            "speed_limited_values": 0,
+            "shadows": bool(s.shadows),
+            "visual": s.visual,
+            **({"crops": ";".join(s.crops)} if s.crops else {}),
+            **(extra_attrs or {}),
+        }
+        if self.sampler.randomization is not None:
+            attrs["randomization"] = record_to_json(self.sampler.randomization)
+        actions = np.empty((s.episode_len, self.layout.size))
+        rewards = np.empty(s.episode_len)
+        with EpisodeWriter(
+            path,
+            episode_len=s.episode_len,
+            camera_names=s.cam_names,
+            height=s.height,
+            width=s.width,
+            compression=s.compression,
+            attrs=attrs,
+            env_state_dim=len(attrs["initial_env_state"]),
+            overwrite=overwrite,
+            create_folder=create_folder,
+        ) as writer:
+            obs = task.get_observation()
+            for t in range(s.episode_len):
+                images = env.render_images()
+                qpos, qvel = task.recorded_state()
+                # the file stores float32: act exactly on the stored values
+                action = np.asarray(policy(obs), dtype=float).astype(dtype).astype(float)
+                actions[t] = action
+                env_state = obs["env_state"]
+                obs, rewards[t], _ = task.step(self.layout.commands(action))
+                writer.append(
+                    qpos=qpos,
+                    qvel=qvel,
+                    action=action,
+                    reward=rewards[t],
+                    env_state=env_state,
+                    images=images,
+                )
+                if self.step_hook is not None:
+                    self.step_hook(t, obs, env)
+                if progress is not None:
+                    progress()
+            speed_ok, peak_use = self.check_real_replay(actions)
+            success = bool(rewards[-1] == self.max_reward) and speed_ok
+            writer.set_attrs(
+                success=success,
+                final_reward=float(rewards[-1]),
+                max_reward=float(rewards.max()),
+                real_replay_checked=speed_ok,
+                peak_speed_fraction=peak_use,
+            )
+        return EpisodeOutcome(
+            attempt,
+            seed,
+            success,
+            float(rewards[-1]),
+            float(rewards.max()),
+            Path(path),
+            task_max_reward=self.max_reward,
+            real_replay_checked=speed_ok,
+            nbytes=Path(path).stat().st_size,
+        )
+
+    def check_real_replay(self, actions: np.ndarray) -> tuple[bool, float]:
+        """The arms' 14 targets through the real-replay validator at the recording rate,
+        and the base's commands within its limits. Returns (passed, the arms' largest speed
+        as a fraction of its limit; NaN when the check failed)."""
+        arms = KIT14_LAYOUT.to_vendor(actions[:, :14])
+        robot = self.sampler.env.robots[self.sampler.robot_name]
+        base_ok = True
+        if actions.shape[1] > 14 and "base" in robot.controllers:
+            low, high = robot.controllers["base"].command_limits()
+            base_ok = bool(np.all(actions[:, 14:] >= low) and np.all(actions[:, 14:] <= high))
+        try:
+            trajectory = validate_actions(arms, self.fps, self.arm_limits)
+        except TrajectoryError:
+            return False, float("nan")
+        return base_ok, float(np.max(trajectory.peak_speed / self.arm_limits.velocity))
+
+    def close(self) -> None:
+        """Close the sampler and the env (and renderers) it owns."""
+        self.sampler.close()
