@@ -10,6 +10,8 @@ sampler's ``arms`` order:
   ``hold_orientation`` the IK also turns the tool back to its orientation at reset.
 
 then 1 gripper value: -1 closed .. +1 open (finger travel over the actuator range, m).
+Then, for a robot with a differential-drive base (a ``base_velocity`` controller: the
+Mobile AI), 2 values: [x.vel, theta.vel] times the base's limits (m/s, rad/s).
 
 Safety floor: not here. It lives in the robot layer (``robot.safety_floor``), which keeps
 every collision geom of each arm and its tool frame above ``table_height + safety_margin``
@@ -117,6 +119,16 @@ class ActionMapper:
             mids += [part.a_mid if mode != "ee_delta" else np.zeros(size - 1), part.g_mid]
             halves += [part.a_half if mode != "ee_delta" else np.ones(size - 1), part.g_half]
             start += size
+        # bases driven by velocity (the Mobile AI's): [x.vel, theta.vel] over their limits
+        self._bases: list[tuple[str, slice]] = []
+        for name, controller in robot.controllers.items():
+            if controller.command_mode == "base_velocity":
+                self._bases.append((name, slice(start, start + 2)))
+                mids.append(np.zeros(2))
+                halves.append(np.asarray(controller.command_limits()[1], dtype=float))
+                start += 2
+        self.dim = start
+        self._shape = (self.dim,)
         self._mid, self._half = np.concatenate(mids), np.concatenate(halves)
         self._minus_one, self._one = -np.ones(self.dim), np.ones(self.dim)
         # joint_position: the action on the control ranges is the robot's joint target
@@ -179,6 +191,8 @@ class ActionMapper:
                 arm_cmd = a[part.arm_values] * self.rel_limit
             commands[part.arm.name] = arm_cmd
             commands[part.gripper.name] = scaled[part.grip_value]
+        for name, values in self._bases:
+            commands[name] = scaled[values]
         return commands, False
 
     def _twist(self, data, part: _ArmPart, scaled) -> np.ndarray:

@@ -202,6 +202,7 @@ TASKS = (
         policy="trossen_arm_mujoco.policies.mobile_pick_place:MobilePickPlacePolicy",
         record=record_defaults(750, MOBILE_AI_CAMERAS),
         stages=STAGES,
+        gym_ids={"TrossenMujoco/MobileAIPickPlace-v0": "env"},
         keys={"base_start_low": Key("vector", -3.0, 3.0, lengths=(3,), unit="m, m, rad"),
               "base_start_high": Key("vector", -3.0, 3.0, lengths=(3,), unit="m, m, rad"),
               "reach_distance": Key("number", 0.0, 2.0, True, unit="m")},
