@@ -6,8 +6,9 @@
 ``--format lerobot`` writes a LeRobot v3.0 dataset (see ``trossen_arm_mujoco.export``) that
 ``LeRobotDataset(repo_id, root=output)`` loads; it needs the ``lerobot`` extra
 (pyarrow, PyAV), not LeRobot itself. Joint values are written in the real kit's 14-value
-layout (``--layout kit14``, the default) or the files' 16 (``--layout vendor16``), at the
-recording rate or, resampled, at ``--fps N`` (the real kit runs at 30).
+layout (``--layout kit14``, the default) or the files' 16 (``--layout vendor16``); the
+Mobile AI's recordings in its own (``mobileai``: the arms' 14 then ``x.vel``, ``theta.vel``,
+chosen by itself), at the recording rate or, resampled, at ``--fps N`` (the real kit runs at 30).
 """
 
 from __future__ import annotations
