@@ -9,9 +9,12 @@ For a GPU machine that has Python >= 3.12 and torch but neither this project's s
 
 The plan is a JSON list of runs, each ``{"name": ..., "args": [train_eval.py flags]}`` with
 its own ``--work_dir`` holding an exported ``dataset/`` (``train_eval.py --phase
-record,export``, made on the machine with the simulator). All runs start together (several
-small ACT runs share one GPU); a run still going at ``--deadline_s`` is stopped and keeps its
-last saved checkpoint (``--save_freq``). Each run's last checkpoint
+record,export``, made on the machine with the simulator). The camera recipe is a run like
+``{"name": "camera", "args": ["--recipe", "camera", "--work_dir", "camera", "--train_seeds",
+"3", "--train_jobs", "3", "--device", "cuda", "--num_workers", "4"]}`` (its dataset from
+``train_eval.py --recipe camera --phase record,export --work_dir camera``). All runs start
+together (several small ACT runs share one GPU); a run still going at ``--deadline_s`` is
+stopped and keeps its last saved checkpoint (``--save_freq``). Each run's last checkpoint
 (``train/seed_<s>/checkpoints/last/pretrained_model``) is written to ``--pack_dir`` as
 ``<name>_seed_<s>.tar`` (``--half``: weights stored as float16 to halve the trip; the policy
 loads them back as float32; ``--split_mb``: cut into parts for a transfer with a size limit),

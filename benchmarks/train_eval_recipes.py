@@ -10,8 +10,9 @@ Train and evaluate page, and any flag given on the command line still wins over 
   crop of its 480x640 frame around the cube's spawn region, rendered straight at 60x80 (the
   25 mm cube spans about 4 pixels); ACT with ResNet-18 trained from scratch (backbone at the
   policy's rate), 200 noisy episodes, 4,500 steps of batch 16 with the rate decayed from 1e-4
-  to 1e-6: about 38 minutes of CPU per training run on the 2-core machine (docs Benchmarks,
-  "A camera policy the real kit can run").
+  to 1e-6: 39-41 minutes of CPU per training run on the 2-core machine. Measured 2026-11-28:
+  the first run scored 2 % (one pass over the data; the loss ended at 0.105). It is not yet a
+  working recipe (docs Benchmarks, "A camera policy the real kit can run: the camera recipe").
 
 The camera settings are checked before anything runs (one line each): a camera the kit does
 not have, an image smaller than the encoder's stride (ResNet-18 sees a 32x32-pixel cell per

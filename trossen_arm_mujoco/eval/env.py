@@ -170,9 +170,13 @@ def feature_spec(
     return spec
 
 
+#: The layouts a Stationary AI kit policy may use (mobileai is the Mobile AI's).
+KIT_LAYOUTS = ("kit14", "vendor16")
+
+
 def _layout(name: str):
-    if name not in LAYOUTS:
-        raise unknown_name_error("layout", name, LAYOUTS)
+    if name not in KIT_LAYOUTS:
+        raise unknown_name_error("layout", name, KIT_LAYOUTS)
     return LAYOUTS[name]
 
 
