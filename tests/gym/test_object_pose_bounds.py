@@ -57,4 +57,8 @@ def test_the_default_workspace_is_every_shipped_task_configs():
     for name in registry.names():
         config = registry.load(name).load_config()
         low, high = config["workspace_low"], config["workspace_high"]
+        if str(config.get("scene", "")).startswith("mobile_ai/"):  # a base that drives about
+            assert all(a <= b for a, b in zip(low, DEFAULT_WORKSPACE[0])), name
+            assert all(a >= b for a, b in zip(high, DEFAULT_WORKSPACE[1])), name
+            continue
         assert (tuple(low), tuple(high)) == DEFAULT_WORKSPACE, name

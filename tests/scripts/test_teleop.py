@@ -263,7 +263,11 @@ def test_no_leader_there_is_one_line(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("args", "match"),
     [
-        (["--task_name", "reach"], "unknown kit task 'reach'; valid kit tasks: sim_insertion"),
+        (["--task_name", "reach"], "unknown kit task 'reach'; valid kit tasks: "),
+        (
+            ["--task_name", "mobile_pick_place"],
+            "unknown kit task 'mobile_pick_place'; valid kit tasks: ",
+        ),
         (["--episode_len", "0"], "--episode_len must be in 1 .. "),
         (["--cam_names", "cam_top"], "unknown camera 'cam_top'"),
         (["--end_effector", "wxai_v0_gripper"], "unknown end effector 'wxai_v0_gripper'"),
@@ -276,6 +280,8 @@ def test_bad_flags_are_one_line(args, match, tmp_path, capsys):
     assert teleop_cli([*base, *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and match in err and err.count("\n") == 1
+    if "valid kit tasks" in match:  # the Stationary AI kit's tasks (installed ones too)
+        assert "sim_insertion, sim_transfer_cube" in err and "mobile_pick_place," not in err
 
 
 def test_stdin_control_keys():

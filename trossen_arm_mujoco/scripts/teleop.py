@@ -206,11 +206,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Teleoperate and record the episodes ``argv`` asks for. Returns the exit status;
     user mistakes raise ``UserError``."""
     args = build_parser().parse_args(argv)
-    from trossen_arm_mujoco.tasks.registry import ALIASES
+    from trossen_arm_mujoco.tasks.registry import ALIASES, kit_names
 
     task_name = ALIASES.get(args.task_name, args.task_name)
-    if task_name not in SIM_TASK_CONFIGS:
-        raise unknown_name_error("kit task", task_name, SIM_TASK_CONFIGS)
+    if task_name not in kit_names():
+        raise unknown_name_error("kit task", task_name, kit_names())
     config = SIM_TASK_CONFIGS[task_name]
     fps, overrides = _rate(args, task_name)
     episode_len = args.episode_len

@@ -161,9 +161,9 @@ class TeleopRecorder:
         step_hook: Callable[[int, dict, Any, dict], None] | None = None,
     ) -> None:
         self.entry = registry.load(settings.task_name)
-        if settings.task_name not in registry.scripted_names():
+        if settings.task_name not in registry.kit_names():
             raise unknown_name_error(
-                "kit task", settings.task_name, registry.scripted_names(),
+                "kit task", settings.task_name, registry.kit_names(),
                 "teleop drives the Stationary AI kit's two arms",
             )  # fmt: skip
         self.settings = settings
