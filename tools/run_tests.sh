@@ -18,7 +18,9 @@ $SUDO apt-get install -y -qq --no-install-recommends \
 # Headless Chromium: tests/docs screenshots the built documentation site.
 $SUDO apt-get install -y -qq --no-install-recommends chromium fonts-dejavu-core >/dev/null
 
-python -m pip install -q --upgrade pip
+# setuptools >= 70.1 builds wheels itself: tests/tasks/test_task_packages.py pip-installs a
+# throwaway package without build isolation (Python 3.11 ships setuptools 65, without it)
+python -m pip install -q --upgrade pip "setuptools>=70.1"
 # torch (for stable-baselines3) as the CPU build: without a torch already installed, [dev]
 # would pull the multi-GB CUDA build. TORCH_SPEC overrides it (e.g. a CUDA machine's pin).
 python -m pip install -q "${TORCH_SPEC:-torch==2.13.0}" || python -m pip install -q torch
@@ -62,7 +64,7 @@ if ! "$LEROBOT_VENV/bin/python" -c "import lerobot, accelerate, sys; sys.exit(le
     done
     echo "LeRobot venv installed in $(( $(date +%s) - start )) s: $LEROBOT_VENV"
 fi
-"$LEROBOT_VENV/bin/python" -m pip install -q -e ".[dev,train,cameras]" -e plugins/lerobot_env_trossen
+"$LEROBOT_VENV/bin/python" -m pip install -q "setuptools>=70.1" -e ".[dev,train,cameras]" -e plugins/lerobot_env_trossen
 export TROSSEN_LEROBOT_PYTHON="$LEROBOT_VENV/bin/python"
 
 # The suite on this Python (3.11 in CI), then again on 3.12 next to LeRobot 0.6.1. Run once, on
