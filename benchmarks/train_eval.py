@@ -186,10 +186,10 @@ def _prepare(ckpt: Path, dataset: Path) -> None:
     dataset's settings beside its weights."""
     from trossen_arm_mujoco.eval.controller_limits_step import add_to_checkpoint
 
-    if add_to_checkpoint(ckpt):
-        print(f"{ckpt}: the arm controller's limits added to its postprocessor")
     if not (ckpt / SETTINGS_FILE).exists() and (dataset / "meta" / "info.json").exists():
         _carry_settings(dataset, ckpt.parent.parent.parent)
+    if add_to_checkpoint(ckpt):  # after the settings: its joint steps need their fps
+        print(f"{ckpt}: the arm controller's limits added to its processors")
 
 
 def _scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: bool) -> bool:

@@ -1,21 +1,42 @@
-"""The arm controller's position limits as a step of a checkpoint's saved postprocessor, so
-that every runner of the checkpoint sends only goals the real controller accepts.
+"""The arm controller's limits as steps of a checkpoint's saved processors, so that every
+runner of the checkpoint sends only goals the real controller accepts.
 
-A learned policy's actions scatter around its training targets: around a gripper closed to
-2 mm on the cube it asks for -1.1 mm now and then, which the real controller refuses (its
-position check allows 1 mm below the range) and the arm stops in its error state. The fix
-travels with the checkpoint: :func:`add_to_checkpoint` adds the step
-``trossen_arm_controller_limits`` (:data:`REGISTRY_NAME`) to the checkpoint's
-``policy_postprocessor.json``, after the unnormalizer, with the limits of the checkpoint's
-layout (:func:`controller_bounds`: each joint's range, each gripper 0 .. ``GRIPPER_MAX``,
-0.04 m, what the controller executes anyway). LeRobot's tools (``lerobot-eval``,
-``lerobot-rollout`` with Trossen's ``bi_widowxai_follower_robot``, ``lerobot-record``) load
-it wherever the env plugin ``lerobot_env_trossen`` is installed (LeRobot imports every
-``lerobot_env_*`` package at start, which registers the step); ``trossen-mujoco eval``
-registers it itself (:func:`register`). The step clips; it does not limit speed (a jump
-inside the range still faults, as on the real arm).
+A learned policy's actions scatter around its training targets, and now and then one
+lands where the real controller refuses it and stops the arm in its error state:
 
-Editing the JSON needs no LeRobot (:func:`add_to_checkpoint`); running the step does::
+- around a gripper closed to 2 mm on the cube it asks for -1.1 mm (the position check
+  allows 1 mm below the range);
+- at an episode's first step, for a cube at the edge of its spawn region, the state
+  recipe's checkpoints asked ``right_joint_1`` for a 0.26 rad jump, 4.4 rad/s over the
+  plugin's goal time of 3/fps against the joint's 3.375 rad/s (its training data start
+  with the action equal to the state).
+
+The fix travels with the checkpoint. :func:`add_to_checkpoint` adds two steps:
+
+- ``trossen_arm_controller_limits`` (:data:`REGISTRY_NAME`) to ``policy_postprocessor.json``,
+  after the unnormalizer: it clips each value into the range the controller accepts
+  (:func:`controller_bounds`: each joint's range, each gripper 0 .. ``GRIPPER_MAX``, 0.04 m)
+  and, when the measured joints of this observation are known, keeps each joint within
+  :func:`joint_steps` of them: :data:`SPEED_MARGIN` of its velocity limit over the goal
+  time ``GOAL_TIME_FACTOR / fps`` at the checkpoint's rate. Grippers are not held to their
+  measured width (a gripper closed on the cube measures the cube's width while its goal is
+  narrower, which is how it grips).
+- ``trossen_arm_measured_joints`` (:data:`MEASURED_NAME`) to ``policy_preprocessor.json``,
+  before the normalizer: it notes ``observation.state`` (the measured joints, unchanged)
+  for the postprocessor step with the same ``link``.
+
+Like Trossen's plugin's ``max_relative_target`` (which the kit's config leaves off), the
+limit is relative to the measured joints, so it acts at the first step of an episode and
+wherever the policy asks for a jump; in normal motion (the recorded actions lead the state
+by at most 0.08 rad at 50 fps, 0.20 rad allowed for joints 0-2) it does nothing.
+
+LeRobot's tools (``lerobot-eval``, ``lerobot-rollout`` with Trossen's
+``bi_widowxai_follower_robot``, ``lerobot-record``) load the steps wherever the env plugin
+``lerobot_env_trossen`` is installed (LeRobot imports every ``lerobot_env_*`` package at
+start, which registers them); ``trossen-mujoco eval`` registers them itself
+(:func:`register`).
+
+Editing the JSON needs no LeRobot (:func:`add_to_checkpoint`); running the steps does::
 
     python -m trossen_arm_mujoco.eval.controller_limits_step CHECKPOINT_FOLDER
 """
@@ -23,6 +44,7 @@ Editing the JSON needs no LeRobot (:func:`add_to_checkpoint`); running the step 
 from __future__ import annotations
 
 import json
+import secrets
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -32,16 +54,30 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import atomic_path
 from trossen_arm_mujoco.real.arm_controller import controller_target
 from trossen_arm_mujoco.real.controller_checks import controller_limits
+from trossen_arm_mujoco.real.goal_trajectory import GOAL_TIME_FACTOR
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
-from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY
+from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY, STATE_KEY
 
-__all__ = ["POSTPROCESSOR_FILE", "REGISTRY_NAME", "add_to_checkpoint", "controller_bounds",
+__all__ = ["MEASURED_NAME", "POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "REGISTRY_NAME",
+           "SPEED_MARGIN", "add_to_checkpoint", "controller_bounds", "joint_steps",
            "register"]  # fmt: skip
 
-#: Name of the step in LeRobot's processor registry (and in ``policy_postprocessor.json``).
+#: Name of the postprocessor step in LeRobot's processor registry (and in
+#: ``policy_postprocessor.json``).
 REGISTRY_NAME = "trossen_arm_controller_limits"
-#: The saved postprocessor of a LeRobot checkpoint.
+#: Name of the preprocessor step that notes the measured joints.
+MEASURED_NAME = "trossen_arm_measured_joints"
+#: The saved postprocessor and preprocessor of a LeRobot checkpoint.
 POSTPROCESSOR_FILE = "policy_postprocessor.json"
+PREPROCESSOR_FILE = "policy_preprocessor.json"
+#: The settings file this package writes beside a checkpoint (its ``fps``).
+SETTINGS_FILE = "trossen_settings.json"
+#: Fraction of each joint's velocity limit a goal may ask from the measured joints (the
+#: driver starts from its setpoint, which leads the measured joints a little in motion).
+SPEED_MARGIN = 0.75
+
+# The measured joints of the latest observation, by link (one per loaded checkpoint).
+_MEASURED: dict[str, Any] = {}
 
 
 def controller_bounds(size: int) -> tuple[list[float], list[float]]:
@@ -59,57 +95,149 @@ def controller_bounds(size: int) -> tuple[list[float], list[float]]:
     raise UserError(f"the kit's actions have 14 or 16 values, not {size}")
 
 
-def add_to_checkpoint(folder: str | Path) -> bool:
-    """Add the step to the checkpoint's ``policy_postprocessor.json`` (after its
-    unnormalizer); False when it is there already. The action size comes from the
-    checkpoint's ``config.json``."""
-    folder = Path(folder)
-    post, config = folder / POSTPROCESSOR_FILE, folder / "config.json"
-    try:
-        pipeline = json.loads(post.read_text(encoding="utf-8"))
-        action = json.loads(config.read_text(encoding="utf-8"))["output_features"][ACTION_KEY]
-        size = int(action["shape"][0])
-        steps: list[dict[str, Any]] = pipeline["steps"]
-    except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
-        raise UserError(f"{folder}: not a LeRobot checkpoint with a saved postprocessor "
-                        f"({exc})") from None  # fmt: skip
-    if any(step.get("registry_name") == REGISTRY_NAME for step in steps):
-        return False
-    low, high = controller_bounds(size)
-    at = next((i + 1 for i, s in enumerate(steps)
-               if s.get("registry_name") == "unnormalizer_processor"), len(steps))  # fmt: skip
-    steps.insert(at, {"registry_name": REGISTRY_NAME, "config": {"low": low, "high": high}})
-    with atomic_path(post) as tmp:
-        Path(tmp).write_text(json.dumps(pipeline, indent=2) + "\n", encoding="utf-8")
+def joint_steps(size: int, fps: float) -> list[float]:
+    """Largest distance (rad) of each value's goal from its measured position, per action
+    at ``fps``: :data:`SPEED_MARGIN` x the joint's velocity limit x ``GOAL_TIME_FACTOR /
+    fps``; 0 for the grippers (not limited). Same layouts as :func:`controller_bounds`."""
+    if not fps > 0:
+        raise UserError(f"fps must be positive, got {fps}")
+    goal_time = GOAL_TIME_FACTOR / float(fps)
+    joints = [SPEED_MARGIN * lim.velocity_max * goal_time for lim in controller_limits()[:6]]
+    if size == 14:
+        return (joints + [0.0]) * 2
+    if size == 16:
+        return (joints + [0.0, 0.0]) * 2
+    raise UserError(f"the kit's actions have 14 or 16 values, not {size}")
+
+
+def _read(path: Path) -> Any:
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _write(path: Path, data: Any) -> None:
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+
+
+def _place(steps: list[dict[str, Any]], name: str, step: dict[str, Any], *, after: str = "",
+           before: str = "") -> bool:  # fmt: skip
+    """Put ``step`` in ``steps`` (replacing one of the same name); True when it changed."""
+    for i, s in enumerate(steps):
+        if s.get("registry_name") == name:
+            if s == step:
+                return False
+            steps[i] = step
+            return True
+    names = [s.get("registry_name") for s in steps]
+    at = len(steps)
+    if after in names:
+        at = names.index(after) + 1
+    elif before in names:
+        at = names.index(before)
+    steps.insert(at, step)
     return True
 
 
+def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
+    """Add (or bring up to date) the two steps in the checkpoint's saved processors; False
+    when they are there already as they would be written. The action size comes from the
+    checkpoint's ``config.json``, the rate from ``fps`` or its ``trossen_settings.json``
+    (without either, only the range is clipped)."""
+    folder = Path(folder)
+    post, pre = folder / POSTPROCESSOR_FILE, folder / PREPROCESSOR_FILE
+    try:
+        post_pipeline, pre_pipeline = _read(post), _read(pre)
+        size = int(_read(folder / "config.json")["output_features"][ACTION_KEY]["shape"][0])
+        post_steps: list[dict[str, Any]] = post_pipeline["steps"]
+        pre_steps: list[dict[str, Any]] = pre_pipeline["steps"]
+    except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
+        raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
+                        f"({exc})") from None  # fmt: skip
+    if fps is None and (folder / SETTINGS_FILE).is_file():
+        try:
+            fps = float(_read(folder / SETTINGS_FILE)["fps"])
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise UserError(f"{folder / SETTINGS_FILE}: unreadable ({exc})") from None
+    low, high = controller_bounds(size)
+    config: dict[str, Any] = {"low": low, "high": high}
+    old = next((s for s in post_steps if s.get("registry_name") == REGISTRY_NAME), None)
+    link = (old or {}).get("config", {}).get("link") or secrets.token_hex(8)
+    changed = False
+    if fps is not None:
+        config.update(max_step=joint_steps(size, fps), link=link)
+        measured = {"registry_name": MEASURED_NAME, "config": {"link": link}}
+        changed = _place(pre_steps, MEASURED_NAME, measured, before="normalizer_processor")
+    step = {"registry_name": REGISTRY_NAME, "config": config}
+    changed = _place(post_steps, REGISTRY_NAME, step, after="unnormalizer_processor") or changed
+    if changed:
+        _write(pre, pre_pipeline)
+        _write(post, post_pipeline)
+    return changed
+
+
 def register() -> None:
-    """Register the step with LeRobot's processor registry (needs LeRobot; twice is fine)."""
+    """Register both steps with LeRobot's processor registry (needs LeRobot; twice is
+    fine)."""
     from dataclasses import dataclass, field
 
     import torch
     from lerobot.processor import ProcessorStepRegistry
-    from lerobot.processor.pipeline import ActionProcessorStep
+    from lerobot.processor.pipeline import ActionProcessorStep, ObservationProcessorStep
 
     if REGISTRY_NAME in ProcessorStepRegistry.list():
         return
 
+    @ProcessorStepRegistry.register(MEASURED_NAME)
+    @dataclass
+    class MeasuredJointsStep(ObservationProcessorStep):
+        """Note the observation's measured joints (``observation.state``) for the
+        postprocessor step with the same ``link``; the observation is left as it is."""
+
+        link: str = ""
+
+        def observation(self, observation):
+            state = observation.get(STATE_KEY)
+            if state is not None:
+                _MEASURED[self.link] = torch.as_tensor(state).detach().clone()
+            return observation
+
+        def get_config(self) -> dict[str, Any]:
+            return {"link": self.link}
+
+        def transform_features(self, features):
+            return features
+
     @ProcessorStepRegistry.register(REGISTRY_NAME)
     @dataclass
     class ControllerLimitsStep(ActionProcessorStep):
-        """Clip each action value into [low, high] (the arm controller's accepted range)."""
+        """Clip each action value into [low, high] (the arm controller's accepted range)
+        and, where ``max_step`` is positive and the measured joints are known, into
+        measured +- ``max_step``."""
 
         low: list[float] = field(default_factory=list)
         high: list[float] = field(default_factory=list)
+        max_step: list[float] = field(default_factory=list)
+        link: str = ""
 
         def action(self, action):
-            low = torch.as_tensor(self.low, dtype=action.dtype, device=action.device)
-            high = torch.as_tensor(self.high, dtype=action.dtype, device=action.device)
-            return torch.clamp(action, low, high)
+            def tensor(values):
+                return torch.as_tensor(values, dtype=action.dtype, device=action.device)
+
+            action = torch.clamp(action, tensor(self.low), tensor(self.high))
+            measured = _MEASURED.get(self.link) if self.max_step else None
+            if measured is not None and measured.shape[-1] == action.shape[-1]:
+                step = tensor(self.max_step)
+                limited = step > 0
+                near = measured.to(device=action.device, dtype=action.dtype)
+                held = torch.clamp(action, near - step, near + step)
+                action = torch.where(limited, held, action)
+            return action
 
         def get_config(self) -> dict[str, Any]:
-            return {"low": list(self.low), "high": list(self.high)}
+            config: dict[str, Any] = {"low": list(self.low), "high": list(self.high)}
+            if self.max_step:
+                config.update(max_step=list(self.max_step), link=self.link)
+            return config
 
         def transform_features(self, features):
             return features
@@ -125,7 +253,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         for folder in folders:
             added = add_to_checkpoint(folder)
-            print(f"{folder}: {'added' if added else 'already has'} the step {REGISTRY_NAME}")
+            print(f"{folder}: {'added' if added else 'already has'} the steps {REGISTRY_NAME} "
+                  f"and {MEASURED_NAME}")  # fmt: skip
     except UserError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -1,0 +1,171 @@
+"""The arm controller's limits carried by a checkpoint's saved processors
+(``eval.controller_limits_step``): how they are written, and (where LeRobot is installed)
+what the two steps do to an action."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval import controller_limits_step as cls
+from trossen_arm_mujoco.real.controller_checks import controller_limits
+
+
+def _checkpoint(folder: Path, size: int = 14, fps: float | None = 50) -> Path:
+    """The files of a LeRobot checkpoint that the steps touch (no weights)."""
+    folder.mkdir(parents=True)
+    config = {"output_features": {"action": {"type": "ACTION", "shape": [size]}}}
+    (folder / "config.json").write_text(json.dumps(config))
+    pre = {"name": "policy_preprocessor", "steps": [
+        {"registry_name": "to_batch_processor", "config": {}},
+        {"registry_name": "normalizer_processor", "config": {}}]}  # fmt: skip
+    post = {"name": "policy_postprocessor", "steps": [
+        {"registry_name": "unnormalizer_processor", "config": {}},
+        {"registry_name": "device_processor", "config": {}}]}  # fmt: skip
+    (folder / cls.PREPROCESSOR_FILE).write_text(json.dumps(pre))
+    (folder / cls.POSTPROCESSOR_FILE).write_text(json.dumps(post))
+    if fps is not None:
+        (folder / cls.SETTINGS_FILE).write_text(json.dumps({"fps": fps, "layout": "kit14"}))
+    return folder
+
+
+def _names(path: Path) -> list[str]:
+    return [s["registry_name"] for s in json.loads(path.read_text())["steps"]]
+
+
+def test_both_steps_are_added_in_place_once(tmp_path):
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    assert cls.add_to_checkpoint(ckpt) is True
+    assert _names(ckpt / cls.PREPROCESSOR_FILE) == [
+        "to_batch_processor", cls.MEASURED_NAME, "normalizer_processor"]  # fmt: skip
+    assert _names(ckpt / cls.POSTPROCESSOR_FILE) == [
+        "unnormalizer_processor", cls.REGISTRY_NAME, "device_processor"]  # fmt: skip
+    before = (ckpt / cls.POSTPROCESSOR_FILE).read_text()
+    assert cls.add_to_checkpoint(ckpt) is False  # already as it would be written
+    assert (ckpt / cls.POSTPROCESSOR_FILE).read_text() == before
+    post = json.loads(before)["steps"][1]["config"]
+    pre = json.loads((ckpt / cls.PREPROCESSOR_FILE).read_text())["steps"][1]["config"]
+    assert post["link"] == pre["link"] and len(post["link"]) == 16
+
+
+def test_joint_steps_follow_the_speed_limits_at_the_checkpoints_rate(tmp_path):
+    lims = controller_limits()
+    steps50 = cls.joint_steps(14, 50)
+    assert steps50[1] == pytest.approx(cls.SPEED_MARGIN * lims[1].velocity_max * 3 / 50)
+    assert steps50[6] == 0.0 and steps50[13] == 0.0  # grippers are not held to their width
+    assert steps50[7:] == steps50[:7]
+    assert cls.joint_steps(14, 30)[0] == pytest.approx(steps50[0] * 50 / 30)
+    assert len(cls.joint_steps(16, 50)) == 16
+    ckpt = _checkpoint(tmp_path / "ckpt", fps=30)
+    cls.add_to_checkpoint(ckpt)
+    config = json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())["steps"][1]["config"]
+    assert config["max_step"] == pytest.approx(cls.joint_steps(14, 30))
+    with pytest.raises(UserError, match="fps must be positive"):
+        cls.joint_steps(14, 0)
+    with pytest.raises(UserError, match="14 or 16 values, not 7"):
+        cls.joint_steps(7, 50)
+
+
+def test_without_a_rate_only_the_range_is_clipped(tmp_path):
+    ckpt = _checkpoint(tmp_path / "ckpt", fps=None)
+    assert cls.add_to_checkpoint(ckpt) is True
+    assert cls.MEASURED_NAME not in _names(ckpt / cls.PREPROCESSOR_FILE)
+    config = json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())["steps"][1]["config"]
+    assert set(config) == {"low", "high"}
+    # a rate given later brings the step up to date
+    assert cls.add_to_checkpoint(ckpt, fps=50) is True
+    assert cls.MEASURED_NAME in _names(ckpt / cls.PREPROCESSOR_FILE)
+
+
+def test_an_older_range_only_step_is_brought_up_to_date(tmp_path):
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    post = json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())
+    low, high = cls.controller_bounds(14)
+    post["steps"].insert(1, {"registry_name": cls.REGISTRY_NAME,
+                             "config": {"low": low, "high": high}})  # fmt: skip
+    (ckpt / cls.POSTPROCESSOR_FILE).write_text(json.dumps(post))
+    assert cls.add_to_checkpoint(ckpt) is True
+    names = _names(ckpt / cls.POSTPROCESSOR_FILE)
+    assert names.count(cls.REGISTRY_NAME) == 1
+    assert "max_step" in json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())["steps"][1][
+        "config"]  # fmt: skip
+
+
+def test_a_folder_that_is_not_a_checkpoint_is_one_line(tmp_path, capsys):
+    with pytest.raises(UserError, match="not a LeRobot checkpoint with saved processors"):
+        cls.add_to_checkpoint(tmp_path)
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    (ckpt / cls.SETTINGS_FILE).write_text("{not json")
+    with pytest.raises(UserError, match="trossen_settings.json: unreadable"):
+        cls.add_to_checkpoint(ckpt)
+    assert cls.main([str(tmp_path / "nothing")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and len(err.strip().splitlines()) == 1
+
+
+def _steps(ckpt: Path):
+    """The two steps as LeRobot builds them from the saved JSON."""
+    from lerobot.processor import ProcessorStepRegistry
+
+    cls.register()
+    cls.register()  # twice is fine
+
+    def build(path: Path, name: str):
+        step = next(s for s in json.loads(path.read_text())["steps"]
+                    if s["registry_name"] == name)  # fmt: skip
+        return ProcessorStepRegistry.get(name)(**step["config"])
+
+    return (build(ckpt / cls.PREPROCESSOR_FILE, cls.MEASURED_NAME),
+            build(ckpt / cls.POSTPROCESSOR_FILE, cls.REGISTRY_NAME))  # fmt: skip
+
+
+def test_the_steps_hold_each_joint_near_its_measured_position(tmp_path):
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("lerobot")
+    from lerobot.processor import TransitionKey
+
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    cls.add_to_checkpoint(ckpt)
+    measured_step, limits_step = _steps(ckpt)
+    state = torch.tensor([[0.0, 0.2618, 0.2618, 0.0, 0.0, 0.0, 0.044] * 2])
+    obs = {"observation.state": state, "observation.environment_state": torch.zeros(1, 7)}
+    out = measured_step({TransitionKey.OBSERVATION: obs})[TransitionKey.OBSERVATION]
+    assert torch.equal(out["observation.state"], state)  # the observation is unchanged
+    far = state.clone()
+    far[0, 8] -= 0.262  # right_joint_1: the first action that faulted (4.4 rad/s)
+    far[0, 13] = 0.0  # right gripper closing: not held to its measured width
+    far[0, 0] = 5.0  # beyond the range: clipped to the range, then to the step
+    action = limits_step({TransitionKey.ACTION: far})[TransitionKey.ACTION]
+    max_step = np.array(cls.joint_steps(14, 50))
+    delta = (action - state).numpy()[0]
+    assert delta[8] == pytest.approx(-max_step[8], abs=1e-6)
+    assert delta[0] == pytest.approx(max_step[0], abs=1e-6)
+    assert action[0, 13].item() == 0.0
+    assert np.all(np.abs(delta[:6]) <= max_step[:6] + 1e-6)
+    # asked over the plugin's goal time, the held goal is within the joint's speed limit
+    speed = abs(delta[8]) / (3 / 50)
+    assert speed <= controller_limits()[1].velocity_max
+    # an action near the state passes unchanged
+    near = state + 0.01
+    near[0, 6] = near[0, 13] = 0.04  # within the grippers' range
+    kept = limits_step({TransitionKey.ACTION: near})[TransitionKey.ACTION]
+    assert torch.allclose(kept, near)
+
+
+def test_a_range_only_step_from_an_older_checkpoint_still_loads(tmp_path):
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("lerobot")
+    from lerobot.processor import ProcessorStepRegistry
+    from lerobot.processor import TransitionKey
+
+    cls.register()
+    low, high = cls.controller_bounds(14)
+    step = ProcessorStepRegistry.get(cls.REGISTRY_NAME)(low=low, high=high)
+    action = torch.full((1, 14), 9.0)
+    out = step({TransitionKey.ACTION: action})[TransitionKey.ACTION]
+    assert torch.allclose(out, torch.tensor([high], dtype=out.dtype))
+    assert step.get_config() == {"low": low, "high": high}
