@@ -247,6 +247,7 @@ def tip_height(monkeypatch):
     entry = registry.TaskEntry(
         TipHeightTask.name, f"{__name__}:TipHeightTask", f"{__name__}:TipHeightSampler",
         "reach", "test: hold the tool frame at a height",
+        keys=registry.load("reach").keys,  # the keys of the config it borrows
     )  # fmt: skip
     monkeypatch.setitem(registry.TASKS, entry.name, entry)
     for env_id, entry_point in TIP_IDS.items():

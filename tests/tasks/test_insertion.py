@@ -15,7 +15,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.policies.insertion import InsertionPolicy
 from trossen_arm_mujoco.robot.configs import stationary_ai_joint_config
 from trossen_arm_mujoco.robot.kinematics import Kinematics
-from trossen_arm_mujoco.tasks.config import CONFIG_DIR, load_task_config
+from trossen_arm_mujoco.tasks.config import CONFIG_DIR
 from trossen_arm_mujoco.tasks.insertion import (
     MAX_REWARD,
     PEG_HALF,
@@ -33,6 +33,7 @@ from trossen_arm_mujoco.tasks.insertion import (
     InsertionTask,
     sample_insertion_poses,
 )
+from trossen_arm_mujoco.tasks.registry import load as load_task
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 JOINT_XML = Path(ASSETS_DIR) / "stationary_ai/trossen_ai_insertion_scene_joint.xml"
@@ -44,6 +45,11 @@ SOCKET_FINGERS = (2 * 0.016 - 0.0006 + 0.00018) / 2
 #: Tool frame relative to the object centres in the grasps (as the scripted policy's).
 PEG_GRIP = np.array([0.0, -0.015, 0.001])
 SOCKET_GRIP = np.array([0.0, 0.008, -0.005])
+
+
+def load_task_config(name: str, **overrides):
+    """A shipped task's config by its name, validated with its own keys."""
+    return load_task(name).load_config(**overrides)
 
 
 class Scene:

@@ -137,7 +137,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         height = _IMAGE_SIZE.check("env keyword argument height", height)
         randomize = Key("bool").check("env keyword argument randomize", randomize)
         cameras = _check_cameras(cameras)
-        self.config = merge_overrides(entry.config, defaults, config)  # the kwargs, checked
+        self.config = merge_overrides(entry.config, defaults, config, entry.keys)  # kwargs, checked
         looks = SceneLooks(shadows=shadows, visual=visual)
         if render_mode is not None:
             _check_choice("render mode", render_mode, RENDER_MODES)

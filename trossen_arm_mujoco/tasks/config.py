@@ -9,7 +9,7 @@ as long as the file's); ``randomization`` overrides are merged into the file's s
 by kind and validated with it. Every problem is a one-line ``UserError`` naming the file (or
 the task and the keyword argument), the key and what is valid.
 
-Configs are read when a task is used (``load_task_config``), never at import: a broken file
+Configs are read when a task is used (``TaskEntry.load_config``), never at import: a broken file
 fails only the commands that use its task.
 """
 
@@ -34,7 +34,6 @@ __all__ = [
     "CONFIG_DIR",
     "config_names",
     "load_entry_config",
-    "load_task_config",
     "merge_overrides",
     "merge_randomization",
     "parse_randomization",
@@ -172,21 +171,3 @@ def load_entry_config(entry: Any, **overrides: Any) -> dict[str, Any]:
         source, name, data = Source.file(path), str(config), read_yaml(path)
     defaults = check_file_config(name, source, data, keys, required)
     return merge_overrides(name, defaults, overrides, keys)
-
-
-def load_task_config(name: str, **overrides: Any) -> dict[str, Any]:
-    """The config ``config/<name>.yaml``, validated, with keyword overrides applied.
-
-    Raises:
-        UserError: unknown config name (lists the valid ones); in the file: a key given
-            twice, an unknown or missing key, a value of the wrong kind or out of its range
-            (NaN, inf), a range pair with low > high, a bad ``randomization`` section; in
-            the overrides: a key the file does not have, an invalid value. One line each,
-            naming the file (or keyword argument) and the key.
-    """
-    names = config_names()
-    if name not in names:
-        raise unknown_name_error("task config", name, names)
-    path = CONFIG_DIR / f"{name}.yaml"
-    defaults = check_file_config(name, Source.file(path), read_yaml(path))
-    return merge_overrides(name, defaults, overrides)

@@ -19,7 +19,8 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 
-__all__ = ["INF", "Key", "Source", "fmt_number", "is_real", "show"]
+__all__ = ["INF", "Key", "Source", "fmt_number", "is_real", "number", "positive", "region",
+           "show", "vector"]  # fmt: skip
 
 INF = math.inf
 
@@ -168,3 +169,27 @@ class Key:
         if not all(is_real(v) and self.in_range(v) for v in seq):
             raise bad
         return [float(v) for v in seq]
+
+
+# -- the usual keys --------------------------------------------------------------------------
+def number(low: float = -INF, high: float = INF, unit: str = "", open_low: bool = False) -> Key:
+    """A number in ``[low, high]`` (``(low, high]`` with ``open_low``)."""
+    return Key("number", low, high, open_low, unit=unit)
+
+
+def positive(high: float = INF, unit: str = "") -> Key:
+    """A number in ``(0, high]``."""
+    return Key("number", 0.0, high, True, unit=unit)
+
+
+def vector(*lengths: int, low: float = -10.0, high: float = 10.0, unit: str = "m") -> Key:
+    """A list of numbers of one of ``lengths``, each in ``[low, high]``."""
+    return Key("vector", low, high, lengths=lengths, unit=unit)
+
+
+def region(name: str, *lengths: int, low: float = -10.0, high: float = 10.0,
+           unit: str = "m") -> dict[str, Key]:  # fmt: skip
+    """``{name}_low`` and ``{name}_high``: the corners of a box (checked low <= high on every
+    axis, ``config_schema.check_ranges``)."""
+    key = vector(*lengths, low=low, high=high, unit=unit)
+    return {f"{name}_low": key, f"{name}_high": key}

@@ -1,13 +1,14 @@
 """The one validation layer of task configs: every key of every YAML file and every keyword
-override (``load_task_config``, ``registry.make_sampler``, the gym env's kwargs).
+override (``TaskEntry.load_config``, ``registry.make_sampler``, the gym env's kwargs).
 
 A value is checked against its ``Key``: its kind (number, whole number, true/false, string,
 one of a few names, a list of numbers of a given length), its range (NaN and inf are never
-valid), and, for the ``*_low`` / ``*_high`` pairs of ``RANGE_PAIRS``, low <= high on every
-axis. A file may hold only keys of ``KEYS`` and must hold those of ``REQUIRED`` (a task with
-keys of its own adds a line each there). Every problem is one ``UserError`` line naming the
-file (or the task and the keyword argument), the key and what is valid. (Reading the files,
-keys given twice included, is ``tasks.config``'s.)
+valid), and, for every pair of keys ``X_low`` / ``X_high`` (``range_pairs``), low <= high on
+every axis. A file may hold only the keys every config shares (``KEYS``) and its task's own
+(``TaskEntry.keys``), and must hold ``REQUIRED`` and its task's ``TaskEntry.required``.
+Every problem is one ``UserError`` line naming the file (or the task and the keyword
+argument), the key and what is valid. (Reading the files, keys given twice included, is
+``tasks.config``'s.)
 
 How one value is checked (``Key``, ``Source``) is ``config_key``'s; the ``randomization``
 section has its own table and checks, in ``randomization_schema``.
@@ -22,7 +23,16 @@ from numbers import Integral
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
-from trossen_arm_mujoco.tasks.config_key import INF, Key, Source, fmt_number, is_real, show
+from trossen_arm_mujoco.tasks.config_key import (
+    Key,
+    Source,
+    fmt_number,
+    is_real,
+    number,
+    positive,
+    show,
+    vector,
+)
 from trossen_arm_mujoco.tasks.randomization_schema import (
     RANDOMIZATION_KEY,
     check_randomization,
@@ -31,30 +41,18 @@ from trossen_arm_mujoco.tasks.randomization_schema import (
 
 __all__ = [
     "KEYS",
-    "RANGE_PAIRS",
     "REQUIRED",
     "check_file_config",
     "check_overrides",
     "check_ranges",
+    "range_pairs",
 ]
 
-
-def _num(low: float = -INF, high: float = INF, unit: str = "", open_low: bool = False) -> Key:
-    return Key("number", low, high, open_low, unit=unit)
-
-
-def _pos(high: float = INF, unit: str = "") -> Key:
-    return Key("number", 0.0, high, True, unit=unit)
-
-
-def _vec(*lengths: int, low: float = -10.0, high: float = 10.0, unit: str = "m") -> Key:
-    return Key("vector", low, high, lengths=lengths, unit=unit)
-
-
 _BOOL, _PATH = Key("bool"), Key("str")
-_COEF = _num(0.0, unit="")  # reward weights: finite, >= 0
+_num, _pos, _vec = number, positive, vector
 
-#: Every key a task config may have (besides ``randomization``), and what it accepts.
+#: The keys every task config may have (besides ``randomization`` and its task's own
+#: ``TaskEntry.keys``), and what they accept.
 KEYS: dict[str, Key] = {
     # model and timing
     "scene": _PATH,  # MJCF path relative to the assets folder
@@ -75,55 +73,21 @@ KEYS: dict[str, Key] = {
     "workspace_high": _vec(3),
     "max_joint_velocity": _pos(1000.0, "rad/s"),
     "max_object_velocity": _pos(1000.0, "m/s"),
-    # episode start
-    "init_arm_qpos": _vec(6, low=-math.tau, high=math.tau, unit="rad"),
-    "init_joint_noise": _num(0.0, 1.0, "rad"),
-    "init_gripper": _num(0.0, 0.044, "m"),  # finger travel: closed .. open (robot.layout)
-    # spawn and goal regions
-    "target_low": _vec(3),
-    "target_high": _vec(3),
-    "cube_low": _vec(2),
-    "cube_high": _vec(2),
-    "goal_low": _vec(2, 3),
-    "goal_high": _vec(2, 3),
-    "air_goal_probability": _num(0.0, 1.0),
-    "min_goal_distance": _num(0.0, 10.0, "m"),
-    # success and rewards
-    "success_tolerance": _pos(1.0, "m"),
-    "goal_reward_type": Key("choice", choices=("sparse", "dense")),
-    "reach_coef": _COEF,
-    "distance_coef": _COEF,
-    "lift_bonus": _COEF,
-    "success_bonus": _COEF,
-    "lift_height": _num(0.0, 1.0, "m"),
 }
 
-#: ``*_low`` / ``*_high`` pairs: low <= high on every axis.
-RANGE_PAIRS: tuple[tuple[str, str], ...] = (
-    ("workspace_low", "workspace_high"),
-    ("target_low", "target_high"),
-    ("cube_low", "cube_high"),
-    ("goal_low", "goal_high"),
-)
+#: Keys every task config must have (every task reads them unconditionally); a task's own
+#: required keys are its ``TaskEntry.required``.
+REQUIRED: tuple[str, ...] = (
+    "scene", "policy_dt", "ctrl_dt", "max_episode_steps", "ee_delta_limit", "joint_rel_limit",
+    "table_height", "safety_margin", "workspace_low", "workspace_high", "max_joint_velocity",
+)  # fmt: skip
 
-#: Keys every task config must have (its task reads them unconditionally), by config name;
-#: ``"*"`` for every config.
-REQUIRED: dict[str, tuple[str, ...]] = {
-    "*": ("scene", "policy_dt", "ctrl_dt", "max_episode_steps", "ee_delta_limit",
-          "joint_rel_limit", "table_height", "safety_margin", "workspace_low", "workspace_high",
-          "max_joint_velocity"),
-    "reach": ("init_arm_qpos", "target_low", "target_high", "success_tolerance",
-              "goal_reward_type"),
-    "push": ("init_arm_qpos", "cube_low", "cube_high", "goal_low", "goal_high",
-             "min_goal_distance", "success_tolerance", "reach_coef", "goal_reward_type",
-             "max_object_velocity"),
-    "pick_place": ("init_arm_qpos", "cube_low", "cube_high", "goal_low", "goal_high",
-                   "air_goal_probability", "min_goal_distance", "success_tolerance",
-                   "reach_coef", "lift_bonus", "lift_height", "goal_reward_type",
-                   "max_object_velocity"),
-    "transfer_cube": ("ee_scene", "max_object_velocity"),
-    "insertion": ("ee_scene", "max_object_velocity"),
-}  # fmt: skip
+
+def range_pairs(keys: Any) -> list[tuple[str, str]]:
+    """The ``(X_low, X_high)`` pairs among ``keys``: low <= high on every axis."""
+    keys = set(keys)
+    return [(k, k[: -len("_low")] + "_high") for k in sorted(keys)
+            if k.endswith("_low") and k[: -len("_low")] + "_high" in keys]  # fmt: skip
 
 
 # -- whole configs ----------------------------------------------------------------------------
@@ -144,9 +108,7 @@ def check_ranges(config: Mapping[str, Any], source: Source, changed: Any = None)
     """Every ``RANGE_PAIRS`` pair of ``config``: same length, low <= high on every axis.
     ``changed`` (keys of an override): the pair is blamed on ``source`` only when one of its
     keys is among them (``None``: always)."""
-    for lo_key, hi_key in RANGE_PAIRS:
-        if lo_key not in config or hi_key not in config:
-            continue
+    for lo_key, hi_key in range_pairs(config):
         if changed is not None and lo_key not in changed and hi_key not in changed:
             continue
         low, high = list(config[lo_key]), list(config[hi_key])
@@ -182,7 +144,7 @@ def check_file_config(
             hint = f" (did you mean {close[0]}?)" if close else ""
             keys = ", ".join(sorted(valid))
             raise UserError(f"{source.where(str(key))}: unknown key{hint}; valid keys: {keys}")
-    missing = [k for k in (*REQUIRED["*"], *REQUIRED.get(name, ()), *required) if k not in data]
+    missing = [k for k in (*REQUIRED, *required) if k not in data]
     if missing:
         raise UserError(
             f"{source.origin}: missing {source.label}(s) {', '.join(missing)}; add them "

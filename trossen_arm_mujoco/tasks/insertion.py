@@ -204,5 +204,6 @@ TASKS = (
         # 2 both objects grasped and lifted, 3 peg touches socket, 4 peg touches the pin
         stages={"grasped": 2.0, "contact": 3.0, "inserted": 4.0},
         gym_ids={"TrossenMujoco/StationaryAIInsertion-v0": "env"},
+        required=("ee_scene", "max_object_velocity"),
     ),
 )  # fmt: skip

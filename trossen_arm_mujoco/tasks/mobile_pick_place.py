@@ -37,7 +37,7 @@ from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, SIDES
 from trossen_arm_mujoco.sim.contacts import ContactPartners
 from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.tasks.bimanual import finger_geoms
-from trossen_arm_mujoco.tasks.config_key import Key
+from trossen_arm_mujoco.tasks.config_key import Key, number, positive, region
 from trossen_arm_mujoco.tasks.observation import Part, indexed
 from trossen_arm_mujoco.tasks.sampler import TaskSampler, uniform
 from trossen_arm_mujoco.tasks.task import Task
@@ -203,8 +203,10 @@ TASKS = (
         record=record_defaults(750, MOBILE_AI_CAMERAS),
         stages=STAGES,
         gym_ids={"TrossenMujoco/MobileAIPickPlace-v0": "env"},
-        keys={"base_start_low": Key("vector", -3.0, 3.0, lengths=(3,), unit="m, m, rad"),
-              "base_start_high": Key("vector", -3.0, 3.0, lengths=(3,), unit="m, m, rad"),
+        keys={**region("base_start", 3, low=-3.0, high=3.0, unit="m, m, rad"),
+              **region("cube", 2),
+              "success_tolerance": positive(1.0, "m"),
+              "lift_height": number(0.0, 1.0, "m"),
               "reach_distance": Key("number", 0.0, 2.0, True, unit="m")},
         required=("base_start_low", "base_start_high", "cube_low", "cube_high",
                   "success_tolerance", "lift_height", "reach_distance"),

@@ -13,7 +13,14 @@ from typing import Any, ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
-from trossen_arm_mujoco.tasks.push import PushSampler, PushTask, cube_rest_z
+from trossen_arm_mujoco.tasks.config_key import number
+from trossen_arm_mujoco.tasks.push import (
+    PUSH_KEYS,
+    PUSH_REQUIRED,
+    PushSampler,
+    PushTask,
+    cube_rest_z,
+)
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.task_entry import TaskEntry
 
@@ -76,5 +83,8 @@ TASKS = (
         "wxai: bring a cube to a goal on the table or in the air",
         gym_ids={"TrossenMujoco/WXAIPickPlace-v0": "env",
                  "TrossenMujoco/WXAIPickPlaceGoal-v0": "goal"},
+        keys={**PUSH_KEYS, "air_goal_probability": number(0.0, 1.0),
+              "lift_bonus": number(0.0, unit=""), "lift_height": number(0.0, 1.0, "m")},
+        required=(*PUSH_REQUIRED, "air_goal_probability", "lift_bonus", "lift_height"),
     ),
 )  # fmt: skip

@@ -13,9 +13,16 @@ from typing import Any, ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.config_key import Key, number, region
 from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import uniform
-from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask, goal_distance
+from trossen_arm_mujoco.tasks.single_arm import (
+    SINGLE_ARM_KEYS,
+    SINGLE_ARM_REQUIRED,
+    SingleArmSampler,
+    SingleArmTask,
+    goal_distance,
+)
 from trossen_arm_mujoco.tasks.task_entry import TaskEntry
 
 __all__ = ["TASKS", "CUBE", "MAX_GOAL_TRIES", "PushSampler", "PushTask", "cube_rest_z"]
@@ -118,10 +125,25 @@ class PushSampler(SingleArmSampler):
         return None if goal is None else self.task_cls(env, self.config, goal=goal)
 
 
+#: Config keys of push (and pick_place, which adds its own): the cube's spawn region, the
+#: goal region (2 values on the table, 3 with a height) and the goal's least distance.
+PUSH_KEYS: dict[str, Key] = {
+    **SINGLE_ARM_KEYS,
+    **region("cube", 2),
+    **region("goal", 2, 3),
+    "min_goal_distance": number(0.0, 10.0, "m"),
+}
+PUSH_REQUIRED: tuple[str, ...] = (
+    *SINGLE_ARM_REQUIRED, "cube_low", "cube_high", "goal_low", "goal_high", "min_goal_distance",
+    "reach_coef", "max_object_velocity",
+)  # fmt: skip
+
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.
 TASKS = (
     TaskEntry(
         "push", PushTask, PushSampler, "push", "wxai: push a cube onto a goal on the table",
         gym_ids={"TrossenMujoco/WXAIPush-v0": "env", "TrossenMujoco/WXAIPushGoal-v0": "goal"},
+        keys=PUSH_KEYS,
+        required=PUSH_REQUIRED,
     ),
 )  # fmt: skip

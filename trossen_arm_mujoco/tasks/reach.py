@@ -9,8 +9,14 @@ from __future__ import annotations
 from typing import ClassVar
 
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.config_key import region
 from trossen_arm_mujoco.tasks.sampler import uniform
-from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler, SingleArmTask
+from trossen_arm_mujoco.tasks.single_arm import (
+    SINGLE_ARM_KEYS,
+    SINGLE_ARM_REQUIRED,
+    SingleArmSampler,
+    SingleArmTask,
+)
 from trossen_arm_mujoco.tasks.task_entry import TaskEntry
 
 __all__ = ["TASKS", "ReachSampler", "ReachTask"]
@@ -51,5 +57,7 @@ TASKS = (
     TaskEntry(
         "reach", ReachTask, ReachSampler, "reach", "wxai: move the tool frame to a target",
         gym_ids={"TrossenMujoco/WXAIReach-v0": "env", "TrossenMujoco/WXAIReachGoal-v0": "goal"},
+        keys={**SINGLE_ARM_KEYS, **region("target", 3)},
+        required=(*SINGLE_ARM_REQUIRED, "target_low", "target_high"),
     ),
 )  # fmt: skip

@@ -71,7 +71,7 @@ class TaskSampler:
     """Base of every sampler.
 
     Args:
-        config: task config (``tasks.config.load_task_config``); ``scene`` / ``ee_scene``
+        config: task config (``TaskEntry.load_config``); ``scene`` / ``ee_scene``
             (paths relative to the assets folder), ``ctrl_dt`` and ``sim_dt`` (when the config
             has it) are read here.
         settings: how the env is built (``tasks.sampler_settings.SamplerSettings``: command

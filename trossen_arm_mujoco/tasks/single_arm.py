@@ -19,11 +19,13 @@ from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
 from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
 from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.tasks.config_key import Key, number, positive, vector
 from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import TaskSampler, uniform
 from trossen_arm_mujoco.tasks.task import Task
 
-__all__ = ["GOAL_REWARD_TYPES", "SingleArmSampler", "SingleArmTask", "goal_distance"]
+__all__ = ["GOAL_REWARD_TYPES", "SINGLE_ARM_KEYS", "SINGLE_ARM_REQUIRED", "SingleArmSampler",
+           "SingleArmTask", "goal_distance"]  # fmt: skip
 
 GOAL_REWARD_TYPES = ("sparse", "dense")
 
@@ -35,6 +37,24 @@ def goal_distance(achieved: np.ndarray, desired: np.ndarray) -> np.ndarray | flo
     if a.ndim == 1 and d.ndim == 1:
         return math.dist(a.tolist(), d.tolist())
     return np.linalg.norm(np.subtract(a, d, dtype=float), axis=-1)
+
+
+_COEF = number(0.0, unit="")  # reward weights: finite, >= 0
+
+#: Config keys of the single-arm tasks (``TaskEntry.keys`` of reach, push, pick_place):
+#: the episode start, success and the shaped reward's weights.
+SINGLE_ARM_KEYS: dict[str, Key] = {
+    "init_arm_qpos": vector(6, low=-math.tau, high=math.tau, unit="rad"),
+    "init_joint_noise": number(0.0, 1.0, "rad"),
+    "init_gripper": number(0.0, 0.044, "m"),  # finger travel: closed .. open (robot.layout)
+    "success_tolerance": positive(1.0, "m"),
+    "goal_reward_type": Key("choice", choices=GOAL_REWARD_TYPES),
+    "distance_coef": _COEF,
+    "success_bonus": _COEF,
+    "reach_coef": _COEF,
+}
+#: Of those, the keys every single-arm task's config must hold.
+SINGLE_ARM_REQUIRED: tuple[str, ...] = ("init_arm_qpos", "success_tolerance", "goal_reward_type")
 
 
 class SingleArmTask(Task):

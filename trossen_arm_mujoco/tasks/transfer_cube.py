@@ -133,5 +133,6 @@ TASKS = (
         # 1 right fingers touch the cube, 2 and it is off the table, 4 the left holds it up
         stages={"touched": 1.0, "lifted": 2.0, "transferred": 4.0},
         gym_ids={"TrossenMujoco/StationaryAITransferCube-v0": "env"},
+        required=("ee_scene", "max_object_velocity"),
     ),
 )  # fmt: skip
