@@ -8,11 +8,20 @@ has reached the size limit is closed and the next episode starts the next file.
 The default encoding is LeRobot's own: AV1 (libsvtav1), yuv420p, a keyframe every 2 frames,
 CRF 30. yuv420p halves the colour resolution, which costs little at 480x640 (measured
 PSNR >= 36 dB) but caps tiny images near 33 dB; H.264 with yuv444p keeps full colour.
+
+Run as root (a container, usually), SVT-AV1 switches the thread that opens and feeds it to
+real-time scheduling (``SCHED_FIFO``, priority 99; measured with PyAV 14's libsvtav1 4.1),
+and the thread would keep it after the export: every later simulation, render or training
+step of that process would then take the CPU from everything else on the machine. Each call
+into the encoder restores the thread's scheduling afterwards (:func:`kept_scheduling`).
 """
 
 from __future__ import annotations
 
+import functools
 import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -32,6 +41,7 @@ __all__ = [
     "SVTAV1_PRESET",
     "CameraVideo",
     "VideoSettings",
+    "kept_scheduling",
 ]
 
 #: Codec choice -> PyAV encoder name, and its default CRF.
@@ -41,6 +51,34 @@ MAX_CRF: dict[str, int] = {"libsvtav1": 63, "h264": 51}
 PIX_FMTS: tuple[str, ...] = ("yuv420p", "yuv444p")
 #: libsvtav1 speed preset (LeRobot's default: 12, the fastest).
 SVTAV1_PRESET = 12
+
+
+@contextmanager
+def kept_scheduling() -> Iterator[None]:
+    """The calling thread's scheduling policy and priority as they were before the block
+    (an encoder may change them; see the module docstring)."""
+    try:
+        policy, param = os.sched_getscheduler(0), os.sched_getparam(0)
+    except (AttributeError, OSError):  # not Linux
+        yield
+        return
+    try:
+        yield
+    finally:
+        if os.sched_getscheduler(0) != policy:
+            try:
+                os.sched_setscheduler(0, policy, param)
+            except OSError:
+                pass
+
+
+def _keeps_scheduling(method: Callable) -> Callable:
+    @functools.wraps(method)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with kept_scheduling():
+            return method(*args, **kwargs)
+
+    return wrapper
 
 
 @dataclass(frozen=True)
@@ -172,6 +210,7 @@ class CameraVideo:
         self._episode_start = self._frames_in_file
         return self.index, self._episode_start / self.fps
 
+    @_keeps_scheduling
     def write(self, frames: np.ndarray) -> None:
         """Encode uint8 frames ``(n, H, W, 3)`` of the current episode."""
         av = self._av
@@ -190,6 +229,7 @@ class CameraVideo:
         if self._container is not None:
             self._close_file()
 
+    @_keeps_scheduling
     def abort(self) -> None:
         """Close without caring for the file's content (on errors)."""
         if self._container is not None:
@@ -201,6 +241,7 @@ class CameraVideo:
                 pass
             self._container = None
 
+    @_keeps_scheduling
     def _open_file(self) -> None:
         self._path = self.root / self.index.path(self.template, video_key=self.key)
         self._path.parent.mkdir(parents=True, exist_ok=True)
@@ -229,6 +270,7 @@ class CameraVideo:
         self._stream = stream
         self._frames_in_file = 0
 
+    @_keeps_scheduling
     def _close_file(self) -> None:
         self._container.mux(self._stream.encode(None))
         self._container.close()
