@@ -198,11 +198,12 @@ def policy_rates(args, workers: int) -> tuple[float, float]:
     """(steady, whole-call) episodes/s of ``evaluate`` with ``workers`` local workers."""
     from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_features
     from trossen_arm_mujoco.eval.runner import EvalSettings, evaluate
+    from trossen_arm_mujoco.sim.camera_settings import DEFAULT_SIZE, CameraSettings
 
     found = {} if args.policy == "scripted" else checkpoint_features(args.policy)
+    cameras = CameraSettings(found.get("cam_names", ()), found.get("image_size", DEFAULT_SIZE))
     settings = EvalSettings(
-        policy=args.policy, task=args.task, num_episodes=args.episodes,
-        cam_names=found.get("cam_names", ()), image_size=found.get("image_size", (480, 640)),
+        policy=args.policy, task=args.task, num_episodes=args.episodes, cameras=cameras,
         episode_length=args.episode_length, layout=found.get("layout", "kit14"),
         output_dir=os.devnull, controller_checks=args.controller_checks == "on",
     )  # fmt: skip

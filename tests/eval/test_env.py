@@ -264,7 +264,7 @@ def test_a_cropped_camera_shows_its_rectangle_of_the_frame(make_env):
     crop = "cam_high:216,240,150,200"  # the transfer cube's spawn region
     cropped = make_env(cam_names=("cam_high",), image_size=(30, 40), crops=(crop,))
     whole = make_env(cam_names=("cam_high",), image_size=(480, 640))
-    assert cropped.crops == (crop,) and whole.crops == ()
+    assert cropped.cameras.crop_texts() == (crop,) and whole.cameras.crops == ()
     image = cropped.reset(seed=0)[0]["pixels"]["cam_high"].astype(float)
     full = whole.reset(seed=0)[0]["pixels"]["cam_high"].astype(float)
     scaled = full[216:366, 240:440].reshape(30, 5, 40, 5, 3).mean(axis=(1, 3))
@@ -272,6 +272,21 @@ def test_a_cropped_camera_shows_its_rectangle_of_the_frame(make_env):
     assert np.abs(image - full[::16, ::16]).mean() > 20.0  # not the whole frame
     with pytest.raises(UserError, match="valid cameras"):
         make_env(cam_names=("cam_high",), crops=("cam_nope:0,0,10,10",))
+
+
+def test_the_cameras_come_as_one_settings_object_or_as_the_three_values(make_env):
+    from trossen_arm_mujoco.sim.camera_settings import CameraSettings
+
+    cams = CameraSettings.from_cli("cam_high", "24x32", "cam_high:216,240,150,200")
+    env = make_env(cameras=cams, image_size=None)
+    assert env.cameras is cams and env.cam_names == ("cam_high",) and env.image_size == (24, 32)
+    assert env.observation_space["pixels"]["cam_high"].shape == (24, 32, 3)
+    loose = make_env(cam_names="cam_high", image_size="24x32", crops="cam_high:216,240,150,200")
+    assert loose.cameras == cams
+    with pytest.raises(UserError, match="not both"):
+        KitPolicyEnv(cameras=cams, image_size=(24, 32))
+    with pytest.raises(UserError, match="must be a CameraSettings"):
+        KitPolicyEnv(cameras=("cam_high",))
 
 
 def test_task_name_and_description(make_env):

@@ -23,6 +23,7 @@ from trossen_arm_mujoco.export.dataset_settings import (
 )
 from trossen_arm_mujoco.export.lerobot_plan import plan_export
 from trossen_arm_mujoco.sim.camera_crop import parse_crops
+from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 
 CROP = "cam_high:217,243,150,200"
 
@@ -40,8 +41,8 @@ def test_the_plan_carries_rate_layout_cameras_size_crops_and_task(tmp_path, make
     eps = [_episode(tmp_path, make_episode, k, CROP) for k in range(2)]
     settings = plan_export(eps, None, fps=25).settings()
     assert settings == DatasetSettings(
-        fps=25, layout="kit14", cam_names=("cam_high",), image_size=(48, 64),
-        crops=parse_crops(CROP), task="sim_transfer_cube",
+        fps=25, layout="kit14", cameras=CameraSettings(("cam_high",), (48, 64), parse_crops(CROP)),
+        task="sim_transfer_cube",
     )  # fmt: skip
     assert DatasetSettings.from_json(settings.to_json(), "here") == settings
 
@@ -66,12 +67,12 @@ def test_export_writes_the_settings_into_info_json(tmp_path, make_episode):
     assert rc == 0
     info = json.loads((out / "meta" / "info.json").read_text())
     assert info[INFO_KEY]["crops"] == [CROP] and info[INFO_KEY]["fps"] == 25
-    assert read_dataset_settings(out).crops == parse_crops(CROP)
+    assert read_dataset_settings(out).cameras.crops == parse_crops(CROP)
 
 
 def test_a_checkpoint_finds_them_in_its_folder_or_through_its_dataset(tmp_path):
-    settings = DatasetSettings(fps=30, layout="kit14", cam_names=("cam_high",),
-                               image_size=(96, 128), crops=parse_crops(CROP))  # fmt: skip
+    cameras = CameraSettings.from_cli("cam_high", "96x128", CROP)
+    settings = DatasetSettings(fps=30, layout="kit14", cameras=cameras)
     ds = tmp_path / "ds"
     (ds / "meta").mkdir(parents=True)
     (ds / "meta" / "info.json").write_text(json.dumps({"fps": 30, INFO_KEY: settings.to_json()}))
@@ -88,10 +89,10 @@ def test_a_checkpoint_finds_them_in_its_folder_or_through_its_dataset(tmp_path):
 
 
 def test_a_flag_that_repeats_is_accepted_one_that_contradicts_is_refused():
-    settings = DatasetSettings(fps=30, layout="kit14", cam_names=("cam_high",),
-                               image_size=(96, 128), crops=parse_crops(CROP))  # fmt: skip
+    cameras = CameraSettings.from_cli("cam_high", "96x128", CROP)
+    settings = DatasetSettings(fps=30, layout="kit14", cameras=cameras)
     out = reconcile(settings, "ckpt", {"fps": None, "crops": None, "image_size": (96, 128)})
-    assert out == {"fps": 30, "crops": (CROP,), "image_size": (96, 128)}
+    assert out == {"fps": 30, "crops": parse_crops(CROP), "image_size": (96, 128)}
     assert reconcile(settings, "ckpt", {"fps": 30.0})["fps"] == 30
     cases = [
         ({"fps": 50.0}, "--fps 50 contradicts the checkpoint, trained with 30 (ckpt)"),
@@ -118,8 +119,8 @@ def test_eval_takes_the_checkpoints_settings_and_refuses_a_contradiction(tmp_pat
         "output_features": {"action": {"type": "ACTION", "shape": [14]}},
     }))  # fmt: skip
     write_checkpoint_settings(ckpt, DatasetSettings(
-        fps=30, layout="kit14", cam_names=("cam_high",), image_size=(48, 64),
-        crops=parse_crops(CROP), task="sim_transfer_cube"))  # fmt: skip
+        fps=30, layout="kit14", cameras=CameraSettings.from_cli("cam_high", "48x64", CROP),
+        task="sim_transfer_cube"))  # fmt: skip
     rc = cli.main(["eval", "--policy", str(ckpt), "--fps", "50", "--output_dir",
                    str(tmp_path / "e")])  # fmt: skip
     err = capsys.readouterr().err
@@ -129,6 +130,36 @@ def test_eval_takes_the_checkpoints_settings_and_refuses_a_contradiction(tmp_pat
 
     args = build_parser().parse_args(["--policy", str(ckpt), "--fps", "30"])
     settings, _ = _settings(args)
-    assert settings.fps == 30 and settings.crops == (CROP,)
-    assert settings.cam_names == ("cam_high",) and settings.image_size == (48, 64)
+    assert settings.fps == 30 and settings.cameras.crop_texts() == (CROP,)
+    assert settings.cameras.names == ("cam_high",) and settings.cameras.size == (48, 64)
     assert settings.extra["settings_source"].endswith(CHECKPOINT_FILE)
+
+
+def test_the_files_of_before_the_camera_settings_object_read_the_same(tmp_path):
+    """A checkpoint's trossen_settings.json as train_eval wrote it (state-only: null image
+    size; cameras: a size and crops) reads into the same settings, and writes back the
+    same keys."""
+    old = [
+        {"fps": 50, "layout": "kit14", "cam_names": [], "image_size": None, "crops": [],
+         "task": "sim_transfer_cube"},
+        {"fps": 30, "layout": "kit14", "cam_names": ["cam_high"], "image_size": [60, 80],
+         "crops": [CROP], "task": "sim_transfer_cube", "state_extras": []},
+    ]  # fmt: skip
+    for k, data in enumerate(old):
+        ckpt = tmp_path / f"ckpt_{k}"
+        ckpt.mkdir()
+        (ckpt / CHECKPOINT_FILE).write_text(json.dumps(data))
+        settings, _ = checkpoint_settings(ckpt)
+        assert settings.to_json() == {"state_extras": [], **data}
+    assert settings.cameras == CameraSettings(("cam_high",), (60, 80), parse_crops(CROP))
+
+
+def test_unreadable_camera_settings_are_one_line_naming_the_file(tmp_path):
+    ckpt = tmp_path / "ckpt"
+    ckpt.mkdir()
+    for bad in ({"image_size": [0, 80]}, {"crops": ["cam_high:1,2"]}, {"cam_names": "cam_high"}):
+        data = {"fps": 30, "layout": "kit14", "cam_names": ["cam_high"], **bad}
+        (ckpt / CHECKPOINT_FILE).write_text(json.dumps(data))
+        with pytest.raises(UserError, match="unreadable camera settings") as err:
+            checkpoint_settings(ckpt)
+        assert "\n" not in str(err.value) and CHECKPOINT_FILE in str(err.value)

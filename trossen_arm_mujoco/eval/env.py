@@ -64,7 +64,7 @@ from trossen_arm_mujoco.robot.lerobot_keys import (
     VELOCITY_KEY,
     image_key,
 )
-from trossen_arm_mujoco.sim.camera_crop import parse_crops
+from trossen_arm_mujoco.sim.camera_settings import CameraSettings, parse_cameras, parse_image_size
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 from trossen_arm_mujoco.sim.looks import SceneLooks
@@ -125,36 +125,12 @@ def controller_timing(fps: float) -> dict[str, float]:
     return {**timing, "ctrl_dt": timing["sim_dt"]}
 
 
-def parse_image_size(text: str | Sequence[int]) -> tuple[int, int]:
-    """``"HxW"`` (or a pair) -> (H, W), both positive."""
-    if isinstance(text, str):
-        parts = text.lower().split("x")
-        try:
-            size = tuple(int(p) for p in parts)
-        except ValueError:
-            size = ()
-    else:
-        size = tuple(int(v) for v in text)
-    if len(size) != 2 or min(size) <= 0:
-        raise UserError(f"image size must look like HxW with positive numbers (e.g. 480x640), "
-                        f"got {text!r}")  # fmt: skip
-    return size  # type: ignore[return-value]
-
-
-def parse_cameras(text: str | Sequence[str] | None) -> tuple[str, ...]:
-    """A comma list (or sequence) of camera names; ``none`` or empty: no camera."""
-    if text is None:
-        return ()
-    items = text.split(",") if isinstance(text, str) else list(text)
-    names = tuple(c.strip() for c in items if c.strip())
-    return () if names in (("none",), ("None",)) else names
-
-
 def feature_spec(
     task: str, cam_names: Sequence[str], image_size: Sequence[int], layout: str = "kit14"
 ) -> dict[str, tuple[str, str, tuple[int, ...]]]:
     """What the env observes and takes, as LeRobot features: env key -> (LeRobot key, kind,
-    shape), kind one of ``STATE``, ``ENV``, ``VISUAL``, ``ACTION``. Images are (H, W, 3)."""
+    shape), kind one of ``STATE``, ``ENV``, ``VISUAL``, ``ACTION``. Images are (H, W, 3)
+    (``cam_names`` and ``image_size``: a ``CameraSettings``' ``names`` and ``size``)."""
     size = _layout(layout).size
     n_obj = len(registry.load(task).task_class().objects)
     h, w = image_size
@@ -180,26 +156,47 @@ def _layout(name: str):
     return LAYOUTS[name]
 
 
+def _cameras(
+    cameras: CameraSettings | None,
+    cam_names: str | Sequence[str] | None,
+    image_size: str | Sequence[int] | None,
+    crops: str | Sequence[str] | None,
+) -> CameraSettings:
+    """``cameras``, or the settings of the three command-line values; both is a UserError."""
+    loose = (cam_names, image_size, crops)
+    if cameras is None:
+        return CameraSettings.from_cli(*loose)
+    if not isinstance(cameras, CameraSettings):
+        raise UserError(f"cameras must be a CameraSettings (sim.camera_settings), got "
+                        f"{type(cameras).__name__}")  # fmt: skip
+    if any(v is not None for v in loose):
+        raise UserError("give the cameras either as cameras=CameraSettings(...) or as "
+                        "cam_names / image_size / crops, not both")  # fmt: skip
+    return cameras
+
+
 class KitPolicyEnv(gymnasium.Env):
     """A policy's view of a bimanual task (see the module docstring).
 
     Args:
         task: registered bimanual task name (or alias).
-        cam_names: cameras observed (``pixels``); empty: state only.
-        image_size: (H, W) of the observed images.
+        cameras: what the cameras observe (``sim.camera_settings.CameraSettings``: the
+            cameras of ``pixels``, their (H, W), the rectangle of its 480x640 frame each
+            cropped camera shows, as they were recorded); default none (state only).
+        cam_names, image_size, crops: the same, as the three values of the command line
+            (``CameraSettings.from_cli``: camera names, (H, W) or ``"HxW"``, ``--crop``
+            texts), for callers without a ``CameraSettings``; not with ``cameras``.
         fps: policy rate (steps per second); default the task's own (50).
         episode_length: steps per episode; default the task's recording length at this rate
             (12 s for the transfer, 8 s for the insertion).
         layout: ``kit14`` or ``vendor16``.
-        crops: ``--crop`` texts (``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, ``sim.camera_crop``): those
-            cameras show a rectangle of their 480x640 frame, as they were recorded; default
-            none.
         render_mode: ``rgb_array`` (``render()`` gives the observed cameras side by side, or
             ``cam_high`` at 240x320 when none is observed) or None.
         controller_checks: apply the real arm controller's checks to every setpoint (a
             fault ends the episode, failed); False: the unconstrained score.
 
     Attributes (what LeRobot's evaluation reads): ``task`` (the task's name),
+    ``cameras`` (its ``CameraSettings``; ``cam_names`` and ``image_size`` read them),
     ``task_description``, ``_max_episode_steps`` (``episode_length`` under the name LeRobot
     reads), ``metadata["render_fps"]``; ``episode_length`` is the number of steps after
     which an episode is truncated (what this package's runners and adapters read); ``episode``
@@ -214,14 +211,15 @@ class KitPolicyEnv(gymnasium.Env):
         self,
         task: str = registry.DEFAULT_TASK,
         *,
-        cam_names: Sequence[str] = (),
-        image_size: Sequence[int] = (480, 640),
+        cameras: CameraSettings | None = None,
         fps: float | None = None,
         episode_length: int | None = None,
         layout: str = "kit14",
         render_mode: str | None = "rgb_array",
-        crops: Sequence[str] = (),
         controller_checks: bool = True,
+        cam_names: str | Sequence[str] | None = None,
+        image_size: str | Sequence[int] | None = None,
+        crops: str | Sequence[str] | None = None,
     ):
         entry = registry.load(task)
         if entry.name not in registry.kit_names():
@@ -234,8 +232,7 @@ class KitPolicyEnv(gymnasium.Env):
         if render_mode not in (None, "rgb_array"):
             raise unknown_name_error("render mode", str(render_mode), ["rgb_array"])
         self.render_mode = render_mode
-        cams = parse_cameras(cam_names)
-        h, w = parse_image_size(image_size)
+        self.cameras = _cameras(cameras, cam_names, image_size, crops)
         config = entry.load_config()
         native = 1.0 / float(config["policy_dt"])
         self.fps = float(native if fps is None else fps)
@@ -248,13 +245,11 @@ class KitPolicyEnv(gymnasium.Env):
         if not 1 <= int(episode_length) <= 100_000:
             raise UserError(f"episode_length must be in [1, 100000], got {episode_length}")
         self.task = entry.name
-        self.cam_names = cams
-        self.image_size = (h, w)
-        crop_list = parse_crops(crops)
-        self.crops = tuple(c.text() for c in crop_list)
+        cams = self.cameras
         settings = SamplerSettings(
-            camera_names=tuple(cams), height=h, width=w, looks=SceneLooks(crops=crop_list)
-        )
+            camera_names=cams.names, height=cams.size[0], width=cams.size[1],
+            looks=SceneLooks(crops=cams.crops),
+        )  # fmt: skip
         self.sampler = registry.make_sampler(entry.name, settings, **overrides)
         self.scene = self.sampler.env
         probe = self.sampler.make_task()
@@ -292,6 +287,16 @@ class KitPolicyEnv(gymnasium.Env):
         self._images: dict[str, np.ndarray] = {}
         self._render_cams: CameraSet | None = None
         close_at_exit(self)
+
+    @property
+    def cam_names(self) -> tuple[str, ...]:
+        """The observed cameras (``cameras.names``)."""
+        return self.cameras.names
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """(H, W) of the observed images, pixels (``cameras.size``)."""
+        return self.cameras.size
 
     # -- spaces ---------------------------------------------------------------------------
     def _observation_space(self, probe) -> gymnasium.spaces.Dict:

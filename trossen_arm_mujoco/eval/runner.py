@@ -30,7 +30,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -42,6 +42,7 @@ from trossen_arm_mujoco.eval.env import KitPolicyEnv
 from trossen_arm_mujoco.eval.episode_pool import run_episodes
 from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
 from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
+from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 from trossen_arm_mujoco.tasks.registry import DEFAULT_TASK
 
 __all__ = [
@@ -121,39 +122,47 @@ def limit_threads(threads: int, policy: str) -> None:
 
 @dataclass(frozen=True)
 class EvalSettings:
-    """What every episode of an evaluation shares (the CLI's flags)."""
+    """What every episode of an evaluation shares (the CLI's flags); ``cameras``: what the
+    policy's cameras observe (``sim.camera_settings``; default none)."""
 
     policy: str = "scripted"
     task: str = DEFAULT_TASK
     num_episodes: int = 10
     seed: int = 0
-    cam_names: tuple[str, ...] = ()
-    image_size: tuple[int, int] = (480, 640)
+    cameras: CameraSettings = field(default_factory=CameraSettings)
     fps: float | None = None
     episode_length: int | None = None
     layout: str = "kit14"
     videos: int = 0
     output_dir: str = "eval"
     device: str = "cpu"
-    crops: tuple[str, ...] = ()
     #: the arm controller's checks on every setpoint (a fault ends the episode, failed)
     controller_checks: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
 
     def make_env(self) -> KitPolicyEnv:
-        """A ``KitPolicyEnv`` of these settings (task, cameras, image size, crops, fps,
-        episode length, layout), rendering ``rgb_array`` frames for the videos."""
+        """A ``KitPolicyEnv`` of these settings (task, cameras, fps, episode length,
+        layout), rendering ``rgb_array`` frames for the videos."""
         return KitPolicyEnv(
             self.task,
-            cam_names=self.cam_names,
-            image_size=self.image_size,
+            cameras=self.cameras,
             fps=self.fps,
             episode_length=self.episode_length,
             layout=self.layout,
             render_mode="rgb_array",
-            crops=self.crops,
             controller_checks=self.controller_checks,
         )
+
+    def run_block(self) -> dict[str, Any]:
+        """The settings as ``eval_info.json``'s ``run`` block: every field but ``extra``,
+        the cameras as their file form (``cam_names``, ``image_size``, ``crops``)."""
+        run: dict[str, Any] = {}
+        for f in fields(self):
+            if f.name == "cameras":
+                run.update(self.cameras.to_json())
+            elif f.name != "extra":
+                run[f.name] = getattr(self, f.name)
+        return run
 
 
 class EpisodeRunner:
@@ -313,6 +322,6 @@ def evaluate(
             videos.append(video)
         if on_episode is not None:
             on_episode(score)
-    run = {k: v for k, v in asdict(settings).items() if k != "extra"}
+    run = settings.run_block()
     run.update(num_workers=num_workers, engine=engine)
     return eval_info(settings.task, scores, time.perf_counter() - start, videos, run)

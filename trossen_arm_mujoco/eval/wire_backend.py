@@ -56,7 +56,7 @@ from trossen_arm_mujoco.eval.wire_link import (
 )
 from trossen_arm_mujoco.real.arm_controller import KitController
 from trossen_arm_mujoco.real.controller_checks import fault_from_message
-from trossen_arm_mujoco.sim.camera_crop import FRAME, crop_frame, parse_crops
+from trossen_arm_mujoco.sim.camera_crop import FRAME, crop_frame
 
 __all__ = ["WireEpisodeRunner", "evaluate_wire"]
 
@@ -139,8 +139,7 @@ class WireEpisodeRunner:
         self.env = WireEnv(settings)
         # cropped cameras: the kit streams whole frames, as real cameras do, and each crop is
         # cut out here (sim.camera_crop.crop_frame), as a deployed policy's would be
-        self.crops = {c.camera: c for c in parse_crops(settings.crops)}
-        self.stream_size = FRAME if self.crops else tuple(self.env.image_size)
+        self.stream_size = FRAME if settings.cameras.crops else tuple(self.env.image_size)
         self.period = 1.0 / self.env.fps
         self.kit = self.control = self.cameras = self.arms = self.policy = None
         self.kit_lines: list[str] = []
@@ -184,7 +183,8 @@ class WireEpisodeRunner:
                 raise UserError(f"the stream's {cam} images are {img.shape[0]}x{img.shape[1]}, "
                                 f"the policy needs {self.stream_size[0]}x"
                                 f"{self.stream_size[1]}: serve --image_size")  # fmt: skip
-            pixels[cam] = crop_frame(img, self.crops.get(cam), self.env.image_size)
+            pixels[cam] = crop_frame(img, self.settings.cameras.crop_of(cam),
+                                     self.env.image_size)  # fmt: skip
             stamp = min(stamp, t)
         obs["pixels"] = pixels
         return obs, stamp, None
@@ -356,7 +356,7 @@ def evaluate_wire(
                 on_episode(score)
     finally:
         runner.close()
-    run = {k: v for k, v in asdict(settings).items() if k != "extra"}
+    run = settings.run_block()
     run.update(num_workers=1, engine="local", backend="wire", kit=asdict(link),
                action_timeout=action_timeout, speed_fraction=speed_fraction)  # fmt: skip
     info = eval_info(settings.task, scores, time.perf_counter() - start, (), run)

@@ -14,6 +14,7 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.runner import EvalSettings
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
+from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 
 __all__ = ["WireEnv"]
 
@@ -26,11 +27,13 @@ class WireEnv:
     def __init__(self, settings: EvalSettings) -> None:
         from dataclasses import replace
 
-        self.scenes = replace(settings, cam_names=()).make_env()  # draws scenes, never renders
+        # draws scenes, never renders: no camera (the crops change no pose)
+        self.scenes = replace(settings, cameras=CameraSettings()).make_env()
         s = self.scenes
         self.task, self.task_description, self.fps = s.task, s.task_description, s.fps
         self.layout, self.layout_name = s.layout, s.layout_name
-        self.cam_names, self.image_size = tuple(settings.cam_names), tuple(settings.image_size)
+        self.cameras = settings.cameras
+        self.cam_names, self.image_size = self.cameras.names, self.cameras.size
         self.episode_length, self.max_reward = s.episode_length, s.max_reward
         self.action_low, self.action_high = s.action_low, s.action_high
         self._poses: dict[str, np.ndarray] = {}

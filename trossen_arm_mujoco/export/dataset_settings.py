@@ -2,8 +2,9 @@
 
 ``trossen-mujoco export`` writes :class:`DatasetSettings` into the dataset's
 ``meta/info.json`` under the key :data:`INFO_KEY`: the task, the rate (``fps``), the joint
-layout, the cameras, their image size and crops (``record --crop``). LeRobot keeps unknown
-keys of ``info.json``, so the dataset carries them wherever it goes.
+layout, the cameras, their image size and crops (``record --crop``; one
+``sim.camera_settings.CameraSettings``). LeRobot keeps unknown keys of ``info.json``, so the
+dataset carries them wherever it goes.
 
 A checkpoint finds them (:func:`checkpoint_settings`) in its own folder first
 (:data:`CHECKPOINT_FILE`, written by :func:`write_checkpoint_settings`, e.g. by
@@ -27,7 +28,7 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import atomic_path
-from trossen_arm_mujoco.sim.camera_crop import CameraCrop, parse_crops
+from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 
 __all__ = [
     "CHECKPOINT_FILE",
@@ -52,9 +53,8 @@ class DatasetSettings:
     Attributes:
         fps: frames per second of the dataset (the policy's rate).
         layout: joint layout of state and action (``kit14`` or ``vendor16``).
-        cam_names: cameras, in recording order (empty: state only).
-        image_size: (H, W) of every camera's images; None without cameras.
-        crops: the rectangle of its 480x640 frame each cropped camera shows.
+        cameras: the cameras in recording order (none: state only), the (H, W) of their
+            images and the rectangle of its 480x640 frame each cropped camera shows.
         task: the registered task the episodes are of (None: not one of ours).
         state_extras: per-joint values ``observation.state`` has besides the positions:
             ``"vel"``, ``"eff"`` (export ``--include_velocity`` / ``--include_effort``).
@@ -62,20 +62,17 @@ class DatasetSettings:
 
     fps: int
     layout: str
-    cam_names: tuple[str, ...] = ()
-    image_size: tuple[int, int] | None = None
-    crops: tuple[CameraCrop, ...] = field(default=())
+    cameras: CameraSettings = field(default_factory=CameraSettings)
     task: str | None = None
     state_extras: tuple[str, ...] = ()
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready form (crops as their ``--crop`` texts)."""
+        """JSON-ready form (the cameras as ``CameraSettings.to_json``: ``cam_names``,
+        ``image_size``, ``crops`` as their ``--crop`` texts)."""
         return {
             "fps": int(self.fps),
             "layout": self.layout,
-            "cam_names": list(self.cam_names),
-            "image_size": list(self.image_size) if self.image_size else None,
-            "crops": [c.text() for c in self.crops],
+            **self.cameras.to_json(),
             "task": self.task,
             "state_extras": list(self.state_extras),
         }
@@ -83,14 +80,12 @@ class DatasetSettings:
     @classmethod
     def from_json(cls, data: Mapping[str, Any], where: str) -> DatasetSettings:
         """Parse :meth:`to_json`'s form; a one-line UserError naming ``where`` if it is not."""
+        cameras = CameraSettings.from_json(data, where)  # its own one-line error
         try:
-            size = data.get("image_size")
             settings = cls(
                 fps=int(data["fps"]),
                 layout=str(data["layout"]),
-                cam_names=tuple(str(c) for c in data.get("cam_names") or ()),
-                image_size=(int(size[0]), int(size[1])) if size else None,
-                crops=parse_crops(list(data.get("crops") or ())),
+                cameras=cameras,
                 task=str(data["task"]) if data.get("task") else None,
                 state_extras=tuple(str(e) for e in data.get("state_extras") or ()),
             )
@@ -100,10 +95,6 @@ class DatasetSettings:
         if settings.fps <= 0:
             raise UserError(f"{where}: dataset settings with fps {settings.fps}")
         return settings
-
-    def crop_texts(self) -> tuple[str, ...]:
-        """The ``--crop`` texts of the crops."""
-        return tuple(c.text() for c in self.crops)
 
 
 def read_dataset_settings(root: str | Path) -> DatasetSettings | None:
@@ -164,17 +155,19 @@ def reconcile(
     value the checkpoint was trained with and ``source``; returns the settings' value for
     every flag (the flag's own where there are no settings).
 
-    Flag names: ``fps``, ``layout``, ``cam_names`` (tuple), ``image_size`` ((H, W)),
-    ``crops`` (tuple of ``--crop`` texts), ``task``.
+    Flag names: ``fps``, ``layout``, ``task`` and the camera flags as
+    ``sim.camera_settings.camera_flags`` parses them: ``cam_names`` (tuple), ``image_size``
+    ((H, W)), ``crops`` (tuple of ``CameraCrop``).
     """
     if settings is None:
         return dict(flags)
+    cams = settings.cameras
     known = {
         "fps": settings.fps,
         "layout": settings.layout,
-        "cam_names": settings.cam_names,
-        "image_size": settings.image_size,
-        "crops": settings.crop_texts(),
+        "cam_names": cams.names,
+        "image_size": cams.size if cams.names else None,  # no size without a camera
+        "crops": cams.crops,
         "task": settings.task,
     }
     out: dict[str, Any] = {}
@@ -206,6 +199,8 @@ _FLAG = {"crops": "crop", "task": "task_name"}
 def _show(name: str, value: Any) -> str:
     if name == "image_size":
         return "x".join(str(v) for v in value)
+    if name == "crops":
+        return ";".join(c.text() for c in value) if value else "none"
     if isinstance(value, tuple):
-        return (";" if name == "crops" else ",").join(map(str, value)) if value else "none"
+        return ",".join(map(str, value)) if value else "none"
     return f"{value:g}" if isinstance(value, float) else str(value)

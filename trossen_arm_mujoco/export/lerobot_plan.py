@@ -41,7 +41,8 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings
 from trossen_arm_mujoco.export.lerobot_state import check_state_extras
 from trossen_arm_mujoco.robot.layout import LAYOUTS
-from trossen_arm_mujoco.sim.camera_crop import parse_crops
+from trossen_arm_mujoco.sim.camera_crop import CameraCrop, parse_crops
+from trossen_arm_mujoco.sim.camera_settings import DEFAULT_SIZE, CameraSettings
 from trossen_arm_mujoco.tasks import registry
 
 __all__ = [
@@ -100,19 +101,22 @@ class ExportPlan:
     layout: str
     env_names: list[str] | None
     lengths: list[int]  # per episode
-    crops: str = ""  # the episodes' ``crops`` attribute (record --crop; "" for none)
+    crops: tuple[CameraCrop, ...] = ()  # the episodes' ``crops`` attribute (record --crop)
     task_name: str | None = None  # the registered task of the episodes, when they name one
     state_extras: tuple[str, ...] = ()  # "vel", "eff": added to observation.state
 
     def settings(self) -> DatasetSettings:
         """What the dataset is made with (``export.dataset_settings``), for its info.json."""
         shapes = list(self.image_shapes.values())
+        cameras = CameraSettings(
+            names=tuple(self.cameras),
+            size=(int(shapes[0][0]), int(shapes[0][1])) if shapes else DEFAULT_SIZE,
+            crops=self.crops,
+        )
         return DatasetSettings(
             fps=int(self.fps),
             layout=self.layout,
-            cam_names=tuple(self.cameras),
-            image_size=(int(shapes[0][0]), int(shapes[0][1])) if shapes else None,
-            crops=parse_crops(self.crops),
+            cameras=cameras,
             task=self.task_name,
             state_extras=self.state_extras,
         )
@@ -412,7 +416,7 @@ def plan_export(
         layout=layout,
         env_names=env_names,
         lengths=lengths,
-        crops=_crops(first),
+        crops=_parsed_crops(first),
         task_name=_task_name(episodes),
         state_extras=state_extras,
     )
@@ -422,6 +426,14 @@ def _crops(ep: Episode) -> str:
     """An episode's ``crops`` attribute (``;``-joined ``--crop`` texts; "" for none)."""
     value = ep.attrs.get("crops", "")
     return value.decode() if isinstance(value, bytes) else str(value or "")
+
+
+def _parsed_crops(ep: Episode) -> tuple[CameraCrop, ...]:
+    """An episode's crops, parsed once here (a one-line UserError naming the file)."""
+    try:
+        return parse_crops(_crops(ep))
+    except UserError as exc:
+        raise UserError(f"{ep.path.name}: its crops attribute is unreadable ({exc})") from None
 
 
 def _task_name(episodes: list[Episode]) -> str | None:

@@ -141,11 +141,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _settings(args: argparse.Namespace):
-    from trossen_arm_mujoco.eval.env import parse_cameras, parse_image_size
     from trossen_arm_mujoco.eval.policies import is_function_spec
     from trossen_arm_mujoco.eval.runner import EvalSettings, available_cpus
     from trossen_arm_mujoco.fileio import check_writable_dir
-    from trossen_arm_mujoco.sim.camera_crop import parse_crops
+    from trossen_arm_mujoco.sim.camera_settings import DEFAULT_SIZE, CameraSettings, camera_flags
     from trossen_arm_mujoco.tasks import registry
 
     if not 1 <= args.num_episodes <= MAX_EPISODES:
@@ -165,9 +164,7 @@ def _settings(args: argparse.Namespace):
         "task": registry.canonical(args.task_name) if args.task_name else None,
         "fps": args.fps,
         "layout": args.layout,
-        "cam_names": parse_cameras(args.cam_names) if args.cam_names is not None else None,
-        "image_size": parse_image_size(args.image_size) if args.image_size else None,
-        "crops": tuple(c.text() for c in parse_crops(args.crop)) if args.crop else None,
+        **camera_flags(args.cam_names, args.image_size, args.crop),  # parsed once, here
     }
     inferred: dict = {}
     if args.policy not in ("scripted",) and not is_function_spec(args.policy):
@@ -185,10 +182,12 @@ def _settings(args: argparse.Namespace):
             )
         inferred["settings_source"] = source if carried is not None else None
     task = flags["task"] or DEFAULT_TASK
-    cams = flags["cam_names"] if flags["cam_names"] is not None else (
-        inferred.get("cam_names", ())
+    cameras = CameraSettings(  # a flag, else the checkpoint's (settings, then config.json)
+        names=flags["cam_names"] if flags["cam_names"] is not None else (
+            inferred.get("cam_names", ())),
+        size=flags["image_size"] or inferred.get("image_size", DEFAULT_SIZE),
+        crops=flags["crops"] or (),
     )  # fmt: skip
-    size = flags["image_size"] or inferred.get("image_size", (480, 640))
     if args.videos and not _has_av():
         raise UserError("--videos needs PyAV: pip install 'trossen-arm-mujoco[video]'")
     out = Path(args.output_dir).expanduser()
@@ -203,15 +202,13 @@ def _settings(args: argparse.Namespace):
         task=task,
         num_episodes=args.num_episodes,
         seed=args.seed,
-        cam_names=tuple(cams),
-        image_size=tuple(size),
+        cameras=cameras,
         fps=flags["fps"],
         episode_length=args.episode_length,
         layout=flags["layout"] or inferred.get("layout", "kit14"),
         videos=args.videos,
         output_dir=str(out),
         device=args.device,
-        crops=tuple(flags["crops"] or ()),
         controller_checks=args.controller_checks != "off",
         extra={
             "settings_source": inferred.get("settings_source"),

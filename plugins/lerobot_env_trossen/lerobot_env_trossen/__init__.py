@@ -47,13 +47,8 @@ from lerobot.envs.configs import EnvConfig
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.controller_limits_step import register as register_controller_limits
-from trossen_arm_mujoco.eval.env import (
-    KitPolicyEnv,
-    feature_spec,
-    parse_cameras,
-    parse_image_size,
-)
-from trossen_arm_mujoco.sim.camera_crop import parse_crops
+from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
+from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 from trossen_arm_mujoco.tasks import registry
 
 __all__ = ["TrossenEnvConfig"]
@@ -84,7 +79,9 @@ class TrossenEnvConfig(EnvConfig):
     features_map: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self._adopt_checkpoint_settings()
+        # the --env.cam_names / image_size / crop texts, parsed once here (a bad one fails
+        # here, with its format); the object goes on to every env
+        self.cameras = self._adopt_checkpoint_settings()
         name = registry.canonical(self.task or "")
         if name not in registry.kit_names():
             raise ValueError(
@@ -92,34 +89,35 @@ class TrossenEnvConfig(EnvConfig):
                 f"valid: {', '.join(registry.kit_names())}"
             )
         self.task = name
-        cams = parse_cameras(self.cam_names)
-        size = parse_image_size(self.image_size)
-        parse_crops(self.crop)  # a bad --env.crop fails here, with the format
+        cams = self.cameras
         self.features, self.features_map = {}, {}
-        for env_key, (key, kind, shape) in feature_spec(name, cams, size, self.layout).items():
+        spec = feature_spec(name, cams.names, cams.size, self.layout)
+        for env_key, (key, kind, shape) in spec.items():
             self.features[env_key] = PolicyFeature(type=FeatureType[kind], shape=tuple(shape))
             self.features_map[env_key] = key
 
-    def _adopt_checkpoint_settings(self) -> None:
-        """Take the task, rate, layout, cameras, image size and crops from the evaluated
-        checkpoint (``--policy.path``; ``trossen_arm_mujoco.export.dataset_settings``): a
-        ``--env.*`` flag not given takes the checkpoint's value, one that contradicts it is
-        refused, one that repeats it is accepted."""
+    def _adopt_checkpoint_settings(self) -> CameraSettings:
+        """The cameras of the ``--env.*`` flags; with an evaluated checkpoint
+        (``--policy.path``; ``trossen_arm_mujoco.export.dataset_settings``), the task, rate,
+        layout, cameras, image size and crops are taken from it: a ``--env.*`` flag not given
+        takes the checkpoint's value, one that contradicts it is refused, one that repeats it
+        is accepted. The text fields are set to what runs (what LeRobot records)."""
         from lerobot.configs import parser
 
+        own = CameraSettings.from_cli(self.cam_names, self.image_size, self.crop)
         path = parser.get_path_arg("policy")
         if not path:
-            return
+            return own
         from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_dir
         from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings, reconcile
 
         try:
             folder = checkpoint_dir(path)
         except UserError:
-            return  # not a local checkpoint (a hub id): LeRobot reports on it
+            return own  # not a local checkpoint (a hub id): LeRobot reports on it
         carried, source = checkpoint_settings(folder)
         if carried is None:
-            return
+            return own
 
         def given(flag: str):
             return parser.parse_arg(f"env.{flag}") is not None
@@ -128,19 +126,23 @@ class TrossenEnvConfig(EnvConfig):
             "task": registry.canonical(self.task) if given("task") else None,
             "fps": self.fps if given("fps") else None,
             "layout": self.layout if given("layout") else None,
-            "cam_names": parse_cameras(self.cam_names) if given("cam_names") else None,
-            "image_size": parse_image_size(self.image_size) if given("image_size") else None,
-            "crops": tuple(c.text() for c in parse_crops(self.crop)) if given("crop") else None,
+            "cam_names": own.names if given("cam_names") else None,
+            "image_size": own.size if given("image_size") else None,
+            "crops": own.crops if given("crop") else None,
         }
         merged = reconcile(carried, source, flags)
         self.task = merged["task"] or self.task
         self.fps = int(merged["fps"] or self.fps)
         self.layout = merged["layout"] or self.layout
-        if merged["cam_names"] is not None:
-            self.cam_names = ",".join(merged["cam_names"]) or "none"
-        if merged["image_size"]:
-            self.image_size = "x".join(str(v) for v in merged["image_size"])
-        self.crop = ";".join(merged["crops"] or ())
+        cameras = CameraSettings(
+            names=own.names if merged["cam_names"] is None else merged["cam_names"],
+            size=merged["image_size"] or own.size,
+            crops=merged["crops"] or (),
+        )
+        self.cam_names = ",".join(cameras.names) or "none"
+        self.image_size = "x".join(str(v) for v in cameras.size)
+        self.crop = ";".join(cameras.crop_texts())
+        return cameras
 
     @property
     def package_name(self) -> str:
@@ -150,13 +152,11 @@ class TrossenEnvConfig(EnvConfig):
     def gym_kwargs(self) -> dict:
         return {
             "task": self.task,
-            "cam_names": parse_cameras(self.cam_names),
-            "image_size": parse_image_size(self.image_size),
+            "cameras": self.cameras,
             "fps": self.fps,
             "episode_length": self.episode_length,
             "layout": self.layout,
             "render_mode": "rgb_array",
-            "crops": tuple(c.text() for c in parse_crops(self.crop)),
             "controller_checks": bool(self.controller_checks),
         }
 
