@@ -27,6 +27,8 @@ CTRL_DT = 0.02
 #: 0.2-0.4 % slow, mostly the tyres' 0.2-0.5 mm contact penetration shortening the rolling
 #: radius).
 SPEED_TOL = 0.01
+#: The wheel speeds' ramp, m/s^2 at the rim (MOBILE_AI_BASE_LIMITS).
+ACCEL = MOBILE_AI_BASE_LIMITS.acceleration
 
 
 @pytest.fixture(scope="module")
@@ -49,6 +51,17 @@ def run(robot: Robot, seconds: float) -> None:
     for _ in range(round(seconds / CTRL_DT)):
         robot.apply_control()
         mujoco.mj_step(robot.model, data, nstep=substeps)
+
+
+def ramped_wheels(robot: Robot) -> np.ndarray:
+    """The wheel speeds (rad/s) the base's command ramps to: control ticks without physics
+    until they stop changing."""
+    wheels = robot.compute_control()["base"]
+    for _ in range(200):
+        wheels, last = robot.compute_control()["base"], wheels
+        if np.array_equal(wheels, last):
+            return wheels
+    raise AssertionError(f"the wheel speeds did not settle: {wheels}")
 
 
 def measured_velocity(robot: Robot, command, settle=1.5, window=1.0) -> np.ndarray:
@@ -82,11 +95,42 @@ def test_base_moves_at_the_commanded_speed(robot, command):
     assert robot.controllers["base"].clipped_commands == 0
 
 
+@pytest.mark.parametrize("command", [(0.5, 0.0), (0.6, 0.8), (0.3, -0.5), (0.0, 1.0)], ids=str)
+def test_from_rest_the_base_ramps_up_on_the_commanded_path(robot, command):
+    """From rest the wheel speeds ramp at ACCEL (m/s^2 at the faster rim), both by one
+    factor: after t s the base moves at min(1, ACCEL t / fastest rim speed) times the
+    command, x.vel and theta.vel alike (the path's curvature from the start; with the wheels
+    at their torque limit instead, the base drove straight for the first 0.5 s)."""
+    base = robot.view.get_move_group("base")
+    rim = float(np.abs(base.wheel_speeds(*command)).max()) * base.wheel_radius
+    robot.update_control({"base": command})
+    elapsed = 0.0
+    for t in (0.2, 0.5, 1.5):
+        run(robot, t - elapsed)
+        elapsed = t
+        want = min(1.0, ACCEL * t / rim) * np.asarray(command)
+        got = base.get_base_velocity(robot.view.data)
+        # the servo lags the ramp by a few ms; the casters' swivel slows a turn's first 0.2 s
+        np.testing.assert_allclose(got, want, atol=0.04, err_msg=f"at {t} s")
+    assert robot.controllers["base"].clipped_commands == 0
+
+
+def test_from_rest_the_distance_is_the_ramp_then_the_commanded_speed(robot):
+    """0.5 m/s from rest for 1 s: v t - v^2 / (2 ACCEL) = 0.344 m (0.625 s of ramp, then
+    the commanded speed); 0.25 m would need an instant start."""
+    base = robot.view.get_move_group("base")
+    x0 = base.get_planar_pose(robot.view.data)[:2]
+    robot.update_control({"base": (0.5, 0.0)})
+    run(robot, 1.0)
+    moved = float(np.hypot(*(base.get_planar_pose(robot.view.data)[:2] - x0)))
+    assert moved == pytest.approx(0.5 * 1.0 - 0.5**2 / (2 * ACCEL), rel=0.02)
+
+
 def test_stop_holds_the_base_still(robot):
     base = robot.view.get_move_group("base")
     measured_velocity(robot, (0.6, 0.3))
     robot.update_control({"base": (0.0, 0.0)})
-    run(robot, 3.0)  # the base brakes in about 0.7 s, then rocks on its casters a little
+    run(robot, 3.0)  # the base brakes in about 0.8 s, then rocks on its casters a little
     assert np.abs(base.get_base_velocity(robot.view.data)).max() < 1e-3
     robot.hold()  # the no-op control of the base is zero wheel speed
     np.testing.assert_array_equal(base.ctrl, [0.0, 0.0])
@@ -115,7 +159,7 @@ def test_out_of_limit_commands_are_clipped_and_counted(robot, command, executed)
     controller = robot.controllers["base"]
     robot.update_control({"base": command})
     assert controller.last_clipped and controller.clipped_commands == 1
-    wheels = robot.compute_control()["base"]
+    wheels = ramped_wheels(robot)
     base = robot.view.get_move_group("base")
     np.testing.assert_allclose(base.body_velocity(wheels), executed, atol=1e-12)
     robot.update_control({"base": (0.2, 0.1)})  # within the limits: not counted
@@ -129,7 +173,11 @@ def test_a_command_too_fast_for_the_wheels_keeps_its_curvature(robot):
     # (1 + 0.192) / 0.0851 = 14.0 rad/s > the wheels' 4 pi rad/s (URDF velocity limit)
     robot.update_control({"base": (1.0, 1.0)})
     assert controller.clipped_commands == 1
-    wheels = robot.compute_control()["base"]
+    first = robot.compute_control()["base"]  # the ramp's first tick: the same curvature
+    v, w = base.body_velocity(first)
+    assert v / w == pytest.approx(1.0)
+    assert np.abs(first).max() * base.wheel_radius == pytest.approx(ACCEL * CTRL_DT)
+    wheels = ramped_wheels(robot)
     assert np.abs(wheels).max() == pytest.approx(4 * np.pi)
     v, w = base.body_velocity(wheels)
     assert v / w == pytest.approx(1.0) and v < 1.0
@@ -137,7 +185,8 @@ def test_a_command_too_fast_for_the_wheels_keeps_its_curvature(robot):
 
 def test_limits_are_the_real_base_and_the_arms_keep_theirs():
     config = mobile_ai_config()
-    assert MOBILE_AI_BASE_LIMITS == BaseVelocityLimits(1.0, 1.0)  # trossen_slate MAX_VEL_X/Z
+    # trossen_slate MAX_VEL_X/Z; the ramp stays under what the wheels' 4 N m give (0.97 m/s^2)
+    assert MOBILE_AI_BASE_LIMITS == BaseVelocityLimits(1.0, 1.0, acceleration=0.8)
     assert config.groups["base"].base_limits == MOBILE_AI_BASE_LIMITS
     for side in ("left", "right"):
         assert config.groups[f"{side}_arm"].velocity_limits == (3.375,) * 3 + (7.0,) * 3

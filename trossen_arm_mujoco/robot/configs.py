@@ -324,7 +324,11 @@ MOBILE_AI_WHEEL_RADIUS = 0.0851
 MOBILE_AI_BASE_HOME = [0.0, 0.0, 0.211, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
 #: The real base's command limits: trossen_slate's ``set_cmd_vel`` clips x.vel to +-1.0 m/s
 #: and theta.vel to +-1.0 rad/s (the SLATE's published top speed, 3.6 km/h, is 1.0 m/s).
-MOBILE_AI_BASE_LIMITS = BaseVelocityLimits(x_vel=1.0, theta_vel=1.0)
+#: The wheel speeds ramp at 0.8 m/s^2 (own choice, no published figure): under the 0.97
+#: m/s^2 that the wheels' 4 N m (URDF) give the 96.8 kg robot (2 * 4 / 0.0851 / 96.8), so
+#: that the wheel servos never saturate and the base keeps the commanded curvature while it
+#: speeds up (with both wheels at their torque limit it drove straight ahead instead).
+MOBILE_AI_BASE_LIMITS = BaseVelocityLimits(x_vel=1.0, theta_vel=1.0, acceleration=0.8)
 
 
 def mobile_ai_config() -> RobotConfig:

@@ -297,9 +297,16 @@ class BaseVelocityController(Controller):
     changed so counts in ``clipped_commands``; ``last_clipped`` says whether the latest was.
     A command holds until the next one (the real base stops after 300 ms without one; the
     simulation does not time out).
+
+    Ramp: with ``base_limits.acceleration`` (m/s^2 at the wheel rims), each tick moves the
+    applied wheel speeds toward the command's by at most ``acceleration / wheel_radius *
+    ctrl_dt`` rad/s, both by one factor (``scale_step``), so that the base keeps the
+    command's curvature while it speeds up; like the other controllers it keeps no state
+    (it starts from the control applied in ``data``).
     """
 
     command_mode = "base_velocity"
+    scale_step = True  # both wheels ramp by one factor: the path's curvature is kept
 
     def __init__(self, group, model, ctrl_dt=None):
         if not isinstance(group, DiffDriveBaseGroup):
@@ -339,6 +346,25 @@ class BaseVelocityController(Controller):
 
     def _target(self, data, cmd):
         return self.group.wheel_speeds(cmd[0], cmd[1])
+
+    @property
+    def max_step(self) -> np.ndarray | None:
+        """Most the wheel speeds change in one tick, (2,) rad/s; None: no ramp."""
+        return self._steps()[0]
+
+    def _steps(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """(wheel speed step per tick, its negative) from the base's acceleration limit,
+        cached until the limits or ``ctrl_dt`` change; (None, None) without one."""
+        group = self.group
+        limits = group.base_limits
+        dt = self.ctrl_dt if self.ctrl_dt is not None else float(self.model.opt.timestep)
+        key = self._step_key
+        if key is None or key[0] is not limits or key[1] != dt:
+            acc = None if limits is None else limits.acceleration
+            self._step = None if acc is None else np.full(2, acc / group.wheel_radius * dt)
+            self._neg_step = None if acc is None else -self._step
+            self._step_key = (limits, dt)
+        return self._step, self._neg_step
 
 
 CONTROLLERS: dict[str, type[Controller]] = {

@@ -11,7 +11,7 @@ between the wheels' contact points):
 
 (both wheels turn about the base's +y: a positive speed drives forward). The
 ``base_velocity`` controller (``controllers.BaseVelocityController``) takes such commands,
-kept within ``BaseVelocityLimits``.
+kept within ``BaseVelocityLimits`` (speeds, and the acceleration the wheel speeds ramp at).
 
 Units: m, rad, s; poses in the world frame (4x4, or 7 values [x, y, z, qw, qx, qy, qz]);
 ``planar_pose`` is (x, y, yaw) of the base on the floor.
@@ -47,16 +47,24 @@ class BaseVelocityLimits:
 
     x_vel: forward/backward speed, m/s (commands beyond +-x_vel are clipped to it).
     theta_vel: yaw rate, rad/s (clipped likewise).
+    acceleration: the most each wheel's rim speeds up or slows down, m/s^2 (so the base's
+        x.vel changes by at most this, its theta.vel by at most 2 * acceleration / track
+        rad/s^2): the wheel speeds ramp toward a new command, both by one factor, keeping
+        the command's curvature while they ramp. None: no ramp (the wheels' torque alone
+        limits the acceleration).
     The wheels' own limit (their actuators' ``ctrlrange``, rad/s) applies on top: a command
     whose wheel speeds exceed it is scaled down as a whole, keeping its curvature.
     """
 
     x_vel: float
     theta_vel: float
+    acceleration: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("x_vel", "theta_vel"):
+        for name in ("x_vel", "theta_vel", "acceleration"):
             value = getattr(self, name)
+            if value is None and name == "acceleration":
+                continue
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise UserError(f"base velocity limit {name} must be a number > 0, got {value!r}")
 
