@@ -12,6 +12,11 @@ import pytest
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval import controller_limits_step as cls
+from trossen_arm_mujoco.export.dataset_settings import (
+    CHECKPOINT_FILE,
+    DatasetSettings,
+    write_checkpoint_settings,
+)
 from trossen_arm_mujoco.real.controller_checks import controller_limits
 
 
@@ -29,7 +34,8 @@ def _checkpoint(folder: Path, size: int = 14, fps: float | None = 50) -> Path:
     (folder / cls.PREPROCESSOR_FILE).write_text(json.dumps(pre))
     (folder / cls.POSTPROCESSOR_FILE).write_text(json.dumps(post))
     if fps is not None:
-        (folder / cls.SETTINGS_FILE).write_text(json.dumps({"fps": fps, "layout": "kit14"}))
+        settings = DatasetSettings(fps=fps, layout="kit14", task="sim_transfer_cube")
+        write_checkpoint_settings(folder, settings)
     return folder
 
 
@@ -99,8 +105,8 @@ def test_a_folder_that_is_not_a_checkpoint_is_one_line(tmp_path, capsys):
     with pytest.raises(UserError, match="not a LeRobot checkpoint with saved processors"):
         cls.add_to_checkpoint(tmp_path)
     ckpt = _checkpoint(tmp_path / "ckpt")
-    (ckpt / cls.SETTINGS_FILE).write_text("{not json")
-    with pytest.raises(UserError, match="trossen_settings.json: unreadable"):
+    (ckpt / CHECKPOINT_FILE).write_text("{not json")
+    with pytest.raises(UserError, match="trossen_settings.json: cannot read it"):
         cls.add_to_checkpoint(ckpt)
     assert cls.main([str(tmp_path / "nothing")]) == 2
     err = capsys.readouterr().err
@@ -159,8 +165,7 @@ def test_the_steps_hold_each_joint_near_its_measured_position(tmp_path):
 def test_a_range_only_step_from_an_older_checkpoint_still_loads(tmp_path):
     torch = pytest.importorskip("torch")
     pytest.importorskip("lerobot")
-    from lerobot.processor import ProcessorStepRegistry
-    from lerobot.processor import TransitionKey
+    from lerobot.processor import ProcessorStepRegistry, TransitionKey
 
     cls.register()
     low, high = cls.controller_bounds(14)

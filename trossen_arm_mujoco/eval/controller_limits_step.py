@@ -51,6 +51,7 @@ from pathlib import Path
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings
 from trossen_arm_mujoco.fileio import atomic_path
 from trossen_arm_mujoco.real.arm_controller import controller_target
 from trossen_arm_mujoco.real.controller_checks import controller_limits
@@ -70,8 +71,6 @@ MEASURED_NAME = "trossen_arm_measured_joints"
 #: The saved postprocessor and preprocessor of a LeRobot checkpoint.
 POSTPROCESSOR_FILE = "policy_postprocessor.json"
 PREPROCESSOR_FILE = "policy_preprocessor.json"
-#: The settings file this package writes beside a checkpoint (its ``fps``).
-SETTINGS_FILE = "trossen_settings.json"
 #: Fraction of each joint's velocity limit a goal may ask from the measured joints (the
 #: driver starts from its setpoint, which leads the measured joints a little in motion).
 SPEED_MARGIN = 0.75
@@ -141,8 +140,9 @@ def _place(steps: list[dict[str, Any]], name: str, step: dict[str, Any], *, afte
 def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
     """Add (or bring up to date) the two steps in the checkpoint's saved processors; False
     when they are there already as they would be written. The action size comes from the
-    checkpoint's ``config.json``, the rate from ``fps`` or its ``trossen_settings.json``
-    (without either, only the range is clipped)."""
+    checkpoint's ``config.json``, the rate from ``fps``, else the checkpoint's settings
+    (``export.dataset_settings.checkpoint_settings``: its ``trossen_settings.json`` or its
+    training dataset's metadata; without any, only the range is clipped)."""
     folder = Path(folder)
     post, pre = folder / POSTPROCESSOR_FILE, folder / PREPROCESSOR_FILE
     try:
@@ -153,11 +153,9 @@ def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
     except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
         raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
                         f"({exc})") from None  # fmt: skip
-    if fps is None and (folder / SETTINGS_FILE).is_file():
-        try:
-            fps = float(_read(folder / SETTINGS_FILE)["fps"])
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise UserError(f"{folder / SETTINGS_FILE}: unreadable ({exc})") from None
+    if fps is None:  # the checkpoint's own settings, else its dataset's
+        settings, _ = checkpoint_settings(folder)
+        fps = None if settings is None else float(settings.fps)
     low, high = controller_bounds(size)
     config: dict[str, Any] = {"low": low, "high": high}
     old = next((s for s in post_steps if s.get("registry_name") == REGISTRY_NAME), None)
