@@ -1,10 +1,11 @@
 """One documentation page per registered gymnasium id, and its picture.
 
-For each id of ``gym.registration.ENV_IDS`` this builds the real env and writes
-``docs/gym/<id>.md``: its observation and action spaces (printed from the env), reward,
-success and termination (the task code's docstrings and config), the config keys with their
-values and valid ranges (``tasks.config_schema.KEYS``), and ``docs/images/gym/<id>.png``, a
-small ``rgb_array`` render after ``reset(seed=0)``. The pages and pictures are committed;
+For each id of ``gym.registration.ENV_IDS`` of a shipped task this builds the real env and
+writes ``docs/gym/<id>.md``: its observation and action spaces (printed from the env),
+reward, success and termination (the task code's docstrings and config), the config keys
+with their values and valid ranges (``tasks.config_schema.KEYS`` and the task's own
+``TaskEntry.keys``), and ``docs/images/gym/<id>.png``, a small ``rgb_array`` render after
+``reset(seed=0)``. The pages and pictures are committed;
 ``tests/docs/test_gym_pages.py`` checks the pages match the envs (rerun this after changing
 a task, its config or the spaces).
 
@@ -41,10 +42,12 @@ def _doc(cls: type, method: str) -> str:
     return " ".join((inspect.getdoc(found) or "").split()) if found else ""
 
 
-def _config_rows(config: dict[str, Any]) -> list[str]:
-    """Table rows ``| key | value | valid |`` of a task config (``randomization`` aside)."""
+def _config_rows(config: dict[str, Any], own: dict[str, Any]) -> list[str]:
+    """Table rows ``| key | value | valid |`` of a task config (``randomization`` aside);
+    ``own``: the task's own keys (its ``TaskEntry.keys``), beside the shared ``KEYS``."""
     from trossen_arm_mujoco.tasks.config_schema import KEYS
 
+    KEYS = {**KEYS, **own}
     rows = ["| Key | This task | Valid |", "|---|---|---|"]
     for key, value in config.items():
         if key == "randomization":
@@ -164,7 +167,7 @@ def page_markdown(env_id: str, env: Any) -> str:
         "The `randomization` section is described in "
         "[Domain randomization](../concepts/randomization.md).",
         "",
-        *_config_rows(config),
+        *_config_rows(config, dict(entry.keys)),
         "",
     ]
     return "\n".join(lines)
@@ -182,7 +185,11 @@ def write_all(check: bool = False) -> list[str]:
     stale = []
     PAGES.mkdir(parents=True, exist_ok=True)
     IMAGES.mkdir(parents=True, exist_ok=True)
-    for env_id in ENV_IDS:
+    from trossen_arm_mujoco.tasks import registry
+
+    for env_id, (_, task, _) in ENV_IDS.items():
+        if registry.load(task).package != "trossen_arm_mujoco":
+            continue  # an installed package's env (examples/my_trossen_task): its own docs
         env = gym.make(env_id, render_mode="rgb_array", width=WIDTH, height=HEIGHT)
         try:
             env.reset(seed=0)
