@@ -29,14 +29,15 @@ from trossen_arm_mujoco.collect.pipeline import (
     EpisodeRecorder,
     RecordSettings,
     StepHook,
+    episode_attrs,
     episode_seed,
+    write_episode,
 )
 from trossen_arm_mujoco.data.schema import SCHEMA
 from trossen_arm_mujoco.data.writer import EpisodeWriter
 from trossen_arm_mujoco.real.validate import ArmLimits, TrajectoryError, validate_actions
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, LAYOUTS
 from trossen_arm_mujoco.tasks import registry
-from trossen_arm_mujoco.tasks.randomization_record import record_to_json
 
 __all__ = ["JointPolicyRecorder", "is_joint_policy", "make_recorder"]
 
@@ -115,40 +116,21 @@ class JointPolicyRecorder:
         poses = {name: obj.get_pose(env.data) for name, obj in env.objects.items()}
         policy = self.policy_cls(task, inject_noise=s.inject_noise, rng=rng)
         dtype = SCHEMA.array("action").dtype
-        attrs = {
-            "task_name": self.entry.name,
-            "seed": seed,
-            "base_seed": int(s.base_seed),
-            "attempt": int(attempt),
-            "inject_noise": bool(s.inject_noise),
-            "dt": self.policy_dt,
-            "layout": self.layout_name,
-            "initial_env_state": np.concatenate(list(poses.values())),
-            "object_names": list(poses),
-            "success": False,
-            "real_replay_fps": self.fps,
-            "speed_limited_values": 0,
-            "shadows": bool(s.shadows),
-            "visual": s.visual,
-            **({"crops": ";".join(s.crops)} if s.crops else {}),
-            **(extra_attrs or {}),
-        }
-        if self.sampler.randomization is not None:
-            attrs["randomization"] = record_to_json(self.sampler.randomization)
-        actions = np.empty((s.episode_len, self.layout.size))
-        rewards = np.empty(s.episode_len)
-        with EpisodeWriter(
-            path,
-            episode_len=s.episode_len,
-            camera_names=s.cam_names,
-            height=s.height,
-            width=s.width,
-            compression=s.compression,
-            attrs=attrs,
-            env_state_dim=len(attrs["initial_env_state"]),
-            overwrite=overwrite,
-            create_folder=create_folder,
-        ) as writer:
+        attrs = episode_attrs(
+            s,
+            self.entry.name,
+            attempt,
+            self.policy_dt,
+            poses,
+            self.sampler.randomization,
+            extra_attrs,
+            layout=self.layout_name,
+            speed_limited_values=0,
+        )
+
+        def play(writer: EpisodeWriter) -> tuple[np.ndarray, bool, dict]:
+            actions = np.empty((s.episode_len, self.layout.size))
+            rewards = np.empty(s.episode_len)
             obs = task.get_observation()
             for t in range(s.episode_len):
                 images = env.render_images()
@@ -171,25 +153,10 @@ class JointPolicyRecorder:
                 if progress is not None:
                     progress()
             speed_ok, peak_use = self.check_real_replay(actions)
-            success = bool(rewards[-1] == self.max_reward) and speed_ok
-            writer.set_attrs(
-                success=success,
-                final_reward=float(rewards[-1]),
-                max_reward=float(rewards.max()),
-                real_replay_checked=speed_ok,
-                peak_speed_fraction=peak_use,
-            )
-        return EpisodeOutcome(
-            attempt,
-            seed,
-            success,
-            float(rewards[-1]),
-            float(rewards.max()),
-            Path(path),
-            task_max_reward=self.max_reward,
-            real_replay_checked=speed_ok,
-            nbytes=Path(path).stat().st_size,
-        )
+            checked = {"real_replay_checked": speed_ok, "peak_speed_fraction": peak_use}
+            return rewards, speed_ok, checked
+
+        return write_episode(s, path, attrs, play, self.max_reward, overwrite, create_folder)
 
     def check_real_replay(self, actions: np.ndarray) -> tuple[bool, float]:
         """The arms' 14 targets through the real-replay validator at the recording rate,

@@ -48,14 +48,17 @@ from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 __all__ = [
     "ACTION_SPEED_LIMITS",
     "EpisodeOutcome",
+    "EpisodePlay",
     "EpisodeRecorder",
     "RecordSettings",
     "StepHook",
     "TimeStep",
     "default_cameras",
+    "episode_attrs",
     "episode_seed",
     "limit_speed",
     "policy_minimum_episode_len",
+    "write_episode",
 ]
 
 #: Speed limit of each of the 16 action values (URDF: rad/s for the joints, m/s for both
@@ -326,60 +329,25 @@ class EpisodeRecorder:
         seed = episode_seed(s.base_seed, attempt)
         rng = np.random.default_rng(seed)
         actions, poses = self.scripted_rollout(rng)
-        max_reward = self.max_reward
         speed_ok, peak_use = self.check_real_replay(actions)
-        attrs = {
-            "task_name": self.entry.name,
-            "seed": seed,
-            "base_seed": int(s.base_seed),
-            "attempt": int(attempt),
-            "inject_noise": bool(s.inject_noise),
-            "dt": self.policy_dt,
-            **({"box_pose": poses["box"]} if "box" in poses else {}),
-            "initial_env_state": np.concatenate(list(poses.values())),
-            "object_names": list(poses),
-            "success": False,
-            "real_replay_fps": self.fps,
-            "real_replay_checked": speed_ok,
-            "peak_speed_fraction": peak_use,
-            "speed_limited_values": int(self.last_speed_limited),
-            "shadows": bool(s.shadows),
-            "visual": s.visual,
-            **({"crops": ";".join(s.crops)} if s.crops else {}),
-            **(extra_attrs or {}),
-        }
-        if self.last_randomization is not None:
-            attrs["randomization"] = record_to_json(self.last_randomization)
-        with EpisodeWriter(
-            path,
-            episode_len=s.episode_len,
-            camera_names=s.cam_names,
-            height=s.height,
-            width=s.width,
-            compression=s.compression,
-            attrs=attrs,
-            env_state_dim=len(attrs["initial_env_state"]),
-            overwrite=overwrite,
-            create_folder=create_folder,
-        ) as writer:
-            rewards = self.replay(actions, poses, writer, progress)
-            success = bool(rewards[-1] == max_reward) and speed_ok
-            writer.set_attrs(
-                success=success,
-                final_reward=float(rewards[-1]),
-                max_reward=float(rewards.max()),
-            )
-        return EpisodeOutcome(
+        attrs = episode_attrs(
+            s,
+            self.entry.name,
             attempt,
-            seed,
-            success,
-            float(rewards[-1]),
-            float(rewards.max()),
-            Path(path),
-            task_max_reward=max_reward,
+            self.policy_dt,
+            poses,
+            self.last_randomization,
+            extra_attrs,
+            **({"box_pose": poses["box"]} if "box" in poses else {}),
             real_replay_checked=speed_ok,
-            nbytes=Path(path).stat().st_size,
+            peak_speed_fraction=peak_use,
+            speed_limited_values=int(self.last_speed_limited),
         )
+
+        def play(writer: EpisodeWriter) -> tuple[np.ndarray, bool, dict]:
+            return self.replay(actions, poses, writer, progress), speed_ok, {}
+
+        return write_episode(s, path, attrs, play, self.max_reward, overwrite, create_folder)
 
     def check_real_replay(self, actions: np.ndarray) -> tuple[bool, float]:
         """Run the real-replay validator at the recording rate (1 / policy_dt), as
@@ -395,6 +363,98 @@ class EpisodeRecorder:
         """Close both samplers and the envs (and renderers) they own."""
         self.ee_sampler.close()
         self.joint_sampler.close()
+
+
+def episode_attrs(
+    settings: RecordSettings,
+    task_name: str,
+    attempt: int,
+    dt: float,
+    poses: dict,
+    randomization: dict | None,
+    extra_attrs: dict | None = None,
+    **fields,
+) -> dict:
+    """The root attributes of a recorded episode file: the run's (seed of ``attempt``,
+    settings, ``dt`` s per step, the objects' initial ``poses`` {name: (7,)}, the
+    randomization record as JSON when there is one), then the recorder's ``fields``, then
+    the caller's ``extra_attrs``. ``success`` starts False; ``write_episode`` sets it."""
+    s = settings
+    attrs = {
+        "task_name": task_name,
+        "seed": episode_seed(s.base_seed, attempt),
+        "base_seed": int(s.base_seed),
+        "attempt": int(attempt),
+        "inject_noise": bool(s.inject_noise),
+        "dt": dt,
+        "initial_env_state": np.concatenate(list(poses.values())),
+        "object_names": list(poses),
+        "success": False,
+        "real_replay_fps": 1.0 / dt,
+        "shadows": bool(s.shadows),
+        "visual": s.visual,
+        **({"crops": ";".join(s.crops)} if s.crops else {}),
+        **fields,
+        **(extra_attrs or {}),
+    }
+    if randomization is not None:
+        attrs["randomization"] = record_to_json(randomization)
+    return attrs
+
+
+#: (open episode writer) -> (rewards (T,), real-replay check passed, attributes to add)
+EpisodePlay = Callable[[EpisodeWriter], tuple[np.ndarray, bool, dict]]
+
+
+def write_episode(
+    settings: RecordSettings,
+    path: Path,
+    attrs: dict,
+    play: EpisodePlay,
+    max_reward: float,
+    overwrite: bool = False,
+    create_folder: bool = True,
+) -> EpisodeOutcome:
+    """Write one episode file with ``play`` streaming its steps, and judge it.
+
+    The file is ``data.writer.EpisodeWriter``'s: written to a temporary file and renamed
+    into ``path`` only when ``play`` returns (atomic), never over an existing file unless
+    ``overwrite``; ``create_folder=False`` needs the folder to exist. Success: the last
+    reward equals ``max_reward`` and the real-replay check passed; ``success``,
+    ``final_reward``, ``max_reward`` and ``play``'s attributes are set on the file.
+    """
+    s = settings
+    with EpisodeWriter(
+        path,
+        episode_len=s.episode_len,
+        camera_names=s.cam_names,
+        height=s.height,
+        width=s.width,
+        compression=s.compression,
+        attrs=attrs,
+        env_state_dim=len(attrs["initial_env_state"]),
+        overwrite=overwrite,
+        create_folder=create_folder,
+    ) as writer:
+        rewards, speed_ok, more = play(writer)
+        success = bool(rewards[-1] == max_reward) and speed_ok
+        writer.set_attrs(
+            success=success,
+            final_reward=float(rewards[-1]),
+            max_reward=float(rewards.max()),
+            **more,
+        )
+    return EpisodeOutcome(
+        int(attrs["attempt"]),
+        int(attrs["seed"]),
+        success,
+        float(rewards[-1]),
+        float(rewards.max()),
+        Path(path),
+        task_max_reward=max_reward,
+        real_replay_checked=speed_ok,
+        nbytes=Path(path).stat().st_size,
+    )
 
 
 def default_cameras(task_name: str) -> list[str]:
