@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from trossen_arm_mujoco import cli
+from trossen_arm_mujoco.eval.mobile_base import mobile_names
 from trossen_arm_mujoco.tasks import registry
 
 REPO = Path(__file__).resolve().parents[2]
@@ -65,7 +66,10 @@ def test_scripted_run_writes_eval_info(tmp_path, capsys):
 
 BAD_INPUTS = {
     "unknown task": (["--task_name", "sim_nope"], "unknown task 'sim_nope'; valid tasks:"),
-    "single-arm task": (["--task_name", "reach"], "task 'reach' is not a Stationary AI kit task"),
+    "single-arm task": (
+        ["--task_name", "reach"],
+        "task 'reach' is neither a Stationary AI kit nor a Mobile AI task",
+    ),
     "unknown camera": (["--cam_names", "cam_nope"], "unknown camera 'cam_nope'; valid cameras:"),
     "bad image size": (["--image_size", "48by64"], "image size must look like HxW"),
     "zero image size": (["--image_size", "0x64"], "image size must look like HxW"),
@@ -187,10 +191,12 @@ def test_subprocess_exit_status_and_exact_stderr(tmp_path):
     )  # fmt: skip
     assert done.returncode == 2
     assert done.stdout == ""
-    kit = ", ".join(registry.kit_names())  # the shipped ones and installed packages'
-    assert kit.count("sim_insertion, sim_transfer_cube") == 1
+    # the shipped ones and installed packages', then the Mobile AI's
+    kit = ", ".join(registry.kit_names() + mobile_names())
+    assert kit.count("sim_insertion, sim_transfer_cube") == 1 and "mobile_pick_place" in kit
     assert done.stderr == (
-        f"error: task 'reach' is not a Stationary AI kit task; valid tasks: {kit}\n"
+        f"error: task 'reach' is neither a Stationary AI kit nor a Mobile AI task; valid "
+        f"tasks: {kit}\n"
     )
     assert not (tmp_path / "eval").exists()
 

@@ -24,6 +24,7 @@ from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.data.schema import JOINT_NAMES, JOINT_UNITS, NUM_JOINTS
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import atomic_path
+from trossen_arm_mujoco.robot.layout import LAYOUTS
 
 __all__ = [
     "H264_ENCODERS",
@@ -31,6 +32,7 @@ __all__ = [
     "CameraGrid",
     "grid_shape",
     "h264_encoder",
+    "joint_labels",
     "plot_joints",
     "video_info",
     "write_episode_video",
@@ -223,9 +225,19 @@ def _step_period(episode: Episode) -> float | None:
     return dt if math.isfinite(dt) and dt > 0 else None
 
 
+def joint_labels(episode: Episode) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(names, units) of the episode's 16 qpos/action values: its layout's (root attribute
+    ``layout``, e.g. ``mobileai``), else the vendor's 16."""
+    layout = LAYOUTS.get(str(episode.attrs.get("layout", "")))
+    return (JOINT_NAMES, JOINT_UNITS) if layout is None else (layout.names, layout.units)
+
+
 def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80) -> Path:
     """Write one PNG with a subplot per joint (16): qpos and action against time (s), or
-    against the step index when the episode's ``dt`` is not a positive number.
+    against the step index when the episode's ``dt`` is not a positive number. Titles and
+    units are the episode's layout's (root attribute ``layout``: a Mobile AI episode's
+    ``mobileai`` rows are the arms' 14 values, then ``x.vel`` m/s, ``theta.vel`` rad/s;
+    without it the vendor's 16).
 
     Returns:
         ``out_png`` (replaced if it exists; written to a temp name first).
@@ -241,11 +253,12 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
     fig = Figure(figsize=(16, 12), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(4, 4, sharex=True).ravel()
+    names, units = joint_labels(episode)
     for j, ax in enumerate(axes[:NUM_JOINTS]):
         ax.plot(time, episode.qpos[:, j], label="qpos", linewidth=1.2)
         ax.plot(time, episode.action[:, j], "--", label="action", linewidth=1.0)
-        ax.set_title(JOINT_NAMES[j], fontsize=9)
-        ax.set_ylabel(JOINT_UNITS[j], fontsize=8)
+        ax.set_title(names[j], fontsize=9)
+        ax.set_ylabel(units[j], fontsize=8)
         ax.tick_params(labelsize=7)
     for ax in axes[-4:]:
         ax.set_xlabel("time (s)" if dt is not None else "step (no valid dt)", fontsize=8)

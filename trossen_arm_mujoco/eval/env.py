@@ -2,7 +2,10 @@
 layout, so a policy trained on an export runs in the sim unchanged.
 
 One env = one registered bimanual task (``sim_transfer_cube``, ``sim_insertion``) in the
-joint flavour (position actuators, like the real arms), at a chosen rate:
+joint flavour (position actuators, like the real arms), at a chosen rate; or a Mobile AI
+task (``mobile_pick_place``) in the ``mobileai`` layout: the arms as below, then the base's
+``x.vel``, ``theta.vel`` (measured in the state, commanded in the action; clipped to the real
+base's limits and counted, never a fault: ``eval.mobile_base``):
 
 - observation (a dict, as LeRobot's gym envs give it): ``agent_pos`` (joint positions),
   ``velocity`` (joint velocities), ``environment_state`` (object poses: xyz m + quat wxyz
@@ -54,9 +57,10 @@ import numpy as np
 
 from trossen_arm_mujoco.clip import clip
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
+from trossen_arm_mujoco.eval.mobile_base import MOBILE_LAYOUTS, MobileBase, mobile_names
 from trossen_arm_mujoco.gym.inputs import reset_options
 from trossen_arm_mujoco.real.arm_controller import GOAL_TIME_FACTOR, KitController
-from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, LAYOUTS, VENDOR16_LAYOUT
+from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, LAYOUTS, MOBILEAI_LAYOUT, VENDOR16_LAYOUT
 from trossen_arm_mujoco.robot.lerobot_keys import (
     ACTION_KEY,
     ENV_STATE_KEY,
@@ -83,6 +87,7 @@ __all__ = [
     "parse_image_size",
     "controller_timing",
     "rate_timing",
+    "task_layouts",
 ]
 
 #: Physics step of the scenes (s); a rate's step is the largest that divides its period.
@@ -151,9 +156,24 @@ KIT_LAYOUTS = ("kit14", "vendor16")
 
 
 def _layout(name: str):
-    if name not in KIT_LAYOUTS:
-        raise unknown_name_error("layout", name, KIT_LAYOUTS)
+    if name not in KIT_LAYOUTS + MOBILE_LAYOUTS:
+        raise unknown_name_error("layout", name, KIT_LAYOUTS + MOBILE_LAYOUTS)
     return LAYOUTS[name]
+
+
+def task_layouts(task: str) -> tuple[str, ...]:
+    """The layouts a policy of ``task`` may use, its default first: ``kit14``, ``vendor16``
+    for a Stationary AI kit task, ``mobileai`` for a Mobile AI one; a UserError naming the
+    tasks eval takes for any other."""
+    entry = registry.load(task)
+    if entry.name in registry.kit_names():
+        return KIT_LAYOUTS
+    if entry.name in mobile_names():
+        return MOBILE_LAYOUTS
+    raise UserError(
+        f"task '{entry.name}' is neither a Stationary AI kit nor a Mobile AI task; valid "
+        f"tasks: {', '.join(registry.kit_names() + mobile_names())}"
+    )
 
 
 def _cameras(
@@ -189,7 +209,7 @@ class KitPolicyEnv(gymnasium.Env):
         fps: policy rate (steps per second); default the task's own (50).
         episode_length: steps per episode; default the task's recording length at this rate
             (12 s for the transfer, 8 s for the insertion).
-        layout: ``kit14`` or ``vendor16``.
+        layout: ``kit14`` or ``vendor16`` (kit tasks), ``mobileai`` (Mobile AI tasks).
         render_mode: ``rgb_array`` (``render()`` gives the observed cameras side by side, or
             ``cam_high`` at 240x320 when none is observed) or None.
         controller_checks: apply the real arm controller's checks to every setpoint (a
@@ -222,11 +242,10 @@ class KitPolicyEnv(gymnasium.Env):
         crops: str | Sequence[str] | None = None,
     ):
         entry = registry.load(task)
-        if entry.name not in registry.kit_names():
-            raise UserError(
-                f"task '{entry.name}' is not a Stationary AI kit task; "
-                f"valid tasks: {', '.join(registry.kit_names())}"
-            )
+        valid = task_layouts(entry.name)
+        if layout not in valid:
+            raise UserError(f"task '{entry.name}' takes the layouts {', '.join(valid)}, not "
+                            f"{layout!r} (--layout)")  # fmt: skip
         self.layout = _layout(layout)
         self.layout_name = layout
         if render_mode not in (None, "rgb_array"):
@@ -262,9 +281,15 @@ class KitPolicyEnv(gymnasium.Env):
             [view.get_move_group(g).joint_range for g in VENDOR16_LAYOUT.groups]
         )
         low16, high16 = ranges[:, 0], ranges[:, 1]
+        robot = self.scene.robots[probe.robot_name]
+        self.base = MobileBase(robot, controller_checks) if valid == MOBILE_LAYOUTS else None
         if self.layout is KIT14_LAYOUT:
             self.action_low = KIT14_LAYOUT.from_vendor(low16)
             self.action_high = KIT14_LAYOUT.from_vendor(high16)
+        elif self.base is not None:  # the arms' 14, then the base's limits
+            b_low, b_high = self.base.action_bounds()
+            self.action_low = np.concatenate([KIT14_LAYOUT.from_vendor(low16), b_low])
+            self.action_high = np.concatenate([KIT14_LAYOUT.from_vendor(high16), b_high])
         else:
             self.action_low, self.action_high = low16.copy(), high16.copy()
         self.action_space = gymnasium.spaces.Box(
@@ -302,9 +327,12 @@ class KitPolicyEnv(gymnasium.Env):
     def _observation_space(self, probe) -> gymnasium.spaces.Dict:
         bounds = probe.observation_bounds()
         size = self.layout.size
+        base = None if self.base is None else MobileBase.observation_bounds(bounds)
 
         def box(key: str) -> gymnasium.spaces.Box:
             low, high = (self._to_layout(b) for b in bounds[key])
+            if base is not None:  # the measured base velocities after the arms' 14
+                low, high = np.concatenate([low, base[0]]), np.concatenate([high, base[1]])
             return gymnasium.spaces.Box(low.astype(np.float32), high.astype(np.float32),
                                         shape=(size,), dtype=np.float32)  # fmt: skip
 
@@ -324,7 +352,8 @@ class KitPolicyEnv(gymnasium.Env):
         return gymnasium.spaces.Dict(spaces)
 
     def _to_layout(self, values16: np.ndarray) -> np.ndarray:
-        if self.layout is KIT14_LAYOUT:
+        """The arms' vendor16 values in the env's layout (``mobileai``: their kit14 part)."""
+        if self.layout is KIT14_LAYOUT or self.layout is MOBILEAI_LAYOUT:
             return KIT14_LAYOUT.from_vendor(values16)
         return np.asarray(values16)
 
@@ -349,9 +378,11 @@ class KitPolicyEnv(gymnasium.Env):
         self.n_steps = 0
         self._reached = False
         obs = self._observe()
-        measured = obs["agent_pos"] if self.layout is KIT14_LAYOUT else (
+        measured = obs["agent_pos"][:14] if self.layout is not VENDOR16_LAYOUT else (
             KIT14_LAYOUT.from_vendor(obs["agent_pos"]))  # fmt: skip
         self.controller.reset(measured.astype(np.float64))
+        if self.base is not None:
+            self.base.reset()
         return obs, self._info(self.episode.get_reward())
 
     def step(self, action):
@@ -365,25 +396,36 @@ class KitPolicyEnv(gymnasium.Env):
             )
         if not self.controller_checks and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        goal = a if self.layout is KIT14_LAYOUT else KIT14_LAYOUT.from_vendor(a)
+        goal = a if self.layout is KIT14_LAYOUT else (
+            a[:14] if self.base is not None else KIT14_LAYOUT.from_vendor(a))  # fmt: skip
         ctl, task, scene = self.controller, self.episode, self.scene
+        base, base_fault = ({}, None) if self.base is None else self.base.command(a, self.n_steps)
         ctl.command(goal, self._goal_time)
         fault = None
-        for _ in range(self._ticks):
+        for _ in range(self._ticks if base_fault is None else 0):
             target, fault = ctl.tick(self._tick_dt)
             if fault is not None:  # the arms stop in the error state: the episode ends
                 break
-            task.apply_action(KIT14_LAYOUT.joint_commands(target))
+            commands = KIT14_LAYOUT.joint_commands(target)
+            if base:  # once a step: the base's command holds until the next
+                commands.update(base)
+                base = {}
+            task.apply_action(commands)
             scene.step(1)
         task.finish_step()
         self.n_steps += 1
         reward = float(task.get_reward())
         self._reached = self._reached or reward >= self.max_reward
         truncated = self.n_steps >= self.episode_length
-        info = self._info(reward, last=truncated or fault is not None)
+        info = self._info(reward, last=truncated or fault is not None or base_fault is not None)
         if fault is not None:
             info["fault"] = {**fault.as_dict(), "step": self.n_steps - 1}
-        return self._observe(), reward, fault is not None, truncated, info
+        if base_fault is not None:
+            info["fault"] = base_fault
+        if self.base is not None:
+            info["base_clipped"] = self.base.clipped
+        done = fault is not None or base_fault is not None
+        return self._observe(), reward, done, truncated, info
 
     def render(self):
         """The observed cameras side by side (uint8 (H, n*W, 3)), or ``cam_high`` at
@@ -421,6 +463,9 @@ class KitPolicyEnv(gymnasium.Env):
             "velocity": self._to_layout(obs["qvel"]).astype(np.float32),
             "environment_state": obs["env_state"].astype(np.float32),
         }
+        if self.base is not None:  # mobileai: the arms' 14 values, then the base's measured
+            state, velocity = self.episode.recorded_state()
+            out["agent_pos"], out["velocity"] = (v.astype(np.float32) for v in (state, velocity))
         for key, (low, high) in self._vector_bounds.items():  # e.g. a finger 0.1 mm past
             clip(out[key], low, high, out=out[key])  # its limit: inside the space, as gym's
         if self.cam_names:

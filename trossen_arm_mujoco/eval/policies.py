@@ -2,7 +2,9 @@
 
 - ``scripted``: the task's scripted policy, as ``record`` runs it (a mocap rollout from the
   episode's object poses, its joint trajectory replayed at the env's rate with the export's
-  action rule, ``export.lerobot_plan.frame_map``): the reference row.
+  action rule, ``export.lerobot_plan.frame_map``): the reference row. A scripted policy
+  that acts in a joint layout (``mobile_pick_place``'s, in ``mobileai``) runs closed-loop on
+  the env's episode, as ``record`` records it (``ClosedLoopScriptedPolicy``).
 - ``module:function``: a plain Python callable ``function(observation) -> action`` (the
   env's observation dict; an action in the env's layout); an optional ``reset()``
   attribute is called at every episode start.
@@ -25,7 +27,14 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, episode_generator
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 
-__all__ = ["FunctionPolicy", "Policy", "ScriptedPolicy", "is_function_spec", "make_policy"]
+__all__ = [
+    "ClosedLoopScriptedPolicy",
+    "FunctionPolicy",
+    "Policy",
+    "ScriptedPolicy",
+    "is_function_spec",
+    "make_policy",
+]
 
 
 class Policy(Protocol):
@@ -41,6 +50,37 @@ class Policy(Protocol):
 
     def close(self) -> None:
         """Release what the policy holds (envs, models)."""
+
+
+class ClosedLoopScriptedPolicy:
+    """The scripted policy of a task that acts in a joint layout (``action_layout``, e.g.
+    ``mobile_pick_place``'s ``mobileai``), as ``record`` runs it: made with the episode's
+    task at every reset and acting closed-loop on the task's own observation (the env's
+    running episode), its actions in the env's layout."""
+
+    def __init__(self, policy_cls: type, env: KitPolicyEnv):
+        layout = str(policy_cls.action_layout)
+        if layout != env.layout_name:
+            raise UserError(
+                f"--policy scripted acts in the {layout} layout; the env is in "
+                f"{env.layout_name}: pass --layout {layout}"
+            )
+        self.policy_cls = policy_cls
+        self._env = env
+        self._policy: Any = None
+
+    def reset(self, env: KitPolicyEnv, seed: int) -> None:
+        """A fresh policy on ``env``'s episode (no noise; its generator from ``seed``)."""
+        self._env = env
+        self._policy = self.policy_cls(env.episode, inject_noise=False, rng=episode_generator(seed))
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        """The policy's action for the episode's observation now, (layout size,)."""
+        return np.asarray(self._policy(self._env.episode.get_observation()), dtype=float)
+
+    def close(self) -> None:
+        """Nothing to release (the env is the caller's)."""
+        self._policy = None
 
 
 class ScriptedPolicy:
@@ -133,6 +173,11 @@ def is_function_spec(spec: str) -> bool:
 def make_policy(spec: str, env: KitPolicyEnv, device: str = "cpu") -> Policy:
     """The policy ``--policy spec`` names, checked against ``env``'s features."""
     if spec == "scripted":
+        from trossen_arm_mujoco.tasks import registry
+
+        policy_cls = registry.load(env.task).policy_class()
+        if getattr(policy_cls, "action_layout", "ee") != "ee":  # acts in joint space
+            return ClosedLoopScriptedPolicy(policy_cls, env)
         return ScriptedPolicy(env.task)
     if is_function_spec(spec):
         return FunctionPolicy(spec)

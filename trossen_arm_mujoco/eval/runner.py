@@ -209,6 +209,8 @@ class EpisodeRunner:
         analysis = self.recorder.summary(success)
         if fault is not None:
             analysis["fault"] = fault
+        if "base_clipped" in info:  # a Mobile AI base: its commands clipped to its limits
+            analysis["base_clipped_commands"] = int(info["base_clipped"])
         score = EpisodeScore(
             episode_ix=index,
             seed=seed,

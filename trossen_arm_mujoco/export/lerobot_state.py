@@ -50,6 +50,13 @@ def check_state_extras(layout: str, extras: Sequence[str]) -> tuple[str, ...]:
     unknown = [e for e in extras if e not in STATE_EXTRAS]
     if unknown or list(extras) != [s for s in STATE_EXTRAS if s in extras]:
         raise UserError(f"state extras must be some of {list(STATE_EXTRAS)} in order, got {extras}")
+    if extras and layout == "mobileai":
+        flags = " and ".join(f"--{STATE_EXTRAS[e]}" for e in extras)
+        raise UserError(
+            f"{flags} {'are' if len(extras) > 1 else 'is'} not supported for Mobile AI "
+            "recordings (layout mobileai): the per-joint values are written for the Stationary "
+            "AI kit's kit14 layout only; export them without the flag"
+        )
     if extras and layout != _KIT14:
         flags = " and ".join(f"--{STATE_EXTRAS[e]}" for e in extras)
         raise UserError(

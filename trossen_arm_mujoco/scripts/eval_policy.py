@@ -205,7 +205,7 @@ def _settings(args: argparse.Namespace):
         cameras=cameras,
         fps=flags["fps"],
         episode_length=args.episode_length,
-        layout=flags["layout"] or inferred.get("layout", "kit14"),
+        layout=_layout_for(task, flags["layout"], inferred.get("layout")),
         videos=args.videos,
         output_dir=str(out),
         device=args.device,
@@ -216,6 +216,33 @@ def _settings(args: argparse.Namespace):
         },  # fmt: skip
     )
     return settings, workers
+
+
+def _layout_for(task: str, flag: str | None, inferred: str | None) -> str:
+    """The layout of the run: the flag, else the checkpoint's, else the task's default
+    (``kit14`` for a kit task, ``mobileai`` for a Mobile AI one). A checkpoint of 16 action
+    values reads as ``vendor16``; for a Mobile AI task it is the ``mobileai`` layout. A task
+    eval does not take is a one-line UserError here, a layout it does not take one in the env."""
+    from trossen_arm_mujoco.eval.env import task_layouts
+
+    valid = task_layouts(task)
+    if flag:
+        return flag
+    if inferred == "vendor16" and "mobileai" in valid:
+        return "mobileai"
+    return inferred or valid[0]
+
+
+def _no_wire_for_mobile(args: argparse.Namespace, settings) -> None:
+    """``--backend wire`` refuses a Mobile AI task in one line: the served kit is the
+    Stationary AI (two arms on the arm controller's wire protocol; no base)."""
+    from trossen_arm_mujoco.eval.mobile_base import MOBILE_LAYOUTS
+
+    if args.backend == "wire" and settings.layout in MOBILE_LAYOUTS:
+        raise UserError(
+            f"--backend wire drives the served Stationary AI kit (two arms, no base); task "
+            f"'{settings.task}' is a Mobile AI task: evaluate it with --backend sim"
+        )
 
 
 def _kit_link(args: argparse.Namespace, workers: int):
@@ -269,6 +296,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from trossen_arm_mujoco.eval.scores import write_results
 
     settings, workers = _settings(args)
+    _no_wire_for_mobile(args, settings)
     link = _kit_link(args, workers)  # --backend wire's addresses, checked before any episode
     env = settings.make_env()  # fail fast on a bad task, camera, size or checkpoint
     try:

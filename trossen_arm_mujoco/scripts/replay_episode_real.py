@@ -263,6 +263,12 @@ def _run(
     ee_note = _check_end_effector(args.end_effector, args.backend, args.dry_run)
     folder = resolve_data_dir(args.root_dir, args.data_dir)
     episode = load_episode(_find_episode(folder, args.episode_idx))
+    if str(episode.attrs.get("layout", "")) == "mobileai":  # before any driver exists
+        raise UserError(
+            f"{episode.path} is a Mobile AI recording (layout mobileai: the arms' 14 values, "
+            "then the base's x.vel, theta.vel); replay-real drives the Stationary AI kit's two "
+            "arms and has no base driver: replay Stationary AI recordings only"
+        )
     dt = recorded_dt(episode)
     trajectory = validate_actions(episode.action, args.fps, limits)
     gripper = clamp_gripper(trajectory.commands, args.gripper_max)[1]

@@ -63,6 +63,8 @@ class MobilePickPlaceTask(Task):
     name: ClassVar[str] = "mobile_pick_place"
     robot_name: ClassVar[str] = "mobile_ai"
     max_reward: ClassVar[float] = 4.0
+    #: the free objects of ``env_state``, in order (as the Stationary AI tasks name theirs)
+    objects: ClassVar[tuple[str, ...]] = ("cube",)
 
     def __init__(self, env: MujocoEnv, config: Mapping[str, Any]):
         super().__init__(env, config)
@@ -130,6 +132,10 @@ class MobilePickPlaceTask(Task):
             bool(partners & self.fingers),
             self.table in partners,
         )
+
+    def left_touches_object(self) -> bool:
+        """The left fingers touch the cube (eval's rollout analysis reads it)."""
+        return self.touching()[0]
 
     def at_table(self) -> bool:
         """The cube is within ``reach_distance`` (m, horizontally) of the left shoulder."""
