@@ -46,7 +46,53 @@ def test_pick_place_places_the_cube(name, sentence):
     if name.startswith("mobile"):
         drove = re.search(r"drove (\d\.\d+) m to the table", proc.stdout)
         assert drove and abs(float(drove.group(1)) - 0.3) < 0.01, proc.stdout
+    if name.startswith("stationary"):
+        air = re.search(r"to the right arm in the air \((\d\.\d+) m above the table\)", proc.stdout)
+        assert air and float(air.group(1)) > 0.1, proc.stdout
     assert proc.stderr == ""
+
+
+def _touching(model, data, geom: int) -> set[str]:
+    """Which of "left", "right" (arm bodies) and "table" (any other geom) touch ``geom``."""
+    found = set()
+    for contact in data.contact[: data.ncon]:
+        pair = {int(contact.geom1), int(contact.geom2)}
+        if geom in pair and len(pair) == 2:
+            (other,) = pair - {geom}
+            body = model.body(model.geom_bodyid[other]).name
+            found.add(body.split("/")[0] if body.split("/")[0] in ("left", "right") else "table")
+    return found
+
+
+def test_stationary_hand_over_is_in_the_air_and_the_cube_is_placed():
+    """Like the vendor's demo: when the right gripper has closed, both grippers hold the cube
+    at least 0.10 m above the table and nothing else touches it; once the left lets go the
+    right alone carries it; at the end it rests on the target."""
+    import numpy as np
+
+    from trossen_arm_mujoco.assets import STATIONARY_TABLE_TOP
+    from trossen_arm_mujoco.scripts import stationary_ai_pick_place as demo
+    from trossen_arm_mujoco.scripts.ik_demo import Waypoint, play
+
+    model, data, arms, cube = demo.setup()
+    geom = model.geom("red_box").id
+    level = {"right": demo.LEVEL}
+    assert play(model, data, arms, demo.handover_plan(), orientations=level)
+    assert _touching(model, data, geom) == {"left", "right"}
+    height = data.qpos[cube + 2] - STATIONARY_TABLE_TOP
+    assert height > 0.10  # the cube's center, m above the table top (0.14 planned)
+    assert arms["right"].get_gripper_position() > 0.005  # stopped on the cube, not shut
+    held = demo.Transfer(model, data, arms, geom).held  # the cube in the right tool frame
+    rest = demo.place_plan(held)
+    assert rest[0] == Waypoint(150, grippers={"left": "open"})
+    assert play(model, data, arms, rest[:2], orientations=level)  # the left opens and rises
+    assert _touching(model, data, geom) == {"right"}
+    assert data.qpos[cube + 2] - STATIONARY_TABLE_TOP > 0.10
+    assert play(model, data, arms, rest[2:], orientations=level)
+    miss = np.linalg.norm(data.qpos[cube : cube + 2] - demo.PLACE_TARGET[:2])
+    assert miss <= demo.SUCCESS_DISTANCE
+    assert abs(data.qpos[cube + 2] - demo.PLACE_TARGET[2]) < 0.005  # resting on the table
+    assert _touching(model, data, geom) == {"table"}
 
 
 def test_follow_target_tracks_within_the_bound():

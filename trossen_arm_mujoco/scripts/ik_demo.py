@@ -1,11 +1,13 @@
 """Shared parts of the vendor-style IK demos (``wxai_pick_place.py`` and the others): the
-``--headless`` flag, waypoint plans played through ``src.controller.Controller``, and the
-viewer loop.
+``--headless`` flag, the pick-and-place phases (``grasp``, ``release``) as waypoint plans
+played through ``src.controller.Controller``, the placement report, and the viewer loop
+(``run_demo``: headless or in the viewer, one exit status).
 
 A plan is a list of ``Waypoint``: over ``steps`` physics steps each arm's target position
-moves in a straight line from where the previous waypoint left it to ``targets[arm]``
-(orientation: the waypoint's, held); a gripper command is given at the waypoint's start.
-The controllers compute controls, ``play`` steps physics.
+moves in a straight line from where the previous waypoint left it to ``targets[arm]``, and
+its target orientation turns (slerp) from the previous waypoint's to ``quats[arm]`` (kept
+when not given; ``DOWNWARD`` at the start); a gripper command is given at the waypoint's
+start. The controllers compute controls, ``play`` steps physics.
 """
 
 from __future__ import annotations
@@ -21,12 +23,34 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import ArgumentParser, note
-from trossen_arm_mujoco.src.controller import Controller
+from trossen_arm_mujoco.quaternion import Quaternion
+from trossen_arm_mujoco.src.controller import Controller, RobotType
 
-__all__ = ["DOWNWARD", "Waypoint", "demo_parser", "has_display", "play", "show"]
+__all__ = [
+    "DOWNWARD",
+    "SUCCESS_DISTANCE",
+    "Waypoint",
+    "demo_parser",
+    "grasp",
+    "has_display",
+    "kit_arms",
+    "play",
+    "release",
+    "report_placement",
+    "run_demo",
+    "show",
+]
 
 #: Tool frame pointing straight down (its x axis to world -z), quaternion [w, x, y, z].
 DOWNWARD = np.array([np.sqrt(0.5), 0.0, np.sqrt(0.5), 0.0])
+SUCCESS_DISTANCE = 0.02  # m, cube center to target in the table plane
+RELEASE_HEIGHT = 0.004  # m above the resting cube's center where the gripper opens
+#: Physics steps (2 ms) of ``grasp``'s moves: over, down, close, up; ``release``'s: over,
+#: down, open, up.
+GRASP_STEPS = (500, 350, 200, 350)
+RELEASE_STEPS = (500, 350, 150, 300)
+#: The same moves about 10 % faster (the kits' demos).
+BRISK = {"grasp": (450, 300, 200, 300), "release": (450, 300, 150, 250)}
 
 
 @dataclass
@@ -34,7 +58,8 @@ class Waypoint:
     """Targets reached at the end of ``steps`` physics steps.
 
     targets: arm name -> (3,) tool-frame position (m, world); arms not named hold theirs.
-    quats: arm name -> (4,) orientation [w, x, y, z] for the whole segment (default DOWNWARD).
+    quats: arm name -> (4,) orientation [w, x, y, z] reached at the segment's end (default:
+        the previous segment's; DOWNWARD at the start).
     grippers: arm name -> "open" or "close", commanded at the segment's start.
     """
 
@@ -79,23 +104,28 @@ def play(
     plan: Sequence[Waypoint],
     after_step: Callable[[], bool] | None = None,
     tick: Callable[[], None] | None = None,
+    orientations: Mapping[str, Sequence[float]] | None = None,
 ) -> bool:
     """Run ``plan``: per physics step, one ``set_ee_pose`` per arm, then ``mj_step``.
 
     ``tick`` runs before each ``mj_step`` (other controllers: a mobile base's); ``after_step``
-    (the viewer's sync) returns False to stop early. Returns whether the plan was played to
-    its end.
+    (the viewer's sync) returns False to stop early. ``orientations``: the arms' target
+    orientations at the start (default ``DOWNWARD``; a plan played on from another gives
+    that one's last). Returns whether the plan was played to its end.
     """
     current = {name: arm.get_ee_pose()[0] for name, arm in arms.items()}
-    quats = {name: DOWNWARD for name in arms}
+    start_quats = orientations or {}
+    quats = {name: np.asarray(start_quats.get(name, DOWNWARD), float) for name in arms}
     for wp in plan:
         for name, cmd in wp.grippers.items():
             arms[name].open_gripper() if cmd == "open" else arms[name].close_gripper()
         start = {n: p.copy() for n, p in current.items()}
         goal = {n: np.asarray(wp.targets.get(n, current[n]), float) for n in arms}
-        quats.update({n: np.asarray(q, float) for n, q in wp.quats.items()})
+        turns = {n: (Quaternion(quats[n]), Quaternion(q)) for n, q in wp.quats.items()}
         for k in range(1, wp.steps + 1):
             a = k / wp.steps
+            for name, (q0, q1) in turns.items():
+                quats[name] = Quaternion.slerp(q0, q1, a).elements
             for name, arm in arms.items():
                 arm.set_ee_pose(start[name] + a * (goal[name] - start[name]), quats[name])
             if tick is not None:
@@ -105,6 +135,107 @@ def play(
                 return False
         current = goal
     return True
+
+
+def grasp(
+    arm: str,
+    at: np.ndarray,
+    clearance: float,
+    quat: Sequence[float] | None = None,
+    steps: Sequence[int] = GRASP_STEPS,
+) -> list[Waypoint]:
+    """Waypoints: the open gripper of ``arm`` over ``at`` (its tool frame position, m,
+    world) by ``clearance`` m, down to ``at``, closed, lifted back; each move in ``steps``
+    physics steps. ``quat``: the tool's orientation from the first waypoint on (default:
+    kept)."""
+    up = np.array([0.0, 0.0, clearance])
+    turn = {arm: quat} if quat is not None else {}
+    over, down, close, lift = steps
+    return [
+        Waypoint(over, {arm: at + up}, turn, grippers={arm: "open"}),
+        Waypoint(down, {arm: at}),
+        Waypoint(close, {arm: at}, grippers={arm: "close"}),
+        Waypoint(lift, {arm: at + up}),
+    ]
+
+
+def release(
+    arm: str,
+    at: np.ndarray,
+    clearance: float,
+    quat: Sequence[float] | None = None,
+    steps: Sequence[int] = RELEASE_STEPS,
+) -> list[Waypoint]:
+    """Waypoints: ``arm`` carries what it holds to ``clearance`` m over ``at`` (tool frame
+    position, m, world), lowers it to ``RELEASE_HEIGHT`` m above ``at``, opens and lifts
+    away; ``quat`` and ``steps`` as in ``grasp``."""
+    up = np.array([0.0, 0.0, clearance])
+    low = np.array([0.0, 0.0, RELEASE_HEIGHT])
+    turn = {arm: quat} if quat is not None else {}
+    over, down, opening, lift = steps
+    return [
+        Waypoint(over, {arm: at + up}, turn),
+        Waypoint(down, {arm: at + low}),
+        Waypoint(opening, {arm: at + low}, grippers={arm: "open"}),
+        Waypoint(lift, {arm: at + up}),
+    ]
+
+
+def kit_arms(model: mujoco.MjModel, data: mujoco.MjData, robot_type: RobotType) -> dict:
+    """One ``Controller`` per arm of a kit, by side ("left", "right"), as the vendor's demos
+    make them (``ik_scale`` 1.0, ``ik_damping`` 0.03)."""
+    return {
+        side: Controller(
+            model,
+            data,
+            robot_type,
+            ee_site_name=f"{side}/ee_site",
+            ik_scale=1.0,
+            ik_damping=0.03,
+        )
+        for side in ("left", "right")
+    }
+
+
+def report_placement(cube: np.ndarray, target: np.ndarray, done: str, prefix: str = "") -> int:
+    """Print how the demo ended; 0 when the cube (center ``cube``, m, world) rests within
+    ``SUCCESS_DISTANCE`` of ``target`` in the table plane and within 0.01 m of its height,
+    else 1. Success: "``done`` <miss> m from the target"; failure: ``prefix`` then where
+    the cube ended."""
+    miss = float(np.linalg.norm(cube[:2] - target[:2]))
+    if miss <= SUCCESS_DISTANCE and abs(cube[2] - target[2]) < 0.01:
+        print(f"{done} {miss:.3f} m from the target")
+        return 0
+    print(
+        f"{prefix}the cube ended at {np.round(cube, 3).tolist()} m, {miss:.3f} m from the "
+        f"target {np.round(target, 3).tolist()} (success: within {SUCCESS_DISTANCE} m, "
+        f"resting on the table)"
+    )
+    return 1
+
+
+def run_demo(
+    headless: bool,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    demo: Callable[[Callable[[], bool] | None], int | None],
+    hold: Callable[[], None],
+    lookat: Sequence[float] = (0.3, 0.0, 0.1),
+    distance: float = 1.2,
+) -> int:
+    """Run ``demo(after_step)`` headless (``after_step`` None) or in the viewer (see
+    ``show``; ``hold`` keeps the arms still after it). ``demo`` returns its exit status,
+    or None when the viewer stopped it early (then one line says so, and the status is 0).
+    """
+    if not use_viewer(headless):
+        status = demo(None)
+        return 1 if status is None else status
+    result: list[int | None] = []
+    show(model, data, lambda after_step: result.append(demo(after_step)), hold, lookat, distance)
+    if not result or result[0] is None:
+        print("the viewer was closed before the demo finished")
+        return 0
+    return result[0]
 
 
 def show(

@@ -33,8 +33,19 @@ from trossen_arm_mujoco.assets import MOBILE_AI_TABLE_TOP, asset_path
 from trossen_arm_mujoco.errors import run_cli
 from trossen_arm_mujoco.robot.configs import mobile_ai_config
 from trossen_arm_mujoco.robot.robot import Robot
-from trossen_arm_mujoco.scripts.ik_demo import Waypoint, demo_parser, play, show, use_viewer
-from trossen_arm_mujoco.src.controller import Controller, RobotType
+from trossen_arm_mujoco.scripts.ik_demo import (
+    BRISK,
+    SUCCESS_DISTANCE,
+    Waypoint,
+    demo_parser,
+    grasp,
+    kit_arms,
+    play,
+    release,
+    report_placement,
+    run_demo,
+)
+from trossen_arm_mujoco.src.controller import RobotType
 
 __all__ = ["DRIVE", "SUCCESS_DISTANCE", "BaseDriver", "cli", "drive", "main", "plan"]
 
@@ -46,7 +57,6 @@ HALF = 0.025  # m, half the cube's side
 Z = MOBILE_AI_TABLE_TOP + HALF  # the cube's center resting on the table
 HANDOVER = np.array([0.85, -0.1, Z])  # m, world: between the arms, off the target
 CLEARANCE = 0.1  # m above the cube while carrying
-SUCCESS_DISTANCE = 0.02  # m, cube center to target in the table plane
 
 
 class BaseDriver:
@@ -82,28 +92,18 @@ class BaseDriver:
         return float(np.linalg.norm(self.base.get_planar_pose(self.data)[:2] - self.start[:2]))
 
 
-def _pick_place(arm: str, pick: np.ndarray, place: np.ndarray, home) -> list[Waypoint]:
-    up = np.array([0.0, 0.0, CLEARANCE])
-    low = np.array([0.0, 0.0, 0.004])
-    return [
-        Waypoint(450, {arm: pick + up}, grippers={arm: "open"}),
-        Waypoint(300, {arm: pick}),
-        Waypoint(200, {arm: pick}, grippers={arm: "close"}),
-        Waypoint(300, {arm: pick + up}),
-        Waypoint(450, {arm: place + up}),
-        Waypoint(300, {arm: place + low}),
-        Waypoint(150, {arm: place + low}, grippers={arm: "open"}),
-        Waypoint(250, {arm: place + up}),
-        Waypoint(350, {arm: home}),
-    ]
-
-
 def plan(cube: np.ndarray, target: np.ndarray, homes: dict) -> list[Waypoint]:
     """The left arm's pick-and-place to the middle and the right arm's to the target, each
     arm back at its ``homes`` position after (2 ms physics steps)."""
-    return _pick_place("left", cube, HANDOVER, homes["left"]) + _pick_place(
-        "right", HANDOVER, target, homes["right"]
-    )
+    pick, put = BRISK["grasp"], BRISK["release"]
+    return [
+        *grasp("left", cube, CLEARANCE, steps=pick),
+        *release("left", HANDOVER, CLEARANCE, steps=put),
+        Waypoint(350, {"left": homes["left"]}),
+        *grasp("right", HANDOVER, CLEARANCE, steps=pick),
+        *release("right", target, CLEARANCE, steps=put),
+        Waypoint(350, {"right": homes["right"]}),
+    ]
 
 
 def drive(model, data, driver: BaseDriver, after_step=None) -> bool:
@@ -125,34 +125,11 @@ def setup():
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
     cube = int(model.joint("cube_joint").qposadr[0])
-    arms = {
-        side: Controller(
-            model, data, RobotType.MOBILE_AI, ee_site_name=f"{side}/ee_site", ik_scale=1.0
-        )
-        for side in ("left", "right")
-    }
+    arms = kit_arms(model, data, RobotType.MOBILE_AI)
     driver = BaseDriver(model, data, goal_x=float(data.qpos[0]) + DRIVE)
     target = data.site("target_site").xpos.copy()
     target[2] = Z
     return model, data, arms, driver, cube, data.qpos[cube : cube + 3].copy(), target
-
-
-def report(data, cube: int, target: np.ndarray, driver: BaseDriver) -> int:
-    """Print what happened; 0 when the cube rests within ``SUCCESS_DISTANCE``, else 1."""
-    pos = data.qpos[cube : cube + 3]
-    miss = float(np.linalg.norm(pos[:2] - target[:2]))
-    if miss <= SUCCESS_DISTANCE and abs(pos[2] - Z) < 0.01:
-        print(
-            f"drove {driver.travelled:.3f} m to the table; the left arm picked the cube and "
-            f"handed it over on the table; the right arm placed it {miss:.3f} m from the target"
-        )
-        return 0
-    print(
-        f"drove {driver.travelled:.3f} m; the cube ended at {np.round(pos, 3).tolist()} m, "
-        f"{miss:.3f} m from the target {np.round(target, 3).tolist()} (success: within "
-        f"{SUCCESS_DISTANCE} m, resting on the table)"
-    )
-    return 1
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -160,27 +137,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = demo_parser(__doc__.splitlines()[0]).parse_args(argv)
     model, data, arms, driver, cube, start, target = setup()
 
-    def run(after_step=None) -> None:
-        if drive(model, data, driver, after_step):
-            homes = {side: arm.get_ee_pose()[0] for side, arm in arms.items()}
-            steps = plan(start, target, homes)
-            if play(model, data, arms, steps, after_step, tick=driver.tick):
-                result.append(report(data, cube, target, driver))
-
-    result: list[int] = []
-    if not use_viewer(args.headless):
-        run()
-        return result[0]
+    def demo(after_step) -> int | None:
+        if not drive(model, data, driver, after_step):
+            return None
+        homes = {side: arm.get_ee_pose()[0] for side, arm in arms.items()}
+        steps = plan(start, target, homes)
+        if not play(model, data, arms, steps, after_step, tick=driver.tick):
+            return None
+        done = (
+            f"drove {driver.travelled:.3f} m to the table; the left arm picked the cube and "
+            "handed it over on the table; the right arm placed it"
+        )
+        pos = data.qpos[cube : cube + 3]
+        return report_placement(pos, target, done, prefix=f"drove {driver.travelled:.3f} m; ")
 
     def hold():
         driver.tick()
         for arm in arms.values():
             arm.robot.compute_control()
 
-    show(model, data, run, hold, lookat=(0.8, 0.0, 0.8), distance=2.2)
-    if not result:
-        print("the viewer was closed before the demo finished")
-    return result[0] if result else 0
+    return run_demo(args.headless, model, data, demo, hold, lookat=(0.8, 0.0, 0.8), distance=2.2)
 
 
 def cli(argv: Sequence[str] | None = None) -> int:

@@ -3,10 +3,12 @@
     python trossen_arm_mujoco/scripts/stationary_ai_pick_place.py              # in the viewer
     python trossen_arm_mujoco/scripts/stationary_ai_pick_place.py --headless   # prints the result
 
-One ``Controller`` per arm. The left arm picks the 25 mm cube on its side of the table and
-puts it down in the middle; the right arm picks it there and places it on its side (the
-vendor's demo hands the cube over in the air; here the hand-over is on the table). Exit
-status 0 when the cube rests within ``SUCCESS_DISTANCE`` of the target, else 1.
+One ``Controller`` per arm. The left arm picks the 25 mm cube on its side of the table from
+above (fingers on the cube's +-y faces) and lifts it to ``HANDOVER``, ``HANDOVER_HEIGHT`` m
+above the table. The right arm comes in level from its side, its fingers on the cube's +-x
+faces below the left's, and closes: both grippers hold the cube in the air. The left arm
+lets go and moves away; the right arm turns its tool down and places the cube on the
+target. Exit status 0 when the cube rests within ``SUCCESS_DISTANCE`` of the target, else 1.
 """
 
 from __future__ import annotations
@@ -28,42 +30,107 @@ import numpy as np
 
 from trossen_arm_mujoco.assets import STATIONARY_TABLE_TOP, asset_path
 from trossen_arm_mujoco.errors import run_cli
-from trossen_arm_mujoco.scripts.ik_demo import Waypoint, demo_parser, play, show, use_viewer
+from trossen_arm_mujoco.scripts.ik_demo import (
+    SUCCESS_DISTANCE,
+    Waypoint,
+    demo_parser,
+    grasp,
+    kit_arms,
+    play,
+    release,
+    report_placement,
+    run_demo,
+)
 from trossen_arm_mujoco.src.controller import Controller, RobotType
 
-__all__ = ["CUBE_START", "HANDOVER", "PLACE_TARGET", "SUCCESS_DISTANCE", "cli", "main", "plan"]
+__all__ = [
+    "CUBE_START",
+    "HANDOVER",
+    "PLACE_TARGET",
+    "SUCCESS_DISTANCE",
+    "Transfer",
+    "cli",
+    "handover_plan",
+    "main",
+    "place_plan",
+]
 
 SCENE = "stationary_ai/trossen_ai_scene_joint.xml"
 HALF = 0.0125  # m, half the cube's side
 Z = STATIONARY_TABLE_TOP + HALF  # the cube's center resting on the table
 CUBE_START = np.array([0.05, 0.2, Z])  # m, world
-HANDOVER = np.array([0.05, 0.0, Z])
+HANDOVER_HEIGHT = 0.14  # m, the cube's center above the table top while both arms hold it
+HANDOVER = np.array([0.05, 0.1, STATIONARY_TABLE_TOP + HANDOVER_HEIGHT])
 PLACE_TARGET = np.array([0.05, -0.2, Z])
-HOMES = {"left": np.array([0.0, 0.25, 0.25]), "right": np.array([0.0, -0.25, 0.25])}
 CLEARANCE = 0.1  # m above the cube while carrying
-SUCCESS_DISTANCE = 0.02  # m, cube center to target in the table plane
+#: The right tool pointing level toward the left arm (+y), fingers closing along world x.
+LEVEL = np.array([np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)])
+#: Each arm's tool at the home keyframe (m, world), level, pointing at the other arm.
+HOMES = {"left": np.array([-0.02, 0.195, 0.271]), "right": np.array([-0.02, -0.195, 0.271])}
+HOME_QUATS = {"left": LEVEL * [1.0, 1.0, 1.0, -1.0], "right": LEVEL}
+#: The right tool pointing down, fingers still closing along world x.
+RIGHT_DOWN = np.array([0.5, -0.5, 0.5, 0.5])
+#: The right tool frame relative to the cube's center when it takes the cube (m, world):
+#: its fingertips 8 mm past the center, 8 mm below it (clear of the left fingers above).
+RIGHT_GRIP = np.array([0.0, 0.008, -0.008])
+APPROACH = np.array([0.0, -0.1, 0.0])  # m: where the right tool waits, from its grip
 
 
-def _pick_place(arm: str, pick: np.ndarray, place: np.ndarray) -> list[Waypoint]:
-    up = np.array([0.0, 0.0, CLEARANCE])
-    low = np.array([0.0, 0.0, 0.004])
+def handover_plan() -> list[Waypoint]:
+    """Until both grippers hold the cube in the air (2 ms physics steps): the left arm picks
+    it and lifts it to ``HANDOVER`` while the right arm comes level beside it; the right arm
+    closes on it."""
+    take = HANDOVER + RIGHT_GRIP
     return [
-        Waypoint(450, {arm: pick + up}, grippers={arm: "open"}),
-        Waypoint(300, {arm: pick}),
-        Waypoint(200, {arm: pick}, grippers={arm: "close"}),
-        Waypoint(300, {arm: pick + up}),
-        Waypoint(450, {arm: place + up}),
-        Waypoint(300, {arm: place + low}),
-        Waypoint(150, {arm: place + low}, grippers={arm: "open"}),
-        Waypoint(250, {arm: place + up}),
-        Waypoint(350, {arm: HOMES[arm]}),
+        *grasp("left", CUBE_START, CLEARANCE),
+        Waypoint(
+            500,
+            {"left": HANDOVER, "right": take + APPROACH},
+            {"right": LEVEL},
+            grippers={"right": "open"},
+        ),
+        Waypoint(350, {"right": take}),
+        Waypoint(200, {"right": take}, grippers={"right": "close"}),
     ]
 
 
-def plan() -> list[Waypoint]:
-    """The left arm's pick-and-place to the middle, then the right arm's to the target
-    (2 ms physics steps)."""
-    return _pick_place("left", CUBE_START, HANDOVER) + _pick_place("right", HANDOVER, PLACE_TARGET)
+def place_plan(held: np.ndarray) -> list[Waypoint]:
+    """From the transfer on: the left arm opens, rises off the cube and goes home; the right
+    arm turns its tool down and places the cube on ``PLACE_TARGET``, then goes home.
+    ``held``: the cube's center in the right tool frame (m), as it was taken."""
+    down = np.empty(9)
+    mujoco.mju_quat2Mat(down, RIGHT_DOWN)
+    cube_from_tool = down.reshape(3, 3) @ held  # m, world, the tool turned down
+    return [
+        Waypoint(150, grippers={"left": "open"}),
+        Waypoint(200, {"left": HANDOVER + [0.0, 0.0, 0.025]}),  # up, clear of the cube
+        Waypoint(350, {"left": HOMES["left"]}, {"left": HOME_QUATS["left"]}),
+        *release("right", PLACE_TARGET - cube_from_tool, CLEARANCE, RIGHT_DOWN),
+        Waypoint(350, {"right": HOMES["right"]}, {"right": HOME_QUATS["right"]}),
+    ]
+
+
+class Transfer:
+    """The moment the right gripper has closed: the cube's center height above the table
+    (m), which arms touch it ("left", "right"), and the cube's center in the right tool
+    frame (``held``, m)."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, arms: dict, cube_geom: int):
+        cube = data.geom_xpos[cube_geom]
+        self.height = float(cube[2] - STATIONARY_TABLE_TOP)
+        site = arms["right"].ee_site_id
+        self.held = data.site_xmat[site].reshape(3, 3).T @ (cube - data.site_xpos[site])
+        self.holders: set[str] = set()
+        for contact in data.contact[: data.ncon]:
+            pair = {int(contact.geom1), int(contact.geom2)}
+            for other in pair - {cube_geom} if cube_geom in pair else ():
+                name = model.body(model.geom_bodyid[other]).name
+                self.holders.update(s for s in ("left", "right") if name.startswith(f"{s}/"))
+
+    @property
+    def in_the_air(self) -> bool:
+        """Both grippers hold the cube and it is at least half ``HANDOVER_HEIGHT`` up."""
+        return self.holders == {"left", "right"} and self.height > HANDOVER_HEIGHT / 2
 
 
 def setup() -> tuple[mujoco.MjModel, mujoco.MjData, dict[str, Controller], int]:
@@ -75,58 +142,41 @@ def setup() -> tuple[mujoco.MjModel, mujoco.MjData, dict[str, Controller], int]:
     cube = model.joint("red_box_joint").qposadr[0]
     data.qpos[cube : cube + 7] = [*CUBE_START, 1, 0, 0, 0]
     mujoco.mj_forward(model, data)
-    arms = {
-        side: Controller(
-            model,
-            data,
-            RobotType.STATIONARY_AI,
-            ee_site_name=f"{side}/ee_site",
-            ik_scale=1.0,
-            ik_damping=0.03,
-        )
-        for side in ("left", "right")
-    }
-    return model, data, arms, cube
-
-
-def report(data: mujoco.MjData, cube: int) -> int:
-    """Print where the cube ended; 0 when placed within ``SUCCESS_DISTANCE``, else 1."""
-    pos = data.qpos[cube : cube + 3]
-    miss = float(np.linalg.norm(pos[:2] - PLACE_TARGET[:2]))
-    if miss <= SUCCESS_DISTANCE and abs(pos[2] - Z) < 0.01:
-        print(
-            "the left arm picked the cube and handed it over on the table; the right arm "
-            f"placed it {miss:.3f} m from the target"
-        )
-        return 0
-    print(
-        f"the cube ended at {np.round(pos, 3).tolist()} m, {miss:.3f} m from the target "
-        f"{PLACE_TARGET.tolist()} (success: within {SUCCESS_DISTANCE} m, resting on the table)"
-    )
-    return 1
+    return model, data, kit_arms(model, data, RobotType.STATIONARY_AI), cube
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo; see the module docstring."""
     args = demo_parser(__doc__.splitlines()[0]).parse_args(argv)
     model, data, arms, cube = setup()
-    if not use_viewer(args.headless):
-        play(model, data, arms, plan())
-        return report(data, cube)
-    result = []
+    cube_geom = model.geom("red_box").id
 
-    def run(after_step):
-        if play(model, data, arms, plan(), after_step):
-            result.append(report(data, cube))
+    def demo(after_step) -> int | None:
+        level = {"right": LEVEL}  # the right arm starts level (its home pose)
+        if not play(model, data, arms, handover_plan(), after_step, orientations=level):
+            return None
+        transfer = Transfer(model, data, arms, cube_geom)
+        steps = place_plan(transfer.held)
+        if not play(model, data, arms, steps, after_step, orientations=level):
+            return None
+        if not transfer.in_the_air:
+            print(
+                f"the hand-over failed: the cube was {transfer.height:.3f} m above the table, "
+                f"held by {sorted(transfer.holders) or 'no arm'} (wanted: both arms, above "
+                f"{HANDOVER_HEIGHT / 2} m)"
+            )
+            return 1
+        done = (
+            "the left arm picked the cube and handed it to the right arm in the air "
+            f"({transfer.height:.3f} m above the table); the right arm placed it"
+        )
+        return report_placement(data.qpos[cube : cube + 3], PLACE_TARGET, done)
 
     def hold():
         for arm in arms.values():
             arm.robot.compute_control()
 
-    show(model, data, run, hold, lookat=(0.0, 0.0, 0.1), distance=1.4)
-    if not result:
-        print("the viewer was closed before the demo finished")
-    return result[0] if result else 0
+    return run_demo(args.headless, model, data, demo, hold, lookat=(0.0, 0.0, 0.1), distance=1.4)
 
 
 def cli(argv: Sequence[str] | None = None) -> int:

@@ -27,7 +27,16 @@ import numpy as np
 
 from trossen_arm_mujoco.assets import asset_path
 from trossen_arm_mujoco.errors import run_cli
-from trossen_arm_mujoco.scripts.ik_demo import Waypoint, demo_parser, play, show, use_viewer
+from trossen_arm_mujoco.scripts.ik_demo import (
+    SUCCESS_DISTANCE,
+    Waypoint,
+    demo_parser,
+    grasp,
+    play,
+    release,
+    report_placement,
+    run_demo,
+)
 from trossen_arm_mujoco.src.controller import Controller, RobotType
 
 __all__ = ["CUBE_START", "PLACE_TARGET", "SUCCESS_DISTANCE", "cli", "main", "pick_place_plan"]
@@ -35,25 +44,13 @@ __all__ = ["CUBE_START", "PLACE_TARGET", "SUCCESS_DISTANCE", "cli", "main", "pic
 SCENE = "wxai/scene_pick_place.xml"
 CUBE_START = np.array([0.35, -0.15, 0.02])  # m, world (the cube's center; table top z = 0)
 PLACE_TARGET = np.array([0.35, 0.15, 0.02])
-HOME = np.array([0.25, 0.0, 0.25])
 CLEARANCE = 0.12  # m above the cube while carrying
-SUCCESS_DISTANCE = 0.02  # m, cube center to target in the table plane
 
 
 def pick_place_plan(pick: np.ndarray, place: np.ndarray, arm: str = "arm") -> list[Waypoint]:
     """Waypoints (2 ms physics steps) picking a cube at ``pick`` and placing it at ``place``
     (its center, m, world), the tool pointing down."""
-    up = np.array([0.0, 0.0, CLEARANCE])
-    return [
-        Waypoint(500, {arm: pick + up}, grippers={arm: "open"}),
-        Waypoint(350, {arm: pick}),
-        Waypoint(200, {arm: pick}, grippers={arm: "close"}),
-        Waypoint(350, {arm: pick + up}),
-        Waypoint(500, {arm: place + up}),
-        Waypoint(350, {arm: place + 0.005 * up / CLEARANCE}),
-        Waypoint(150, {arm: place + 0.005 * up / CLEARANCE}, grippers={arm: "open"}),
-        Waypoint(300, {arm: place + up}),
-    ]
+    return grasp(arm, pick, CLEARANCE) + release(arm, place, CLEARANCE)
 
 
 def setup() -> tuple[mujoco.MjModel, mujoco.MjData, Controller, int]:
@@ -70,39 +67,21 @@ def setup() -> tuple[mujoco.MjModel, mujoco.MjData, Controller, int]:
     return model, data, robot, cube
 
 
-def report(data: mujoco.MjData, cube: int) -> int:
-    """Print where the cube ended; 0 when placed within ``SUCCESS_DISTANCE``, else 1."""
-    pos = data.qpos[cube : cube + 3]
-    miss = float(np.linalg.norm(pos[:2] - PLACE_TARGET[:2]))
-    resting = abs(pos[2] - PLACE_TARGET[2]) < 0.01
-    if miss <= SUCCESS_DISTANCE and resting:
-        print(f"picked the cube and placed it {miss:.3f} m from the target")
-        return 0
-    print(
-        f"the cube ended at {np.round(pos, 3).tolist()} m, {miss:.3f} m from the target "
-        f"{PLACE_TARGET.tolist()} (success: within {SUCCESS_DISTANCE} m, resting on the table)"
-    )
-    return 1
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo; see the module docstring."""
     args = demo_parser(__doc__.splitlines()[0]).parse_args(argv)
     model, data, robot, cube = setup()
-    plan = pick_place_plan(CUBE_START, PLACE_TARGET)
-    if not use_viewer(args.headless):
-        play(model, data, {"arm": robot}, plan)
-        return report(data, cube)
-    result = []
 
-    def run(after_step):
-        if play(model, data, {"arm": robot}, plan, after_step):
-            result.append(report(data, cube))
+    def demo(after_step) -> int | None:
+        if not play(
+            model, data, {"arm": robot}, pick_place_plan(CUBE_START, PLACE_TARGET), after_step
+        ):
+            return None
+        done = "picked the cube and placed it"
+        return report_placement(data.qpos[cube : cube + 3], PLACE_TARGET, done)
 
-    show(model, data, run, robot.robot.compute_control, lookat=(0.35, 0.0, 0.05))
-    if not result:
-        print("the viewer was closed before the demo finished")
-    return result[0] if result else 0
+    hold = robot.robot.compute_control
+    return run_demo(args.headless, model, data, demo, hold, lookat=(0.35, 0.0, 0.05))
 
 
 def cli(argv: Sequence[str] | None = None) -> int:
