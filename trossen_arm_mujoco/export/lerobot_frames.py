@@ -1,0 +1,115 @@
+"""The values a LeRobot export writes per frame, before any encoding.
+
+State, velocity and action in the written layout (``lerobot_format.layout_values``), the
+actions as the arm controller executes them (:func:`controller_actions`), the objects'
+poses, rewards and, per frame, the source step whose images it shows; resampled to the
+written rate as ``lerobot_plan`` says (``FrameMap``). :func:`frame_values` gives them for one
+episode (what tests and the open-loop parity check compare against); :func:`frame_columns`
+adds the index columns of a dataset's parquet rows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from trossen_arm_mujoco.data.reader import Episode
+from trossen_arm_mujoco.export import lerobot_format as fmt
+from trossen_arm_mujoco.export.lerobot_plan import (
+    ExportPlan,
+    FrameMap,
+    episode_frames,
+    frame_map,
+    recorded_layout,
+    resolve_layout,
+)
+from trossen_arm_mujoco.export.lerobot_state import state_source
+from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
+from trossen_arm_mujoco.robot.layout import MOBILEAI_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY, ENV_STATE_KEY, STATE_KEY, VELOCITY_KEY
+
+__all__ = ["controller_actions", "frame_columns", "frame_values"]
+
+
+def frame_values(
+    episode: Episode,
+    layout: str | None = None,
+    fps: int | None = None,
+    extras: tuple[str, ...] = (),
+) -> dict[str, np.ndarray]:
+    """What an export writes for ``episode`` per frame, before any encoding.
+
+    Returns:
+        ``observation.state``, ``observation.velocity``, ``action``: float32 ``(K, D)`` in
+        ``layout``; ``observation.environment_state``: float32 ``(K, 7k)`` (episodes with
+        env_state); ``next.reward``: float32 ``(K,)`` (episodes with rewards);
+        ``image_index``: int64 ``(K,)``, the source step whose images frame ``k`` shows.
+        ``K`` frames at ``fps`` (None: the recording rate); see ``export.lerobot``'s docstring.
+        ``extras`` (``"vel"``, ``"eff"``) widen the state (``lerobot_state.state_names``).
+        ``layout`` None: the one that fits the episode (``lerobot_plan.resolve_layout``).
+
+    Raises:
+        UserError: an unknown layout or one that does not fit the episode, a bad ``fps``,
+            an episode too short for ``fps``.
+    """
+    layout = resolve_layout([episode], layout)
+    return _values(episode, layout, episode_frames(episode, fps), extras)
+
+
+#: The finger values of the HDF5 files' 16 (left 6, 7; right 14, 15).
+_FINGERS = [6, 7, 14, 15]
+
+
+def controller_actions(action16: np.ndarray, recorded: str = "vendor16") -> np.ndarray:
+    """The recorded actions ``(T, 16)`` as the arm controller executes them: each gripper
+    at most ``GRIPPER_MAX`` (0.04 m per finger; the controller clips the recorder's fully
+    open 0.044 m to it). A policy learns the opening the arm reaches, and its own small
+    errors around it stay inside the controller's 0.044 + 0.001 m position check (around
+    0.044 they do not: about half its open-gripper actions would fault). ``recorded``: the
+    layout of the rows (``vendor16``, or ``mobileai``: grippers at 6 and 13)."""
+    out = np.array(action16, dtype=np.float64, copy=True)
+    fingers = _FINGERS
+    if recorded == "mobileai":
+        fingers = [MOBILEAI_LAYOUT.gripper_index(side) for side in SIDES]
+    out[..., fingers] = np.minimum(out[..., fingers], GRIPPER_MAX)
+    return out
+
+
+def _values(
+    episode: Episode, layout: str, frames: FrameMap, extras: tuple[str, ...] = ()
+) -> dict[str, np.ndarray]:
+    state = state_source(episode, layout, extras) if extras else None
+    out = {
+        STATE_KEY: frames.observations(
+            fmt.layout_values(layout, episode.qpos) if state is None else state
+        ),
+        VELOCITY_KEY: frames.observations(fmt.layout_values(layout, episode.qvel)),
+        ACTION_KEY: frames.actions(
+            fmt.layout_values(layout, controller_actions(episode.action, recorded_layout(episode)))
+        ),
+    }
+    if episode.env_state is not None:
+        out[ENV_STATE_KEY] = frames.poses(episode.env_state)
+    out = {key: values.astype(np.float32) for key, values in out.items()}
+    if episode.reward is not None:
+        out["next.reward"] = episode.reward[frames.reward_index].astype(np.float32)
+    out["image_index"] = frames.image_index
+    return out
+
+
+def frame_columns(
+    ep: Episode, plan: ExportPlan, i: int, first_index: int
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Per-frame values of episode ``i`` for every non-video feature, and the source step
+    of each frame's images."""
+    frames = frame_map(ep.num_steps, plan.source_fps, plan.fps)
+    cols = _values(ep, plan.layout, frames, plan.state_extras)
+    image_index = cols.pop("image_index")
+    if plan.with_reward:
+        cols["next.success"] = ep.reward[frames.reward_index] >= plan.max_reward[i]
+    n = frames.length
+    cols["timestamp"] = (np.arange(n) / plan.fps).astype(np.float32)
+    cols["frame_index"] = np.arange(n, dtype=np.int64)
+    cols["episode_index"] = np.full(n, i, dtype=np.int64)
+    cols["index"] = np.arange(first_index, first_index + n, dtype=np.int64)
+    cols["task_index"] = np.full(n, plan.task_index[i], dtype=np.int64)
+    return cols, image_index
