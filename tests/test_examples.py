@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import os
 import re
 import subprocess
 import sys
@@ -89,6 +90,67 @@ def test_the_example_task_packages_own_tests_pass():
         capture_output=True, text=True, timeout=300, cwd=TASK_PACKAGE,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+@pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever runs pytest
+def test_lerobot_eval_runs_the_example_package_task(tmp_path):
+    """``lerobot-eval --env.type=trossen --env.task=lift_puck``: LeRobot's env plugin takes the
+    task of an installed package (the example, installed next to LeRobot by
+    tools/run_tests.sh). Tiny: 2 recorded episodes of 30 steps without cameras, a state-only
+    ACT trained 2 steps with lerobot-train, 1 evaluated episode of 10 steps."""
+    _require_task_package()
+    python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
+    if not python or not Path(python).is_file():
+        pytest.skip("TROSSEN_LEROBOT_PYTHON is not set to a Python with LeRobot (.ci/run sets it)")
+    probe = subprocess.run([python, "-c", "import my_trossen_task, lerobot_env_trossen"],
+                           capture_output=True, text=True, timeout=300)  # fmt: skip
+    assert probe.returncode == 0, (
+        f"the example task package and the env plugin are not importable next to LeRobot: "
+        f"{python} -m pip install -e {TASK_PACKAGE.relative_to(REPO)} "
+        f"-e plugins/lerobot_env_trossen (tools/run_tests.sh does): {probe.stderr[-500:]}"
+    )
+    record = subprocess.run(
+        [sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--task_name", "lift_puck",
+         "--data_dir", str(tmp_path / "eps"), "--num_episodes", "2", "--episode_len", "30",
+         "--cam_names", "none"],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path,
+    )  # fmt: skip
+    assert record.returncode in (0, 1), record.stderr  # 30 steps lift nothing: episodes kept
+    _cli("export", "--data_dir", str(tmp_path / "eps"), "--output", str(tmp_path / "ds"),
+         "--repo_id", "me/lift_puck", cwd=tmp_path)  # fmt: skip
+    env = {**os.environ, "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl", "WANDB_MODE": "disabled"}
+    train = subprocess.run(
+        [python, "-m", "lerobot.scripts.lerobot_train", "--dataset.repo_id=me/lift_puck",
+         f"--dataset.root={tmp_path / 'ds'}", "--policy.type=act", "--policy.device=cpu",
+         "--policy.push_to_hub=false", "--policy.use_vae=false", "--policy.chunk_size=5",
+         "--policy.n_action_steps=5", "--policy.dim_model=32", "--policy.dim_feedforward=64",
+         "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--steps=2",
+         "--batch_size=2", "--num_workers=0", "--save_freq=2", "--wandb.enable=false",
+         f"--output_dir={tmp_path / 'train'}"],
+        capture_output=True, text=True, timeout=600, cwd=tmp_path, env=env,
+    )  # fmt: skip
+    assert train.returncode == 0, train.stderr[-3000:]
+    ckpt = tmp_path / "train" / "checkpoints" / "last" / "pretrained_model"
+    evaluated = subprocess.run(
+        [python, "-m", "lerobot.scripts.lerobot_eval", f"--policy.path={ckpt}",
+         "--env.type=trossen", "--env.task=lift_puck", "--env.cam_names=none",
+         "--env.episode_length=10", "--env.controller_checks=false", "--eval.n_episodes=1",
+         "--eval.batch_size=1", "--seed=3", f"--output_dir={tmp_path / 'ev'}"],
+        capture_output=True, text=True, timeout=600, cwd=tmp_path, env=env,
+    )  # fmt: skip
+    assert evaluated.returncode == 0, evaluated.stderr[-3000:]
+    info = json.loads((tmp_path / "ev" / "eval_info.json").read_text())
+    (task,) = info["per_task"]
+    metrics = task["metrics"]
+    assert len(metrics["successes"]) == len(metrics["sum_rewards"]) == 1, info
+    assert metrics["successes"] == [False]  # an untrained policy, 10 steps: the puck stays
+    assert 0 <= metrics["max_rewards"][0] <= max(_lift_puck_stages().values())
+
+
+def _lift_puck_stages() -> dict[str, float]:
+    from trossen_arm_mujoco.tasks import registry
+
+    return registry.stages("lift_puck")
 
 
 def test_the_tutorial_shows_the_example_package_verbatim():

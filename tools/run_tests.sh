@@ -1,10 +1,20 @@
 #!/usr/bin/env bash
 # The test command: installs what the tests need on a fresh Debian/Ubuntu machine (system
 # packages with apt-get, the [dev] extra with a CPU torch, a Python 3.12 venv with LeRobot
-# 0.6.1, the project and the LeRobot env plugin), then runs the whole suite on this Python and
-# again on 3.12 next to LeRobot. Already set up? MUJOCO_GL=egl python -m pytest -q
+# 0.6.1, the project, the LeRobot env plugin and the example task package), then runs the suite
+# on this Python (spread over the cores, the served-kit tests alone after it) and the tests
+# marked py312 again on 3.12 next to LeRobot. `--long` also runs the tests marked long (CI
+# does). Already set up? MUJOCO_GL=egl python -m pytest -q -n auto --dist loadfile
+# (docs/testing.md: the legs, the markers and their timings).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+LONG=0
+for arg in "$@"; do
+    case "$arg" in
+        --long) LONG=1 ;;
+        *) echo "error: unknown argument $arg: use bash tools/run_tests.sh [--long]" >&2; exit 2 ;;
+    esac
+done
 
 export DEBIAN_FRONTEND=noninteractive
 SUDO=""
@@ -34,9 +44,9 @@ export TROSSEN_DOCS_REQUIRED=1
 
 # LeRobot (the real dataset loader, lerobot-train and lerobot-eval the export and the env plugin
 # are tested against) needs Python >= 3.12: a second venv, reused while it holds the pinned
-# version. The project itself (with [dev,train]) and the env plugin are installed into it on
-# every run (editable, from this clone), and the whole suite runs there too: Python 3.12 is a
-# first-class home. Tests run LeRobot's tools through TROSSEN_LEROBOT_PYTHON.
+# version. The project itself (with [dev,train]), the env plugin and the example task package
+# (lerobot-eval --env.task=lift_puck) are installed into it on every run (editable, from this
+# clone). Tests run LeRobot's tools through TROSSEN_LEROBOT_PYTHON.
 LEROBOT_PINS="lerobot[dataset,training]==0.6.1 torch==2.11.0 torchvision==0.26.0 torchcodec==0.11.1 av==15.1.0 datasets==4.8.5"
 LEROBOT_VENV="${TROSSEN_LEROBOT_VENV:-$HOME/.cache/trossen-arm-mujoco/lerobot-venv}"
 PY312=""
@@ -64,15 +74,45 @@ if ! "$LEROBOT_VENV/bin/python" -c "import lerobot, accelerate, sys; sys.exit(le
     done
     echo "LeRobot venv installed in $(( $(date +%s) - start )) s: $LEROBOT_VENV"
 fi
-"$LEROBOT_VENV/bin/python" -m pip install -q "setuptools>=70.1" -e ".[dev,train,cameras]" -e plugins/lerobot_env_trossen
+"$LEROBOT_VENV/bin/python" -m pip install -q "setuptools>=70.1" -e ".[dev,train,cameras]" \
+    -e plugins/lerobot_env_trossen -e examples/my_trossen_task
 export TROSSEN_LEROBOT_PYTHON="$LEROBOT_VENV/bin/python"
+# a test skipped for want of LeRobot fails instead (tests/conftest.py): none may skip silently
+export TROSSEN_LEROBOT_REQUIRED=1
 
-# The suite on this Python (3.11 in CI), then again on 3.12 next to LeRobot 0.6.1. Run once, on
-# this Python: the documentation tests (they check the site) and the tests marked `once`, whose
-# result does not depend on the interpreter running pytest (LeRobot itself always runs in the
-# 3.12 venv; the 10-episode wall-clock eval through the wire). Not spread over the cores with
-# pytest-xdist: the served-kit tests measure wall-clock motion, and a neighbouring worker's load
-# made one of them miss its 0.03 rad home tolerance (2026-11-27).
-MUJOCO_GL=egl python -m pytest -q
-MUJOCO_GL=egl "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider --ignore=tests/docs \
-    -m "not once"
+# The legs (docs/testing.md has their timings). Each runs even when an earlier one failed;
+# the exit status is non-zero if any did.
+# 1. This Python (3.11 in CI), every test but those marked serial, spread over the cores by
+#    pytest-xdist (PYTEST_WORKERS=N to choose; a test file stays on one worker, so its module
+#    fixtures are built once and the served kits' loopback addresses, one block a module, never
+#    clash). Here run, once: the documentation tests and the tests marked `once`, whose result
+#    does not depend on the interpreter running pytest (LeRobot itself always runs in the 3.12
+#    venv, through TROSSEN_LEROBOT_PYTHON).
+# 2. This Python, the tests marked serial, alone: they serve the kit and measure wall-clock
+#    motion (beside a busy neighbouring worker a homing test missed its tolerance, 2026-11-27).
+# 3. Python 3.12 next to LeRobot 0.6.1, the tests marked py312 (tests/conftest.py lists their
+#    modules: LeRobot or torch in-process, the env plugin, task entry points, every public
+#    module imported, the export's video with the venv's PyAV), less the `once` ones; none
+#    of them serves a kit, so they too are spread over the cores.
+# 4. With --long: the tests marked long (on this Python), left out of the other legs.
+WORKERS="${PYTEST_WORKERS:-auto}"
+FAILED=""
+leg() {  # leg NAME COMMAND...: runs it, prints its wall-clock time, notes a failure
+    local name="$1" start
+    shift
+    start=$(date +%s)
+    echo "== $name"
+    if ! MUJOCO_GL=egl "$@"; then FAILED="${FAILED:+$FAILED, }$name"; fi
+    echo "== $name: $(( $(date +%s) - start )) s"
+}
+leg "leg 1 (this Python, parallel)" python -m pytest -q -n "$WORKERS" --dist loadfile -m "not serial"
+leg "leg 2 (this Python, serial)" python -m pytest -q -p no:cacheprovider -m serial
+leg "leg 3 (Python 3.12, LeRobot)" "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider \
+    -n "$WORKERS" --dist loadfile --ignore=tests/docs -m "py312 and not once"
+if [ "$LONG" = 1 ]; then
+    leg "long leg (this Python)" python -m pytest -q -p no:cacheprovider --long -m long
+fi
+if [ -n "$FAILED" ]; then
+    echo "error: failed: $FAILED" >&2
+    exit 1
+fi

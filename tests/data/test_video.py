@@ -43,10 +43,12 @@ def test_camera_grid_labels_and_even_size():
     assert image[30, 40].tolist() == [0, 0, 0]  # the unused fourth tile stays black
 
 
+@pytest.mark.py312  # PyAV 15 in the LeRobot venv (tests/conftest.py)
 def test_encoder_is_h264():
     assert h264_encoder() in video.H264_ENCODERS
 
 
+@pytest.mark.py312  # PyAV 15 in the LeRobot venv (tests/conftest.py)
 def test_video_of_written_episode(tmp_path, make_episode):
     path = tmp_path / "episode_0.hdf5"
     make_episode(path, num_steps=6, height=24, width=32)
@@ -57,6 +59,7 @@ def test_video_of_written_episode(tmp_path, make_episode):
     assert sorted(p.name for p in out.parent.iterdir()) == ["episode_0.mp4"]
 
 
+@pytest.mark.py312  # PyAV 15 in the LeRobot venv (tests/conftest.py)
 def test_video_of_camera_subset_and_odd_size(tmp_path, make_episode):
     path = tmp_path / "episode_0.hdf5"
     make_episode(path, num_steps=3, cams=["a", "b", "c"], height=25, width=33)
@@ -70,6 +73,7 @@ def test_video_of_camera_subset_and_odd_size(tmp_path, make_episode):
     assert not (tmp_path / "w.mp4").exists()
 
 
+@pytest.mark.py312  # PyAV 15 in the LeRobot venv (tests/conftest.py)
 def test_video_of_vendor_episode(tmp_path, vendor_4cams):
     out = write_episode_video(load_episode(vendor_4cams), tmp_path / "episode_0.mp4")
     info = video_info(out)

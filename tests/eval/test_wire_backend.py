@@ -112,6 +112,7 @@ def run_eval(tmp_path: Path, left: str, right: str, *flags: str) -> tuple[int, d
 
 
 @pytest.mark.once  # about 100 s of wall-clock time; run on one interpreter
+@pytest.mark.long  # bash tools/run_tests.sh --long (and CI) run it: docs/testing.md
 def test_scripted_transfer_through_the_wire_scores_90_percent(tmp_path) -> None:
     rc, info = run_eval(tmp_path, "127.0.0.131", "127.0.0.132", "--policy", "scripted",
                         "--num_episodes", "10", "--episode_length", "450",
