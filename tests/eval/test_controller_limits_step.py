@@ -20,7 +20,8 @@ from trossen_arm_mujoco.export.dataset_settings import (
 from trossen_arm_mujoco.real.controller_checks import controller_limits
 
 
-def _checkpoint(folder: Path, size: int = 14, fps: float | None = 50) -> Path:
+def _checkpoint(folder: Path, size: int = 14, fps: float | None = 50,
+                layout: str = "kit14") -> Path:  # fmt: skip
     """The files of a LeRobot checkpoint that the steps touch (no weights)."""
     folder.mkdir(parents=True)
     config = {"output_features": {"action": {"type": "ACTION", "shape": [size]}}}
@@ -34,7 +35,7 @@ def _checkpoint(folder: Path, size: int = 14, fps: float | None = 50) -> Path:
     (folder / cls.PREPROCESSOR_FILE).write_text(json.dumps(pre))
     (folder / cls.POSTPROCESSOR_FILE).write_text(json.dumps(post))
     if fps is not None:
-        settings = DatasetSettings(fps=fps, layout="kit14", task="sim_transfer_cube")
+        settings = DatasetSettings(fps=fps, layout=layout, task="sim_transfer_cube")
         write_checkpoint_settings(folder, settings)
     return folder
 
@@ -74,6 +75,17 @@ def test_joint_steps_follow_the_speed_limits_at_the_checkpoints_rate(tmp_path):
         cls.joint_steps(14, 0)
     with pytest.raises(UserError, match="14 or 16 values, not 7"):
         cls.joint_steps(7, 50)
+
+
+def test_a_mobile_ai_checkpoint_gets_its_base_limits_not_the_vendors_grippers(tmp_path):
+    ckpt = _checkpoint(tmp_path / "ckpt", size=16, layout="mobileai")
+    cls.add_to_checkpoint(ckpt)
+    config = json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())["steps"][1]["config"]
+    kit_low, kit_high = cls.controller_bounds(14)
+    assert config["low"] == kit_low + [-1.0, -1.0] and config["high"] == kit_high + [1.0, 1.0]
+    assert config["max_step"] == cls.joint_steps(14, 50) + [0.0, 0.0]
+    vendor_low, _ = cls.controller_bounds(16)
+    assert vendor_low[6] == vendor_low[7] == 0.0 and config["low"][7] == kit_low[7]
 
 
 def test_without_a_rate_only_the_range_is_clipped(tmp_path):

@@ -57,6 +57,7 @@ from trossen_arm_mujoco.real.arm_controller import controller_target
 from trossen_arm_mujoco.real.controller_checks import controller_limits
 from trossen_arm_mujoco.real.goal_trajectory import GOAL_TIME_FACTOR
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
+from trossen_arm_mujoco.robot.configs import MOBILE_AI_BASE_LIMITS
 from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY, STATE_KEY
 
 __all__ = ["MEASURED_NAME", "POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "REGISTRY_NAME",
@@ -75,35 +76,46 @@ PREPROCESSOR_FILE = "policy_preprocessor.json"
 #: driver starts from its setpoint, which leads the measured joints a little in motion).
 SPEED_MARGIN = 0.75
 
+#: The Mobile AI's layout name (``robot.layout``): 16 values that are not the vendor's 16.
+MOBILEAI = "mobileai"
+
 # The measured joints of the latest observation, by link (one per loaded checkpoint).
 _MEASURED: dict[str, Any] = {}
 
 
-def controller_bounds(size: int) -> tuple[list[float], list[float]]:
+def controller_bounds(size: int, layout: str | None = None) -> tuple[list[float], list[float]]:
     """(low, high) of each action value the controller accepts as is, for the kit's 14
-    values (per arm: 6 joints rad, the gripper m) or the vendor's 16 (the gripper twice)."""
+    values (per arm: 6 joints rad, the gripper m), the vendor's 16 (the gripper twice) or,
+    with ``layout`` ``"mobileai"``, the Mobile AI's 16 (the kit's 14, then the base's
+    ``x.vel`` m/s and ``theta.vel`` rad/s within the base's limits, which it clips to)."""
     lims = controller_limits()
     low = [lim.position_min for lim in lims]
     high = [controller_target(lim.position_max, j, lim) for j, lim in enumerate(lims)]
     low[6], high[6] = 0.0, min(high[6], GRIPPER_MAX)
     if size == 14:
         return low * 2, high * 2
+    if size == 16 and layout == MOBILEAI:
+        base = MOBILE_AI_BASE_LIMITS
+        return low * 2 + [-base.x_vel, -base.theta_vel], high * 2 + [base.x_vel, base.theta_vel]
     if size == 16:
         arm_low, arm_high = low[:6] + [low[6]] * 2, high[:6] + [high[6]] * 2
         return arm_low * 2, arm_high * 2
     raise UserError(f"the kit's actions have 14 or 16 values, not {size}")
 
 
-def joint_steps(size: int, fps: float) -> list[float]:
+def joint_steps(size: int, fps: float, layout: str | None = None) -> list[float]:
     """Largest distance (rad) of each value's goal from its measured position, per action
     at ``fps``: :data:`SPEED_MARGIN` x the joint's velocity limit x ``GOAL_TIME_FACTOR /
-    fps``; 0 for the grippers (not limited). Same layouts as :func:`controller_bounds`."""
+    fps``; 0 for the grippers and the Mobile AI's base velocities (not limited). Same
+    layouts as :func:`controller_bounds`."""
     if not fps > 0:
         raise UserError(f"fps must be positive, got {fps}")
     goal_time = GOAL_TIME_FACTOR / float(fps)
     joints = [SPEED_MARGIN * lim.velocity_max * goal_time for lim in controller_limits()[:6]]
     if size == 14:
         return (joints + [0.0]) * 2
+    if size == 16 and layout == MOBILEAI:
+        return (joints + [0.0]) * 2 + [0.0, 0.0]
     if size == 16:
         return (joints + [0.0, 0.0]) * 2
     raise UserError(f"the kit's actions have 14 or 16 values, not {size}")
@@ -153,16 +165,17 @@ def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
     except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
         raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
                         f"({exc})") from None  # fmt: skip
-    if fps is None:  # the checkpoint's own settings, else its dataset's
-        settings, _ = checkpoint_settings(folder)
+    settings, _ = checkpoint_settings(folder)  # its own, else its dataset's
+    layout = None if settings is None else settings.layout
+    if fps is None:
         fps = None if settings is None else float(settings.fps)
-    low, high = controller_bounds(size)
+    low, high = controller_bounds(size, layout)
     config: dict[str, Any] = {"low": low, "high": high}
     old = next((s for s in post_steps if s.get("registry_name") == REGISTRY_NAME), None)
     link = (old or {}).get("config", {}).get("link") or secrets.token_hex(8)
     changed = False
     if fps is not None:
-        config.update(max_step=joint_steps(size, fps), link=link)
+        config.update(max_step=joint_steps(size, fps, layout), link=link)
         measured = {"registry_name": MEASURED_NAME, "config": {"link": link}}
         changed = _place(pre_steps, MEASURED_NAME, measured, before="normalizer_processor")
     step = {"registry_name": REGISTRY_NAME, "config": config}
