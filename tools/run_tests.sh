@@ -88,8 +88,8 @@ export TROSSEN_LEROBOT_REQUIRED=1
 #    clash). Here run, once: the documentation tests and the tests marked `once`, whose result
 #    does not depend on the interpreter running pytest (LeRobot itself always runs in the 3.12
 #    venv, through TROSSEN_LEROBOT_PYTHON).
-# 2. This Python, the tests marked serial, alone: they serve the kit and measure wall-clock
-#    motion (beside a busy neighbouring worker a homing test missed its tolerance, 2026-11-27).
+# 2. This Python, the tests marked serial, alone: they measure wall-clock motion or timing of a
+#    served kit (beside a busy neighbouring worker a homing test missed its tolerance).
 # 3. Python 3.12 next to LeRobot 0.6.1, the tests marked py312 (tests/conftest.py lists their
 #    modules: LeRobot or torch in-process, the env plugin, task entry points, every public
 #    module imported, the export's video with the venv's PyAV), less the `once` ones; none
