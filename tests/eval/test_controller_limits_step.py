@@ -155,14 +155,14 @@ def test_the_steps_hold_each_joint_near_its_measured_position(tmp_path):
     assert torch.equal(out["observation.state"], state)  # the observation is unchanged
     far = state.clone()
     far[0, 8] -= 0.262  # right_joint_1: the first action that faulted (4.4 rad/s)
-    far[0, 13] = 0.0  # right gripper closing: not held to its measured width
+    far[0, 13] = 0.0  # right gripper closing: by its rate from its measured 0.044, in range
     far[0, 0] = 5.0  # beyond the range: clipped to the range, then to the step
     action = limits_step({TransitionKey.ACTION: far})[TransitionKey.ACTION]
     max_step = np.array(cls.joint_steps(14, 50))
     delta = (action - state).numpy()[0]
     assert delta[8] == pytest.approx(-max_step[8], abs=1e-6)
     assert delta[0] == pytest.approx(max_step[0], abs=1e-6)
-    assert action[0, 13].item() == 0.0
+    assert action[0, 13].item() == pytest.approx(0.04)  # 0.044 - 0.0016, then the range
     assert np.all(np.abs(delta[:6]) <= max_step[:6] + 1e-6)
     # asked over the plugin's goal time, the held goal is within the joint's speed limit
     speed = abs(delta[8]) / (3 / 50)
@@ -186,3 +186,39 @@ def test_a_range_only_step_from_an_older_checkpoint_still_loads(tmp_path):
     out = step({TransitionKey.ACTION: action})[TransitionKey.ACTION]
     assert torch.allclose(out, torch.tensor([high], dtype=out.dtype))
     assert step.get_config() == {"low": low, "high": high}
+
+
+def test_gripper_goals_change_by_at_most_their_rate_from_one_action_to_the_next(tmp_path):
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("lerobot")
+    from lerobot.processor import TransitionKey
+
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    cls.add_to_checkpoint(ckpt)
+    measured_step, limits_step = _steps(ckpt)
+    rate = cls.gripper_rates(14, 50)[6]
+    assert rate == pytest.approx(0.9 * 0.0875 / 50)
+    state = torch.tensor([[0.0, 0.2618, 0.2618, 0.0, 0.0, 0.0, 0.0125] * 2])
+
+    def act(gripper: float, state=state):
+        measured_step({TransitionKey.OBSERVATION: {"observation.state": state}})
+        action = state.clone()
+        action[0, 6] = action[0, 13] = gripper
+        return limits_step({TransitionKey.ACTION: action})[TransitionKey.ACTION][0]
+
+    # the first action of an episode starts from the measured width
+    assert act(0.002)[6].item() == pytest.approx(0.0125 - rate)
+    # then from the goal given last: a gripper squeezing the cube closes on to 2 mm
+    goals = [act(0.002)[6].item() for _ in range(10)]
+    assert goals[-1] == pytest.approx(0.002)
+    assert all(abs(b - a) <= rate + 1e-7 for a, b in zip(goals, goals[1:], strict=False))
+    # a jump of the policy's gripper (the wire fault: 6 mm in a period) moves by the rate
+    assert act(0.008)[6].item() == pytest.approx(0.002 + rate)
+    # a new episode (the arms back at the start, far from the last observation) starts over
+    far = state.clone()
+    far[0, 1] += 0.5
+    measured_step({TransitionKey.OBSERVATION: {"observation.state": far}})
+    limits_step({TransitionKey.ACTION: far.clone()})
+    assert act(0.040)[6].item() == pytest.approx(0.0125 + rate)
+    limits_step.reset()
+    assert act(0.040)[6].item() == pytest.approx(0.0125 + rate)
