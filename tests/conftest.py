@@ -157,7 +157,7 @@ def pytest_addoption(parser) -> None:
     parser.addoption(
         "--long",
         action="store_true",
-        help="also run the tests marked `long` (tools/run_tests.sh --long, and CI, run them)",
+        help="also run the tests marked `long` (tools/run_tests.sh, and so CI, runs them)",
     )
 
 
@@ -288,7 +288,7 @@ def pytest_terminal_summary(terminalreporter) -> None:
     if left_out:
         terminalreporter.write_line(
             f"{left_out} test(s) marked long left out: pytest --long runs them "
-            "(bash tools/run_tests.sh --long, as CI does)"
+            "(bash tools/run_tests.sh runs them, as CI does)"
         )
 
 

@@ -3,17 +3,14 @@
 # packages with apt-get, the [dev] extra with a CPU torch, a Python 3.12 venv with LeRobot
 # 0.6.1, the project, the LeRobot env plugin and the example task package), then runs the suite
 # on this Python (spread over the cores, the served-kit tests alone after it) and the tests
-# marked py312 again on 3.12 next to LeRobot. `--long` also runs the tests marked long (CI
-# does). Already set up? MUJOCO_GL=egl python -m pytest -q -n auto --dist loadfile
+# marked py312 again on 3.12 next to LeRobot, then the tests marked long (left out of a plain
+# pytest run). CI (.ci/run) runs exactly this command. Already set up? MUJOCO_GL=egl python -m pytest -q -n auto --dist loadfile
 # (docs/testing.md: the legs, the markers and their timings).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-LONG=0
 for arg in "$@"; do
-    case "$arg" in
-        --long) LONG=1 ;;
-        *) echo "error: unknown argument $arg: use bash tools/run_tests.sh [--long]" >&2; exit 2 ;;
-    esac
+    echo "error: unknown argument $arg: bash tools/run_tests.sh takes none" >&2
+    exit 2
 done
 
 export DEBIAN_FRONTEND=noninteractive
@@ -94,7 +91,7 @@ export TROSSEN_LEROBOT_REQUIRED=1
 #    modules: LeRobot or torch in-process, the env plugin, task entry points, every public
 #    module imported, the export's video with the venv's PyAV), less the `once` ones; none
 #    of them serves a kit, so they too are spread over the cores.
-# 4. With --long: the tests marked long (on this Python), left out of the other legs.
+# 4. The tests marked long (on this Python), left out of the other legs and of a plain pytest run.
 WORKERS="${PYTEST_WORKERS:-auto}"
 FAILED=""
 leg() {  # leg NAME COMMAND...: runs it, prints its wall-clock time, notes a failure
@@ -109,9 +106,7 @@ leg "leg 1 (this Python, parallel)" python -m pytest -q -n "$WORKERS" --dist loa
 leg "leg 2 (this Python, serial)" python -m pytest -q -p no:cacheprovider -m serial
 leg "leg 3 (Python 3.12, LeRobot)" "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider \
     -n "$WORKERS" --dist loadfile --ignore=tests/docs -m "py312 and not once"
-if [ "$LONG" = 1 ]; then
-    leg "long leg (this Python)" python -m pytest -q -p no:cacheprovider --long -m long
-fi
+leg "leg 4 (this Python, long)" python -m pytest -q -p no:cacheprovider --long -m long
 if [ -n "$FAILED" ]; then
     echo "error: failed: $FAILED" >&2
     exit 1
