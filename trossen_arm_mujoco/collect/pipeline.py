@@ -39,7 +39,7 @@ from trossen_arm_mujoco.real.validate import (
 )
 from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.robot.layout import EE_LAYOUT, SIDES, VENDOR16_LAYOUT
-from trossen_arm_mujoco.sim.camera_crop import parse_crops
+from trossen_arm_mujoco.sim.camera_crop import CameraCrop, crop_texts, parse_crops
 from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization_record import record_to_json
@@ -110,7 +110,8 @@ class RecordSettings:
     randomize: bool = False
     shadows: bool = True  # the key light casts shadows in the images
     visual: str = "own"  # arm meshes: "own" or "menagerie" (sim.looks)
-    crops: tuple[str, ...] = ()  # --crop texts: cameras showing a rectangle (sim.camera_crop)
+    # cameras showing a rectangle: sim.camera_crop.CameraCrop values (--crop texts accepted)
+    crops: tuple[CameraCrop | str, ...] = ()
 
     def sampler_settings(self, flavour: str = "joint") -> SamplerSettings:
         """How the sampler of ``flavour`` is built: the joint flavour renders the cameras
@@ -393,7 +394,7 @@ def episode_attrs(
         "real_replay_fps": 1.0 / dt,
         "shadows": bool(s.shadows),
         "visual": s.visual,
-        **({"crops": ";".join(s.crops)} if s.crops else {}),
+        **({"crops": crop_texts(s.crops)} if s.crops else {}),
         **fields,
         **(extra_attrs or {}),
     }

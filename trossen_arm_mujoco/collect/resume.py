@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 from trossen_arm_mujoco.data.reader import EpisodeError, list_episodes, load_episode
 from trossen_arm_mujoco.data.schema import EPISODE_FILE_RE
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.sim.camera_crop import crop_texts
 
 __all__ = ["RunPlan", "check_episode_names", "format_indices", "plan_run", "settings_differences"]
 
@@ -117,7 +118,7 @@ def settings_differences(episode, settings: RecordSettings) -> list[str]:
     if "shadows" in attrs:
         checks.append(("--no_shadows", not attrs["shadows"], not settings.shadows))
     if "schema_version" in attrs:  # files of this package name their crops (none: "")
-        checks.append(("--crop", str(attrs.get("crops", "")), ";".join(settings.crops)))
+        checks.append(("--crop", str(attrs.get("crops", "")), crop_texts(settings.crops)))
     if episode.camera_names and settings.cam_names:
         h, w = episode.image_shapes[episode.camera_names[0]][:2]
         checks.append(("--image_size", f"{h}x{w}", f"{settings.height}x{settings.width}"))

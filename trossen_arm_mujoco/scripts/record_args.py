@@ -224,6 +224,6 @@ def record_options(args: argparse.Namespace) -> RecordOptions:
         randomize=args.randomize,
         shadows=looks.shadows,
         visual=looks.visual,
-        crops=tuple(c.text() for c in looks.crops),
+        crops=looks.crops,  # parsed once, here
     )
     return RecordOptions(settings, num_episodes, onscreen)

@@ -30,7 +30,8 @@ from PIL import Image
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 
-__all__ = ["FRAME", "CameraCrop", "apply_crops", "crop_frame", "parse_crop", "parse_crops"]
+__all__ = ["FRAME", "CameraCrop", "apply_crops", "crop_frame", "crop_texts", "parse_crop",
+           "parse_crops"]  # fmt: skip
 
 #: (height, width) of the full frame a crop is given in, pixels (the cameras' 4:3 image).
 FRAME: tuple[int, int] = (480, 640)
@@ -138,3 +139,9 @@ def crop_frame(image: np.ndarray, crop: CameraCrop | None, size: Sequence[int]) 
             return np.ascontiguousarray(image)
     resized = Image.fromarray(np.ascontiguousarray(image)).resize((w, h), Image.Resampling.BOX)
     return np.asarray(resized, dtype=np.uint8)
+
+
+def crop_texts(crops: str | Sequence[str | CameraCrop] | None) -> str:
+    """The ``--crop`` text of ``crops`` (``;`` between cameras; "" for none): how files
+    store them (an episode's ``crops`` attribute)."""
+    return ";".join(c.text() for c in parse_crops(crops))
