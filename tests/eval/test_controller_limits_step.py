@@ -152,14 +152,20 @@ def _steps(ckpt: Path):
             build(ckpt / cls.POSTPROCESSOR_FILE, cls.REGISTRY_NAME))  # fmt: skip
 
 
-def test_the_steps_hold_each_joint_near_its_measured_position(tmp_path):
+@pytest.fixture
+def built(tmp_path):
+    """torch, LeRobot's TransitionKey and the two steps of a fresh checkpoint at 50 fps."""
     torch = pytest.importorskip("torch")
     _lerobot_in_process()
     from lerobot.processor import TransitionKey
 
     ckpt = _checkpoint(tmp_path / "ckpt")
     cls.add_to_checkpoint(ckpt)
-    measured_step, limits_step = _steps(ckpt)
+    return (torch, TransitionKey, *_steps(ckpt))
+
+
+def test_the_steps_hold_each_joint_near_its_measured_position(built):
+    torch, TransitionKey, measured_step, limits_step = built
     state = torch.tensor([[0.0, 0.2618, 0.2618, 0.0, 0.0, 0.0, 0.044] * 2])
     obs = {"observation.state": state, "observation.environment_state": torch.zeros(1, 7)}
     out = measured_step({TransitionKey.OBSERVATION: obs})[TransitionKey.OBSERVATION]
@@ -199,14 +205,8 @@ def test_a_range_only_step_from_an_older_checkpoint_still_loads(tmp_path):
     assert step.get_config() == {"low": low, "high": high}
 
 
-def test_gripper_goals_change_by_at_most_their_rate_from_one_action_to_the_next(tmp_path):
-    torch = pytest.importorskip("torch")
-    _lerobot_in_process()
-    from lerobot.processor import TransitionKey
-
-    ckpt = _checkpoint(tmp_path / "ckpt")
-    cls.add_to_checkpoint(ckpt)
-    measured_step, limits_step = _steps(ckpt)
+def test_gripper_goals_change_by_at_most_their_rate_from_one_action_to_the_next(built):
+    torch, TransitionKey, measured_step, limits_step = built
     rate = cls.gripper_rates(14, 50)[6]
     assert rate == pytest.approx(0.9 * 0.0875 / 50)
     state = torch.tensor([[0.0, 0.2618, 0.2618, 0.0, 0.0, 0.0, 0.0125] * 2])
