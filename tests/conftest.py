@@ -124,6 +124,13 @@ SERIAL_MODULES = (
     "tests/scripts/test_visualize_eps.py",
 )
 
+#: Why a ``serial`` test skips in a run spread over the cores (pytest's default here).
+SERIAL_SKIP = (
+    "serial: wall-clock sensitive (a served kit's timing, a signal mid-write), so it runs "
+    "alone, not beside pytest-xdist workers: "
+    "python -m pytest -n 0 -m serial (tools/run_tests.sh's leg 2)"
+)
+
 #: Modules that run on the Python 3.12 leg too (marked ``py312``; a single test can carry the
 #: marker itself): what imports LeRobot or torch in-process, the LeRobot env plugin and the
 #: task entry points (``importlib.metadata`` differs by Python version), the import of every
@@ -172,12 +179,16 @@ def _module_path(item) -> str:
 
 
 def pytest_collection_modifyitems(config, items) -> None:
-    """Marks the modules of ``SERIAL_MODULES`` ``serial`` and those of ``PY312_MODULES``
-    ``py312``; leaves out the tests marked ``long`` unless ``--long`` is given."""
+    """Marks the modules of ``SERIAL_MODULES`` ``serial`` (skipped on a pytest-xdist worker)
+    and those of ``PY312_MODULES`` ``py312``; leaves out the tests marked ``long`` unless
+    ``--long`` is given."""
     in_repo = (REPO / "tests" / "conftest.py").resolve() == Path(__file__).resolve()
     stale = [m for m in SERIAL_MODULES + PY312_MODULES if not (REPO / m).is_file()]
     if in_repo and stale:  # (not when a test copies this file elsewhere to run pytest there)
         raise pytest.UsageError(f"tests/conftest.py names test modules that do not exist: {stale}")
+    # pytest's defaults (pyproject.toml) spread a run over the cores; a serial test there
+    # would run beside busy workers, so it skips, saying how to run it alone
+    in_xdist_worker = "PYTEST_XDIST_WORKER" in os.environ
     long_left_out = []
     kept = []
     for item in items:
@@ -188,6 +199,8 @@ def pytest_collection_modifyitems(config, items) -> None:
             continue
         if module in SERIAL_MODULES:
             item.add_marker(pytest.mark.serial)
+            if in_xdist_worker:
+                item.add_marker(pytest.mark.skip(reason=SERIAL_SKIP))
         if module in PY312_MODULES:
             item.add_marker(pytest.mark.py312)
         if item.get_closest_marker("long") and not config.getoption("--long"):

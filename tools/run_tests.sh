@@ -4,8 +4,9 @@
 # 0.6.1, the project, the LeRobot env plugin and the example task package), then runs the suite
 # on this Python (spread over the cores, the served-kit tests alone after it) and the tests
 # marked py312 again on 3.12 next to LeRobot, then the tests marked long (left out of a plain
-# pytest run). CI (.ci/run) runs exactly this command. Already set up? MUJOCO_GL=egl python -m pytest -q -n auto --dist loadfile
-# (docs/testing.md: the legs, the markers and their timings).
+# pytest run). CI (.ci/run) runs exactly this command. Already set up? MUJOCO_GL=egl python -m pytest -q
+# runs leg 1 (pytest's defaults spread it over the cores; docs/testing.md: the legs, the markers
+# and their timings).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 for arg in "$@"; do
@@ -85,7 +86,7 @@ export TROSSEN_LEROBOT_REQUIRED=1
 #    clash). Here run, once: the documentation tests and the tests marked `once`, whose result
 #    does not depend on the interpreter running pytest (LeRobot itself always runs in the 3.12
 #    venv, through TROSSEN_LEROBOT_PYTHON).
-# 2. This Python, the tests marked serial, alone: they measure wall-clock motion or timing of a
+# 2. This Python, the tests marked serial, alone (-n 0: on an xdist worker they skip): they measure wall-clock motion or timing of a
 #    served kit (beside a busy neighbouring worker a homing test missed its tolerance).
 # 3. Python 3.12 next to LeRobot 0.6.1, the tests marked py312 (tests/conftest.py lists their
 #    modules: LeRobot or torch in-process, the env plugin, task entry points, every public
@@ -103,10 +104,10 @@ leg() {  # leg NAME COMMAND...: runs it, prints its wall-clock time, notes a fai
     echo "== $name: $(( $(date +%s) - start )) s"
 }
 leg "leg 1 (this Python, parallel)" python -m pytest -q -n "$WORKERS" --dist loadfile -m "not serial"
-leg "leg 2 (this Python, serial)" python -m pytest -q -p no:cacheprovider -m serial
+leg "leg 2 (this Python, serial)" python -m pytest -q -p no:cacheprovider -n 0 -m serial
 leg "leg 3 (Python 3.12, LeRobot)" "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider \
     -n "$WORKERS" --dist loadfile --ignore=tests/docs -m "py312 and not once"
-leg "leg 4 (this Python, long)" python -m pytest -q -p no:cacheprovider --long -m long
+leg "leg 4 (this Python, long)" python -m pytest -q -p no:cacheprovider -n 0 --long -m long
 if [ -n "$FAILED" ]; then
     echo "error: failed: $FAILED" >&2
     exit 1

@@ -53,6 +53,11 @@ def test_home_page_opens_as_the_readme():
     assert "chromium" in script and "Chromium" in tests_part
     assert '-e ".[dev,cameras,docs]"' in script and "`[dev,cameras,docs]`" in tests_part
     assert "--ignore=tests/docs" in script and "less the documentation tests" in tests_part
+    # "python -m pytest -q ... spread over the cores": pytest's own defaults say so
+    pyproject = (REPO / "pyproject.toml").read_text(encoding="utf-8")
+    addopts = next(line for line in pyproject.splitlines() if line.startswith("addopts"))
+    assert "-n auto" in addopts and "`MUJOCO_GL=egl python -m pytest -q` reruns" in tests_part
+    assert "spread over the cores" in tests_part and "-n 0 -m serial" in tests_part
 
 
 def test_why_this_project_quotes_the_measured_figures():
