@@ -48,6 +48,13 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # its report module, run as a file
+from train_eval_pose import (  # noqa: E402
+    add_encoder,
+    encode_job,
+    encoder_report,
+    inputs_flag,
+    pose_dataset,  # noqa: E402
+)
 from train_eval_recipes import RECIPES, camera_settings_error  # noqa: E402
 from train_eval_report import losses, report, results  # noqa: E402
 
@@ -162,7 +169,8 @@ def _train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
         f"--num_workers={args.num_workers}", f"--seed={seed}",
         f"--save_freq={min(args.save_freq, args.steps)}", "--log_freq=200",
         "--wandb.enable=false", f"--output_dir={out}",
-    ] + extra + _inputs_flag(args, dataset) + list(args.train_arg)  # fmt: skip
+    ] + extra + (inputs_flag(dataset) if args.pose_encoder else _inputs_flag(args, dataset)
+                 ) + list(args.train_arg)  # fmt: skip
 
 
 def _carry_settings(dataset: Path, train: Path) -> None:
@@ -180,14 +188,17 @@ def _carry_settings(dataset: Path, train: Path) -> None:
         tmp.replace(model / SETTINGS_FILE)
 
 
-def _prepare(ckpt: Path, dataset: Path) -> None:
+def _prepare(ckpt: Path, dataset: Path, pose: bool = False) -> None:
     """Before a checkpoint is scored (here, where the simulator is installed): the arm
     controller's limits in its saved postprocessor (``eval.controller_limits_step``), the
-    dataset's settings beside its weights."""
+    dataset's settings beside its weights, and with ``pose`` the dataset's pose encoder in
+    its preprocessor (``eval.camera_pose_step``)."""
     from trossen_arm_mujoco.eval.controller_limits_step import add_to_checkpoint
 
     if not (ckpt / SETTINGS_FILE).exists() and (dataset / "meta" / "info.json").exists():
         _carry_settings(dataset, ckpt.parent.parent.parent)
+    if pose:
+        add_encoder(ckpt, dataset)
     if add_to_checkpoint(ckpt):  # after the settings: its joint steps need their fps
         print(f"{ckpt}: the arm controller's limits added to its processors")
 
@@ -307,6 +318,12 @@ def build_parser() -> argparse.ArgumentParser:
         "observation.environment_state (the object poses), so it must find the cube in the "
         "images (the image recipe)",
     )
+    p.add_argument(
+        "--pose_encoder",
+        action="store_true",
+        help="train a small encoder once to find the cube in the camera and train every run "
+        "on its estimates (the camera_pose recipe; train_eval_pose.py)",
+    )
     p.add_argument("--train_arg", action="append", default=[],
                    help="one more lerobot-train flag, e.g. --train_arg=--policy.dropout=0.1 "
                    "(repeatable)")  # fmt: skip
@@ -404,6 +421,17 @@ def main(argv: list[str] | None = None) -> None:
                 "--repo_id", "local/sim_dataset", "--fps", str(args.fps), "--vcodec", "h264",
             ], work / "export.log")], env, 1)[0]  # fmt: skip
     save()
+    if args.pose_encoder:  # every run trains on (and every score uses) the derived dataset
+        derived = pose_dataset(work)
+        if "train" in phases and not (derived / "meta/info.json").exists():
+            if not (dataset / "meta/info.json").exists():
+                _fail(f"no dataset in {dataset}: run --phase record,export first")
+            summary["encode"] = _run_jobs([("pose encoder", encode_job(
+                python, dataset, data, derived, _cores(), args.seed), work / "encode.log")],
+                env, 1)[0]  # fmt: skip
+            summary["encode"]["report"] = encoder_report(derived)
+            save()
+        dataset = derived
     if "train" in phases:
         if not (dataset / "meta/info.json").exists():
             _fail(f"no dataset in {dataset}: run --phase record,export first")
@@ -439,7 +467,7 @@ def main(argv: list[str] | None = None) -> None:
             ckpt = _checkpoint(work / "train" / f"seed_{seed}")
             if not ckpt.is_dir():
                 _fail(f"no checkpoint at {ckpt}: run --phase train first")
-            _prepare(ckpt, dataset)
+            _prepare(ckpt, dataset, args.pose_encoder)
             out = work / "eval" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
             if _scored(out / "eval_info.json", ckpt, args, both=args.controller_checks == "both"):
@@ -465,7 +493,7 @@ def main(argv: list[str] | None = None) -> None:
             ckpt = _checkpoint(work / "train" / f"seed_{seed}")
             if not ckpt.is_dir():
                 _fail(f"no checkpoint at {ckpt}: run --phase train first")
-            _prepare(ckpt, dataset)
+            _prepare(ckpt, dataset, args.pose_encoder)
             out = work / "wire" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
             if _scored(out / "eval_info.json", ckpt, args, both=False):

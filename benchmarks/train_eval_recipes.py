@@ -46,6 +46,18 @@ RECIPES: dict[str, dict] = {
         "steps": 4500,
         "train_arg": [BACKBONE_RATE],
     },
+    # the same data; a pose encoder trained once finds the cube in cam_high, and each run
+    # trains the state recipe's ACT on the joints and the encoder's estimates
+    "camera_pose": {
+        "episodes": 200,
+        "inject_noise": True,
+        "cam_names": "cam_high",
+        "image_size": "60x80",
+        "crop": "cam_high:217,243,150,200",
+        "fps": 30,
+        "pose_encoder": True,
+        "steps": 7000,
+    },
 }
 
 

@@ -76,8 +76,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--n_decoder_layers", type=int, default=1)
     p.add_argument("--chunk_size", type=int, default=50)
     p.add_argument("--use_vae", action="store_true")
-    p.add_argument("--no_env_state", action="store_true",
-                   help="leave observation.environment_state out (the camera recipe)")
+    p.add_argument(
+        "--no_env_state",
+        action="store_true",
+        help="leave observation.environment_state out (the camera recipe)",
+    )
     p.add_argument("--vision_backbone", default="resnet18", help="ACT's torchvision backbone")
     p.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = p.parse_args(argv)
@@ -128,10 +131,12 @@ def build(args: argparse.Namespace):
 
         config.input_features = {
             key: PolicyFeature(
-                type=FeatureType.VISUAL if key.startswith("observation.images.") else
-                FeatureType.STATE,
+                type=FeatureType.VISUAL
+                if key.startswith("observation.images.")
+                else FeatureType.STATE,
                 shape=tuple(ft["shape"][::-1][:1] + ft["shape"][:2])
-                if key.startswith("observation.images.") else tuple(ft["shape"]),
+                if key.startswith("observation.images.")
+                else tuple(ft["shape"]),
             )
             for key, ft in meta.features.items()
             if key == "observation.state" or key.startswith("observation.images.")

@@ -53,6 +53,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("policies", "gym"),
     # front doors built on the above: collection -> data files; LeRobot export
     ("collect", "export"),
+    # what a policy is trained on, beyond the export: a pose encoder and its derived dataset
+    ("train",),
     # front doors that reuse collection's episodes and seeds: a policy over seeds (also
     # export's layout); the kit served over the arm protocol and teleop (the served twin)
     ("eval", "twin"),

@@ -258,6 +258,34 @@ def test_the_camera_recipe_runs_small_and_reports_its_cost(tmp_path):
     assert "s CPU (" in run.stdout and "steps/s" in run.stdout
 
 
+def test_the_camera_pose_recipe_runs_small_and_deploys(tmp_path):
+    """``--recipe camera_pose`` end to end on 2 episodes and 2 steps: the encoder derived
+    once (its report in summary.json), the runs trained on the joints and its estimates (no
+    image), and the checkpoint scored with the encoder in its preprocessor, reading
+    cam_high: it observes what the kit gives."""
+    work = tmp_path / "pose"
+    run = _bench(work, "--recipe", "camera_pose", "--episodes", "2", *TINY,
+                 "--eval_episodes", "1", "--eval_episode_length", "15", "--eval_workers", "1",
+                 "--controller_checks", "on")  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    derived = work / "dataset_pose"
+    report = json.loads((derived / "meta" / "pose_encoder.json").read_text())
+    assert report["camera"] == "cam_high" and report["image_size"] == [60, 80]
+    ckpt = work / "train" / "seed_1000" / "checkpoints" / "last" / "pretrained_model"
+    config = json.loads((ckpt / "config.json").read_text())
+    assert set(config["input_features"]) == {"observation.state",
+                                             "observation.environment_state"}  # fmt: skip
+    steps = json.loads((ckpt / "policy_preprocessor.json").read_text())["steps"]
+    names = [step["registry_name"] for step in steps]
+    assert names.index("trossen_camera_pose") < names.index("normalizer_processor")
+    assert (ckpt / steps[names.index("trossen_camera_pose")]["state_file"]).is_file()
+    summary = json.loads((work / "summary.json").read_text())
+    assert summary["encode"]["cpu_s"] > 0 and "start_xy_mm" in summary["encode"]["report"]
+    got = summary["runs"]["1000"]
+    assert got["result"]["n_episodes"] == 1 and got["train"]["cpu_s"] > 0
+    assert got["deployment"]["sim_only"] is False  # the cube's pose comes from the camera
+
+
 @pytest.mark.parametrize(
     ("flags", "expected"),
     [(["--cam_names", "cam_top"], "--cam_names cam_top: the kit has no such camera; choose"),

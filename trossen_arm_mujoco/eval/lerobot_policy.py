@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.camera_pose_step import camera_of
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
 from trossen_arm_mujoco.robot.lerobot_keys import (
     ACTION_KEY,
@@ -77,7 +78,8 @@ def checkpoint_features(path: str | Path) -> dict[str, Any]:
     cameras (``cam_names``), their (H, W) (``image_size``), the layout name of its action
     (``layout``: ``kit14`` for 14 values, ``vendor16`` for 16), and whether it observes
     what no real kit can give (``sim_only``: ``observation.environment_state``, the objects'
-    exact poses). Keys are missing when the config does not say."""
+    exact poses, unless the checkpoint's preprocessor computes them from a camera:
+    ``eval.camera_pose_step``). Keys are missing when the config does not say."""
     folder = checkpoint_dir(path)
     try:
         config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
@@ -92,7 +94,12 @@ def checkpoint_features(path: str | Path) -> dict[str, Any]:
         shape = inputs[image_key(cams[0])].get("shape") or []
         if len(shape) == 3:
             found["image_size"] = (int(shape[1]), int(shape[2]))
-    found["sim_only"] = ENV_STATE_KEY in inputs  # what only the simulation has
+    # what only the simulation has, unless the checkpoint's own pose encoder computes it
+    # from a camera (eval.camera_pose_step): then that camera is what it observes
+    pose_camera = camera_of(folder)
+    found["sim_only"] = ENV_STATE_KEY in inputs and pose_camera is None
+    if pose_camera is not None and pose_camera not in cams:
+        found["cam_names"] = (*cams, pose_camera)
     size = (outputs.get(ACTION_KEY) or {}).get("shape") or []
     if list(size) == [14]:
         found["layout"] = "kit14"
@@ -169,9 +176,11 @@ class LeRobotPolicy:
         out = cfg.output_features.get(ACTION_KEY)
         _raise_on_mismatch(path, inputs, None if out is None else out.shape, env)
         self.torch = torch
+        from trossen_arm_mujoco.eval.camera_pose_step import register as register_camera_pose
         from trossen_arm_mujoco.eval.controller_limits_step import register
 
         register()  # a checkpoint's postprocessor may hold the controller's limits
+        register_camera_pose()  # and its preprocessor a pose encoder
         self.policy = get_policy_class(cfg.type).from_pretrained(str(folder), config=cfg)
         self.policy.eval()
         self.pre, self.post = make_pre_post_processors(

@@ -46,6 +46,7 @@ from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.camera_pose_step import register as register_camera_pose
 from trossen_arm_mujoco.eval.controller_limits_step import register as register_controller_limits
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings
@@ -57,6 +58,8 @@ __all__ = ["TrossenEnvConfig"]
 # trossen_arm_mujoco.eval.controller_limits_step holds it): registered for every LeRobot tool
 # that imports this plugin (lerobot-eval, lerobot-rollout, lerobot-record)
 register_controller_limits()
+# and a checkpoint's pose encoder (trossen_arm_mujoco.eval.camera_pose_step), a preprocessor step
+register_camera_pose()
 
 #: The kit's cameras, in the order ``record`` renders them.
 KIT_CAMERAS = "cam_high,cam_low,cam_left_wrist,cam_right_wrist"

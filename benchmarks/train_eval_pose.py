@@ -1,0 +1,58 @@
+"""The pose-encoder part of ``train_eval.py`` (``--pose_encoder``, the ``camera_pose`` recipe).
+
+Before training, the exported dataset is derived once (``trossen_arm_mujoco.train.
+pose_dataset``): a small encoder learns the cube's pose from the camera's frames, and a copy
+of the dataset gets the encoder's estimates as ``observation.environment_state``. Every
+training run on that copy observes the joints and those estimates (no image: the encoder is
+frozen, so no run pays for an image network); before scoring, each checkpoint gets the
+encoder as a step of its preprocessor (``trossen_arm_mujoco.eval.camera_pose_step``), so at
+run time it observes the joints and the camera only, as a real kit gives them.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+#: The derived dataset, in the work folder beside ``dataset``.
+POSE_DATASET = "dataset_pose"
+
+
+def pose_dataset(work: Path) -> Path:
+    return work / POSE_DATASET
+
+
+def encode_job(python: str, dataset: Path, episodes: Path, out: Path, threads: int,
+               seed: int) -> list[str]:  # fmt: skip
+    """The command that derives ``out`` from ``dataset`` and its ``episodes``."""
+    return [python, "-m", "trossen_arm_mujoco.train.pose_dataset", str(dataset), str(episodes),
+            str(out), "--threads", str(threads), "--seed", str(seed)]  # fmt: skip
+
+
+def inputs_flag(dataset: Path) -> list[str]:
+    """``--policy.input_features``: the joints and the estimated poses, no image (LeRobot
+    would otherwise give the policy every ``observation.*`` feature, the camera too)."""
+    info = json.loads((dataset / "meta" / "info.json").read_text())
+    feats = info["features"]
+    inputs = {
+        "observation.state": {"type": "STATE", "shape": feats["observation.state"]["shape"]},
+        "observation.environment_state": {
+            "type": "ENV", "shape": feats["observation.environment_state"]["shape"]},
+    }  # fmt: skip
+    return ["--policy.input_features=" + json.dumps(inputs)]
+
+
+def encoder_report(dataset: Path) -> dict:
+    """What ``pose_dataset`` measured (held-out errors in mm, CPU and wall seconds)."""
+    from trossen_arm_mujoco.train.pose_dataset import REPORT_FILE
+
+    return json.loads((dataset / REPORT_FILE).read_text())
+
+
+def add_encoder(ckpt: Path, dataset: Path) -> None:
+    """The derived dataset's encoder into the checkpoint's preprocessor."""
+    from trossen_arm_mujoco.eval.camera_pose_step import add_to_checkpoint
+    from trossen_arm_mujoco.train.pose_dataset import ENCODER_FILE
+
+    camera = encoder_report(dataset)["camera"]
+    add_to_checkpoint(ckpt, dataset / ENCODER_FILE, camera)

@@ -1,0 +1,210 @@
+"""A LeRobot dataset whose ``observation.environment_state`` is what a pose encoder sees in
+the camera, not the simulation's exact poses: what a policy that deploys is trained on.
+
+``derive_dataset`` takes an exported dataset and the episode files it was exported from
+(their camera frames as rendered, not the dataset's compressed video), trains a
+:mod:`.pose_encoder` on them once, and writes a copy of the dataset in which each frame's
+``observation.environment_state`` is the encoder's estimate from that frame's camera image;
+its statistics (``meta/stats.json`` and the per-episode ones) are those of the estimates.
+The encoder is saved beside it (:data:`ENCODER_FILE`) with its report
+(:data:`REPORT_FILE`). A policy trained on the copy and given the encoder in its
+preprocessor (``eval.camera_pose_step``) observes the joints and the camera only.
+
+Command line (``[train]`` extra: torch)::
+
+    python -m trossen_arm_mujoco.train.pose_dataset DATASET EPISODES OUTPUT [--camera cam_high]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.data.reader import list_episodes, load_episode
+from trossen_arm_mujoco.errors import UserError, run_cli
+from trossen_arm_mujoco.export.lerobot_plan import frame_map
+from trossen_arm_mujoco.export.lerobot_stats import array_stats, to_lists
+from trossen_arm_mujoco.robot.lerobot_keys import ENV_STATE_KEY, image_camera
+from trossen_arm_mujoco.train.pose_encoder import EPOCHS, save_encoder, train_encoder
+
+__all__ = ["ENCODER_FILE", "REPORT_FILE", "derive_dataset", "main"]
+
+#: Where the derived dataset keeps its encoder and the encoder's report.
+ENCODER_FILE = "meta/pose_encoder.safetensors"
+REPORT_FILE = "meta/pose_encoder.json"
+
+
+def _info(dataset: Path) -> dict[str, Any]:
+    try:
+        return json.loads((dataset / "meta" / "info.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{dataset}: not a LeRobot dataset ({exc}); give the folder "
+                        "trossen-mujoco export wrote") from None  # fmt: skip
+
+
+def _camera(info: dict[str, Any], camera: str | None, dataset: Path) -> str:
+    cams = [c for c in map(image_camera, info["features"]) if c is not None]
+    if camera is None and len(cams) == 1:
+        return cams[0]
+    if camera not in cams:
+        raise UserError(f"--camera {camera}: {dataset} has cameras {cams or 'none'}; "
+                        "choose one (export with --cam_names to add one)")  # fmt: skip
+    return camera
+
+
+def _read_rows(dataset: Path) -> tuple[list[Path], np.ndarray, np.ndarray, np.ndarray]:
+    import pyarrow.parquet as pq
+
+    files = sorted((dataset / "data").glob("chunk-*/file-*.parquet"))
+    if not files:
+        raise UserError(f"{dataset}: no data files under data/; export it again")
+    eps, frames, env = [], [], []
+    for f in files:
+        t = pq.read_table(f, columns=["episode_index", "frame_index", ENV_STATE_KEY])
+        eps.append(t["episode_index"].to_numpy())
+        frames.append(t["frame_index"].to_numpy())
+        env.append(np.stack(t[ENV_STATE_KEY].to_numpy(zero_copy_only=False)))
+    return files, np.concatenate(eps), np.concatenate(frames), np.concatenate(env)
+
+
+def _frames(episodes: Path, camera: str, fps: int, episode: np.ndarray,
+            env: np.ndarray) -> np.ndarray:  # fmt: skip
+    """Each dataset row's camera frame, from the episode files (dataset episode i is the
+    i-th file, as export numbers them; checked against the first pose of each)."""
+    files = list_episodes(episodes)
+    n_eps = int(episode.max()) + 1
+    if len(files) < n_eps:
+        raise UserError(f"{episodes} holds {len(files)} episode files, the dataset "
+                        f"{n_eps}: give the folder it was exported from")  # fmt: skip
+    out = []
+    for i in range(n_eps):
+        rows = np.nonzero(episode == i)[0]
+        ep = load_episode(files[i][1], load_images=True)
+        if ep.images is None or camera not in ep.images:
+            raise UserError(f"{files[i][1]} has no {camera} frames: record with --cam_names "
+                            f"{camera}")  # fmt: skip
+        fm = frame_map(ep.num_steps, int(round(1.0 / ep.dt)), fps)
+        if (
+            fm.length != len(rows)
+            or ep.env_state is None
+            or not np.allclose(ep.env_state[0], env[rows[0]], atol=1e-4)
+        ):
+            raise UserError(f"{files[i][1]} is not the dataset's episode {i}: give the "
+                            "episodes folder the dataset was exported from")  # fmt: skip
+        out.append(ep.images[camera][fm.image_index])
+    return np.concatenate(out)
+
+
+def _write_rows(files: list[Path], out: Path, dataset: Path, pred: np.ndarray) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    start = 0
+    for f in files:
+        target = out / f.relative_to(dataset)
+        t = pq.read_table(f)
+        n = t.num_rows
+        col = t.schema.field(ENV_STATE_KEY)
+        values = pa.array([row for row in pred[start : start + n].astype(np.float32)],
+                          type=col.type)  # fmt: skip
+        t = t.set_column(t.schema.get_field_index(ENV_STATE_KEY), col, values)
+        pq.write_table(t, target)
+        start += n
+
+
+def _write_stats(out: Path, episode: np.ndarray, pred: np.ndarray) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    stats_path = out / "meta" / "stats.json"
+    stats = json.loads(stats_path.read_text(encoding="utf-8"))
+    stats[ENV_STATE_KEY] = to_lists(array_stats(pred))
+    stats_path.write_text(json.dumps(stats, indent=4), encoding="utf-8")
+    for f in sorted((out / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
+        t = pq.read_table(f)
+        per_ep = {int(i): to_lists(array_stats(pred[episode == i]))
+                  for i in t["episode_index"].to_numpy()}  # fmt: skip
+        for name in per_ep[next(iter(per_ep))]:
+            key = f"stats/{ENV_STATE_KEY}/{name}"
+            if key not in t.column_names:
+                continue
+            col = t.schema.field(key)
+            values = pa.array([per_ep[int(i)][name] for i in t["episode_index"].to_numpy()],
+                              type=col.type)  # fmt: skip
+            t = t.set_column(t.schema.get_field_index(key), col, values)
+        pq.write_table(t, f)
+
+
+def derive_dataset(
+    dataset: str | Path,
+    episodes: str | Path,
+    output: str | Path,
+    *,
+    camera: str | None = None,
+    seed: int = 0,
+    epochs: int = EPOCHS,
+    threads: int | None = None,
+    overwrite: bool = False,
+    progress: Any = print,
+) -> dict[str, Any]:
+    """Train the encoder on ``episodes``' frames of ``camera`` (the dataset's only camera
+    when None) and write the derived dataset to ``output``; returns the encoder's report
+    (errors in mm on held-out episodes, CPU and wall seconds)."""
+    from trossen_arm_mujoco.export.lerobot_output import build_folder, check_output, publish
+
+    dataset, episodes = Path(dataset).expanduser(), Path(episodes).expanduser()
+    info = _info(dataset)
+    if ENV_STATE_KEY not in info.get("features", {}):
+        raise UserError(f"{dataset} has no {ENV_STATE_KEY}: export it from episodes of a task "
+                        "with objects")  # fmt: skip
+    cam = _camera(info, camera, dataset)
+    out = check_output(output, overwrite)
+    files, episode, frame_index, env = _read_rows(dataset)
+    progress(f"pose encoder: reading {cam} frames of {int(episode.max()) + 1} episodes")
+    images = _frames(episodes, cam, int(info["fps"]), episode, env)
+    net, report = train_encoder(images, env, episode, frame_index, seed=seed, epochs=epochs,
+                                threads=threads, progress=progress)  # fmt: skip
+    from trossen_arm_mujoco.train.pose_encoder import predict
+
+    pred = predict(net, images)
+    with build_folder(out) as tmp:
+        shutil.copytree(dataset, tmp, dirs_exist_ok=True, symlinks=True)
+        _write_rows(files, tmp, dataset, pred)
+        _write_stats(tmp, episode, pred)
+        save_encoder(net, tmp / ENCODER_FILE)
+        result = {"camera": cam, "image_size": list(images.shape[1:3]), **report.as_dict()}
+        (tmp / REPORT_FILE).write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
+        publish(tmp, out)
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("dataset", help="the exported LeRobot dataset")
+    p.add_argument("episodes", help="the episode files it was exported from")
+    p.add_argument("output", help="folder for the derived dataset")
+    p.add_argument("--camera", default=None, help="the camera (default: the dataset's only one)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--epochs", type=int, default=EPOCHS)
+    p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--overwrite", action="store_true")
+    args = p.parse_args(argv)
+    report = derive_dataset(args.dataset, args.episodes, args.output, camera=args.camera,
+                            seed=args.seed, epochs=args.epochs, threads=args.threads,
+                            overwrite=args.overwrite)  # fmt: skip
+    print(
+        f"pose encoder on held-out episodes: start x/y error {report['start_xy_mm']:.1f} mm "
+        f"(max {report['start_xy_max_mm']:.1f}), xyz over all frames "
+        f"{report['mean_xyz_mm']:.1f} mm; {report['cpu_s']:.0f} s CPU; wrote {args.output}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_cli(main))

@@ -1,0 +1,262 @@
+"""A small image encoder that finds the objects in one camera: trained once on a recorded
+dataset, then frozen and reused by every policy trained on that dataset.
+
+Why. An image policy trained end to end (ACT with ResNet-18 from scratch, on the CPU) learns
+what is large and moves in the camera: the arms. At an episode's start the arms are at home
+and say nothing of where the cube is, so such a policy starts towards the middle of the
+spawn region (docs Benchmarks, "the pose-encoder recipe"). This encoder is taught the one
+thing a policy needs from the camera, the objects' poses, with the simulation's exact poses
+as labels, and the frames where the arms have not moved yet weigh more
+(:data:`EARLY_FRAMES`, :data:`EARLY_REPEAT`), so it must find the object itself.
+
+The network (:class:`PoseEncoder`, about 25 k parameters; ``torch`` is imported inside the
+functions): three small convolutions, a spatial soft-argmax (where each of
+:data:`KEYPOINTS` feature maps peaks, in [-1, 1] image coordinates, and how strongly), and
+a two-layer head that gives the objects' poses (xyz m + quat wxyz per object, the layout of
+``observation.environment_state``). It runs on (B, 3, H, W) float images in [0, 1], as
+LeRobot's ``preprocess_observation`` gives them.
+
+At deployment only the camera is needed: ``eval.camera_pose_step`` runs the frozen encoder
+in the checkpoint's preprocessor, so the policy observes the joints and the camera, and
+nothing a real kit lacks.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from trossen_arm_mujoco.errors import UserError
+
+__all__ = [
+    "EARLY_FRAMES",
+    "EARLY_REPEAT",
+    "EncoderReport",
+    "KEYPOINTS",
+    "load_encoder",
+    "predict",
+    "save_encoder",
+    "train_encoder",
+]
+
+#: Feature maps whose soft-argmax the head reads.
+KEYPOINTS = 16
+#: Frames of an episode's start (at the dataset's rate: 1.5 s at 30 fps) in which the arms
+#: have barely moved: the object's pose must come from the object there.
+EARLY_FRAMES = 45
+#: How many extra times each early frame is shown per epoch.
+EARLY_REPEAT = 3
+#: Every n-th of the other frames is used per epoch (neighbouring frames nearly repeat).
+FRAME_STRIDE = 3
+#: Training defaults: epochs, batch, peak rate of the one-cycle schedule.
+EPOCHS = 4
+BATCH = 64
+PEAK_LR = 2e-3
+#: Episodes held out (the last tenth) for the report's errors.
+HOLDOUT_FRACTION = 0.1
+
+
+@dataclass(frozen=True)
+class EncoderReport:
+    """How well the encoder finds the objects on held-out episodes (mm), and its cost."""
+
+    start_xy_mm: float  # mean |error| of the first object's x and y at episodes' first frames
+    start_xy_max_mm: float  # the largest of those errors
+    mean_xyz_mm: float  # mean |error| of the first object's xyz over all held-out frames
+    train_frames: int
+    held_out_episodes: int
+    epochs: int
+    cpu_s: float
+    wall_s: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+
+def _module(out_dim: int, keypoints: int = KEYPOINTS) -> Any:
+    import torch
+    from torch import nn
+
+    class PoseEncoder(nn.Module):
+        """(B, 3, H, W) images in [0, 1] -> (B, out_dim) poses in the targets' units."""
+
+        def __init__(self) -> None:
+            super().__init__()
+            self.conv = nn.Sequential(
+                nn.Conv2d(3, 16, 5, padding=2), nn.ReLU(),
+                nn.Conv2d(16, 32, 3, stride=2, padding=1), nn.ReLU(),
+                nn.Conv2d(32, 32, 3, padding=1), nn.ReLU(),
+                nn.Conv2d(32, keypoints, 1),
+            )  # fmt: skip
+            # a sharp soft-argmax from the start (softmax over ~1,000 cells is flat otherwise)
+            self.log_temperature = nn.Parameter(torch.tensor(2.3))
+            self.head = nn.Sequential(nn.Linear(3 * keypoints, 128), nn.ReLU(),
+                                      nn.Linear(128, out_dim))  # fmt: skip
+            self.register_buffer("target_mean", torch.zeros(out_dim))
+            self.register_buffer("target_std", torch.ones(out_dim))
+
+        def normalized(self, images: Any) -> Any:
+            f = self.conv(images)
+            b, k, h, w = f.shape
+            p = torch.softmax(f.flatten(2) * self.log_temperature.exp(), -1).view(b, k, h, w)
+            ys = torch.linspace(-1.0, 1.0, h, device=f.device)
+            xs = torch.linspace(-1.0, 1.0, w, device=f.device)
+            ey = (p.sum(3) * ys).sum(2)
+            ex = (p.sum(2) * xs).sum(2)
+            return self.head(torch.cat([ex, ey, f.flatten(2).amax(-1)], 1))
+
+        def forward(self, images: Any) -> Any:
+            return self.normalized(images) * self.target_std + self.target_mean
+
+    return PoseEncoder()
+
+
+def _check(images: np.ndarray, targets: np.ndarray | None = None) -> None:
+    if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8:
+        raise UserError(f"the encoder takes (N, H, W, 3) uint8 frames, got {images.shape} "
+                        f"{images.dtype}")  # fmt: skip
+    if targets is not None and (targets.ndim != 2 or len(targets) != len(images)):
+        raise UserError(f"one pose row per frame is needed: {images.shape[0]} frames, targets "
+                        f"{targets.shape}")  # fmt: skip
+    if targets is not None and not np.isfinite(targets).all():
+        raise UserError("the object poses hold NaN or inf: re-record the episodes")
+
+
+def _tensor(images: np.ndarray) -> Any:
+    import torch
+
+    return torch.from_numpy(np.ascontiguousarray(images)).permute(0, 3, 1, 2)
+
+
+def predict(encoder: Any, images: np.ndarray, batch: int = 512) -> np.ndarray:
+    """Poses (N, D) float32 for frames (N, H, W, 3) uint8."""
+    import torch
+
+    _check(images)
+    x = _tensor(images)
+    encoder.eval()
+    out = []
+    with torch.inference_mode():
+        for i in range(0, len(x), batch):
+            out.append(encoder(x[i : i + batch].float() / 255.0))
+    return torch.cat(out).numpy().astype(np.float32)
+
+
+def _epoch_rows(train_rows: np.ndarray, early_rows: np.ndarray) -> np.ndarray:
+    return np.concatenate([train_rows[::FRAME_STRIDE]] + [early_rows] * EARLY_REPEAT)
+
+
+def train_encoder(
+    images: np.ndarray,
+    targets: np.ndarray,
+    episode: np.ndarray,
+    frame_index: np.ndarray,
+    *,
+    seed: int = 0,
+    epochs: int = EPOCHS,
+    threads: int | None = None,
+    progress: Any = print,
+) -> tuple[Any, EncoderReport]:
+    """Train an encoder on frames (N, H, W, 3) uint8 with their poses (N, D) (the first
+    object's xyz in columns 0-2, m), each frame's episode and index in it; the last
+    :data:`HOLDOUT_FRACTION` of the episodes are held out for the report. ``seed`` fixes the
+    initial weights and the order of the frames."""
+    import torch
+    import torch.nn.functional as F
+
+    _check(images, targets)
+    if threads:
+        torch.set_num_threads(int(threads))
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    targets = np.asarray(targets, dtype=np.float32)
+    episodes = np.unique(episode)
+    n_hold = max(1, int(round(len(episodes) * HOLDOUT_FRACTION))) if len(episodes) > 1 else 0
+    held = episodes[len(episodes) - n_hold :] if n_hold else episodes[:0]
+    is_train = ~np.isin(episode, held)
+    train_rows = np.nonzero(is_train)[0]
+    early_rows = np.nonzero(is_train & (frame_index < EARLY_FRAMES))[0]
+    mean, std = targets[train_rows].mean(0), targets[train_rows].std(0) + 1e-3
+    net = _module(targets.shape[1])
+    net.target_mean.copy_(torch.from_numpy(mean))
+    net.target_std.copy_(torch.from_numpy(std))
+    x_all, y_all = _tensor(images), torch.from_numpy((targets - mean) / std)
+    per_epoch = max(1, len(_epoch_rows(train_rows, early_rows)) // BATCH)
+    opt = torch.optim.AdamW(net.parameters(), lr=PEAK_LR / 25)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, PEAK_LR, total_steps=epochs * per_epoch)
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    net.train()
+    for epoch in range(epochs):
+        order = rng.permutation(_epoch_rows(train_rows, early_rows))[: per_epoch * BATCH]
+        total = 0.0
+        for i in range(0, len(order), BATCH):
+            rows = order[i : i + BATCH]
+            loss = F.mse_loss(net.normalized(x_all[rows].float() / 255.0), y_all[rows])
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            sched.step()
+            total += loss.item()
+        progress(f"pose encoder: epoch {epoch + 1}/{epochs}, loss {total / per_epoch:.4f}, "
+                 f"{time.perf_counter() - wall0:.0f} s")  # fmt: skip
+    cpu_s, wall_s = time.process_time() - cpu0, time.perf_counter() - wall0
+    held_rows = np.nonzero(~is_train)[0]
+    start_err = mean_err = np.zeros(1)
+    if len(held_rows):
+        pred = predict(net, images[held_rows])
+        err = np.abs(pred[:, :3] - targets[held_rows, :3]) * 1000.0
+        first = frame_index[held_rows] == frame_index[held_rows].min()
+        start_err, mean_err = err[first, :2], err
+    report = EncoderReport(
+        start_xy_mm=float(start_err.mean()), start_xy_max_mm=float(start_err.max()),
+        mean_xyz_mm=float(mean_err.mean()), train_frames=int(len(train_rows)),
+        held_out_episodes=int(n_hold), epochs=int(epochs), cpu_s=round(cpu_s, 1),
+        wall_s=round(wall_s, 1),
+    )  # fmt: skip
+    return net, report
+
+
+def save_encoder(encoder: Any, path: str | Path) -> None:
+    """Write the encoder's weights and shape to ``path`` (safetensors, atomically)."""
+    from safetensors.torch import save_file
+
+    from trossen_arm_mujoco.fileio import atomic_path
+
+    state = {k: v.detach().contiguous() for k, v in encoder.state_dict().items()}
+    meta = {"out_dim": str(int(state["target_mean"].shape[0])), "keypoints": str(KEYPOINTS)}
+    with atomic_path(Path(path)) as tmp:
+        save_file(state, str(tmp), metadata=meta)
+
+
+def encoder_from_state(state: dict[str, Any]) -> Any:
+    """An encoder holding ``state`` (what :func:`save_encoder` wrote, as tensors)."""
+    try:
+        out_dim = int(state["target_mean"].shape[0])
+        keypoints = int(state["conv.6.weight"].shape[0])
+        net = _module(out_dim, keypoints)
+        net.load_state_dict(state)
+    except (KeyError, RuntimeError, AttributeError) as exc:
+        raise UserError(f"not a pose encoder's weights ({exc})") from None
+    net.eval()
+    return net
+
+
+def load_encoder(path: str | Path) -> Any:
+    """The encoder saved at ``path``; a one-line UserError when it is missing or foreign."""
+    from safetensors.torch import load_file
+
+    try:
+        state = load_file(str(path))
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{path}: cannot read the pose encoder ({exc}); run the recipe's "
+                        "encode phase again") from None  # fmt: skip
+    return encoder_from_state(state)
+
+
+def report_json(report: EncoderReport) -> str:
+    return json.dumps(report.as_dict(), indent=2)
