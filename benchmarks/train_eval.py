@@ -12,7 +12,9 @@
    environment_state = the object poses, action);
 3. ``train``: LeRobot's own ``lerobot-train`` with ACT (the settings below), once per training
    seed (``--train_seeds K``: seeds ``--train_seed``, ``--train_seed`` + 1, ...; same data),
-   ``--train_jobs`` of them at a time (CPU unless ``--device``);
+   ``--train_jobs`` of them at a time (CPU unless ``--device``); with ``--pose_encoder`` (the
+   ``camera_pose`` recipe) a pose encoder is first trained once on the episodes' camera
+   frames and every run trains on its estimates (``train_eval_pose.py``);
 4. ``eval``: ``trossen-mujoco eval`` of each run's last checkpoint over ``--eval_episodes``
    evaluation seeds (a stream of its own: never a training episode), with the arm
    controller's checks on and, beside it, off (``--controller_checks both``): each run's
@@ -48,11 +50,11 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # its report module, run as a file
+from train_eval_command import train_args  # noqa: E402
 from train_eval_pose import (  # noqa: E402
     add_encoder,
     encode_job,
     encoder_report,
-    inputs_flag,
     pose_dataset,  # noqa: E402
 )
 from train_eval_recipes import RECIPES, camera_settings_error  # noqa: E402
@@ -114,63 +116,6 @@ def _run_jobs(jobs: list[tuple[str, list[str], Path]], env: dict, at_once: int) 
         i, job = running.pop(0)
         results[i] = job.wait()
     return [results[i] for i in range(len(jobs))]
-
-
-def _inputs_flag(args: argparse.Namespace, dataset: Path) -> list[str]:
-    """``--policy.input_features`` without ``observation.environment_state`` when asked
-    (LeRobot otherwise feeds the policy every ``observation.*`` feature of the dataset)."""
-    if not args.no_env_state:
-        return []
-    info = json.loads((dataset / "meta" / "info.json").read_text())
-    inputs = {}
-    for key, ft in info["features"].items():
-        if key == "observation.state":
-            inputs[key] = {"type": "STATE", "shape": ft["shape"]}
-        elif key.startswith("observation.images."):
-            h, w, c = ft["shape"]  # LeRobot stores video features (H, W, C); policies see CHW
-            inputs[key] = {"type": "VISUAL", "shape": [c, h, w]}
-    if not any(k.startswith("observation.images.") for k in inputs):
-        _fail("--no_env_state needs a camera: pass --cam_names (e.g. cam_high)")
-    return ["--policy.input_features=" + json.dumps(inputs)]
-
-
-def _train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
-                seed: int) -> list[str]:  # fmt: skip
-    n_action = args.n_action_steps or args.chunk_size
-    extra = []
-    if args.temporal_ensemble_coeff:
-        extra = [f"--policy.temporal_ensemble_coeff={args.temporal_ensemble_coeff}"]
-        n_action = 1
-    if args.video_backend:
-        extra.append(f"--dataset.video_backend={args.video_backend}")
-    if args.lr_schedule == "cosine":  # ACT's own optimizer settings, the rate decayed to the end
-        extra += [
-            "--use_policy_training_preset=false", "--optimizer.type=adamw",
-            f"--optimizer.lr={args.lr}", "--optimizer.weight_decay=0.0001",
-            "--optimizer.grad_clip_norm=10", "--scheduler.type=cosine_decay_with_warmup",
-            "--scheduler.num_warmup_steps=0", f"--scheduler.num_decay_steps={args.steps}",
-            f"--scheduler.peak_lr={args.lr}", f"--scheduler.decay_lr={args.lr_final}",
-        ]  # fmt: skip
-    return [
-        python, "-m", "lerobot.scripts.lerobot_train",
-        "--dataset.repo_id=local/sim_dataset", f"--dataset.root={dataset}",
-        "--policy.type=act", f"--policy.device={args.device}", "--policy.push_to_hub=false",
-        "--policy.pretrained_backbone_weights=null", f"--policy.use_vae={args.use_vae}",
-        f"--policy.dim_model={args.dim_model}", f"--policy.chunk_size={args.chunk_size}",
-        f"--policy.dim_feedforward={args.dim_feedforward}",
-        f"--policy.n_encoder_layers={args.n_encoder_layers}",
-        f"--policy.n_decoder_layers={args.n_decoder_layers}",
-        "--policy.normalization_mapping=" + json.dumps({
-            "VISUAL": "MEAN_STD", "STATE": "MEAN_STD", "ACTION": "MEAN_STD",
-            "ENV": args.normalize_env,
-        }),
-        f"--policy.n_action_steps={n_action}", f"--policy.optimizer_lr={args.lr}",
-        f"--steps={args.steps}", f"--batch_size={args.batch_size}",
-        f"--num_workers={args.num_workers}", f"--seed={seed}",
-        f"--save_freq={min(args.save_freq, args.steps)}", "--log_freq=200",
-        "--wandb.enable=false", f"--output_dir={out}",
-    ] + extra + (inputs_flag(dataset) if args.pose_encoder else _inputs_flag(args, dataset)
-                 ) + list(args.train_arg)  # fmt: skip
 
 
 def _carry_settings(dataset: Path, train: Path) -> None:
@@ -446,7 +391,7 @@ def main(argv: list[str] | None = None) -> None:
             out.parent.mkdir(parents=True, exist_ok=True)
             log = work / f"train_seed_{seed}.log"
             jobs.append((seed, (f"lerobot-train seed {seed}",
-                                _train_args(args, python, dataset, out, seed), log)))  # fmt: skip
+                                train_args(args, python, dataset, out, seed), log)))  # fmt: skip
         at_once = min(args.train_jobs, max(1, len(jobs)))
         threads = args.train_threads or max(1, _cores() // at_once)
         train_env = {**env, **{k: str(threads) for k in THREAD_VARS}}

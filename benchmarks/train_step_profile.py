@@ -81,6 +81,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="leave observation.environment_state out (the camera recipe)",
     )
+    p.add_argument(
+        "--no_images",
+        action="store_true",
+        help="leave the cameras out: the joints and observation.environment_state only (the "
+        "camera_pose recipe, whose poses a frozen encoder estimated once, before training)",
+    )
     p.add_argument("--vision_backbone", default="resnet18", help="ACT's torchvision backbone")
     p.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = p.parse_args(argv)
@@ -140,6 +146,16 @@ def build(args: argparse.Namespace):
             )
             for key, ft in meta.features.items()
             if key == "observation.state" or key.startswith("observation.images.")
+        }
+    if args.no_images:
+        from lerobot.configs.types import FeatureType, PolicyFeature
+
+        kinds = {"observation.state": FeatureType.STATE,
+                 "observation.environment_state": FeatureType.ENV}  # fmt: skip
+        config.input_features = {
+            key: PolicyFeature(type=kind, shape=tuple(meta.features[key]["shape"]))
+            for key, kind in kinds.items()
+            if key in meta.features
         }
     policy = make_policy(config, ds_meta=meta)
     dataset = LeRobotDataset(

@@ -185,6 +185,7 @@ def derive_dataset(
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m trossen_arm_mujoco.train.pose_dataset DATASET EPISODES OUTPUT``."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("dataset", help="the exported LeRobot dataset")
     p.add_argument("episodes", help="the episode files it was exported from")

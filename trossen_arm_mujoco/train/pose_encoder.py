@@ -23,7 +23,6 @@ nothing a real kit lacks.
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +36,7 @@ __all__ = [
     "EARLY_FRAMES",
     "EARLY_REPEAT",
     "EncoderReport",
+    "encoder_from_state",
     "KEYPOINTS",
     "load_encoder",
     "predict",
@@ -52,9 +52,9 @@ EARLY_FRAMES = 45
 #: How many extra times each early frame is shown per epoch.
 EARLY_REPEAT = 3
 #: Every n-th of the other frames is used per epoch (neighbouring frames nearly repeat).
-FRAME_STRIDE = 3
+FRAME_STRIDE = 6
 #: Training defaults: epochs, batch, peak rate of the one-cycle schedule.
-EPOCHS = 4
+EPOCHS = 8
 BATCH = 64
 PEAK_LR = 2e-3
 #: Episodes held out (the last tenth) for the report's errors.
@@ -75,6 +75,7 @@ class EncoderReport:
     wall_s: float
 
     def as_dict(self) -> dict[str, Any]:
+        """The report as plain JSON values."""
         return dict(self.__dict__)
 
 
@@ -256,7 +257,3 @@ def load_encoder(path: str | Path) -> Any:
         raise UserError(f"{path}: cannot read the pose encoder ({exc}); run the recipe's "
                         "encode phase again") from None  # fmt: skip
     return encoder_from_state(state)
-
-
-def report_json(report: EncoderReport) -> str:
-    return json.dumps(report.as_dict(), indent=2)
