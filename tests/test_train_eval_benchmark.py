@@ -284,6 +284,7 @@ def test_the_camera_pose_recipe_runs_small_and_deploys(tmp_path):
     got = summary["runs"]["1000"]
     assert got["result"]["n_episodes"] == 1 and got["train"]["cpu_s"] > 0
     assert got["deployment"]["sim_only"] is False  # the cube's pose comes from the camera
+    assert "pose encoder reading cam_high" in got["deployment"]["why"]
 
 
 @pytest.mark.parametrize(

@@ -54,6 +54,7 @@ def test_the_step_goes_before_the_normalizer_once_and_eval_sees_the_camera(tmp_p
     assert cps.camera_of(ckpt) == "cam_high"
     found = checkpoint_features(ckpt)
     assert found["sim_only"] is False and found["cam_names"] == ("cam_high",)
+    assert found["pose_camera"] == "cam_high"
 
 
 def test_bad_folders_and_encoders_are_one_line(tmp_path, capsys):

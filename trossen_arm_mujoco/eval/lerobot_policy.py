@@ -98,8 +98,10 @@ def checkpoint_features(path: str | Path) -> dict[str, Any]:
     # from a camera (eval.camera_pose_step): then that camera is what it observes
     pose_camera = camera_of(folder)
     found["sim_only"] = ENV_STATE_KEY in inputs and pose_camera is None
-    if pose_camera is not None and pose_camera not in cams:
-        found["cam_names"] = (*cams, pose_camera)
+    if pose_camera is not None:
+        found["pose_camera"] = pose_camera
+        if pose_camera not in cams:
+            found["cam_names"] = (*cams, pose_camera)
     size = (outputs.get(ACTION_KEY) or {}).get("shape") or []
     if list(size) == [14]:
         found["layout"] = "kit14"

@@ -213,6 +213,7 @@ def _settings(args: argparse.Namespace):
         extra={
             "settings_source": inferred.get("settings_source"),
             "sim_only": inferred.get("sim_only", False),
+            "pose_camera": inferred.get("pose_camera"),
         },  # fmt: skip
     )
     return settings, workers
@@ -407,6 +408,14 @@ def deployment(settings, backend: str) -> dict:
                 "the checkpoint observes observation.environment_state (the objects' exact "
                 "poses), which no real kit gives: it cannot run on hardware; train on joints and "
                 "cameras (train_eval --no_env_state) for a policy that deploys"
+            ),
+        )
+    elif settings.extra.get("pose_camera"):
+        sim_only, why = (
+            False,
+            (
+                "the checkpoint observes only what the real kit gives: the object poses it "
+                f"was trained on come from its pose encoder reading {settings.extra['pose_camera']}"
             ),
         )
     else:
