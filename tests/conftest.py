@@ -122,6 +122,9 @@ SERIAL_MODULES = (
     "tests/eval/test_wire_backend.py",
     # a signal sent mid-write: beside a busy worker it once came after the write had ended
     "tests/scripts/test_visualize_eps.py",
+    # the vendor's driver streams a move to a served kit: in a parallel run of the whole
+    # suite (2026-11-29) a late period let the gripper's target run 28 mm ahead, a fault
+    "tests/scripts/test_serve.py",
 )
 
 #: Why a ``serial`` test skips in a run spread over the cores (pytest's default here).
