@@ -12,7 +12,14 @@ its own ``--work_dir`` holding an exported ``dataset/`` (``train_eval.py --phase
 record,export``, made on the machine with the simulator). The camera recipe is a run like
 ``{"name": "camera", "args": ["--recipe", "camera", "--work_dir", "camera", "--train_seeds",
 "3", "--train_jobs", "3", "--device", "cuda", "--num_workers", "4"]}`` (its dataset from
-``train_eval.py --recipe camera --phase record,export --work_dir camera``). All runs start
+``train_eval.py --recipe camera --phase record,export --work_dir camera``). The
+``camera_pose`` recipe's runs train on ``dataset_pose``, which the ``encode`` phase derives
+from the recorded episodes (an HDF5 folder too large for the trip): make it where they are
+(``train_eval.py --recipe camera_pose --phase record,export,encode --work_dir camera_pose``),
+carry only ``camera_pose/dataset_pose`` (no video in it: 17 MB for the transfer's 200
+episodes, and ``--stub_av`` serves), and plan ``{"name": "camera_pose", "args": ["--recipe",
+"camera_pose", "--work_dir", "camera_pose", "--train_seeds", "3", "--train_jobs", "3",
+"--device", "cuda"]}``. All runs start
 together (several small ACT runs share one GPU); a run still going at ``--deadline_s`` is
 stopped and keeps its last saved checkpoint (``--save_freq``). Each run's last checkpoint
 (``train/seed_<s>/checkpoints/last/pretrained_model``) is written to ``--pack_dir`` as

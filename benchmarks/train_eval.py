@@ -10,16 +10,18 @@
    the cube's spawn region instead of the whole frame);
 2. ``export``: ``trossen-mujoco export`` in the real kit's 14-value layout (state, velocity,
    environment_state = the object poses, action);
-3. ``train``: LeRobot's own ``lerobot-train`` with ACT (the settings below), once per training
+3. ``encode`` (only with ``--pose_encoder``, the ``camera_pose`` recipe): a pose encoder
+   trained once on the episodes' camera frames, and ``dataset_pose``, the dataset with its
+   estimates as the object poses and no video (``train_eval_pose.py``);
+4. ``train``: LeRobot's own ``lerobot-train`` with ACT (the settings below), once per training
    seed (``--train_seeds K``: seeds ``--train_seed``, ``--train_seed`` + 1, ...; same data),
-   ``--train_jobs`` of them at a time (CPU unless ``--device``); with ``--pose_encoder`` (the
-   ``camera_pose`` recipe) a pose encoder is first trained once on the episodes' camera
-   frames and every run trains on its estimates (``train_eval_pose.py``);
-4. ``eval``: ``trossen-mujoco eval`` of each run's last checkpoint over ``--eval_episodes``
+   ``--train_jobs`` of them at a time (CPU unless ``--device``); with ``--pose_encoder`` on
+   ``dataset_pose`` (derived first if missing);
+5. ``eval``: ``trossen-mujoco eval`` of each run's last checkpoint over ``--eval_episodes``
    evaluation seeds (a stream of its own: never a training episode), with the arm
    controller's checks on and, beside it, off (``--controller_checks both``): each run's
    faults and the largest speed it asked of each joint, as a fraction of its limit;
-5. ``wire`` (only when asked: ``--phase wire``): the same checkpoints and seeds through the
+6. ``wire`` (only when asked: ``--phase wire``): the same checkpoints and seeds through the
    served kit (``trossen-mujoco eval --backend wire``), in wall-clock time; run it on an
    otherwise idle machine.
 
@@ -29,8 +31,8 @@ settings (rate, layout, cameras, image size, crops) are written beside their wei
 (``trossen_settings.json``), so ``eval`` (both backends) and ``lerobot-eval`` take them with no
 flag.
 
-``--phase`` runs any subset (``record,export`` here, ``train`` on a GPU machine, ``eval`` back
-here): each phase reads what the earlier ones left in ``--work_dir``. A phase whose output is
+``--phase`` runs any subset (``record,export,encode`` here, ``train`` on a GPU machine, ``eval``
+back here): each phase reads what the earlier ones left in ``--work_dir``. A phase whose output is
 already complete is skipped with a line. Prints one line per phase and run with its wall and
 CPU time, then each run's success with its 95 % Wilson interval, the mean and the worst run;
 merges everything into ``summary.json`` in ``--work_dir``. LeRobot runs in
@@ -52,17 +54,26 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # its report module, run as a file
 from train_eval_command import train_args  # noqa: E402
 from train_eval_pose import (  # noqa: E402
+    POSE_DATASET,
     add_encoder,
+    derived_ready,
     encode_job,
     encoder_report,
     pose_dataset,  # noqa: E402
 )
-from train_eval_recipes import RECIPES, camera_settings_error  # noqa: E402
+from train_eval_recipes import (  # noqa: E402
+    CROPPED,
+    RECIPES,
+    TASK_CROPS,
+    camera_settings_error,
+    task_crop_error,
+)
 from train_eval_report import losses, report, results  # noqa: E402
 
-PHASES = ("record", "export", "train", "eval", "wire")
-#: Phases run when ``--phase`` is not given (``wire`` needs an idle machine: asked for).
-DEFAULT_PHASES = ("record", "export", "train", "eval")
+PHASES = ("record", "export", "encode", "train", "eval", "wire")
+#: Phases run when ``--phase`` is not given (``wire`` needs an idle machine: asked for;
+#: ``encode`` does nothing without ``--pose_encoder``).
+DEFAULT_PHASES = ("record", "export", "encode", "train", "eval")
 #: ``export.dataset_settings``' ``INFO_KEY`` and ``CHECKPOINT_FILE`` (tests check they agree).
 SETTINGS_KEY, SETTINGS_FILE = "trossen_arm_mujoco", "trossen_settings.json"
 #: Thread-pool sizes a training run is given (torch reads OMP_NUM_THREADS at start).
@@ -177,12 +188,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work_dir", default="train_eval_out")
     p.add_argument("--recipe", choices=tuple(RECIPES), default="state",
-                   help="flag defaults: state (the joints and the object poses, 50 fps) or "
-                   "camera (the joints and cam_high only, as a real kit gives, 30 fps; see "
+                   help="flag defaults: state (the joints and the object poses, 50 fps), "
+                   "camera_pose (the joints and cam_high only, as a real kit gives, 30 fps, a "
+                   "pose encoder reading the camera) or camera (the same, end to end; see "
                    "train_eval_recipes.py); flags given still win (default: state)")  # fmt: skip
     p.add_argument("--phase", default=",".join(DEFAULT_PHASES),
-                   help="comma list of phases to run, any subset of record,export,train,eval,"
-                   "wire (default: record,export,train,eval)")  # fmt: skip
+                   help="comma list of phases to run, any subset of record,export,encode,"
+                   "train,eval,wire (default: record,export,encode,train,eval)")  # fmt: skip
     p.add_argument("--task", default="sim_transfer_cube")
     p.add_argument("--episodes", type=int, default=200,
                    help="scripted episodes to record (200: the amount whose runs met the goal; "
@@ -294,6 +306,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     recipe = parser.parse_known_args(argv)[0].recipe
     parser.set_defaults(**RECIPES[recipe])
     args = parser.parse_args(argv)
+    if args.crop is None and recipe in CROPPED:  # the task's crop, or why there is none
+        args.crop = TASK_CROPS.get(args.task)
+        problem = task_crop_error(recipe, args.task)
+        if problem:
+            _fail(problem)
     problem = camera_settings_error(args.cam_names, args.image_size, args.crop)
     if problem:
         _fail(problem)
@@ -368,9 +385,16 @@ def main(argv: list[str] | None = None) -> None:
     save()
     if args.pose_encoder:  # every run trains on (and every score uses) the derived dataset
         derived = pose_dataset(work)
-        if "train" in phases and not (derived / "meta/info.json").exists():
-            if not (dataset / "meta/info.json").exists():
-                _fail(f"no dataset in {dataset}: run --phase record,export first")
+        if derived_ready(derived):
+            if "encode" in phases:
+                print(f"encode: {derived} already derived")
+        elif "encode" in phases or "train" in phases:
+            if not (dataset / "meta/info.json").exists() or not data.is_dir():
+                _fail(
+                    f"no {POSE_DATASET} in {work}, and no {dataset.name}/ and "
+                    f"{data.name}/ to derive it from: run --phase record,export,encode where "
+                    f"the episodes are (and carry {POSE_DATASET}/ to a train-only machine)"
+                )
             summary["encode"] = _run_jobs([("pose encoder", encode_job(
                 python, dataset, data, derived, _cores(), args.seed), work / "encode.log")],
                 env, 1)[0]  # fmt: skip

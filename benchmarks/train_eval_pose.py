@@ -16,10 +16,18 @@ from pathlib import Path
 
 #: The derived dataset, in the work folder beside ``dataset``.
 POSE_DATASET = "dataset_pose"
+#: ``train.pose_dataset.ENCODER_FILE`` (plain here: the train phase may run where the project
+#: is not installed; a test checks they agree).
+ENCODER_FILE = "meta/pose_encoder.safetensors"
 
 
 def pose_dataset(work: Path) -> Path:
     return work / POSE_DATASET
+
+
+def derived_ready(derived: Path) -> bool:
+    """Whether ``derived`` is a whole derived dataset (its info and its encoder)."""
+    return (derived / "meta" / "info.json").is_file() and (derived / ENCODER_FILE).is_file()
 
 
 def encode_job(python: str, dataset: Path, episodes: Path, out: Path, threads: int,
@@ -52,7 +60,6 @@ def encoder_report(dataset: Path) -> dict:
 def add_encoder(ckpt: Path, dataset: Path) -> None:
     """The derived dataset's encoder into the checkpoint's preprocessor."""
     from trossen_arm_mujoco.eval.camera_pose_step import add_to_checkpoint
-    from trossen_arm_mujoco.train.pose_dataset import ENCODER_FILE
 
     camera = encoder_report(dataset)["camera"]
     add_to_checkpoint(ckpt, dataset / ENCODER_FILE, camera)

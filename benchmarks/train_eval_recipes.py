@@ -47,7 +47,6 @@ RECIPES: dict[str, dict] = {
         "inject_noise": True,
         "cam_names": "cam_high",
         "image_size": "60x80",
-        "crop": "cam_high:217,243,150,200",
         "no_env_state": True,
         "fps": 30,
         "steps": 4500,
@@ -60,12 +59,36 @@ RECIPES: dict[str, dict] = {
         "inject_noise": True,
         "cam_names": "cam_high",
         "image_size": "60x80",
-        "crop": "cam_high:217,243,150,200",
         "fps": 30,
         "pose_encoder": True,
         "steps": 7000,
     },
 }
+
+
+#: The recipes that look at a crop of ``cam_high`` around the task's objects.
+CROPPED = ("camera", "camera_pose")
+#: Each task's crop of ``cam_high`` (TOP,LEFT,HEIGHT,WIDTH of the 480x640 frame; 3:4, so a
+#: 60x80 image keeps its aspect): the transfer's cube spawn region (x -0.15..0.15 m, y
+#: -0.2..0.1 m on the table projects to rows 240-343, columns 286-399), and the insertion's
+#: peg and socket regions with their lengths and the lift to the meeting point (x -0.05..0.10
+#: m, y -0.26..0.23 m, z up to 0.25 m: rows 202-310, columns 215-447). Names as the task
+#: registry spells them, aliases too (this module does not import the project).
+TASK_CROPS = {
+    "sim_transfer_cube": "cam_high:217,243,150,200",
+    "transfer_cube": "cam_high:217,243,150,200",
+    "sim_insertion": "cam_high:170,211,180,240",
+    "insertion": "cam_high:170,211,180,240",
+}
+
+
+def task_crop_error(recipe: str, task: str) -> str | None:
+    """Why ``recipe`` has no crop for ``task`` in one line (None: it has one, or needs none)."""
+    if recipe in CROPPED and task not in TASK_CROPS:
+        return (f"--recipe {recipe} knows no crop of cam_high for task {task!r} (it knows "
+                f"{', '.join(sorted(TASK_CROPS))}); give --crop cam_high:TOP,LEFT,HEIGHT,WIDTH "
+                "around the task's objects")  # fmt: skip
+    return None
 
 
 def camera_settings_error(cam_names: str, image_size: str, crop: str | None) -> str | None:

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
+import tarfile
 from pathlib import Path
 
 import pytest
@@ -17,7 +19,7 @@ import pytest
 pytestmark = pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever runs pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "train_eval.py"
-SETTINGS_FILE = "trossen_settings.json"
+SETTINGS_KEY, SETTINGS_FILE = "trossen_arm_mujoco", "trossen_settings.json"
 TINY = [
     "--steps", "2", "--save_freq", "2", "--batch_size", "2", "--dim_model", "32",
     "--dim_feedforward", "64", "--n_encoder_layers", "1", "--chunk_size", "5",
@@ -230,6 +232,9 @@ def test_the_settings_names_agree_with_the_package():
     spec.loader.exec_module(module)
     assert module.SETTINGS_KEY == dataset_settings.INFO_KEY
     assert module.SETTINGS_FILE == dataset_settings.CHECKPOINT_FILE == SETTINGS_FILE
+    from trossen_arm_mujoco.train import pose_dataset
+
+    assert _recipe_module("train_eval_pose").ENCODER_FILE == pose_dataset.ENCODER_FILE
 
 
 def test_the_camera_recipe_runs_small_and_reports_its_cost(tmp_path):
@@ -258,33 +263,139 @@ def test_the_camera_recipe_runs_small_and_reports_its_cost(tmp_path):
     assert "s CPU (" in run.stdout and "steps/s" in run.stdout
 
 
-def test_the_camera_pose_recipe_runs_small_and_deploys(tmp_path):
-    """``--recipe camera_pose`` end to end on 2 episodes and 2 steps: the encoder derived
-    once (its report in summary.json), the runs trained on the joints and its estimates (no
-    image), and the checkpoint scored with the encoder in its preprocessor, reading
+def test_the_camera_pose_recipe_runs_small_through_the_gpu_route_and_deploys(tmp_path):
+    """``--recipe camera_pose`` end to end on 2 episodes and 2 steps, split as on two machines:
+    ``record,export,encode`` here (the encoder derived once, its report in summary.json, the
+    copy without video); ``gpu_leg.py`` trains in a folder holding only ``dataset_pose`` with
+    PyAV stood in (nothing decodes a video), on the joints and the estimates (no image); the
+    packed checkpoint is scored back here with the encoder in its preprocessor, reading
     cam_high: it observes what the kit gives."""
+    python = _python()
     work = tmp_path / "pose"
-    run = _bench(work, "--recipe", "camera_pose", "--episodes", "2", *TINY,
-                 "--eval_episodes", "1", "--eval_episode_length", "15", "--eval_workers", "1",
-                 "--controller_checks", "on")  # fmt: skip
-    assert run.returncode == 0, run.stdout + run.stderr
+    pose = ["--recipe", "camera_pose", *TINY]
+    made = _bench(work, *pose, "--episodes", "2", "--phase", "record,export,encode")
+    assert made.returncode == 0, made.stdout + made.stderr
     derived = work / "dataset_pose"
     report = json.loads((derived / "meta" / "pose_encoder.json").read_text())
     assert report["camera"] == "cam_high" and report["image_size"] == [60, 80]
-    ckpt = work / "train" / "seed_1000" / "checkpoints" / "last" / "pretrained_model"
+    info = json.loads((derived / "meta" / "info.json").read_text())
+    assert "observation.images.cam_high" not in info["features"]
+    assert not (derived / "videos").exists()
+    assert info[SETTINGS_KEY]["cam_names"] == ["cam_high"]  # what a checkpoint observes
+    summary = json.loads((work / "summary.json").read_text())
+    assert summary["encode"]["cpu_s"] > 0 and "start_xy_mm" in summary["encode"]["report"]
+
+    gpu = tmp_path / "gpu" / "pose"  # the train-only machine: the derived copy, nothing else
+    shutil.copytree(derived, gpu / "dataset_pose")
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps([{"name": "pose", "args": [*pose, "--work_dir", str(gpu)]}]))
+    pack = tmp_path / "pack"
+    leg = subprocess.run(
+        [python, str(SCRIPT.with_name("gpu_leg.py")), "--plan", str(plan), "--deadline_s", "300",
+         "--pack_dir", str(pack), "--stub_av"],
+        capture_output=True, text=True, timeout=600,
+        env={**os.environ, "TROSSEN_LEROBOT_PYTHON": python},
+    )  # fmt: skip
+    assert leg.returncode == 0, leg.stdout + leg.stderr + (gpu / "gpu_leg.log").read_text()
+    (entry,) = json.loads((pack / "gpu_leg.json").read_text())["runs"]
+    assert entry["steps"] == 2 and entry["exit"] == 0
+    last = work / "train" / "seed_1000" / "checkpoints" / "last"
+    with tarfile.open(pack / entry["pack"][0]) as tar:
+        tar.extractall(last, filter="data")
+    ckpt = last / "pretrained_model"
     config = json.loads((ckpt / "config.json").read_text())
     assert set(config["input_features"]) == {"observation.state",
                                              "observation.environment_state"}  # fmt: skip
+
+    scored = _bench(work, *pose, "--phase", "eval", "--eval_episodes", "1",
+                    "--eval_episode_length", "15", "--eval_workers", "1",
+                    "--controller_checks", "on")  # fmt: skip
+    assert scored.returncode == 0, scored.stdout + scored.stderr
     steps = json.loads((ckpt / "policy_preprocessor.json").read_text())["steps"]
     names = [step["registry_name"] for step in steps]
     assert names.index("trossen_camera_pose") < names.index("normalizer_processor")
     assert (ckpt / steps[names.index("trossen_camera_pose")]["state_file"]).is_file()
-    summary = json.loads((work / "summary.json").read_text())
-    assert summary["encode"]["cpu_s"] > 0 and "start_xy_mm" in summary["encode"]["report"]
-    got = summary["runs"]["1000"]
-    assert got["result"]["n_episodes"] == 1 and got["train"]["cpu_s"] > 0
+    got = json.loads((work / "summary.json").read_text())["runs"]["1000"]
+    assert got["result"]["n_episodes"] == 1
     assert got["deployment"]["sim_only"] is False  # the cube's pose comes from the camera
     assert "pose encoder reading cam_high" in got["deployment"]["why"]
+
+
+def test_a_train_only_machine_without_the_derived_copy_is_told_what_to_carry(tmp_path):
+    run = _bench_without_lerobot(tmp_path / "w", "--recipe", "camera_pose")
+    assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "run --phase record,export,encode where the episodes are" in \
+        lines[0] and "carry dataset_pose/" in lines[0], lines  # fmt: skip
+
+
+def _recipe_module(name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, SCRIPT.with_name(f"{name}.py"))
+    module = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(SCRIPT.parent))
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.pop(0)
+    return module
+
+
+@pytest.mark.parametrize(
+    ("flags", "crop"),
+    [(["--recipe", "camera_pose"], "cam_high:217,243,150,200"),
+     (["--recipe", "camera_pose", "--task", "sim_insertion"], "cam_high:170,211,180,240"),
+     (["--recipe", "camera", "--task", "insertion"], "cam_high:170,211,180,240"),
+     (["--recipe", "camera_pose", "--task", "sim_insertion", "--crop", "cam_high:0,0,48,64"],
+      "cam_high:0,0,48,64"),
+     (["--task", "sim_insertion"], None)],
+)  # fmt: skip
+def test_the_cropped_recipes_take_their_tasks_crop(flags, crop):
+    assert _recipe_module("train_eval").parse_args(flags).crop == crop
+
+
+def test_a_cropped_recipe_on_a_task_it_knows_no_crop_for_is_one_line(tmp_path):
+    run = _bench_without_lerobot(tmp_path / "w", "--recipe", "camera_pose", "--task", "my_task")
+    assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "knows no crop of cam_high for task 'my_task'" in lines[0], lines
+    assert "give --crop cam_high:TOP,LEFT,HEIGHT,WIDTH" in lines[0]
+
+
+def test_each_task_crop_holds_its_objects_spawn_region():
+    """The crops of ``train_eval_recipes.TASK_CROPS`` contain the projection into cam_high of
+    each task's object spawn region (and, for the insertion, the lift to where they meet)."""
+    import mujoco
+    import numpy as np
+
+    from trossen_arm_mujoco.assets import asset_path
+    from trossen_arm_mujoco.tasks import insertion, transfer_cube
+
+    crops = _recipe_module("train_eval_recipes").TASK_CROPS
+    scenes = {"sim_transfer_cube": "trossen_ai_scene_joint.xml",
+              "sim_insertion": "trossen_ai_insertion_scene_joint.xml"}  # fmt: skip
+    corners = {
+        "sim_transfer_cube": [(x, y, z) for x in transfer_cube.BOX_X_RANGE
+                              for y in transfer_cube.BOX_Y_RANGE for z in (0.02, 0.05)],
+        "sim_insertion": [(x, y, z) for x in insertion.PEG_X_RANGE
+                          for y in (insertion.PEG_Y_RANGE[0] - insertion.PEG_HALF[1],
+                                    insertion.SOCKET_Y_RANGE[1] + insertion.SOCKET_HALF_LENGTH)
+                          for z in (0.02, 0.25)],
+    }  # fmt: skip
+    for task, points in corners.items():
+        model = mujoco.MjModel.from_xml_path(str(asset_path(f"stationary_ai/{scenes[task]}")))
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "cam_high")
+        focal = 240 / np.tan(np.deg2rad(model.cam_fovy[cam]) / 2)  # pixels, 480-row frame
+        top, left, height, width = (int(v) for v in crops[task].split(":")[1].split(","))
+        for point in points:
+            rel = data.cam_xmat[cam].reshape(3, 3).T @ (np.array(point) - data.cam_xpos[cam])
+            row, col = 240 - focal * rel[1] / -rel[2], 320 + focal * rel[0] / -rel[2]
+            assert top <= row <= top + height and left <= col <= left + width, (task, point)
+    assert crops["transfer_cube"] == crops["sim_transfer_cube"]
+    assert crops["insertion"] == crops["sim_insertion"]
 
 
 @pytest.mark.parametrize(

@@ -6,13 +6,19 @@ the camera, not the simulation's exact poses: what a policy that deploys is trai
 :mod:`.pose_encoder` on them once, and writes a copy of the dataset in which each frame's
 ``observation.environment_state`` is the encoder's estimate from that frame's camera image;
 its statistics (``meta/stats.json`` and the per-episode ones) are those of the estimates.
-The encoder is saved beside it (:data:`ENCODER_FILE`) with its report
-(:data:`REPORT_FILE`). A policy trained on the copy and given the encoder in its
-preprocessor (``eval.camera_pose_step``) observes the joints and the camera only.
+The copy leaves the camera videos out (``keep_images`` keeps them): a policy trained on it
+never sees the images, and LeRobot's loader would decode every camera's frame for each
+sample all the same. The training batches are otherwise the same (docs Benchmarks). The
+dataset's settings (``info.json``'s ``trossen_arm_mujoco``) still name the camera, which is
+what a checkpoint trained on the copy observes. The encoder is saved beside it
+(:data:`ENCODER_FILE`) with its report (:data:`REPORT_FILE`). A policy trained on the copy
+and given the encoder in its preprocessor (``eval.camera_pose_step``) observes the joints and
+the camera only.
 
 Command line (``[train]`` extra: torch)::
 
     python -m trossen_arm_mujoco.train.pose_dataset DATASET EPISODES OUTPUT [--camera cam_high]
+        [--keep_images]
 """
 
 from __future__ import annotations
@@ -141,6 +147,32 @@ def _write_stats(out: Path, episode: np.ndarray, pred: np.ndarray) -> None:
         pq.write_table(t, f)
 
 
+def _drop_images(out: Path) -> list[str]:
+    """Remove the image features from the dataset folder ``out`` (videos, ``info.json``
+    features, ``stats.json`` entries, the per-episode video and stats columns); returns the
+    keys removed."""
+    import pyarrow.parquet as pq
+
+    info_path = out / "meta" / "info.json"
+    info = json.loads(info_path.read_text(encoding="utf-8"))
+    keys = [k for k in info["features"] if image_camera(k) is not None]
+    for k in keys:
+        del info["features"][k]
+        shutil.rmtree(out / "videos" / k, ignore_errors=True)
+    if (out / "videos").is_dir() and not any((out / "videos").iterdir()):
+        (out / "videos").rmdir()
+    info_path.write_text(json.dumps(info, indent=4), encoding="utf-8")
+    stats_path = out / "meta" / "stats.json"
+    stats = json.loads(stats_path.read_text(encoding="utf-8"))
+    stats_path.write_text(json.dumps({k: v for k, v in stats.items() if k not in keys},
+                                     indent=4), encoding="utf-8")  # fmt: skip
+    prefixes = tuple(f"{part}/{k}/" for k in keys for part in ("videos", "stats"))
+    for f in sorted((out / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
+        t = pq.read_table(f)
+        pq.write_table(t.drop_columns([c for c in t.column_names if c.startswith(prefixes)]), f)
+    return keys
+
+
 def derive_dataset(
     dataset: str | Path,
     episodes: str | Path,
@@ -151,11 +183,13 @@ def derive_dataset(
     epochs: int = EPOCHS,
     threads: int | None = None,
     overwrite: bool = False,
+    keep_images: bool = False,
     progress: Any = print,
 ) -> dict[str, Any]:
     """Train the encoder on ``episodes``' frames of ``camera`` (the dataset's only camera
-    when None) and write the derived dataset to ``output``; returns the encoder's report
-    (errors in mm on held-out episodes, CPU and wall seconds)."""
+    when None) and write the derived dataset to ``output``, without its camera videos unless
+    ``keep_images``; returns the encoder's report (errors in mm on held-out episodes, CPU and
+    wall seconds)."""
     from trossen_arm_mujoco.export.lerobot_output import build_folder, check_output, publish
 
     dataset, episodes = Path(dataset).expanduser(), Path(episodes).expanduser()
@@ -174,9 +208,12 @@ def derive_dataset(
 
     pred = predict(net, images)
     with build_folder(out) as tmp:
-        shutil.copytree(dataset, tmp, dirs_exist_ok=True, symlinks=True)
+        skip = None if keep_images else (lambda d, names: ["videos"] if Path(d) == dataset else [])
+        shutil.copytree(dataset, tmp, dirs_exist_ok=True, symlinks=True, ignore=skip)
         _write_rows(files, tmp, dataset, pred)
         _write_stats(tmp, episode, pred)
+        if not keep_images:
+            _drop_images(tmp)
         save_encoder(net, tmp / ENCODER_FILE)
         result = {"camera": cam, "image_size": list(images.shape[1:3]), **report.as_dict()}
         (tmp / REPORT_FILE).write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
@@ -195,10 +232,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--epochs", type=int, default=EPOCHS)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--overwrite", action="store_true")
+    p.add_argument("--keep_images", action="store_true",
+                   help="keep the camera videos in the copy (a policy trained on the "
+                   "estimates does not need them)")  # fmt: skip
     args = p.parse_args(argv)
     report = derive_dataset(args.dataset, args.episodes, args.output, camera=args.camera,
                             seed=args.seed, epochs=args.epochs, threads=args.threads,
-                            overwrite=args.overwrite)  # fmt: skip
+                            overwrite=args.overwrite,
+                            keep_images=args.keep_images)  # fmt: skip
     print(
         f"pose encoder on held-out episodes: start x/y error {report['start_xy_mm']:.1f} mm "
         f"(max {report['start_xy_max_mm']:.1f}), xyz over all frames "
