@@ -311,7 +311,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         problem = task_crop_error(recipe, args.task)
         if problem:
             _fail(problem)
-    problem = camera_settings_error(args.cam_names, args.image_size, args.crop)
+    problem = camera_settings_error(args.cam_names, args.image_size, args.crop, args.pose_encoder)
     if problem:
         _fail(problem)
     return args

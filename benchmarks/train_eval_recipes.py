@@ -21,11 +21,17 @@ Train and evaluate page, and any flag given on the command line still wins over 
   runs scored 100 %, 90 % and 90 % (mean 93.3 %), 24.7-26.6 min of CPU each plus 12.5 min
   for the encoder, once (docs Benchmarks, "the camera_pose recipe").
 
+Both camera recipes look at their task's crop of ``cam_high`` (:data:`TASK_CROPS`; ``--crop``
+wins): the transfer's above, the insertion's 180x240 around the peg's and the socket's spawn
+regions; another task needs ``--crop``.
+
 The camera settings are checked before anything runs (one line each): a camera the kit does
 not have, an image smaller than the encoder's stride (ResNet-18 sees a 32x32-pixel cell per
 feature; an image below 32 pixels in either dimension leaves the policy a single cell there,
-so it cannot tell where the cube is), a crop outside the camera's 480x640 frame or of a camera
-not observed. Plain Python: the train phase may run where the simulator is not installed.
+so it cannot tell where the cube is; the pose encoder of ``camera_pose`` needs 16 pixels), a
+crop outside the camera's 480x640 frame or of a camera not observed, a cropped recipe on a
+task it knows no crop for. Plain Python: the train phase may run where the simulator is not
+installed.
 """
 
 from __future__ import annotations
@@ -37,6 +43,9 @@ KIT_CAMERAS = ("cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist")
 FRAME = (480, 640)
 #: ResNet-18's output stride: one feature cell per 32x32 pixels of the input.
 ENCODER_STRIDE = 32
+#: The pose encoder's (``train.pose_encoder``) smallest image: its keypoint maps are at half
+#: the image's size, so 16 pixels leave 8 positions each way to locate an object among.
+POSE_ENCODER_MIN = 16
 #: The camera recipe's backbone rate flag (ResNet-18 from scratch learns at the policy's rate).
 BACKBONE_RATE = "--policy.optimizer_lr_backbone=1e-4"
 
@@ -91,8 +100,12 @@ def task_crop_error(recipe: str, task: str) -> str | None:
     return None
 
 
-def camera_settings_error(cam_names: str, image_size: str, crop: str | None) -> str | None:
+def camera_settings_error(cam_names: str, image_size: str, crop: str | None,
+                          pose_encoder: bool = False) -> str | None:  # fmt: skip
     """What is wrong with these camera settings, in one line (None: nothing).
+
+    ``pose_encoder``: the images feed the pose encoder (``camera_pose``), not ResNet-18, so
+    the smallest image is :data:`POSE_ENCODER_MIN`, not :data:`ENCODER_STRIDE`.
 
     ``cam_names``: comma-separated camera names or ``none``; ``image_size``: ``HxW`` pixels;
     ``crop``: ``CAMERA:TOP,LEFT,HEIGHT,WIDTH`` in pixels of the 480x640 frame, or None.
@@ -109,7 +122,11 @@ def camera_settings_error(cam_names: str, image_size: str, crop: str | None) -> 
             height, width = (int(v) for v in image_size.lower().split("x"))
         except ValueError:
             return f"--image_size must be HEIGHTxWIDTH in pixels, e.g. 60x80; got '{image_size}'"
-        if min(height, width) < ENCODER_STRIDE:
+        if pose_encoder and min(height, width) < POSE_ENCODER_MIN:
+            return (f"--image_size {image_size} is below what the pose encoder resolves: its "
+                    f"keypoint maps are at half the image's size, so give at least "
+                    f"{POSE_ENCODER_MIN} pixels each way (e.g. 60x80)")  # fmt: skip
+        if not pose_encoder and min(height, width) < ENCODER_STRIDE:
             return (f"--image_size {image_size} is below what the image encoder resolves: "
                     f"ResNet-18 sees one feature per {ENCODER_STRIDE}x{ENCODER_STRIDE} pixels, "
                     f"so give at least {ENCODER_STRIDE} pixels each way (e.g. 60x80)")  # fmt: skip

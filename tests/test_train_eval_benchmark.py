@@ -355,6 +355,12 @@ def test_the_cropped_recipes_take_their_tasks_crop(flags, crop):
     assert _recipe_module("train_eval").parse_args(flags).crop == crop
 
 
+def test_the_pose_encoder_takes_images_resnet_could_not():
+    args = _recipe_module("train_eval").parse_args(["--recipe", "camera_pose", "--image_size",
+                                                    "24x32"])  # fmt: skip
+    assert args.image_size == "24x32" and args.pose_encoder
+
+
 def test_a_cropped_recipe_on_a_task_it_knows_no_crop_for_is_one_line(tmp_path):
     run = _bench_without_lerobot(tmp_path / "w", "--recipe", "camera_pose", "--task", "my_task")
     assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
@@ -403,6 +409,8 @@ def test_each_task_crop_holds_its_objects_spawn_region():
     [(["--cam_names", "cam_top"], "--cam_names cam_top: the kit has no such camera; choose"),
      (["--recipe", "camera", "--image_size", "24x32"], "--image_size 24x32 is below what the "
       "image encoder resolves"),
+     (["--recipe", "camera_pose", "--image_size", "12x16"], "--image_size 12x16 is below what "
+      "the pose encoder resolves"),
      (["--recipe", "camera", "--crop", "cam_high:400,0,100,100"], "--crop cam_high:400,0,100,"
       "100 is outside the camera's 480x640 frame"),
      (["--recipe", "camera", "--crop", "cam_low:0,0,10,10"], "camera 'cam_low' is not "

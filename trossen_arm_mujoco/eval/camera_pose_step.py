@@ -20,7 +20,6 @@ Editing the JSON needs no LeRobot; running the step does::
 
 from __future__ import annotations
 
-import json
 import shutil
 import sys
 from collections.abc import Sequence
@@ -28,7 +27,12 @@ from pathlib import Path
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.eval.controller_limits_step import PREPROCESSOR_FILE, _place
+from trossen_arm_mujoco.eval.processor_files import (
+    PREPROCESSOR_FILE,
+    place_step,
+    read_json,
+    write_json,
+)
 from trossen_arm_mujoco.fileio import atomic_path
 from trossen_arm_mujoco.robot.lerobot_keys import ENV_STATE_KEY, image_key
 
@@ -44,7 +48,7 @@ def camera_of(folder: str | Path) -> str | None:
     """The camera a checkpoint's pose step reads, or None when it has no such step (read
     without LeRobot; a checkpoint without saved processors has none)."""
     try:
-        steps = json.loads((Path(folder) / PREPROCESSOR_FILE).read_text(encoding="utf-8"))
+        steps = read_json(Path(folder) / PREPROCESSOR_FILE)
         for step in steps.get("steps", []):
             if step.get("registry_name") == REGISTRY_NAME:
                 return str(step["config"]["camera"])
@@ -59,7 +63,7 @@ def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> N
     folder, encoder = Path(folder), Path(encoder)
     pre = folder / PREPROCESSOR_FILE
     try:
-        pipeline = json.loads(pre.read_text(encoding="utf-8"))
+        pipeline = read_json(pre)
         steps: list[dict[str, Any]] = pipeline["steps"]
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
@@ -70,9 +74,8 @@ def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> N
     with atomic_path(folder / STATE_FILE) as tmp:
         shutil.copyfile(encoder, tmp)
     step = {"registry_name": REGISTRY_NAME, "config": {"camera": camera}, "state_file": STATE_FILE}
-    if _place(steps, REGISTRY_NAME, step, before="normalizer_processor"):
-        with atomic_path(pre) as tmp:
-            Path(tmp).write_text(json.dumps(pipeline, indent=2) + "\n", encoding="utf-8")
+    if place_step(steps, REGISTRY_NAME, step, before="normalizer_processor"):
+        write_json(pre, pipeline)
 
 
 def register() -> None:

@@ -45,7 +45,6 @@ Editing the JSON needs no LeRobot (:func:`add_to_checkpoint`); running the steps
 
 from __future__ import annotations
 
-import json
 import secrets
 import sys
 from collections.abc import Sequence
@@ -53,8 +52,14 @@ from pathlib import Path
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.processor_files import (
+    POSTPROCESSOR_FILE,
+    PREPROCESSOR_FILE,
+    place_step,
+    read_json,
+    write_json,
+)
 from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings
-from trossen_arm_mujoco.fileio import atomic_path
 from trossen_arm_mujoco.real.arm_controller import controller_target
 from trossen_arm_mujoco.real.controller_checks import controller_limits
 from trossen_arm_mujoco.real.goal_trajectory import GOAL_TIME_FACTOR
@@ -72,9 +77,6 @@ __all__ = ["MEASURED_NAME", "POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "REGISTRY
 REGISTRY_NAME = "trossen_arm_controller_limits"
 #: Name of the preprocessor step that notes the measured joints.
 MEASURED_NAME = "trossen_arm_measured_joints"
-#: The saved postprocessor and preprocessor of a LeRobot checkpoint.
-POSTPROCESSOR_FILE = "policy_postprocessor.json"
-PREPROCESSOR_FILE = "policy_preprocessor.json"
 #: Fraction of each joint's velocity limit a goal may ask from the measured joints (the
 #: driver starts from its setpoint, which leads the measured joints a little in motion).
 SPEED_MARGIN = 0.75
@@ -141,34 +143,6 @@ def gripper_rates(size: int, fps: float, layout: str | None = None) -> list[floa
     return [rate if i in grippers else 0.0 for i in range(len(steps))]
 
 
-def _read(path: Path) -> Any:
-    return json.loads(path.read_text(encoding="utf-8"))
-
-
-def _write(path: Path, data: Any) -> None:
-    with atomic_path(path) as tmp:
-        Path(tmp).write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
-
-
-def _place(steps: list[dict[str, Any]], name: str, step: dict[str, Any], *, after: str = "",
-           before: str = "") -> bool:  # fmt: skip
-    """Put ``step`` in ``steps`` (replacing one of the same name); True when it changed."""
-    for i, s in enumerate(steps):
-        if s.get("registry_name") == name:
-            if s == step:
-                return False
-            steps[i] = step
-            return True
-    names = [s.get("registry_name") for s in steps]
-    at = len(steps)
-    if after in names:
-        at = names.index(after) + 1
-    elif before in names:
-        at = names.index(before)
-    steps.insert(at, step)
-    return True
-
-
 def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
     """Add (or bring up to date) the two steps in the checkpoint's saved processors; False
     when they are there already as they would be written. The action size comes from the
@@ -178,8 +152,8 @@ def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
     folder = Path(folder)
     post, pre = folder / POSTPROCESSOR_FILE, folder / PREPROCESSOR_FILE
     try:
-        post_pipeline, pre_pipeline = _read(post), _read(pre)
-        size = int(_read(folder / "config.json")["output_features"][ACTION_KEY]["shape"][0])
+        post_pipeline, pre_pipeline = read_json(post), read_json(pre)
+        size = int(read_json(folder / "config.json")["output_features"][ACTION_KEY]["shape"][0])
         post_steps: list[dict[str, Any]] = post_pipeline["steps"]
         pre_steps: list[dict[str, Any]] = pre_pipeline["steps"]
     except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
@@ -198,12 +172,12 @@ def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
         config.update(max_step=joint_steps(size, fps, layout),
                       max_rate=gripper_rates(size, fps, layout), link=link)  # fmt: skip
         measured = {"registry_name": MEASURED_NAME, "config": {"link": link}}
-        changed = _place(pre_steps, MEASURED_NAME, measured, before="normalizer_processor")
+        changed = place_step(pre_steps, MEASURED_NAME, measured, before="normalizer_processor")
     step = {"registry_name": REGISTRY_NAME, "config": config}
-    changed = _place(post_steps, REGISTRY_NAME, step, after="unnormalizer_processor") or changed
+    changed = place_step(post_steps, REGISTRY_NAME, step, after="unnormalizer_processor") or changed
     if changed:
-        _write(pre, pre_pipeline)
-        _write(post, post_pipeline)
+        write_json(pre, pre_pipeline)
+        write_json(post, post_pipeline)
     return changed
 
 
