@@ -91,3 +91,22 @@ def test_a_missing_or_foreign_file_is_one_line(tmp_path):
     save_file({"w": np.zeros(3, np.float32)}, str(tmp_path / "foreign.safetensors"))
     with pytest.raises(UserError, match="not a pose encoder"):
         load_encoder(tmp_path / "foreign.safetensors")
+
+
+def test_each_object_gets_its_own_errors():
+    """Two objects (14 values): the report's errors are per object, in mm, the start ones at
+    each episode's first frame only."""
+    from trossen_arm_mujoco.train.pose_encoder import held_out, object_errors
+
+    targets = np.zeros((4, 14), np.float32)
+    pred = targets.copy()
+    pred[:, 0] = 0.002  # object 1: 2 mm off in x at every frame
+    pred[1, 8] = 0.010  # object 2: 10 mm off in y at a later frame only
+    pred[3, 9] = 0.003  # and 3 mm in z there
+    errors = object_errors(pred, targets, np.array([0, 1, 0, 1]))
+    assert errors[0] == pytest.approx({"start_xy_mm": 1.0, "start_xy_max_mm": 2.0,
+                                       "mean_xyz_mm": 2 / 3})  # fmt: skip
+    assert errors[1] == pytest.approx({"start_xy_mm": 0.0, "start_xy_max_mm": 0.0,
+                                       "mean_xyz_mm": 13 / 12})  # fmt: skip
+    assert list(held_out(np.repeat(np.arange(20), 3))) == [18, 19]
+    assert len(held_out(np.zeros(5, int))) == 0

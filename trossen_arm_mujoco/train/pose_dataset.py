@@ -245,6 +245,9 @@ def main(argv: list[str] | None = None) -> int:
         f"(max {report['start_xy_max_mm']:.1f}), xyz over all frames "
         f"{report['mean_xyz_mm']:.1f} mm; {report['cpu_s']:.0f} s CPU; wrote {args.output}"
     )
+    for k, obj in enumerate(report["objects"][1:], start=2):
+        print(f"  object {k}: start x/y error {obj['start_xy_mm']:.1f} mm (max "
+              f"{obj['start_xy_max_mm']:.1f}), xyz over all frames {obj['mean_xyz_mm']:.1f} mm")
     return 0
 
 

@@ -37,6 +37,8 @@ __all__ = [
     "EARLY_REPEAT",
     "EncoderReport",
     "encoder_from_state",
+    "held_out",
+    "object_errors",
     "KEYPOINTS",
     "load_encoder",
     "predict",
@@ -78,10 +80,12 @@ class EncoderReport:
     epochs: int
     cpu_s: float
     wall_s: float
+    #: The same three errors for each object (each 7 values of the poses), in order.
+    objects: tuple[dict[str, float], ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """The report as plain JSON values."""
-        return dict(self.__dict__)
+        return {**self.__dict__, "objects": [dict(o) for o in self.objects]}
 
 
 def _module(out_dim: int, keypoints: int = KEYPOINTS) -> Any:
@@ -160,6 +164,29 @@ def _epoch_rows(train_rows: np.ndarray, early_rows: np.ndarray, early_only: bool
     return np.concatenate([train_rows[::FRAME_STRIDE]] + [early_rows] * EARLY_REPEAT)
 
 
+def held_out(episode: np.ndarray) -> np.ndarray:
+    """The episodes held out for the report: the last :data:`HOLDOUT_FRACTION` of them (none
+    when there is one episode)."""
+    episodes = np.unique(episode)
+    n_hold = max(1, int(round(len(episodes) * HOLDOUT_FRACTION))) if len(episodes) > 1 else 0
+    return episodes[len(episodes) - n_hold :] if n_hold else episodes[:0]
+
+
+def object_errors(pred: np.ndarray, targets: np.ndarray, frame_index: np.ndarray
+                  ) -> list[dict[str, float]]:  # fmt: skip
+    """Per object (each 7 columns of the poses (N, D), xyz first, m): the mean and the largest
+    |error| of x and y at the episodes' first frames (``frame_index`` at its minimum), and
+    the mean |error| of xyz over all frames; mm."""
+    first = frame_index == frame_index.min()
+    out = []
+    for k in range(0, targets.shape[1] - 2, 7):
+        err = np.abs(pred[:, k : k + 3] - targets[:, k : k + 3]) * 1000.0
+        start = err[first, :2]
+        out.append({"start_xy_mm": float(start.mean()), "start_xy_max_mm": float(start.max()),
+                    "mean_xyz_mm": float(err.mean())})  # fmt: skip
+    return out
+
+
 def train_encoder(
     images: np.ndarray,
     targets: np.ndarray,
@@ -184,9 +211,8 @@ def train_encoder(
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     targets = np.asarray(targets, dtype=np.float32)
-    episodes = np.unique(episode)
-    n_hold = max(1, int(round(len(episodes) * HOLDOUT_FRACTION))) if len(episodes) > 1 else 0
-    held = episodes[len(episodes) - n_hold :] if n_hold else episodes[:0]
+    held = held_out(episode)
+    n_hold = len(held)
     is_train = ~np.isin(episode, held)
     train_rows = np.nonzero(is_train)[0]
     early_rows = np.nonzero(is_train & (frame_index < EARLY_FRAMES))[0]
@@ -219,17 +245,14 @@ def train_encoder(
                  f"{time.perf_counter() - wall0:.0f} s")  # fmt: skip
     cpu_s, wall_s = time.process_time() - cpu0, time.perf_counter() - wall0
     held_rows = np.nonzero(~is_train)[0]
-    start_err = mean_err = np.zeros(1)
+    objects = [{"start_xy_mm": 0.0, "start_xy_max_mm": 0.0, "mean_xyz_mm": 0.0}]
     if len(held_rows):
         pred = predict(net, images[held_rows])
-        err = np.abs(pred[:, :3] - targets[held_rows, :3]) * 1000.0
-        first = frame_index[held_rows] == frame_index[held_rows].min()
-        start_err, mean_err = err[first, :2], err
+        objects = object_errors(pred, targets[held_rows], frame_index[held_rows])
     report = EncoderReport(
-        start_xy_mm=float(start_err.mean()), start_xy_max_mm=float(start_err.max()),
-        mean_xyz_mm=float(mean_err.mean()), train_frames=int(len(train_rows)),
-        held_out_episodes=int(n_hold), epochs=int(epochs), cpu_s=round(cpu_s, 1),
-        wall_s=round(wall_s, 1),
+        **objects[0], train_frames=int(len(train_rows)), held_out_episodes=int(n_hold),
+        epochs=int(epochs), cpu_s=round(cpu_s, 1), wall_s=round(wall_s, 1),
+        objects=tuple(objects),
     )  # fmt: skip
     return net, report
 
