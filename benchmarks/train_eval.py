@@ -46,13 +46,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # its report module, run as a file
 from train_eval_command import train_args  # noqa: E402
+from train_eval_jobs import Job, cores, fail, run_jobs  # noqa: E402
 from train_eval_pose import (  # noqa: E402
     POSE_DATASET,
     add_encoder,
@@ -60,6 +59,8 @@ from train_eval_pose import (  # noqa: E402
     encode_job,
     encoder_report,
     pose_dataset,  # noqa: E402
+    static_folder,
+    static_job,
 )
 from train_eval_recipes import (  # noqa: E402
     CROPPED,
@@ -78,55 +79,6 @@ DEFAULT_PHASES = ("record", "export", "encode", "train", "eval")
 SETTINGS_KEY, SETTINGS_FILE = "trossen_arm_mujoco", "trossen_settings.json"
 #: Thread-pool sizes a training run is given (torch reads OMP_NUM_THREADS at start).
 THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
-
-
-def _cores() -> int:
-    """CPUs this process may use."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
-def _fail(message: str) -> None:
-    sys.exit(f"error: {message}")
-
-
-class Job:
-    """A child process whose own wall and CPU time (``os.wait4``'s rusage) are kept."""
-
-    def __init__(self, name: str, args: list[str], log: Path, env: dict):
-        self.name, self.log, self.start = name, log, time.perf_counter()
-        self._out = open(log, "w")
-        self.proc = subprocess.Popen(args, stdout=self._out, stderr=subprocess.STDOUT, env=env)
-
-    def wait(self) -> dict:
-        """Wait for the child; its ``{"wall_s", "cpu_s"}``; exits with a line if it failed."""
-        _, status, usage = os.wait4(self.proc.pid, 0)
-        self.proc.returncode = os.waitstatus_to_exitcode(status)
-        self._out.close()
-        took = {
-            "wall_s": round(time.perf_counter() - self.start, 1),
-            "cpu_s": round(usage.ru_utime + usage.ru_stime, 1),
-        }
-        print(f"{self.name}: {took['wall_s']:.0f} s wall, {took['cpu_s']:.0f} s CPU "
-              f"(log {self.log})", flush=True)  # fmt: skip
-        if self.proc.returncode != 0:
-            _fail(f"{self.name} failed (exit {self.proc.returncode}); see {self.log}")
-        return took
-
-
-def _run_jobs(jobs: list[tuple[str, list[str], Path]], env: dict, at_once: int) -> list[dict]:
-    """Run the jobs, ``at_once`` at a time; their timings in order."""
-    results: dict[int, dict] = {}
-    pending, running = list(enumerate(jobs)), []
-    while pending or running:
-        while pending and len(running) < max(1, at_once):
-            i, (name, args, log) = pending.pop(0)
-            running.append((i, Job(name, args, log, env)))
-        i, job = running.pop(0)
-        results[i] = job.wait()
-    return [results[i] for i in range(len(jobs))]
 
 
 def _carry_settings(dataset: Path, train: Path) -> None:
@@ -281,6 +233,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="train a small encoder once to find the cube in the camera and train every run "
         "on its estimates (the camera_pose recipe; train_eval_pose.py)",
     )
+    p.add_argument("--static_frames", type=int, default=0,
+                   help="with --pose_encoder: record this many 3-step episodes (the scene at "
+                   "its start, objects sampled) whose first frames the encoder also trains on; "
+                   "the insertion needs them (train_eval_pose.py)")  # fmt: skip
     p.add_argument("--train_arg", action="append", default=[],
                    help="one more lerobot-train flag, e.g. --train_arg=--policy.dropout=0.1 "
                    "(repeatable)")  # fmt: skip
@@ -310,10 +266,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         args.crop = TASK_CROPS.get(args.task)
         problem = task_crop_error(recipe, args.task)
         if problem:
-            _fail(problem)
+            fail(problem)
     problem = camera_settings_error(args.cam_names, args.image_size, args.crop, args.pose_encoder)
     if problem:
-        _fail(problem)
+        fail(problem)
     return args
 
 
@@ -322,19 +278,19 @@ def main(argv: list[str] | None = None) -> None:
     phases = [x.strip() for x in args.phase.split(",") if x.strip()]
     unknown = sorted(set(phases) - set(PHASES))
     if unknown or not phases:
-        _fail(f"--phase {args.phase!r}: unknown {unknown}; choose from {','.join(PHASES)}")
+        fail(f"--phase {args.phase!r}: unknown {unknown}; choose from {','.join(PHASES)}")
     if args.train_seeds < 1 or args.train_jobs < 1:
-        _fail("--train_seeds and --train_jobs must be at least 1")
+        fail("--train_seeds and --train_jobs must be at least 1")
     python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
     if not python:
-        _fail("set TROSSEN_LEROBOT_PYTHON to a Python >= 3.12 with LeRobot (bash .ci/run)")
+        fail("set TROSSEN_LEROBOT_PYTHON to a Python >= 3.12 with LeRobot (bash .ci/run)")
     work = Path(args.work_dir).expanduser().resolve()
     if work.exists() and not work.is_dir():
-        _fail(f"--work_dir {work} is a file; give a folder (it is created when missing)")
+        fail(f"--work_dir {work} is a file; give a folder (it is created when missing)")
     try:
         work.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        _fail(f"--work_dir {work}: cannot create it ({exc.strerror or exc})")
+        fail(f"--work_dir {work}: cannot create it ({exc.strerror or exc})")
     env = {**os.environ, "MUJOCO_GL": "egl", "HF_HUB_OFFLINE": "1", "WANDB_MODE": "disabled"}
     cli = [python, "-m", "trossen_arm_mujoco.cli"]
     summary_path = work / "summary.json"
@@ -344,13 +300,13 @@ def main(argv: list[str] | None = None) -> None:
             summary = json.loads(summary_path.read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:  # truncated, not UTF-8, unreadable
             why = exc.strerror if isinstance(exc, OSError) else " ".join(str(exc).split())
-            _fail(f"{summary_path} cannot be read as JSON ({why}); repair it, or move it away "
+            fail(f"{summary_path} cannot be read as JSON ({why}); repair it, or move it away "
                   "to start a new summary")  # fmt: skip
         ok = isinstance(summary, dict)
         kept = (summary.get("settings", {}), summary.get("runs", {})) if ok else ({}, {})
         ok = ok and all(isinstance(part, dict) for part in kept)
         if not ok or not all(isinstance(run, dict) for run in kept[1].values()):
-            _fail(f"{summary_path} is not a summary of this benchmark (a JSON object whose "
+            fail(f"{summary_path} is not a summary of this benchmark (a JSON object whose "
                   "'settings' and 'runs' are objects); move it away to start anew")  # fmt: skip
     summary.setdefault("settings", {})[",".join(phases)] = vars(args)
     runs: dict[str, dict] = summary.setdefault("runs", {})
@@ -367,18 +323,23 @@ def main(argv: list[str] | None = None) -> None:
         if (data / f"episode_{args.episodes - 1}.hdf5").exists():
             print(f"record: {data} already holds {args.episodes} episodes")
         else:
-            summary["record"] = _run_jobs([("record", cli + [
+            summary["record"] = run_jobs([("record", cli + [
                 "record", "--task_name", args.task, "--data_dir", str(data),
                 "--num_episodes", str(args.episodes), "--seed", str(args.seed),
                 "--cam_names", args.cam_names, "--image_size", args.image_size,
                 "--num_workers", "2", "--skip_failed",
             ] + (["--inject_noise"] if args.inject_noise else []) + crop,
                 work / "record.log")], env, 1)[0]  # fmt: skip
+        static = static_folder(work)
+        if args.static_frames and not (static / f"episode_{args.static_frames - 1}.hdf5").exists():
+            job = Job("record static frames", static_job(cli, args, static), work / "static.log",
+                      env, ok=(0, 1))  # fmt: skip
+            summary["record_static"] = job.wait()  # exit 1: its episodes end before success
     if "export" in phases:
         if (dataset / "meta/info.json").exists():
             print(f"export: {dataset} already exported")
         else:
-            summary["export"] = _run_jobs([("export", cli + [
+            summary["export"] = run_jobs([("export", cli + [
                 "export", "--data_dir", str(data), "--output", str(dataset),
                 "--repo_id", "local/sim_dataset", "--fps", str(args.fps), "--vcodec", "h264",
             ], work / "export.log")], env, 1)[0]  # fmt: skip
@@ -390,20 +351,21 @@ def main(argv: list[str] | None = None) -> None:
                 print(f"encode: {derived} already derived")
         elif "encode" in phases or "train" in phases:
             if not (dataset / "meta/info.json").exists() or not data.is_dir():
-                _fail(
+                fail(
                     f"no {POSE_DATASET} in {work}, and no {dataset.name}/ and "
                     f"{data.name}/ to derive it from: run --phase record,export,encode where "
                     f"the episodes are (and carry {POSE_DATASET}/ to a train-only machine)"
                 )
-            summary["encode"] = _run_jobs([("pose encoder", encode_job(
-                python, dataset, data, derived, _cores(), args.seed), work / "encode.log")],
-                env, 1)[0]  # fmt: skip
+            static = static_folder(work) if args.static_frames else None
+            summary["encode"] = run_jobs([("pose encoder", encode_job(
+                python, dataset, data, derived, cores(), args.seed, static),
+                work / "encode.log")], env, 1)[0]  # fmt: skip
             summary["encode"]["report"] = encoder_report(derived)
             save()
         dataset = derived
     if "train" in phases:
         if not (dataset / "meta/info.json").exists():
-            _fail(f"no dataset in {dataset}: run --phase record,export first")
+            fail(f"no dataset in {dataset}: run --phase record,export first")
         jobs = []
         for seed in seeds:
             out = work / "train" / f"seed_{seed}"
@@ -411,16 +373,16 @@ def main(argv: list[str] | None = None) -> None:
                 print(f"train seed {seed}: {out} already holds a checkpoint")
                 continue
             if out.exists():
-                _fail(f"{out} holds an unfinished run: remove it to train seed {seed} again")
+                fail(f"{out} holds an unfinished run: remove it to train seed {seed} again")
             out.parent.mkdir(parents=True, exist_ok=True)
             log = work / f"train_seed_{seed}.log"
             jobs.append((seed, (f"lerobot-train seed {seed}",
                                 train_args(args, python, dataset, out, seed), log)))  # fmt: skip
         at_once = min(args.train_jobs, max(1, len(jobs)))
-        threads = args.train_threads or max(1, _cores() // at_once)
+        threads = args.train_threads or max(1, cores() // at_once)
         train_env = {**env, **{k: str(threads) for k in THREAD_VARS}}
         print(f"train: {len(jobs)} run(s), {at_once} at a time, {threads} CPU thread(s) each")
-        timings = _run_jobs([job for _, job in jobs], train_env, at_once)
+        timings = run_jobs([job for _, job in jobs], train_env, at_once)
         for (seed, (_, _, log)), took in zip(jobs, timings):
             rate = round(args.steps / took["wall_s"], 2) if took["wall_s"] > 0 else None
             runs[str(seed)] = {
@@ -435,7 +397,7 @@ def main(argv: list[str] | None = None) -> None:
         for seed in seeds:
             ckpt = _checkpoint(work / "train" / f"seed_{seed}")
             if not ckpt.is_dir():
-                _fail(f"no checkpoint at {ckpt}: run --phase train first")
+                fail(f"no checkpoint at {ckpt}: run --phase train first")
             _prepare(ckpt, dataset, args.pose_encoder)
             out = work / "eval" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
@@ -443,7 +405,7 @@ def main(argv: list[str] | None = None) -> None:
                 print(f"eval seed {seed}: {out} already holds its scores")
                 runs.setdefault(str(seed), {}).update(results(out / "eval_info.json"))
                 continue
-            took = _run_jobs([(f"eval seed {seed}", cli + [
+            took = run_jobs([(f"eval seed {seed}", cli + [
                 "eval", "--policy", str(ckpt), "--task_name", args.task,
                 "--num_episodes", str(args.eval_episodes),
                 "--num_workers", str(args.eval_workers), "--seed", str(args.eval_seed),
@@ -461,7 +423,7 @@ def main(argv: list[str] | None = None) -> None:
         for seed in seeds:
             ckpt = _checkpoint(work / "train" / f"seed_{seed}")
             if not ckpt.is_dir():
-                _fail(f"no checkpoint at {ckpt}: run --phase train first")
+                fail(f"no checkpoint at {ckpt}: run --phase train first")
             _prepare(ckpt, dataset, args.pose_encoder)
             out = work / "wire" / f"seed_{seed}"
             length = ["--episode_length", str(args.eval_episode_length)]
@@ -469,7 +431,7 @@ def main(argv: list[str] | None = None) -> None:
                 print(f"wire seed {seed}: {out} already holds its scores")
                 runs.setdefault(str(seed), {})["wire"] = results(out / "eval_info.json")
                 continue
-            took = _run_jobs([(f"wire seed {seed}", cli + [
+            took = run_jobs([(f"wire seed {seed}", cli + [
                 "eval", "--backend", "wire", "--policy", str(ckpt), "--task_name", args.task,
                 "--num_episodes", str(args.eval_episodes), "--seed", str(args.eval_seed),
                 "--output_dir", str(out), "--overwrite",

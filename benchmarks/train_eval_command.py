@@ -7,14 +7,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
+from train_eval_jobs import fail
 from train_eval_pose import inputs_flag
-
-
-def _fail(message: str) -> None:
-    sys.exit(f"error: {message}")
 
 
 def _inputs_flag(args: argparse.Namespace, dataset: Path) -> list[str]:
@@ -31,7 +27,7 @@ def _inputs_flag(args: argparse.Namespace, dataset: Path) -> list[str]:
             h, w, c = ft["shape"]  # LeRobot stores video features (H, W, C); policies see CHW
             inputs[key] = {"type": "VISUAL", "shape": [c, h, w]}
     if not any(k.startswith("observation.images.") for k in inputs):
-        _fail("--no_env_state needs a camera: pass --cam_names (e.g. cam_high)")
+        fail("--no_env_state needs a camera: pass --cam_names (e.g. cam_high)")
     return ["--policy.input_features=" + json.dumps(inputs)]
 
 

@@ -13,7 +13,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
+#: Offset of the static episodes' recording seed from the episodes' (``--seed``).
+STATIC_SEED = 1_000_000
 #: The derived dataset, in the work folder beside ``dataset``.
 POSE_DATASET = "dataset_pose"
 #: ``train.pose_dataset.ENCODER_FILE`` (plain here: the train phase may run where the project
@@ -31,10 +34,33 @@ def derived_ready(derived: Path) -> bool:
 
 
 def encode_job(python: str, dataset: Path, episodes: Path, out: Path, threads: int,
-               seed: int) -> list[str]:  # fmt: skip
-    """The command that derives ``out`` from ``dataset`` and its ``episodes``."""
+               seed: int, static: Path | None = None) -> list[str]:  # fmt: skip
+    """The command that derives ``out`` from ``dataset`` and its ``episodes`` (and the
+    ``static`` episodes' first frames)."""
     return [python, "-m", "trossen_arm_mujoco.train.pose_dataset", str(dataset), str(episodes),
-            str(out), "--threads", str(threads), "--seed", str(seed)]  # fmt: skip
+            str(out), "--threads", str(threads), "--seed", str(seed)] + (
+        ["--static_episodes", str(static)] if static else [])  # fmt: skip
+
+
+def static_folder(work: Path) -> Path:
+    """Where ``--static_frames`` episodes are recorded, beside ``episodes``."""
+    return work / "static"
+
+
+def static_job(cli: list[str], args: Any, folder: Path) -> list[str]:
+    """``trossen-mujoco record`` of ``args.static_frames`` 3-step episodes of the task with
+    the dataset's camera settings: each starts with the arms at home and the objects where
+    the task's sampler puts them, so their first frames show the objects and nothing that
+    moves (an arm already reaching for an object would tell the encoder where it is). Their
+    seeds are a stream of their own (``args.seed`` + 1,000,000). The episodes end long before
+    the task could succeed: the recorder keeps them and exits with status 1."""
+    crop = ["--crop", args.crop] if args.crop else []
+    return cli + [
+        "record", "--task_name", args.task, "--data_dir", str(folder),
+        "--num_episodes", str(args.static_frames), "--seed", str(args.seed + STATIC_SEED),
+        "--cam_names", args.cam_names, "--image_size", args.image_size, "--episode_len", "3",
+        "--num_workers", "2",
+    ] + crop  # fmt: skip
 
 
 def inputs_flag(dataset: Path) -> list[str]:

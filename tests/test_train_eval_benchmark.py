@@ -273,11 +273,14 @@ def test_the_camera_pose_recipe_runs_small_through_the_gpu_route_and_deploys(tmp
     python = _python()
     work = tmp_path / "pose"
     pose = ["--recipe", "camera_pose", *TINY]
-    made = _bench(work, *pose, "--episodes", "2", "--phase", "record,export,encode")
+    made = _bench(work, *pose, "--episodes", "2", "--static_frames", "2",
+                  "--phase", "record,export,encode")  # fmt: skip
     assert made.returncode == 0, made.stdout + made.stderr
+    assert len(list((work / "static").glob("episode_*.hdf5"))) == 2  # 3 steps each
     derived = work / "dataset_pose"
     report = json.loads((derived / "meta" / "pose_encoder.json").read_text())
     assert report["camera"] == "cam_high" and report["image_size"] == [60, 80]
+    assert report["static_frames"] == 2 and len(report["objects"]) == 1
     info = json.loads((derived / "meta" / "info.json").read_text())
     assert "observation.images.cam_high" not in info["features"]
     assert not (derived / "videos").exists()

@@ -110,3 +110,18 @@ def test_each_object_gets_its_own_errors():
                                        "mean_xyz_mm": 13 / 12})  # fmt: skip
     assert list(held_out(np.repeat(np.arange(20), 3))) == [18, 19]
     assert len(held_out(np.zeros(5, int))) == 0
+
+
+def test_static_frames_train_with_the_early_ones_and_are_never_held_out():
+    images, poses, eps, idx = _frames(n_eps=10, per_ep=4)
+    extra_images, extra_poses, _, _ = _frames(n_eps=6, per_ep=1, seed=9)
+    _, report = train_encoder(images, poses, eps, idx, seed=3, epochs=1, threads=1,
+                              static=(extra_images, extra_poses),
+                              progress=lambda line: None)  # fmt: skip
+    assert report.static_frames == 6 and report.held_out_episodes == 1
+    assert report.train_frames == 9 * 4 + 6
+    assert pose_encoder.static_repeat(36, 6) == 3 and pose_encoder.static_repeat(4, 6) == 1
+    assert pose_encoder.static_repeat(36, 0) == 0
+    with pytest.raises(UserError, match="one pose row per frame"):
+        train_encoder(images, poses, eps, idx, static=(extra_images, extra_poses[:2]),
+                      progress=lambda line: None)  # fmt: skip

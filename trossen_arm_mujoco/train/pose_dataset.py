@@ -107,6 +107,29 @@ def _frames(episodes: Path, camera: str, fps: int, episode: np.ndarray,
     return np.concatenate(out)
 
 
+def _static_frames(folder: Path, camera: str, shape: tuple[int, ...]
+                   ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The first frame of ``camera`` and the object poses of each episode in ``folder`` (the
+    scene at its start), checked against the dataset's image ``shape``."""
+    files = list_episodes(folder)
+    if not files:
+        raise UserError(f"{folder}: no episode files; record them with trossen-mujoco record "
+                        "--episode_len 3 and the dataset's camera settings")  # fmt: skip
+    images, poses = [], []
+    for _, path in files:
+        ep = load_episode(path, load_images=True)
+        if ep.images is None or camera not in ep.images or ep.env_state is None:
+            raise UserError(f"{path} has no {camera} frames or no object poses: record with "
+                            f"--cam_names {camera}")  # fmt: skip
+        frame = ep.images[camera][0]
+        if frame.shape != shape:
+            raise UserError(f"{path}: {camera} frames are {frame.shape}, the dataset's "
+                            f"{shape}: record with its --image_size and --crop")  # fmt: skip
+        images.append(frame)
+        poses.append(ep.env_state[0])
+    return np.stack(images), np.asarray(poses, np.float32)
+
+
 def _write_rows(files: list[Path], out: Path, dataset: Path, pred: np.ndarray) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -184,12 +207,15 @@ def derive_dataset(
     threads: int | None = None,
     overwrite: bool = False,
     keep_images: bool = False,
+    static_episodes: str | Path | None = None,
     progress: Any = print,
 ) -> dict[str, Any]:
     """Train the encoder on ``episodes``' frames of ``camera`` (the dataset's only camera
     when None) and write the derived dataset to ``output``, without its camera videos unless
     ``keep_images``; returns the encoder's report (errors in mm on held-out episodes, CPU and
-    wall seconds)."""
+    wall seconds). ``static_episodes``: a folder of short episodes of the same task and camera
+    settings whose first frames (the arms at home, the objects sampled) the encoder also
+    trains on (``pose_encoder.train_encoder``'s ``static``)."""
     from trossen_arm_mujoco.export.lerobot_output import build_folder, check_output, publish
 
     dataset, episodes = Path(dataset).expanduser(), Path(episodes).expanduser()
@@ -202,8 +228,15 @@ def derive_dataset(
     files, episode, frame_index, env = _read_rows(dataset)
     progress(f"pose encoder: reading {cam} frames of {int(episode.max()) + 1} episodes")
     images = _frames(episodes, cam, int(info["fps"]), episode, env)
+    static = None
+    if static_episodes is not None:
+        static = _static_frames(Path(static_episodes).expanduser(), cam, images.shape[1:])
+        if static[1].shape[1] != env.shape[1]:
+            raise UserError(f"{static_episodes}: {static[1].shape[1]} object pose values, the "
+                            f"dataset {env.shape[1]}: record the dataset's task")  # fmt: skip
+        progress(f"pose encoder: {len(static[0])} static frames from {static_episodes}")
     net, report = train_encoder(images, env, episode, frame_index, seed=seed, epochs=epochs,
-                                threads=threads, progress=progress)  # fmt: skip
+                                threads=threads, static=static, progress=progress)  # fmt: skip
     from trossen_arm_mujoco.train.pose_encoder import predict
 
     pred = predict(net, images)
@@ -232,6 +265,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--epochs", type=int, default=EPOCHS)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--overwrite", action="store_true")
+    p.add_argument("--static_episodes", default=None,
+                   help="a folder of short episodes (record --episode_len 3) whose first "
+                   "frames, the scene at its start, the encoder also trains on")  # fmt: skip
     p.add_argument("--keep_images", action="store_true",
                    help="keep the camera videos in the copy (a policy trained on the "
                    "estimates does not need them)")  # fmt: skip
@@ -239,15 +275,18 @@ def main(argv: list[str] | None = None) -> int:
     report = derive_dataset(args.dataset, args.episodes, args.output, camera=args.camera,
                             seed=args.seed, epochs=args.epochs, threads=args.threads,
                             overwrite=args.overwrite,
-                            keep_images=args.keep_images)  # fmt: skip
+                            keep_images=args.keep_images,
+                            static_episodes=args.static_episodes)  # fmt: skip
     print(
         f"pose encoder on held-out episodes: start x/y error {report['start_xy_mm']:.1f} mm "
         f"(max {report['start_xy_max_mm']:.1f}), xyz over all frames "
         f"{report['mean_xyz_mm']:.1f} mm; {report['cpu_s']:.0f} s CPU; wrote {args.output}"
     )
     for k, obj in enumerate(report["objects"][1:], start=2):
-        print(f"  object {k}: start x/y error {obj['start_xy_mm']:.1f} mm (max "
-              f"{obj['start_xy_max_mm']:.1f}), xyz over all frames {obj['mean_xyz_mm']:.1f} mm")
+        print(
+            f"  object {k}: start x/y error {obj['start_xy_mm']:.1f} mm (max "
+            f"{obj['start_xy_max_mm']:.1f}), xyz over all frames {obj['mean_xyz_mm']:.1f} mm"
+        )
     return 0
 
 

@@ -39,6 +39,7 @@ __all__ = [
     "encoder_from_state",
     "held_out",
     "object_errors",
+    "static_repeat",
     "KEYPOINTS",
     "load_encoder",
     "predict",
@@ -82,6 +83,8 @@ class EncoderReport:
     wall_s: float
     #: The same three errors for each object (each 7 values of the poses), in order.
     objects: tuple[dict[str, float], ...] = ()
+    #: Frames of the scene at its start given besides the episodes (``static``).
+    static_frames: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         """The report as plain JSON values."""
@@ -187,6 +190,12 @@ def object_errors(pred: np.ndarray, targets: np.ndarray, frame_index: np.ndarray
     return out
 
 
+def static_repeat(early: int, static: int) -> int:
+    """How many times each static frame is shown among ``early`` early frames: so that the
+    static frames are about a third of them (at least once)."""
+    return max(1, round(early / (2 * static))) if static else 0
+
+
 def train_encoder(
     images: np.ndarray,
     targets: np.ndarray,
@@ -196,16 +205,27 @@ def train_encoder(
     seed: int = 0,
     epochs: int = EPOCHS,
     threads: int | None = None,
+    static: tuple[np.ndarray, np.ndarray] | None = None,
     progress: Any = print,
 ) -> tuple[Any, EncoderReport]:
     """Train an encoder on frames (N, H, W, 3) uint8 with their poses (N, D) (the first
     object's xyz in columns 0-2, m), each frame's episode and index in it; the last
     :data:`HOLDOUT_FRACTION` of the episodes are held out for the report. ``seed`` fixes the
-    initial weights and the order of the frames."""
+    initial weights and the order of the frames.
+
+    ``static``: more frames (M, H, W, 3) and their poses (M, D) of the scene at its start
+    (the arms at home, the objects where the task's sampler put them): the arms say nothing
+    there, so only the objects can give their poses. They train with the early frames,
+    shown :func:`static_repeat` times as often, and are never held out."""
     import torch
     import torch.nn.functional as F
 
     _check(images, targets)
+    n_rows = len(images)
+    if static is not None and len(static[0]):
+        _check(*static)
+        images = np.concatenate([images, static[0]])
+        targets = np.concatenate([np.asarray(targets, np.float32), static[1]])
     if threads:
         torch.set_num_threads(int(threads))
     torch.manual_seed(seed)
@@ -214,8 +234,11 @@ def train_encoder(
     held = held_out(episode)
     n_hold = len(held)
     is_train = ~np.isin(episode, held)
-    train_rows = np.nonzero(is_train)[0]
+    static_rows = np.arange(n_rows, len(images))
+    train_rows = np.concatenate([np.nonzero(is_train)[0], static_rows])
     early_rows = np.nonzero(is_train & (frame_index < EARLY_FRAMES))[0]
+    repeat = static_repeat(len(early_rows), len(static_rows))
+    early_rows = np.concatenate([early_rows] + [static_rows] * repeat)
     mean, std = targets[train_rows].mean(0), targets[train_rows].std(0) + 1e-3
     net = _module(targets.shape[1])
     net.target_mean.copy_(torch.from_numpy(mean))
@@ -245,6 +268,7 @@ def train_encoder(
                  f"{time.perf_counter() - wall0:.0f} s")  # fmt: skip
     cpu_s, wall_s = time.process_time() - cpu0, time.perf_counter() - wall0
     held_rows = np.nonzero(~is_train)[0]
+    images, targets = images[:n_rows], targets[:n_rows]
     objects = [{"start_xy_mm": 0.0, "start_xy_max_mm": 0.0, "mean_xyz_mm": 0.0}]
     if len(held_rows):
         pred = predict(net, images[held_rows])
@@ -252,7 +276,7 @@ def train_encoder(
     report = EncoderReport(
         **objects[0], train_frames=int(len(train_rows)), held_out_episodes=int(n_hold),
         epochs=int(epochs), cpu_s=round(cpu_s, 1), wall_s=round(wall_s, 1),
-        objects=tuple(objects),
+        objects=tuple(objects), static_frames=int(len(static_rows)),
     )  # fmt: skip
     return net, report
 
