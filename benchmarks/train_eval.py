@@ -66,6 +66,7 @@ from train_eval_recipes import (  # noqa: E402
     CROPPED,
     RECIPES,
     TASK_CROPS,
+    TASK_STATIC_FRAMES,
     camera_settings_error,
     task_crop_error,
 )
@@ -233,10 +234,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="train a small encoder once to find the cube in the camera and train every run "
         "on its estimates (the camera_pose recipe; train_eval_pose.py)",
     )
-    p.add_argument("--static_frames", type=int, default=0,
+    p.add_argument("--static_frames", type=int, default=None,
                    help="with --pose_encoder: record this many 3-step episodes (the scene at "
-                   "its start, objects sampled) whose first frames the encoder also trains on; "
-                   "the insertion needs them (train_eval_pose.py)")  # fmt: skip
+                   "its start, objects sampled) whose first frames the encoder also trains on "
+                   "(default: the task's, train_eval_recipes.TASK_STATIC_FRAMES: 1000 for the "
+                   "insertion, 0 for the transfer)")  # fmt: skip
     p.add_argument("--train_arg", action="append", default=[],
                    help="one more lerobot-train flag, e.g. --train_arg=--policy.dropout=0.1 "
                    "(repeatable)")  # fmt: skip
@@ -262,6 +264,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     recipe = parser.parse_known_args(argv)[0].recipe
     parser.set_defaults(**RECIPES[recipe])
     args = parser.parse_args(argv)
+    if args.static_frames is None:
+        args.static_frames = TASK_STATIC_FRAMES.get(args.task, 0) if args.pose_encoder else 0
     if args.crop is None and recipe in CROPPED:  # the task's crop, or why there is none
         args.crop = TASK_CROPS.get(args.task)
         problem = task_crop_error(recipe, args.task)

@@ -90,6 +90,14 @@ TASK_CROPS = {
     "insertion": "cam_high:170,211,180,240",
 }
 
+#: Each task's ``--static_frames`` for the pose encoder (``camera_pose``): short episodes of
+#: the scene at its start whose first frames the encoder also trains on. The insertion's arms
+#: move from the first frame, and without them its encoder read the arms instead of the peg
+#: (23.5 mm off at the start, against 1.6 mm with 1,000; docs Benchmarks, 2026-11-29). The
+#: transfer's encoder found the cube at the start without them (3.2 mm; its published runs
+#: used none, and it was not tried with them).
+TASK_STATIC_FRAMES = {"sim_insertion": 1000, "insertion": 1000}
+
 
 def task_crop_error(recipe: str, task: str) -> str | None:
     """Why ``recipe`` has no crop for ``task`` in one line (None: it has one, or needs none)."""

@@ -358,6 +358,17 @@ def test_the_cropped_recipes_take_their_tasks_crop(flags, crop):
     assert _recipe_module("train_eval").parse_args(flags).crop == crop
 
 
+@pytest.mark.parametrize(
+    ("flags", "static"),
+    [(["--recipe", "camera_pose", "--task", "sim_insertion"], 1000),
+     (["--recipe", "camera_pose"], 0),
+     (["--recipe", "camera_pose", "--task", "insertion", "--static_frames", "5"], 5),
+     (["--task", "sim_insertion"], 0)],
+)  # fmt: skip
+def test_the_pose_recipe_takes_its_tasks_static_frames(flags, static):
+    assert _recipe_module("train_eval").parse_args(flags).static_frames == static
+
+
 def test_the_pose_encoder_takes_images_resnet_could_not():
     args = _recipe_module("train_eval").parse_args(["--recipe", "camera_pose", "--image_size",
                                                     "24x32"])  # fmt: skip
