@@ -6,7 +6,10 @@ of the dataset gets the encoder's estimates as ``observation.environment_state``
 training run on that copy observes the joints and those estimates (no image: the encoder is
 frozen, so no run pays for an image network); before scoring, each checkpoint gets the
 encoder as a step of its preprocessor (``trossen_arm_mujoco.eval.camera_pose_step``), so at
-run time it observes the joints and the camera only, as a real kit gives them.
+run time it observes the joints and the camera only, as a real kit gives them. With
+``--static_frames N`` the record phase also records N three-step episodes (the scene at its
+start) whose first frames the encoder trains on besides the episodes' (the insertion's
+default; ``train_eval_recipes.TASK_STATIC_FRAMES``).
 """
 
 from __future__ import annotations
