@@ -284,3 +284,18 @@ def test_signal_mid_write_leaves_no_temporary_file(tmp_path, sig, status, name):
     assert kept and "episode_0.mp4" in kept
     for mp4 in videos.glob("*.mp4"):  # every file kept is complete
         assert video_info(mp4)["frames"] == 120
+
+
+def test_a_file_published_just_before_the_stop_counts_as_kept(tmp_path):
+    """A signal can land after a file's rename and before the run notes it as finished: the
+    note still counts it (its modification time changed), and only it."""
+    from trossen_arm_mujoco.scripts.visualize_eps import _kept
+
+    video = tmp_path / "episode_0.mp4"
+    current = [(video, None)]  # not there before the run
+    assert _kept([], tmp_path, current).startswith("no file was finished")
+    video.write_bytes(b"finished")  # renamed into place; the stop came before the note
+    assert _kept([], tmp_path, current).startswith("kept 1 finished video(s) and 0 joint")
+    old = tmp_path / "episode_1.mp4"
+    old.write_bytes(b"from an earlier run")
+    assert _kept([], tmp_path, [(old, old.stat().st_mtime_ns)]).startswith("no file was")

@@ -119,12 +119,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     _make_output_dir(out_dir)
     written: list[Path] = []
+    current: list[tuple[Path, int | None]] = []  # the file being written, its old mtime
     no_images: list[str] = []
     try:
         with folder_lock(out_dir):
             remove_stale_temps(out_dir, OWN_FILES)  # left by a run killed with SIGKILL
-            with interrupt_note(lambda: _kept(written, out_dir)):
-                _write_all(episodes, out_dir, args.fps, written, no_images)
+            with interrupt_note(lambda: _kept(written, out_dir, current)):
+                _write_all(episodes, out_dir, args.fps, written, no_images, current)
     except FolderBusyError:
         raise UserError(
             f"another visualize is writing into {out_dir}; wait for it to finish or choose "
@@ -153,8 +154,18 @@ def _make_output_dir(out_dir: Path) -> None:
         ) from None
 
 
-def _write_all(episodes, out_dir: Path, fps: float, written: list, no_images: list) -> None:
-    """Write every episode's video and plot, appending each finished file to ``written``."""
+def _mtime(path: Path) -> int | None:
+    try:
+        return path.stat().st_mtime_ns
+    except OSError:
+        return None
+
+
+def _write_all(episodes, out_dir: Path, fps: float, written: list, no_images: list,
+               current: list) -> None:  # fmt: skip
+    """Write every episode's video and plot, appending each finished file to ``written``;
+    ``current`` holds the file being written and its modification time before (a signal
+    can land after its rename and before the append)."""
     with tqdm(episodes, desc="visualize", unit="episode", file=sys.stderr) as bar:
         for idx, episode in bar:
             targets = []
@@ -164,6 +175,7 @@ def _write_all(episodes, out_dir: Path, fps: float, written: list, no_images: li
                 no_images.append(episode.path.name)
             targets.append((plot_joints, out_dir / f"episode_{idx}_joints.png", {}))
             for write, path, kwargs in targets:
+                current[:] = [(path, _mtime(path))]
                 try:
                     write(episode, path, **kwargs)
                 except OSError as exc:
@@ -172,10 +184,14 @@ def _write_all(episodes, out_dir: Path, fps: float, written: list, no_images: li
                         f"{os_error_hint(exc, '--output_dir')}; {_kept(written, out_dir)}"
                     ) from None
                 written.append(path)
+                current.clear()
 
 
-def _kept(written: list[Path], out_dir: Path) -> str:
-    """What a stopped run kept: the finished files (the one in progress is removed)."""
+def _kept(written: list[Path], out_dir: Path, current: list | tuple = ()) -> str:
+    """What a stopped run kept: the finished files (the one in progress is removed). A file
+    of ``current`` whose modification time changed was published just before the stop."""
+    written = list(written) + [p for p, before in current
+                               if _mtime(p) is not None and _mtime(p) != before]  # fmt: skip
     if not written:
         return f"no file was finished in {out_dir}"
     videos = sum(path.suffix == ".mp4" for path in written)
