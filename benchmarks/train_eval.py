@@ -65,10 +65,8 @@ from train_eval_pose import (  # noqa: E402
 from train_eval_recipes import (  # noqa: E402
     CROPPED,
     RECIPES,
-    TASK_CROPS,
-    TASK_STATIC_FRAMES,
     camera_settings_error,
-    task_crop_error,
+    task_camera_facts,
 )
 from train_eval_report import losses, report, results  # noqa: E402
 
@@ -237,7 +235,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--static_frames", type=int, default=None,
                    help="with --pose_encoder: record this many 3-step episodes (the scene at "
                    "its start, objects sampled) whose first frames the encoder also trains on "
-                   "(default: the task's, train_eval_recipes.TASK_STATIC_FRAMES: 1000 for the "
+                   "(default: the task's TaskEntry.pose_static_frames: 1000 for the "
                    "insertion, 0 for the transfer)")  # fmt: skip
     p.add_argument("--train_arg", action="append", default=[],
                    help="one more lerobot-train flag, e.g. --train_arg=--policy.dropout=0.1 "
@@ -264,13 +262,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     recipe = parser.parse_known_args(argv)[0].recipe
     parser.set_defaults(**RECIPES[recipe])
     args = parser.parse_args(argv)
-    if args.static_frames is None:
-        args.static_frames = TASK_STATIC_FRAMES.get(args.task, 0) if args.pose_encoder else 0
-    if args.crop is None and recipe in CROPPED:  # the task's crop, or why there is none
-        args.crop = TASK_CROPS.get(args.task)
-        problem = task_crop_error(recipe, args.task)
-        if problem:
-            fail(problem)
+    if recipe in CROPPED or args.pose_encoder:  # the task's own settings (its TaskEntry)
+        crop, static, problem = task_camera_facts(recipe, args.task)
+        if args.crop is None and recipe in CROPPED:
+            if problem:
+                fail(problem)
+            args.crop = crop
+        if args.static_frames is None:
+            args.static_frames = static
+    args.static_frames = (args.static_frames or 0) if args.pose_encoder else 0
     problem = camera_settings_error(args.cam_names, args.image_size, args.crop, args.pose_encoder)
     if problem:
         fail(problem)
@@ -339,6 +339,9 @@ def main(argv: list[str] | None = None) -> None:
             job = Job("record static frames", static_job(cli, args, static), work / "static.log",
                       env, ok=(0, 1))  # fmt: skip
             summary["record_static"] = job.wait()  # exit 1: its episodes end before success
+            if not (static / f"episode_{args.static_frames - 1}.hdf5").exists():
+                fail(f"record static frames wrote fewer than {args.static_frames} episodes "
+                     f"in {static}; see {work / 'static.log'}")  # fmt: skip
     if "export" in phases:
         if (dataset / "meta/info.json").exists():
             print(f"export: {dataset} already exported")

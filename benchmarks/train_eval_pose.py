@@ -9,7 +9,7 @@ encoder as a step of its preprocessor (``trossen_arm_mujoco.eval.camera_pose_ste
 run time it observes the joints and the camera only, as a real kit gives them. With
 ``--static_frames N`` the record phase also records N three-step episodes (the scene at its
 start) whose first frames the encoder trains on besides the episodes' (the insertion's
-default; ``train_eval_recipes.TASK_STATIC_FRAMES``).
+default: its ``TaskEntry.pose_static_frames``).
 """
 
 from __future__ import annotations

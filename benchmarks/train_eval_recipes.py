@@ -20,11 +20,11 @@ Train and evaluate page, and any flag given on the command line still wins over 
   checkpoint carries the frozen encoder in its preprocessor. Measured 2026-11-29: three
   runs scored 100 %, 90 % and 90 % (mean 93.3 %), 24.7-26.6 min of CPU each plus 12.5 min
   for the encoder, once (docs Benchmarks, "the camera_pose recipe"). On the insertion (its
-  crop and 1,000 static frames, :data:`TASK_STATIC_FRAMES`) one run scored 80 %.
+  crop and 1,000 static frames, its ``TaskEntry.pose_static_frames``) one run scored 80 %.
 
-Both camera recipes look at their task's crop of ``cam_high`` (:data:`TASK_CROPS`; ``--crop``
-wins): the transfer's above, the insertion's 180x240 around the peg's and the socket's spawn
-regions; another task needs ``--crop``.
+Both camera recipes look at their task's crop of ``cam_high`` (its ``TaskEntry.camera_crop``;
+``--crop`` wins): the transfer's above, the insertion's 180x240 around the peg's and the
+socket's spawn regions; a task that declares none needs ``--crop``.
 
 The camera settings are checked before anything runs (one line each): a camera the kit does
 not have, an image smaller than the encoder's stride (ResNet-18 sees a 32x32-pixel cell per
@@ -78,35 +78,30 @@ RECIPES: dict[str, dict] = {
 
 #: The recipes that look at a crop of ``cam_high`` around the task's objects.
 CROPPED = ("camera", "camera_pose")
-#: Each task's crop of ``cam_high`` (TOP,LEFT,HEIGHT,WIDTH of the 480x640 frame; 3:4, so a
-#: 60x80 image keeps its aspect): the transfer's cube spawn region (x -0.15..0.15 m, y
-#: -0.2..0.1 m on the table projects to rows 240-343, columns 286-399), and the insertion's
-#: peg and socket regions with their lengths and the lift to the meeting point (x -0.05..0.10
-#: m, y -0.26..0.23 m, z up to 0.25 m: rows 202-310, columns 215-447). Names as the task
-#: registry spells them, aliases too (this module does not import the project).
-TASK_CROPS = {
-    "sim_transfer_cube": "cam_high:217,243,150,200",
-    "transfer_cube": "cam_high:217,243,150,200",
-    "sim_insertion": "cam_high:170,211,180,240",
-    "insertion": "cam_high:170,211,180,240",
-}
-
-#: Each task's ``--static_frames`` for the pose encoder (``camera_pose``): short episodes of
-#: the scene at its start whose first frames the encoder also trains on. The insertion's arms
-#: move from the first frame, and without them its encoder read the arms instead of the peg
-#: (23.5 mm off at the start, against 1.6 mm with 1,000; docs Benchmarks, 2026-11-29). The
-#: transfer's encoder found the cube at the start without them (3.2 mm; its published runs
-#: used none, and it was not tried with them).
-TASK_STATIC_FRAMES = {"sim_insertion": 1000, "insertion": 1000}
 
 
-def task_crop_error(recipe: str, task: str) -> str | None:
-    """Why ``recipe`` has no crop for ``task`` in one line (None: it has one, or needs none)."""
-    if recipe in CROPPED and task not in TASK_CROPS:
-        return (f"--recipe {recipe} knows no crop of cam_high for task {task!r} (it knows "
-                f"{', '.join(sorted(TASK_CROPS))}); give --crop cam_high:TOP,LEFT,HEIGHT,WIDTH "
-                "around the task's objects")  # fmt: skip
-    return None
+def task_camera_facts(recipe: str, task: str) -> tuple[str | None, int, str | None]:
+    """The task's ``camera_crop`` and ``pose_static_frames`` (its ``TaskEntry``: a user's
+    task declares its own), and why a cropped recipe cannot run on it, in one line (None:
+    it can). Where the project is not installed (a train-only machine) neither is needed:
+    (None, 0, None)."""
+    try:
+        from trossen_arm_mujoco.errors import UserError
+        from trossen_arm_mujoco.tasks.registry import load
+    except ImportError:
+        return None, 0, None
+    try:
+        entry = load(task)
+    except UserError as exc:
+        crop, static, why = None, 0, str(exc)
+    else:
+        crop, static = entry.camera_crop or None, entry.pose_static_frames
+        why = f"its TaskEntry declares no camera_crop ({entry.package})"
+    if recipe in CROPPED and crop is None:
+        return None, static, (f"--recipe {recipe} knows no crop of cam_high for task {task!r} "
+                              f"({why}); give --crop cam_high:TOP,LEFT,HEIGHT,WIDTH around the "
+                              "task's objects, or declare TaskEntry(camera_crop=...)")  # fmt: skip
+    return crop, static, None
 
 
 def camera_settings_error(cam_names: str, image_size: str, crop: str | None,

@@ -384,15 +384,17 @@ def test_a_cropped_recipe_on_a_task_it_knows_no_crop_for_is_one_line(tmp_path):
 
 
 def test_each_task_crop_holds_its_objects_spawn_region():
-    """The crops of ``train_eval_recipes.TASK_CROPS`` contain the projection into cam_high of
-    each task's object spawn region (and, for the insertion, the lift to where they meet)."""
+    """The tasks' ``TaskEntry.camera_crop`` contain the projection into cam_high of each
+    task's object spawn region (and, for the insertion, the lift to where they meet)."""
     import mujoco
     import numpy as np
 
     from trossen_arm_mujoco.assets import asset_path
     from trossen_arm_mujoco.tasks import insertion, transfer_cube
+    from trossen_arm_mujoco.tasks.registry import load
 
-    crops = _recipe_module("train_eval_recipes").TASK_CROPS
+    crops = {name: load(name).camera_crop for name in ("sim_transfer_cube", "transfer_cube",
+                                                       "sim_insertion", "insertion")}  # fmt: skip
     scenes = {"sim_transfer_cube": "trossen_ai_scene_joint.xml",
               "sim_insertion": "trossen_ai_insertion_scene_joint.xml"}  # fmt: skip
     corners = {

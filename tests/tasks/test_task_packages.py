@@ -225,3 +225,18 @@ def test_using_a_broken_package_task_by_name_is_one_line_naming_it(tmp_path):
     proc = _run("-c", "from trossen_arm_mujoco.tasks import registry; print(registry.names())",
                 cwd=tmp_path, env=env)  # fmt: skip
     assert proc.returncode == 0 and "sim_transfer_cube" in proc.stdout, proc.stderr
+
+
+def test_the_camera_facts_of_a_declaration_are_checked():
+    from trossen_arm_mujoco.tasks.task_entry import TaskEntry
+
+    def entry(**facts):
+        reach = "trossen_arm_mujoco.tasks.reach"
+        return TaskEntry("crop_task", f"{reach}:ReachTask", f"{reach}:ReachSampler", "reach",
+                         **facts)  # fmt: skip
+
+    assert entry(camera_crop="cam_high:170,211,180,240", pose_static_frames=10).problems() == []
+    (bad_crop,) = entry(camera_crop="cam_high:1,2").problems()
+    assert bad_crop.startswith("camera_crop: --crop must look like")
+    (bad_frames,) = entry(pose_static_frames=-1).problems()
+    assert "pose_static_frames must be an int >= 0" in bad_frames

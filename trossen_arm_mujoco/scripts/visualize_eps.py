@@ -191,7 +191,7 @@ def _kept(written: list[Path], out_dir: Path, current: list | tuple = ()) -> str
     """What a stopped run kept: the finished files (the one in progress is removed). A file
     of ``current`` whose modification time changed was published just before the stop."""
     written = list(written) + [p for p, before in current
-                               if _mtime(p) is not None and _mtime(p) != before]  # fmt: skip
+                               if (now := _mtime(p)) is not None and now != before]  # fmt: skip
     if not written:
         return f"no file was finished in {out_dir}"
     videos = sum(path.suffix == ".mp4" for path in written)

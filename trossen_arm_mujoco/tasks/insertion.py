@@ -204,6 +204,13 @@ TASKS = (
         # 2 both objects grasped and lifted, 3 peg touches socket, 4 peg touches the pin
         stages={"grasped": 2.0, "contact": 3.0, "inserted": 4.0},
         gym_ids={"TrossenMujoco/StationaryAIInsertion-v0": "env"},
+        # the peg's and socket's spawn regions with their lengths and the lift to where they
+        # meet (x -0.05..0.10 m, y -0.26..0.23 m, z up to 0.25 m): rows 202-310, columns
+        # 215-447 of cam_high
+        camera_crop="cam_high:170,211,180,240",
+        # the arms move from the first frame: without these the pose encoder read the arms,
+        # not the peg (23.5 mm off at the start against 1.6 mm; docs Benchmarks, 2026-11-29)
+        pose_static_frames=1000,
         required=("ee_scene", "max_object_velocity"),
     ),
 )  # fmt: skip

@@ -84,6 +84,13 @@ class TaskEntry:
         keys: config keys of this task only (``tasks.config_key.Key``), besides the
             schema's common ones.
         required: keys its config must hold (besides the common required ones).
+        camera_crop: the rectangle of a kit camera's 480x640 frame that holds the task's
+            objects through an episode, ``CAMERA:TOP,LEFT,HEIGHT,WIDTH`` (what the camera
+            recipes of ``benchmarks/train_eval.py`` record, ``record --crop``); "" for none.
+        pose_static_frames: how many frames of the scene at its start (arms at home, objects
+            sampled) the ``camera_pose`` recipe's pose encoder trains on besides the
+            episodes' (``train_eval.py --static_frames``); 0 when the episodes' first frames
+            serve.
         package: the distribution that registered it (set by the registry).
     """
 
@@ -99,6 +106,8 @@ class TaskEntry:
     gym_ids: Mapping[str, str] = field(default_factory=dict)
     keys: Mapping[str, Key] = field(default_factory=dict)
     required: tuple[str, ...] = ()
+    camera_crop: str = ""
+    pose_static_frames: int = 0
     package: str = "trossen_arm_mujoco"
 
     def task_class(self) -> type:
@@ -148,6 +157,15 @@ class TaskEntry:
                 out.append(f"gym id {env_id} has kind {kind!r}; valid: {', '.join(GYM_KINDS)}")
             if "/" not in env_id or "-v" not in env_id:
                 out.append(f"gym id {env_id!r} must look like Namespace/Name-v0")
+        if self.camera_crop:
+            from trossen_arm_mujoco.sim.camera_crop import parse_crop
+
+            try:
+                parse_crop(self.camera_crop)
+            except UserError as exc:
+                out.append(f"camera_crop: {exc}")
+        if not isinstance(self.pose_static_frames, int) or self.pose_static_frames < 0:
+            out.append(f"pose_static_frames must be an int >= 0, got {self.pose_static_frames!r}")
         bad_keys = [k for k, v in self.keys.items() if not isinstance(v, Key)]
         if bad_keys:
             out.append(f"config key(s) {', '.join(bad_keys)} must be tasks.config_key.Key values")

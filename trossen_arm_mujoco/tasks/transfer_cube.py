@@ -133,6 +133,9 @@ TASKS = (
         # 1 right fingers touch the cube, 2 and it is off the table, 4 the left holds it up
         stages={"touched": 1.0, "lifted": 2.0, "transferred": 4.0},
         gym_ids={"TrossenMujoco/StationaryAITransferCube-v0": "env"},
+        # the cube's spawn region (x -0.15..0.15 m, y -0.2..0.1 m) projects to rows 240-343,
+        # columns 286-399 of cam_high; 3:4, so a 60x80 image keeps its aspect
+        camera_crop="cam_high:217,243,150,200",
         required=("ee_scene", "max_object_velocity"),
     ),
 )  # fmt: skip
