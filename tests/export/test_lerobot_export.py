@@ -627,6 +627,15 @@ def _temps(folder: Path) -> list[str]:
     return sorted(p.name for p in folder.rglob("*") if p.name.endswith((".tmp", ".old")))
 
 
+def _frames_written(build: Path) -> bool:
+    """Whether the build folder holds frames; False while it is missing or once it is
+    renamed away between the check and the walk."""
+    try:
+        return any(build.rglob("*.parquet"))
+    except FileNotFoundError:
+        return False
+
+
 @pytest.mark.parametrize("dt", [0.0, -0.02, float("nan"), float("inf"), "fast"])
 def test_bad_step_period_is_one_line_exit_2(tmp_path, capfd, make_episode, dt):
     data = tmp_path / "eps"
@@ -771,7 +780,7 @@ def test_signal_mid_write_leaves_no_temporary_folder(tmp_path, sig, status, name
     build = tmp_path / ".ds.tmp"
     deadline = time.time() + 120
     try:  # wait for the first episode's frames in the build folder
-        while not (build.is_dir() and any(build.rglob("*.parquet"))):
+        while not _frames_written(build):
             assert proc.poll() is None, proc.communicate()
             assert time.time() < deadline, "no frames written within 120 s"
             time.sleep(0.005)
