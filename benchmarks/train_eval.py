@@ -68,7 +68,7 @@ from train_eval_recipes import (  # noqa: E402
     camera_settings_error,
     task_camera_facts,
 )
-from train_eval_report import losses, report, results  # noqa: E402
+from train_eval_report import alike, losses, recipe_flags, report, results  # noqa: E402
 
 PHASES = ("record", "export", "encode", "train", "eval", "wire")
 #: Phases run when ``--phase`` is not given (``wire`` needs an idle machine: asked for;
@@ -396,6 +396,7 @@ def main(argv: list[str] | None = None) -> None:
                 "train": {**took, "steps": args.steps, "steps_per_s": rate,
                           "device": args.device, "jobs_at_once": at_once, "threads": threads},
                 "loss_curve": losses(log),
+                "trained_with": recipe_flags(vars(args)),
             }  # fmt: skip
             save()
         for seed in seeds:  # the dataset's settings travel with each checkpoint
@@ -424,7 +425,12 @@ def main(argv: list[str] | None = None) -> None:
             run["eval"] = took
             run.update(results(out / "eval_info.json"))
             save()
-        summary["spread"] = report({s: runs[s] for s in map(str, seeds) if s in runs})
+        mine = [str(seed) for seed in seeds]
+        summary["spread"] = report({s: runs[s] for s in mine if s in runs})
+        every = alike(runs, mine)  # runs added by earlier calls, trained and scored alike
+        summary.pop("spread_all", None)
+        if set(every) - set(mine):
+            summary["spread_all"] = report(every, f"every alike run in {work}", each=False)
         save()
     if "wire" in phases:
         for seed in seeds:

@@ -7,7 +7,14 @@ import json
 import math
 from pathlib import Path
 
-__all__ = ["losses", "report", "results", "wilson"]
+__all__ = ["alike", "losses", "recipe_flags", "report", "results", "wilson"]
+
+#: the flags that say where, with which seeds, how fast and how it is scored a run was made:
+#: two runs that differ only in these (and in ``eval_*``) learned the same recipe
+RUN_FLAGS = frozenset({
+    "work_dir", "phase", "train_seeds", "train_seed", "train_jobs", "train_threads",
+    "num_workers", "video_backend", "save_freq", "device", "controller_checks",
+})  # fmt: skip
 
 
 def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
@@ -39,11 +46,38 @@ def results(path: Path) -> dict:
            "deployment": info.get("deployment")}  # fmt: skip
     if "unconstrained" in info:
         out["unconstrained"] = info["unconstrained"]["aggregated"]
+    run = info.get("run") or {}
+    out["scored_on"] = {k: run.get(k) for k in ("task", "num_episodes", "seed", "episode_length")}
     if "timing" in info:
         out["timing"] = {k: info["timing"].get(k) for k in (
             "missed_periods", "actions", "obs_age_ms_median_of_episodes",
             "action_latency_ms_median_of_episodes")}  # fmt: skip
     return out
+
+
+def recipe_flags(args: dict) -> dict:
+    """The flags of ``args`` (``train_eval.py``'s, as a dict) that shape what a run learns:
+    all but ``RUN_FLAGS`` and the ``eval_*`` ones."""
+    return {k: v for k, v in args.items() if k not in RUN_FLAGS and not k.startswith("eval_")}
+
+
+def _alike_key(run: dict) -> str | None:
+    made, scored = run.get("trained_with"), run.get("scored_on")
+    if not run.get("result") or made is None or scored is None:
+        return None
+    return json.dumps([made, scored], sort_keys=True)
+
+
+def alike(runs: dict[str, dict], seeds: list[str]) -> dict[str, dict]:
+    """The scored runs of ``runs`` (a summary's, by training seed) that were trained with the
+    same recipe flags (``trained_with``) and scored on the same episodes (``scored_on``) as
+    the runs ``seeds``; none when those differ among themselves or were made before the
+    summary kept both."""
+    keys = {_alike_key(runs[s]) for s in seeds if runs.get(s, {}).get("result")}
+    if len(keys) != 1 or None in keys:
+        return {}
+    key = keys.pop()
+    return {s: run for s, run in runs.items() if _alike_key(run) == key}
 
 
 def _training(train: dict) -> str:
@@ -56,9 +90,9 @@ def _training(train: dict) -> str:
     return f"train {cpu:.0f} s CPU ({cpu / 60:.1f} min){steps}"
 
 
-def report(runs: dict[str, dict], label: str = "in-process") -> dict:
-    """Each run's success and interval, faults and largest asked speed, the mean and the
-    worst (printed and returned)."""
+def report(runs: dict[str, dict], label: str = "in-process", each: bool = True) -> dict:
+    """Each run's success and interval, faults and largest asked speed (printed when
+    ``each``), the mean and the worst (printed and returned)."""
     rates, total, n = [], 0, 0
     for seed, run in sorted(runs.items(), key=lambda kv: int(kv[0])):
         res = run.get("result")
@@ -70,11 +104,12 @@ def report(runs: dict[str, dict], label: str = "in-process") -> dict:
         top = max(peak.items(), key=lambda kv: kv[1]) if peak else ("none", 0.0)
         free = run.get("unconstrained")
         freely = f"; checks off {free['pc_success']:.1f}%" if free else ""
-        print(f"training seed {seed} ({label}): success {res['pc_success']:.1f}% (95% CI "
-              f"{lo:.1f}-{hi:.1f}) over {res['n_episodes']} episodes{freely}; faults "
-              f"{ctl.get('faulted_episodes', 'n/a')}; fastest asked {top[0]} at {top[1]:.2f} "
-              f"of its limit; stages {res['stages']}; "
-              f"{_training(run.get('train') or {})}")  # fmt: skip
+        if each:
+            print(f"training seed {seed} ({label}): success {res['pc_success']:.1f}% (95% CI "
+                  f"{lo:.1f}-{hi:.1f}) over {res['n_episodes']} episodes{freely}; faults "
+                  f"{ctl.get('faulted_episodes', 'n/a')}; fastest asked {top[0]} at "
+                  f"{top[1]:.2f} of its limit; stages {res['stages']}; "
+                  f"{_training(run.get('train') or {})}")  # fmt: skip
         rates.append(res["pc_success"])
         total += round(res["pc_success"] * res["n_episodes"] / 100.0)
         n += res["n_episodes"]

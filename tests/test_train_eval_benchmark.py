@@ -92,6 +92,18 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
                                           / "pretrained_model")  # fmt: skip
     assert carried is not None and carried.fps == 50 and carried.layout == "kit14"
     assert "record" in summary and "export" in summary  # earlier phases kept in the summary
+    assert "spread_all" not in summary  # no run beyond this call's
+
+    more = _bench(work, "--phase", "train,eval", "--train_seed", "7", *TINY, "--lr_schedule",
+                  "cosine", "--lr_final", "3e-7", "--eval_episodes", "2",
+                  "--eval_episode_length", "10", "--eval_workers", "1")  # fmt: skip
+    assert more.returncode == 0, more.stdout + more.stderr
+    summary = json.loads((work / "summary.json").read_text())
+    assert summary["spread"]["runs"] == 1  # this call's run
+    assert summary["spread_all"]["runs"] == 3  # with the two trained and scored alike before
+    rates = [r["result"]["pc_success"] for r in summary["runs"].values()]
+    assert summary["spread_all"]["mean_pc_success"] == pytest.approx(sum(rates) / 3)
+    assert f"over 3 training runs (every alike run in {work}): mean" in more.stdout
 
 
 def test_bad_phases_and_missing_inputs_are_one_line(tmp_path):
@@ -440,13 +452,54 @@ def test_camera_settings_are_checked_before_anything_runs(tmp_path, flags, expec
     assert not (tmp_path / "w").exists()  # refused before the work folder was made
 
 
-def test_the_recipe_knows_the_kit_cameras():
+def _bench_module(name: str):
+    """A module of ``benchmarks/`` (not a package), loaded from its file."""
     import importlib.util
 
-    from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
-
-    path = SCRIPT.with_name("train_eval_recipes.py")
-    spec = importlib.util.spec_from_file_location("train_eval_recipes", path)
+    spec = importlib.util.spec_from_file_location(name, SCRIPT.with_name(f"{name}.py"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    assert module.KIT_CAMERAS == STATIONARY_CAMERAS
+    return module
+
+
+def test_the_recipe_knows_the_kit_cameras():
+    from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
+
+    assert _bench_module("train_eval_recipes").KIT_CAMERAS == STATIONARY_CAMERAS
+
+
+def test_the_spread_over_every_run_pools_only_runs_trained_and_scored_alike(tmp_path, capsys):
+    rep = _bench_module("train_eval_report")
+    flags = {"work_dir": "w", "phase": "train", "train_seed": 5, "train_jobs": 2,
+             "steps": 7000, "lr": 1e-4, "eval_episodes": 50, "controller_checks": "on"}  # fmt: skip
+    made = rep.recipe_flags(flags)
+    assert made == {"steps": 7000, "lr": 1e-4}  # where, which seeds, how fast, how scored: out
+    info = {"aggregated": {"pc_success": 80.0}, "run": {"task": "t", "num_episodes": 50,
+            "seed": 0, "episode_length": None, "policy": "p", "num_workers": 2}}  # fmt: skip
+    (tmp_path / "eval_info.json").write_text(json.dumps(info))
+    scored = rep.results(tmp_path / "eval_info.json")["scored_on"]
+    assert scored == {"task": "t", "num_episodes": 50, "seed": 0, "episode_length": None}
+
+    def run(pc: float, **other) -> dict:
+        result = {"pc_success": pc, "pc_success_ci95": [0.0, 100.0], "n_episodes": 50,
+                  "stages": {}}  # fmt: skip
+        return {"result": result, "trained_with": {**made, **other}, "scored_on": scored}
+
+    runs = {
+        "5": run(80.0), "6": run(90.0),
+        "7": run(70.0, steps=2000),  # another recipe
+        "8": {**run(60.0), "scored_on": {**scored, "seed": 1}},  # other episodes
+        "9": {"train": {"cpu_s": 1.0}, "trained_with": made},  # trained, not scored
+        "4": {k: v for k, v in run(50.0).items() if k != "trained_with"},  # an older summary
+    }  # fmt: skip
+    assert set(rep.alike(runs, ["6"])) == {"5", "6"}
+    assert set(rep.alike(runs, ["6", "9"])) == {"5", "6"}
+    assert set(rep.alike(runs, ["8"])) == {"8"}
+    assert rep.alike(runs, ["6", "7"]) == {}  # this call's runs differ among themselves
+    assert rep.alike(runs, ["4"]) == {} and rep.alike(runs, ["9"]) == {}
+    spread = rep.report(rep.alike(runs, ["6"]), "every alike run", each=False)
+    assert spread["runs"] == 2 and spread["mean_pc_success"] == 85.0
+    assert spread["worst_pc_success"] == 80.0
+    out = capsys.readouterr().out
+    assert out.startswith("over 2 training runs (every alike run): mean 85.0%, worst 80.0%")
+    assert "training seed" not in out
