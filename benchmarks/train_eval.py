@@ -268,9 +268,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
             if problem:
                 fail(problem)
             args.crop = crop
-        if args.static_frames is None:
+        if args.static_frames is None and args.pose_encoder:
             args.static_frames = static
-    args.static_frames = (args.static_frames or 0) if args.pose_encoder else 0
+    if args.static_frames is not None and args.static_frames < 0:
+        fail(f"--static_frames {args.static_frames}: give a count >= 0 (0: none)")
+    if args.static_frames and not args.pose_encoder:
+        fail("--static_frames trains the pose encoder: use it with --recipe camera_pose (or "
+             "--pose_encoder), or leave it out")  # fmt: skip
+    args.static_frames = args.static_frames or 0
     problem = camera_settings_error(args.cam_names, args.image_size, args.crop, args.pose_encoder)
     if problem:
         fail(problem)

@@ -442,7 +442,11 @@ def test_each_task_crop_holds_its_objects_spawn_region():
      (["--recipe", "camera", "--crop", "cam_high:400,0,100,100"], "--crop cam_high:400,0,100,"
       "100 is outside the camera's 480x640 frame"),
      (["--recipe", "camera", "--crop", "cam_low:0,0,10,10"], "camera 'cam_low' is not "
-      "observed")],
+      "observed"),
+     (["--recipe", "camera_pose", "--static_frames", "-5"], "--static_frames -5: give a "
+      "count >= 0"),
+     (["--recipe", "camera", "--static_frames", "5"], "--static_frames trains the pose "
+      "encoder: use it with --recipe camera_pose")],
 )  # fmt: skip
 def test_camera_settings_are_checked_before_anything_runs(tmp_path, flags, expected):
     run = _bench_without_lerobot(tmp_path / "w", *flags)
