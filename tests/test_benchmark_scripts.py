@@ -86,3 +86,19 @@ def test_train_step_profile_splits_an_act_step_into_its_parts(tmp_path):
     assert float(rows[-1][2]) > 0 and rows[-1][4].strip() == "100.0%"
     result = json.loads((tmp_path / "profile.json").read_text())
     assert all(len(result["times_s"][p]) == 2 for p in parts[:-1])
+
+
+def test_render_profile_splits_a_frame_and_compares_each_row_with_before():
+    script = SCRIPT.parent / "render_profile.py"
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    args = ["--sizes", "12x16", "--cams", "1", "--frames", "2", "--rows", "now,now --no_shadows"]
+    done = subprocess.run(
+        [sys.executable, str(script), *args], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    rows = [line.split() for line in done.stdout.splitlines() if line.split()[:1] == ["12x16"]]
+    assert [r[2] for r in rows] == ["before", "now", "now"]
+    assert rows[0][-1] == "same" and all(float(r[-2]) > 0 for r in rows)
+    bad = subprocess.run([sys.executable, str(script), "--rows", "pretty"], capture_output=True,
+                         text=True, env=env, timeout=60)  # fmt: skip
+    assert bad.returncode != 0 and "unknown row 'pretty'" in bad.stderr

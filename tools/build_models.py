@@ -934,7 +934,7 @@ FILES.update(mobile_ai_model.files(SimpleNamespace(**globals())))
 
 def generate() -> dict[str, str]:
     """Return {relative path under assets/: file text} for every generated model."""
-    return {rel: make() for rel, make in FILES.items()}
+    return {rel: looks.finite_floor(make()) for rel, make in FILES.items()}
 
 
 def main() -> int:

@@ -41,9 +41,38 @@ LIGHTS = (
     ("fill_right", (0.2, 0.8, -0.6), 0.14, 0.0, False),
 )
 
-#: Shadow map size (pixels): enough for 640x480 frames; MuJoCo's default 4096 quadruples
-#: the cost of every shadow pass with software rendering for no visible gain here.
-SHADOW_SIZE = 2048
+#: Shadow map size (pixels) for 640x480 frames (smaller images get a smaller one,
+#: ``sim.cameras.shadow_map_size``); docs/benchmarks.md "Rendering cost" measures the sizes.
+SHADOW_SIZE = 1024
+
+#: The floor plane as drawn: half-size and grid spacing (m). MuJoCo collides with a plane as
+#: infinite whatever its size, but draws an infinite one as a fine grid that cost more than
+#: the arms; a finite one of this size fills every camera's view to the horizon.
+FLOOR_HALF_SIZE = 20
+FLOOR_GRID = 2
+#: The floor plane as the generator writes it first (infinite), replaced by ``finite_floor``.
+INFINITE_FLOOR = 'type="plane" size="0 0 0.05"'
+
+
+def finite_floor(text: str) -> str:
+    """``text`` (a standalone MJCF model with an infinite floor plane) with a finite floor of
+    ``FLOOR_HALF_SIZE`` and a ``<statistic>`` pinned to the infinite floor's: the finite
+    plane would change the model's extent, and with it the cameras' near plane and the
+    shadow frustum."""
+    import mujoco
+
+    if INFINITE_FLOOR not in text:
+        return text
+    stat = mujoco.MjModel.from_xml_string(text).stat
+    floor = f'type="plane" size="{FLOOR_HALF_SIZE} {FLOOR_HALF_SIZE} {FLOOR_GRID}"'
+    statistic = f'  <statistic extent="{stat.extent:.6g}" center="{_f6(stat.center)}"/>\n'
+    head, sep, rest = text.partition("\n<mujoco model=")
+    line, nl, body = rest.partition("\n")
+    return head + sep + line + nl + statistic + body.replace(INFINITE_FLOOR, floor)
+
+
+def _f6(v) -> str:
+    return " ".join(f"{float(x):.6g}" for x in v)
 
 
 def mjcf_lights(forward: tuple[float, float], height: float = 2.0, indent: int = 4) -> str:

@@ -230,6 +230,19 @@ def test_no_shadows_and_menagerie_visual(tmp_path, capsys, fake_menagerie):
     assert ep.images["cam_high"].shape == (3, 12, 16, 3) and ep.images["cam_high"].std() > 0
 
 
+def test_no_antialias_is_stored_and_a_rerun_without_it_is_refused(tmp_path, capsys):
+    args = ["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "3"]
+    args += ["--cam_names", "cam_high", "--image_size", "12x16", "--no_antialias"]
+    rc, _, err = _run_cli(args, capsys)
+    assert rc == 1, err  # 3 steps: a failed episode
+    ep = load_episode(tmp_path / "d" / "episode_0.hdf5")
+    assert ep.attrs["antialias"] == False and ep.attrs["shadows"] == True  # noqa: E712
+    rc, _, err = _run_cli([a for a in args if a != "--no_antialias"] + ["--num_episodes", "2"],
+                          capsys)  # fmt: skip
+    assert rc == 2 and "--no_antialias set (this run: not set)" in err
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_menagerie_visual_without_checkout_is_one_line_exit_2(tmp_path, capsys, monkeypatch):
     monkeypatch.delenv("TROSSEN_MENAGERIE_DIR", raising=False)
     rc, _, err = _run_cli(

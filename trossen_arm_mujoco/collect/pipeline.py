@@ -109,6 +109,7 @@ class RecordSettings:
     base_seed: int = 0
     randomize: bool = False
     shadows: bool = True  # the key light casts shadows in the images
+    antialias: bool = True  # edges smoothed by multisampling (sim.looks)
     visual: str = "own"  # arm meshes: "own" or "menagerie" (sim.looks)
     # cameras showing a rectangle: sim.camera_crop.CameraCrop values (--crop texts accepted)
     crops: tuple[CameraCrop | str, ...] = ()
@@ -126,7 +127,10 @@ class RecordSettings:
             width=self.width,
             randomize=self.randomize,
             looks=SceneLooks(
-                shadows=self.shadows, visual=self.visual, crops=parse_crops(self.crops)
+                shadows=self.shadows,
+                antialias=self.antialias,
+                visual=self.visual,
+                crops=parse_crops(self.crops),
             ),
         )
 
@@ -393,6 +397,7 @@ def episode_attrs(
         "success": False,
         "real_replay_fps": 1.0 / dt,
         "shadows": bool(s.shadows),
+        "antialias": bool(s.antialias),
         "visual": s.visual,
         **({"crops": crop_texts(s.crops)} if s.crops else {}),
         **fields,

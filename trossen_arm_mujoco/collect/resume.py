@@ -117,6 +117,8 @@ def settings_differences(episode, settings: RecordSettings) -> list[str]:
         checks.append(("--randomize", "randomization" in attrs, settings.randomize))
     if "shadows" in attrs:
         checks.append(("--no_shadows", not attrs["shadows"], not settings.shadows))
+    if "antialias" in attrs:
+        checks.append(("--no_antialias", not attrs["antialias"], not settings.antialias))
     if "schema_version" in attrs:  # files of this package name their crops (none: "")
         checks.append(("--crop", str(attrs.get("crops", "")), crop_texts(settings.crops)))
     if episode.camera_names and settings.cam_names:

@@ -223,6 +223,7 @@ def record_options(args: argparse.Namespace) -> RecordOptions:
         base_seed=args.seed,
         randomize=args.randomize,
         shadows=looks.shadows,
+        antialias=looks.antialias,
         visual=looks.visual,
         crops=looks.crops,  # parsed once, here
     )

@@ -247,6 +247,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         compression=args.compression,
         overrides=overrides,
         shadows=not args.no_shadows,
+        antialias=not args.no_antialias,
     )
     folder = dataset_folder(args.root_dir, args.data_dir)
     from trossen_arm_mujoco.data.dataset_lock import DatasetLock

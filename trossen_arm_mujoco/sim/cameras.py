@@ -6,9 +6,11 @@ the GL context) on its first render, never at construction.
 Exit: renderers never closed are closed when the interpreter exits, before MuJoCo or
 dm_control terminate their EGL display (``sim.closing``).
 
-Shadows: the model's shadow map (``visual/quality/shadowsize``) is meant for 640-pixel images;
-smaller images get a proportionally smaller one (at least 256), since software rendering
-pays for every texel of it in every frame.
+Cost (docs/benchmarks.md, "Rendering cost"): the model's shadow map
+(``visual/quality/shadowsize``) is meant for 640-pixel images and smaller images get a
+proportionally smaller one (at least 256); a process whose first renderer draws small images
+(``SMALL_IMAGE``) renders without Mesa's rasterizer threads, whose hand-off costs more than
+such a frame (``LP_NUM_THREADS`` set by the user wins).
 
 Forked processes: a process forked from one that had opened a GL context cannot open one
 itself (MuJoCo's EGL/Mesa state does not survive ``fork``; rendering hangs). Such a child
@@ -30,7 +32,15 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.names import lookup_id, names_of
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 
-__all__ = ["SHADOW_MAP_IMAGE", "CameraSet", "check_can_render", "gl_opened", "shadow_map_size"]
+__all__ = [
+    "SHADOW_MAP_IMAGE",
+    "SMALL_IMAGE",
+    "CameraSet",
+    "check_can_render",
+    "gl_opened",
+    "render_threads",
+    "shadow_map_size",
+]
 
 _gl_pid: int | None = None  # process that opened a GL context through this module
 _forked_from_gl = False  # this process was forked from one with a GL context
@@ -77,6 +87,22 @@ def shadow_map_size(model_size: int, height: int, width: int) -> int:
     while size < wanted:
         size *= 2
     return int(min(model_size, size))
+
+
+#: Longer image side (pixels) up to which a process's first renderer turns Mesa's rasterizer
+#: threads off (``LP_NUM_THREADS=0``): measured cheaper in CPU up to 240x320.
+SMALL_IMAGE = 320
+#: Mesa's variable for llvmpipe's rasterizer threads, read once, when GL first starts.
+THREADS_ENV = "LP_NUM_THREADS"
+
+
+def render_threads(height: int, width: int) -> str | None:
+    """The ``LP_NUM_THREADS`` value a process whose first images are ``height`` x ``width``
+    starts GL with: "0" for small images, None (Mesa's default, one a core) otherwise or
+    when the user set the variable."""
+    if THREADS_ENV in os.environ or max(height, width) > SMALL_IMAGE:
+        return None
+    return "0"
 
 
 class CameraSet:
@@ -135,10 +161,15 @@ class CameraSet:
         quality = self.model.vis.quality
         model_size = int(quality.shadowsize)
         quality.shadowsize = shadow_map_size(model_size, self.height, self.width)
+        threads = None if _gl_pid is not None else render_threads(self.height, self.width)
+        if threads is not None:  # read when GL starts; children get the user's environment
+            os.environ[THREADS_ENV] = threads
         try:  # the context reads the shadow map size now; the model keeps its own
             renderer = mujoco.Renderer(self.model, self.height, self.width)
         finally:
             quality.shadowsize = model_size
+            if threads is not None:
+                os.environ.pop(THREADS_ENV, None)
         _gl_pid = os.getpid()
         close_at_exit(self)
         return renderer

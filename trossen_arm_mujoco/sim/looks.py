@@ -10,8 +10,11 @@ Crops: a camera can show one rectangle of its 480x640 frame (``crops``; ``sim.ca
 set in the compiled model as that camera's intrinsics.
 
 Shadows: every scene has one shadow-casting key light; ``shadows=False`` turns shadow
-casting off on every light of the loaded model (``model.light_castshadow``), which makes
-software-rendered pixel observations several times faster.
+casting off on every light of the loaded model (``model.light_castshadow``).
+Antialiasing: edges are smoothed with 4x multisampling, as a real camera's pixels average the
+light that falls on them; ``antialias=False`` draws one sample a pixel (``model.vis.quality
+.offsamples`` 0), about half the CPU of a software-rendered frame (docs/benchmarks.md,
+"Rendering cost").
 
 The look travels as an argument, like a seed: a front door makes a ``SceneLooks`` and hands
 it to the sampler it builds (``SamplerSettings(looks=...)``), which hands it to
@@ -44,6 +47,7 @@ __all__ = [
     "OWN_VISUAL_CLASS",
     "VISUALS",
     "SceneLooks",
+    "apply_antialias",
     "apply_shadows",
     "checked_looks",
     "compile_model",
@@ -86,6 +90,7 @@ class SceneLooks:
 
     Attributes:
         shadows: whether the key light casts shadows (False: no light does).
+        antialias: whether edges are smoothed by multisampling (False: one sample a pixel).
         visual: ``"own"`` or ``"menagerie"`` (needs ``TROSSEN_MENAGERIE_DIR``).
         crops: cameras that show a rectangle of their frame (``sim.camera_crop``; a tuple
             of ``CameraCrop``, one per camera at most); default none.
@@ -94,10 +99,13 @@ class SceneLooks:
     shadows: bool = True
     visual: str = "own"
     crops: tuple[CameraCrop, ...] = ()
+    antialias: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.shadows, bool):
             raise UserError(f"shadows must be True or False, got {self.shadows!r}")
+        if not isinstance(self.antialias, bool):
+            raise UserError(f"antialias must be True or False, got {self.antialias!r}")
         if self.visual not in VISUALS:
             raise unknown_name_error("visual", str(self.visual), VISUALS)
         crops = tuple(self.crops or ())
@@ -123,6 +131,13 @@ def apply_shadows(model: mujoco.MjModel, shadows: bool) -> None:
     setting (the key light casts them)."""
     if not shadows:
         model.light_castshadow[:] = 0
+
+
+def apply_antialias(model: mujoco.MjModel, antialias: bool) -> None:
+    """``antialias=False``: the renderers made for ``model`` draw one sample a pixel (no
+    multisampling); True leaves the model's own setting."""
+    if not antialias:
+        model.vis.quality.offsamples = 0
 
 
 # ----------------------------------------------------------------------------- menagerie
@@ -228,5 +243,6 @@ def compile_model(path: Path, looks: SceneLooks, edit: SceneEdit | None = None) 
     else:
         model = mujoco.MjModel.from_xml_path(str(path))
     apply_shadows(model, looks.shadows)
+    apply_antialias(model, looks.antialias)
     apply_crops(model, looks.crops)
     return model

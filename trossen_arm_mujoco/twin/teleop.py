@@ -90,7 +90,7 @@ class TeleopSettings:
         cam_names, height, width: cameras recorded and their image size (px).
         compression: image compression of the episode files.
         overrides: task config overrides (the rate: ``policy_dt``, ``ctrl_dt``, ``sim_dt``).
-        shadows, visual: scene looks.
+        shadows, antialias, visual: scene looks (``sim.looks.SceneLooks``).
     """
 
     task_name: str = registry.DEFAULT_TASK
@@ -101,6 +101,7 @@ class TeleopSettings:
     compression: str = DEFAULT_COMPRESSION
     overrides: Mapping[str, float] = field(default_factory=dict)
     shadows: bool = True
+    antialias: bool = True
     visual: str = "own"
 
     def sampler_settings(self) -> SamplerSettings:
@@ -110,7 +111,9 @@ class TeleopSettings:
             camera_names=self.cam_names,
             height=self.height,
             width=self.width,
-            looks=SceneLooks(shadows=self.shadows, visual=self.visual),
+            looks=SceneLooks(
+                shadows=self.shadows, antialias=self.antialias, visual=self.visual
+            ),
         )
 
 
@@ -317,6 +320,7 @@ class TeleopRecorder:
             "peak_speed_fraction": peak,
             "speed_limited_values": int(run["speed_limited_values"]),
             "shadows": bool(self.settings.shadows),
+            "antialias": bool(self.settings.antialias),
             "visual": self.settings.visual,
             "teleop": True,
             "leader_ips": [leaders.ips[s] for s in SIDES],
