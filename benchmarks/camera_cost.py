@@ -12,8 +12,9 @@ processes' user + system time (every thread and worker); the ratio is against th
 run of the same length.
 
 ``stream``: ``trossen-mujoco serve --cameras cam_high --image_size 480x640`` on loopback for
-``--seconds``, stopped with Ctrl-C (SIGINT); its own last lines give the frames it published
-per second (30 asked) and the physics' real-time factor beside it.
+``--seconds``, then with ``--no_antialias``, each stopped with Ctrl-C (SIGINT); its own last
+lines give the frames it published per second (30 asked) and the physics' real-time factor
+beside it.
 """
 
 from __future__ import annotations
@@ -78,8 +79,8 @@ def record_part(episodes: int, env: dict) -> None:
             print(f"  {name:<26} CPU {seconds:7.1f} s  {ratio}", flush=True)
 
 
-def stream_part(seconds: float, env: dict) -> None:
-    cmd = CLI + ["serve", "--left_ip", "127.0.0.2", "--right_ip", "127.0.0.3"]
+def stream_part(seconds: float, env: dict, flags: list[str]) -> None:
+    cmd = CLI + ["serve", "--left_ip", "127.0.0.2", "--right_ip", "127.0.0.3", *flags]
     cmd += ["--cameras", "cam_high", "--image_size", "480x640", "--camera_port", "5591"]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)  # fmt: skip
@@ -94,7 +95,8 @@ def stream_part(seconds: float, env: dict) -> None:
     rtf = re.search(r"real-time factor ([\d.]+)", out)
     if not rate or not rtf:
         sys.exit(f"error: serve did not report its rates:\n{out[-800:]}")
-    print(f"stream: cam_high 480x640 for {seconds:g} s: {rate.group(2)} frames per s "
+    shown = " ".join(flags) or "defaults"
+    print(f"stream: cam_high 480x640, {shown}, {seconds:g} s: {rate.group(2)} frames per s "
           f"(30 asked), physics real-time factor {rtf.group(1)}")  # fmt: skip
 
 
@@ -108,7 +110,8 @@ def main(argv=None) -> None:
     if args.part in ("all", "record"):
         record_part(args.episodes, env)
     if args.part in ("all", "stream"):
-        stream_part(args.seconds, env)
+        for flags in ([], ["--no_antialias"]):
+            stream_part(args.seconds, env, flags)
 
 
 if __name__ == "__main__":

@@ -12,9 +12,10 @@ Each frame is split into the scene update (``mjv_updateScene``), the draw calls
 copies the pixels). Rows:
 
 - ``before``: the settings of the commit before this change (an infinite floor plane, the
-  2048 shadow map scaled to the image, Mesa's rasterizer threads, 4x multisampling);
+  2048 shadow map scaled to the image, MuJoCo's default cuts of its built-in shapes, Mesa's
+  rasterizer threads, 4x multisampling);
 - one row for each change alone on top of ``before`` (a finite floor, the 1024 shadow map,
-  no rasterizer threads for small images);
+  coarser built-in shapes, no rasterizer threads);
 - ``now``: what ``sim.cameras.CameraSet`` does by default, then with ``--no_antialias`` and
   with ``--no_shadows`` (``SceneLooks``).
 
@@ -36,31 +37,34 @@ from pathlib import Path
 
 SCENE = "stationary_ai/trossen_ai_scene_joint.xml"
 CAMERAS = ("cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist")
-#: row name -> (floor, model shadow map, threads, antialias, shadows)
+#: MuJoCo's default cuts of its built-in shapes (numquads, numslices, numstacks).
+MUJOCO_SHAPES = (4, 28, 16)
+#: row name -> (floor, model shadow map, built-in shapes, threads, antialias, shadows);
+#: "model" shapes are the model's own ``<quality>``, "auto" threads are ``CameraSet``'s choice.
 ROWS = {
-    "before": ("infinite", 2048, "mesa", True, True),
-    "finite floor": ("finite", 2048, "mesa", True, True),
-    "shadow map 1024": ("infinite", 1024, "mesa", True, True),
-    "no raster threads": ("infinite", 2048, "none", True, True),
-    "now": ("finite", 1024, "auto", True, True),
-    "now --no_antialias": ("finite", 1024, "auto", False, True),
-    "now --no_shadows": ("finite", 1024, "auto", True, False),
+    "before": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True),
+    "finite floor": ("finite", 2048, MUJOCO_SHAPES, "mesa", True, True),
+    "shadow map 1024": ("infinite", 1024, MUJOCO_SHAPES, "mesa", True, True),
+    "coarser shapes": ("infinite", 2048, "model", "mesa", True, True),
+    "no raster threads": ("infinite", 2048, MUJOCO_SHAPES, "none", True, True),
+    "now": ("finite", 1024, "model", "auto", True, True),
+    "now --no_antialias": ("finite", 1024, "model", "auto", False, True),
+    "now --no_shadows": ("finite", 1024, "model", "auto", True, False),
 }
 
 
 def child(row: str, size: tuple[int, int], ncams: int, frames: int, out: Path) -> dict:
     """Measure one row in this process; the frames go to ``out`` (.npz)."""
-    floor, map_size, threads, antialias, shadows = ROWS[row]
-    if threads == "none":
-        os.environ["LP_NUM_THREADS"] = "0"
+    floor, map_size, shapes, threads, antialias, shadows = ROWS[row]
     import mujoco
     import numpy as np
 
     from trossen_arm_mujoco.constants import ASSETS_DIR
     from trossen_arm_mujoco.sim.cameras import render_threads, shadow_map_size
 
-    if threads == "auto" and render_threads(*size) is not None:
-        os.environ["LP_NUM_THREADS"] = render_threads(*size)
+    chosen = {"none": "0", "mesa": None, "auto": render_threads(*size)}[threads]
+    if chosen is not None:  # read when Mesa starts, at the first context below
+        os.environ["LP_NUM_THREADS"] = chosen
     spec = mujoco.MjSpec.from_file(str(Path(ASSETS_DIR) / SCENE))
     if floor == "infinite":
         spec.geom("ground").size = [0, 0, 0.05]
@@ -71,6 +75,9 @@ def child(row: str, size: tuple[int, int], ncams: int, frames: int, out: Path) -
         model.light_castshadow[:] = 0
     if not antialias:
         model.vis.quality.offsamples = 0
+    if shapes != "model":
+        q = model.vis.quality
+        q.numquads, q.numslices, q.numstacks = shapes
     model.vis.quality.shadowsize = shadow_map_size(map_size, *size)
     renderer = mujoco.Renderer(model, *size)
     cams = CAMERAS[:ncams]

@@ -13,12 +13,16 @@ import pytest
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "step_overhead.py"
 
 
-def test_step_overhead_measures_each_env_in_its_own_process():
+def run_benchmark(name: str, args: list[str], timeout: float = 300):
+    """``python benchmarks/NAME ARGS`` with software EGL; the finished process."""
     env = {**os.environ, "MUJOCO_GL": "egl"}
+    return subprocess.run([sys.executable, str(SCRIPT.parent / name), *args],
+                          capture_output=True, text=True, env=env, timeout=timeout)  # fmt: skip
+
+
+def test_step_overhead_measures_each_env_in_its_own_process():
     args = ["--steps", "20", "--dm-steps", "20", "--repeats", "1", "--only", "TransferCubeTask"]
-    done = subprocess.run(
-        [sys.executable, str(SCRIPT), *args], capture_output=True, text=True, env=env, timeout=300
-    )
+    done = run_benchmark(SCRIPT.name, args)
     assert done.returncode == 0, done.stderr
     rows = [line for line in done.stdout.splitlines() if line.startswith("| dm_control")]
     assert len(rows) == 1 and "TransferCubeTask (joint)" in rows[0]
@@ -27,12 +31,8 @@ def test_step_overhead_measures_each_env_in_its_own_process():
 
 
 def test_eval_throughput_prints_the_ratio_and_the_scaling():
-    script = SCRIPT.parent / "eval_throughput.py"
-    env = {**os.environ, "MUJOCO_GL": "egl"}
     args = ["--steps", "4", "--repeats", "1", "--image_size", "24x32", "--workers", "1,2"]
-    done = subprocess.run(
-        [sys.executable, str(script), *args], capture_output=True, text=True, env=env, timeout=300
-    )
+    done = run_benchmark("eval_throughput.py", args)
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     ratio = next(line for line in lines if line.strip().startswith("ratio env/raw"))
@@ -43,12 +43,8 @@ def test_eval_throughput_prints_the_ratio_and_the_scaling():
 
 
 def test_numpy_paths_compares_the_variants_and_checks_the_draws():
-    script = SCRIPT.parent / "numpy_paths.py"
-    env = {**os.environ, "MUJOCO_GL": "egl"}
     args = ["--n", "20", "--repeats", "1", "--draws", "50"]
-    done = subprocess.run(
-        [sys.executable, str(script), *args], capture_output=True, text=True, env=env, timeout=300
-    )
+    done = run_benchmark("numpy_paths.py", args)
     assert done.returncode == 0, done.stderr
     rows = [line for line in done.stdout.splitlines() if line.startswith("| two floats")]
     assert rows and all(line.rstrip(" |").endswith("yes") for line in rows)  # same draws
@@ -89,16 +85,11 @@ def test_train_step_profile_splits_an_act_step_into_its_parts(tmp_path):
 
 
 def test_render_profile_splits_a_frame_and_compares_each_row_with_before():
-    script = SCRIPT.parent / "render_profile.py"
-    env = {**os.environ, "MUJOCO_GL": "egl"}
     args = ["--sizes", "12x16", "--cams", "1", "--frames", "2", "--rows", "now,now --no_shadows"]
-    done = subprocess.run(
-        [sys.executable, str(script), *args], capture_output=True, text=True, env=env, timeout=300
-    )
+    done = run_benchmark("render_profile.py", args)
     assert done.returncode == 0, done.stderr
     rows = [line.split() for line in done.stdout.splitlines() if line.split()[:1] == ["12x16"]]
     assert [r[2] for r in rows] == ["before", "now", "now"]
     assert rows[0][-1] == "same" and all(float(r[-2]) > 0 for r in rows)
-    bad = subprocess.run([sys.executable, str(script), "--rows", "pretty"], capture_output=True,
-                         text=True, env=env, timeout=60)  # fmt: skip
+    bad = run_benchmark("render_profile.py", ["--rows", "pretty"], timeout=60)
     assert bad.returncode != 0 and "unknown row 'pretty'" in bad.stderr

@@ -469,7 +469,7 @@ def wxai_table_scene_xml() -> str:
 <mujoco model="wxai_table_scene">
   <visual>
     <global offwidth="640" offheight="480" azimuth="150" elevation="-25"/>
-    <quality shadowsize="{looks.SHADOW_SIZE}"/>
+    {looks.QUALITY}
     {looks.HEADLIGHT}
     <map znear="0.01"/>
   </visual>
@@ -562,7 +562,7 @@ def trossen_ai_xml() -> str:
 <mujoco model="trossen_ai">
 {OPTIONS}  <visual>
     <global offwidth="640" offheight="480" azimuth="90" elevation="-20"/>
-    <quality shadowsize="{looks.SHADOW_SIZE}"/>
+    {looks.QUALITY}
     {looks.HEADLIGHT}
     <map znear="0.01"/>
   </visual>

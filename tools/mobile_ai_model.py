@@ -267,7 +267,7 @@ def robot_xml(bm: Any, model: str, note: str, assets: str = "", world: str = "",
 <mujoco model="{model}">
 {bm.OPTIONS}  <visual>
     <global offwidth="640" offheight="480" azimuth="150" elevation="-20"/>
-    <quality shadowsize="{bm.looks.SHADOW_SIZE}"/>
+    {bm.looks.QUALITY}
     {bm.looks.HEADLIGHT}
     <map znear="0.01"/>
   </visual>

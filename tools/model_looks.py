@@ -44,6 +44,18 @@ LIGHTS = (
 #: Shadow map size (pixels) for 640x480 frames (smaller images get a smaller one,
 #: ``sim.cameras.shadow_map_size``); docs/benchmarks.md "Rendering cost" measures the sizes.
 SHADOW_SIZE = 1024
+#: How finely MuJoCo's renderer cuts its built-in shapes: box faces and planes in
+#: ``numquads`` x ``numquads`` quads, cylinders and spheres in ``numslices`` x ``numstacks``.
+#: MuJoCo's defaults (4, 28, 16) made the boxes and motor cylinders several times the
+#: triangles of every mesh; with software rendering each triangle costs CPU in every pass
+#: (docs/benchmarks.md, "Rendering cost"). The lights are directional, so the coarser
+#: grids light the same.
+NUMQUADS, NUMSLICES, NUMSTACKS = 1, 16, 2
+#: The ``<quality>`` element of every generated scene.
+QUALITY = (
+    f'<quality shadowsize="{SHADOW_SIZE}" numquads="{NUMQUADS}" numslices="{NUMSLICES}" '
+    f'numstacks="{NUMSTACKS}"/>'
+)
 
 #: The floor plane as drawn: half-size and grid spacing (m). MuJoCo collides with a plane as
 #: infinite whatever its size, but draws an infinite one as a fine grid that cost more than

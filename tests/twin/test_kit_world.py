@@ -56,6 +56,18 @@ def test_scene_is_records_episode(task: str, seed: int, index: int) -> None:
     world.close()
 
 
+def test_the_served_scene_is_drawn_with_the_looks_asked_for() -> None:
+    from trossen_arm_mujoco.sim.looks import SceneLooks
+
+    plain = KitWorld("sim_transfer_cube", looks=SceneLooks(shadows=False, antialias=False))
+    try:
+        assert plain.model.vis.quality.offsamples == 0 and not plain.model.light_castshadow.any()
+    finally:
+        plain.close()
+    with pytest.raises(UserError, match="looks must be a SceneLooks"):
+        KitWorld("sim_transfer_cube", looks="plain")
+
+
 def test_only_kit_tasks_and_whole_frame_rates() -> None:
     assert {"sim_transfer_cube", "sim_insertion"} <= set(registry.kit_names())
     assert not {"reach", "push", "pick_place"} & set(registry.kit_names())

@@ -62,6 +62,7 @@ from trossen_arm_mujoco.scripts.common_options import (
     add_episode_len,
     add_fps,
     add_image_size,
+    add_looks,
     add_root_dir,
     add_seed,
     add_task_name,
@@ -109,6 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_episode_len(p, "with --record: at most this many frames per episode; a longer "
                     "session is split", "one episode per session")  # fmt: skip
     add_compression(p)
+    add_looks(p, visual=False)
     add_wait(p, "with --record: wait for another run writing to DIR instead of refusing")
     p.add_argument("--role", default="follower", choices=("follower", "leader"),
                    help="follower: the kit world (default); leader: two leader arms "
@@ -240,7 +242,15 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
         first = _first_index(record[0])
     if stops.requested:
         return _stopped_early(stops)
-    world = KitWorld(args.task_name, base_seed=args.seed, episode_index=first, fps=args.fps)
+    from trossen_arm_mujoco.scripts.common_options import scene_looks
+
+    world = KitWorld(
+        args.task_name,
+        base_seed=args.seed,
+        episode_index=first,
+        fps=args.fps,
+        looks=scene_looks(args),
+    )
     recorder = None
     try:
         if stops.requested:

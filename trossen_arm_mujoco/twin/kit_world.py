@@ -34,7 +34,9 @@ from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, IDLE, Fault
 from trossen_arm_mujoco.robot.layout import ARM_JOINTS, SIDES, VENDOR16_LAYOUT
 from trossen_arm_mujoco.sim.env import whole_ratio
+from trossen_arm_mujoco.sim.looks import SceneLooks, checked_looks
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.twin.commands import ArmState
 from trossen_arm_mujoco.twin.faults import lag_fault_of
 from trossen_arm_mujoco.twin.frame import Frame
@@ -60,6 +62,8 @@ class KitWorld:
         fps: frames per second of simulated time (the recording rate); default the task's.
         object_poses: object name -> pose [xyz, quat wxyz] placed instead of the sampled
             ones in the first episode (a replay starting from a recorded scene).
+        looks: how the served cameras and the recorder draw the scene (shadows,
+            antialiasing; ``sim.looks.SceneLooks``); default ``SceneLooks()``.
     """
 
     def __init__(
@@ -69,6 +73,7 @@ class KitWorld:
         episode_index: int = 0,
         fps: float | None = None,
         object_poses: Mapping[str, np.ndarray] | None = None,
+        looks: SceneLooks | None = None,
     ) -> None:
         entry = registry.load(task_name)
         if entry.name not in registry.kit_names():
@@ -88,7 +93,10 @@ class KitWorld:
             raise UserError(f"{exc}; e.g. --fps {valid}") from None
         self.task_name, self.base_seed = entry.name, int(base_seed)
         self.frame_dt, self.ctrl_dt = self.ticks_per_frame * ctrl_dt, ctrl_dt
-        self.sampler = registry.make_sampler(entry.name, ctrl_dt=ctrl_dt, policy_dt=frame_dt)
+        settings = SamplerSettings(looks=checked_looks(looks))
+        self.sampler = registry.make_sampler(
+            entry.name, settings, ctrl_dt=ctrl_dt, policy_dt=frame_dt
+        )
         self.env = self.sampler.env
         self.model, self.data = self.env.model, self.env.data
         self.robot = self.env.robots[self.sampler.robot_name]
