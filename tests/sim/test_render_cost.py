@@ -127,3 +127,17 @@ def test_frames_stay_within_the_stated_psnr_of_the_frames_before():
     for name, image in frames.items():
         before = np.asarray(Image.open(BEFORE / f"stationary_ai_{name}_60x80.png"))
         assert psnr(image, before) >= MIN_PSNR, name
+
+
+def test_the_gym_envs_take_the_antialias_look():
+    from trossen_arm_mujoco.gym.env import TrossenMujocoEnv
+
+    env = TrossenMujocoEnv("push", obs_type="pixels", width=16, height=12, antialias=False)
+    try:
+        assert env.scene.model.vis.quality.offsamples == 0
+        obs, _ = env.reset(seed=0)
+        assert np.asarray(obs["pixels"] if isinstance(obs, dict) else obs).std() > 0
+    finally:
+        env.close()
+    with pytest.raises(UserError, match="antialias must be True or False"):
+        TrossenMujocoEnv("push", antialias=1)

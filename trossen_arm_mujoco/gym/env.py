@@ -18,8 +18,10 @@ Keyword arguments (besides the task's config keys, which override its YAML file)
     randomize: domain randomization of every episode (default off), as the task config's
         ``randomization`` section says (override it with ``randomization={...}``); the record
         of the episode is ``info["randomization"]`` at reset.
-    shadows: whether the key light casts shadows (False renders pixels several times faster
+    shadows: whether the key light casts shadows (False renders pixels about twice as fast
         with software rendering).
+    antialias: whether edges are smoothed by multisampling (False: one sample a pixel, about
+        twice as fast with software rendering; ``sim.looks``).
     visual: ``own`` (the project's arm shapes) | ``menagerie`` (the official Trossen meshes
         of a MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR``; see ``sim.looks``).
         Only what is drawn changes; physics is the same.
@@ -68,7 +70,7 @@ __all__ = ["ENV_OPTIONS", "RENDER_MODES", "TrossenMujocoEnv", "has_display"]
 
 RENDER_MODES = ("rgb_array", "human")
 ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "width",
-               "height", "cameras", "randomize", "shadows", "visual")  # fmt: skip
+               "height", "cameras", "randomize", "shadows", "antialias", "visual")  # fmt: skip
 
 
 #: Image sizes (pixels); the model's offscreen buffer bounds them further when rendering.
@@ -121,6 +123,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         cameras: Sequence[str] | None = None,
         randomize: bool = False,
         shadows: bool = True,
+        antialias: bool = True,
         visual: str = "own",
         **config: Any,
     ):
@@ -138,7 +141,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         randomize = Key("bool").check("env keyword argument randomize", randomize)
         cameras = _check_cameras(cameras)
         self.config = merge_overrides(entry.config, defaults, config, entry.keys)  # kwargs, checked
-        looks = SceneLooks(shadows=shadows, visual=visual)
+        looks = SceneLooks(shadows=shadows, antialias=antialias, visual=visual)
         if render_mode is not None:
             _check_choice("render mode", render_mode, RENDER_MODES)
         self._headless = render_mode == "human" and not has_display()

@@ -13,7 +13,8 @@ its one-line ``UserError``.
     >>> env = gym.make("TrossenMujoco/WXAIPush-v0", obs_type="pixels", shadows=False)
 
 Every id takes the keyword arguments of ``gym.env.TrossenMujocoEnv`` (obs_type, action_mode,
-render_mode, stepping, width, height, cameras, shadows, visual) and the task's config keys.
+render_mode, stepping, width, height, cameras, shadows, antialias, visual) and the task's
+config keys.
 """
 
 from __future__ import annotations
