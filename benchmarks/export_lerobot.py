@@ -36,6 +36,7 @@ import numpy as np  # noqa: E402
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode  # noqa: E402
 from trossen_arm_mujoco.export import VideoSettings, export_lerobot  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_video import ENCODERS  # noqa: E402
+from trossen_arm_mujoco.images import psnr  # noqa: E402
 from trossen_arm_mujoco.robot.lerobot_keys import image_key  # noqa: E402
 
 ENCODINGS = {
@@ -82,9 +83,7 @@ def fidelity(root: Path, frames: dict[str, np.ndarray]) -> tuple[float, float, f
             size += path.stat().st_size
             with av.open(str(path)) as container:
                 decoded += [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
-        for a, b in zip(decoded, source, strict=True):
-            mse = np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2)
-            psnrs.append(100.0 if mse == 0 else 10 * np.log10(255.0**2 / mse))
+        psnrs += [min(psnr(a, b), 100.0) for a, b in zip(decoded, source, strict=True)]
         count += len(source)
     return min(psnrs), float(np.mean(psnrs)), size / count
 

@@ -108,13 +108,6 @@ def child(row: str, size: tuple[int, int], ncams: int, frames: int, out: Path) -
     return {"update": per[0], "draw": per[1], "read": per[2], "total": float(per.sum())}
 
 
-def psnr(a, b) -> float:
-    import numpy as np
-
-    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
-    return float("inf") if mse == 0 else 10 * np.log10(255.0**2 / mse)
-
-
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sizes", default="60x80,240x320,480x640", help="HEIGHTxWIDTH list")
@@ -128,6 +121,8 @@ def main(argv=None) -> None:
         print(json.dumps(child(row, tuple(size), ncams, frames, Path(out))))
         return
     import numpy as np
+
+    from trossen_arm_mujoco.images import psnr
 
     rows = [r.strip() for r in args.rows.split(",")]
     unknown = [r for r in rows if r not in ROWS]

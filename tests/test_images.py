@@ -69,3 +69,13 @@ def test_failed_write_keeps_the_old_file(tmp_path, monkeypatch):
         images.write_png(path, _random_image())
     assert path.read_bytes() == b"old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cam.png"]
+
+
+def test_psnr_of_identical_and_of_different_images():
+    from trossen_arm_mujoco.images import psnr
+
+    a = np.zeros((4, 5, 3), np.uint8)
+    assert psnr(a, a) == float("inf")
+    b = a.copy()
+    b[0, 0, 0] = 255  # one channel of one pixel off by the full scale: mse = 255**2 / 60
+    assert psnr(a, b) == pytest.approx(10 * np.log10(60))

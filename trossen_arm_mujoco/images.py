@@ -1,4 +1,5 @@
-"""PNG files of camera images, encoded by Pillow and written atomically."""
+"""Camera images: PNG files (encoded by Pillow, written atomically) and how close two are
+(PSNR)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import write_bytes
 
-__all__ = ["encode_png", "write_png"]
+__all__ = ["encode_png", "psnr", "write_png"]
 
 
 def _rgb(image: np.ndarray) -> np.ndarray:
@@ -36,3 +37,10 @@ def write_png(path: str | os.PathLike[str], image: np.ndarray) -> Path:
     """Write an RGB uint8 ``(H, W, 3)`` image as a PNG file (replaced if it exists; never
     seen half-written). The folder must exist. Returns ``path``."""
     return write_bytes(path, encode_png(image))
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    """Peak signal-to-noise ratio (dB) of two uint8 images of one shape, on the 0..255 scale;
+    ``inf`` for identical images."""
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return float("inf") if mse == 0 else float(10.0 * np.log10(255.0**2 / mse))

@@ -39,6 +39,7 @@ from trossen_arm_mujoco.export.lerobot import controller_actions, frame_values  
 from trossen_arm_mujoco.export.lerobot_plan import frame_map  # noqa: E402
 from trossen_arm_mujoco.export.lerobot_video import CameraVideo  # noqa: E402
 from trossen_arm_mujoco.fileio import folder_lock  # noqa: E402
+from trossen_arm_mujoco.images import psnr  # noqa: E402
 from trossen_arm_mujoco.scripts.export_dataset import cli  # noqa: E402
 from trossen_arm_mujoco.tasks import registry  # noqa: E402
 
@@ -73,11 +74,6 @@ def decode(path: Path) -> tuple[np.ndarray, list[float], str, str]:
             frames.append(frame.to_ndarray(format="rgb24"))
             times.append(float(frame.pts * stream.time_base))
         return np.stack(frames), times, stream.codec_context.name, stream.codec_context.pix_fmt
-
-
-def psnr(a: np.ndarray, b: np.ndarray) -> float:
-    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
-    return 100.0 if mse == 0 else 10.0 * np.log10(255.0**2 / mse)
 
 
 def misaligned(decoded: np.ndarray, source: np.ndarray) -> list[tuple[int, int]]:

@@ -16,6 +16,7 @@ from PIL import Image
 
 from trossen_arm_mujoco.constants import ASSETS_DIR, STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.images import psnr
 from trossen_arm_mujoco.sim.cameras import SMALL_IMAGE, CameraSet, render_threads
 from trossen_arm_mujoco.sim.env import load_model
 from trossen_arm_mujoco.sim.looks import SceneLooks
@@ -27,11 +28,6 @@ KIT = ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"
 BEFORE = Path(__file__).parents[1] / "fixtures" / "frames_before"
 #: The least PSNR (dB) docs/benchmarks.md promises against those frames at 60x80.
 MIN_PSNR = 35.0
-
-
-def psnr(a: np.ndarray, b: np.ndarray) -> float:
-    mse = float(np.mean((a.astype(np.float64) - b.astype(np.float64)) ** 2))
-    return float("inf") if mse == 0 else 10 * np.log10(255.0**2 / mse)
 
 
 def home(model: mujoco.MjModel) -> mujoco.MjData:
