@@ -289,6 +289,16 @@ def test_the_cameras_come_as_one_settings_object_or_as_the_three_values(make_env
         KitPolicyEnv(cameras=("cam_high",))
 
 
+def test_the_env_draws_the_frames_as_the_camera_settings_say(make_env):
+    from trossen_arm_mujoco.sim.camera_settings import CameraSettings
+
+    cams = CameraSettings(("cam_high",), (24, 32), shadows=False, antialias=False)
+    model = make_env(cameras=cams, image_size=None).scene.model
+    assert model.vis.quality.offsamples == 0 and not model.light_castshadow.any()
+    default = make_env(cam_names="cam_high").scene.model
+    assert default.vis.quality.offsamples > 0 and default.light_castshadow.any()
+
+
 def test_task_name_and_description(make_env):
     for task in ("sim_transfer_cube", "sim_insertion"):
         env = make_env(task)

@@ -47,6 +47,24 @@ def test_the_plan_carries_rate_layout_cameras_size_crops_and_task(tmp_path, make
     assert DatasetSettings.from_json(settings.to_json(), "here") == settings
 
 
+def test_the_plan_carries_how_the_frames_were_drawn(tmp_path, make_episode):
+    eps = []
+    for k in range(2):
+        ep = _episode(tmp_path, make_episode, k, "")
+        with h5py.File(ep.path, "r+") as f:
+            f.attrs["antialias"] = False
+        eps.append(load_episode(ep.path))
+    cams = plan_export(eps, None).settings().cameras
+    assert (cams.shadows, cams.antialias) == (True, False)
+    plain = load_episode(_episode(tmp_path, make_episode, 2, "").path)
+    with pytest.raises(UserError) as err:
+        plan_export([*eps, plain], None)
+    assert "\n" not in str(err.value)
+    assert "episode_2.hdf5 was drawn with shadows on, antialiasing on but episode_0.hdf5" in str(
+        err.value
+    )
+
+
 def test_episodes_with_other_crops_are_refused_in_one_line(tmp_path, make_episode):
     eps = [_episode(tmp_path, make_episode, 0, CROP), _episode(tmp_path, make_episode, 1, "")]
     with pytest.raises(UserError) as err:

@@ -91,6 +91,20 @@ def test_json_round_trip_and_the_file_form():
     assert pickle.loads(pickle.dumps(cams)) == cams  # travels to worker processes
 
 
+def test_the_looks_travel_in_the_file_form_only_when_off():
+    plain = CameraSettings(("cam_high",), (60, 80), shadows=False, antialias=False)
+    data = plain.to_json()
+    assert data["shadows"] is False and data["antialias"] is False
+    assert CameraSettings.from_json(data, "f.json") == plain
+    looks = plain.scene_looks()
+    assert (looks.shadows, looks.antialias, looks.crops) == (False, False, ())
+    assert (
+        "antialias" not in CameraSettings(("cam_high",)).to_json()
+    )  # older files stay as they were
+    with pytest.raises(UserError, match=r"^f\.json: unreadable camera settings .*antialias"):
+        CameraSettings.from_json({"antialias": "no"}, "f.json")
+
+
 @pytest.mark.parametrize(
     "data",
     [

@@ -71,7 +71,6 @@ from trossen_arm_mujoco.robot.lerobot_keys import (
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings, parse_cameras, parse_image_size
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
-from trossen_arm_mujoco.sim.looks import SceneLooks
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
@@ -267,7 +266,7 @@ class KitPolicyEnv(gymnasium.Env):
         cams = self.cameras
         settings = SamplerSettings(
             camera_names=cams.names, height=cams.size[0], width=cams.size[1],
-            looks=SceneLooks(crops=cams.crops),
+            looks=cams.scene_looks(),
         )  # fmt: skip
         self.sampler = registry.make_sampler(entry.name, settings, **overrides)
         self.scene = self.sampler.env

@@ -102,6 +102,7 @@ class ExportPlan:
     env_names: list[str] | None
     lengths: list[int]  # per episode
     crops: tuple[CameraCrop, ...] = ()  # the episodes' ``crops`` attribute (record --crop)
+    looks: tuple[bool, bool] = (True, True)  # the episodes' (shadows, antialias) attributes
     task_name: str | None = None  # the registered task of the episodes, when they name one
     state_extras: tuple[str, ...] = ()  # "vel", "eff": added to observation.state
 
@@ -112,6 +113,8 @@ class ExportPlan:
             names=tuple(self.cameras),
             size=(int(shapes[0][0]), int(shapes[0][1])) if shapes else DEFAULT_SIZE,
             crops=self.crops,
+            shadows=self.looks[0],
+            antialias=self.looks[1],
         )
         return DatasetSettings(
             fps=int(self.fps),
@@ -380,6 +383,12 @@ def plan_export(
                 f"{first.path.name} with {_crops(first) or 'none'}; every episode of a dataset "
                 "needs the same crops"
             )
+        if _looks(ep) != _looks(first):
+            raise UserError(
+                f"{ep.path.name} was drawn with {_describe_looks(ep)} but {first.path.name} "
+                f"with {_describe_looks(first)}; every episode of a dataset needs the same "
+                "--no_shadows and --no_antialias"
+            )
         if env_state_names(ep) != env_names:
             raise UserError(
                 f"{ep.path.name} has env_state {_describe_env(ep)} but {first.path.name} has "
@@ -417,6 +426,7 @@ def plan_export(
         env_names=env_names,
         lengths=lengths,
         crops=_parsed_crops(first),
+        looks=_looks(first),
         task_name=_task_name(episodes),
         state_extras=state_extras,
     )
@@ -426,6 +436,16 @@ def _crops(ep: Episode) -> str:
     """An episode's ``crops`` attribute (``;``-joined ``--crop`` texts; "" for none)."""
     value = ep.attrs.get("crops", "")
     return value.decode() if isinstance(value, bytes) else str(value or "")
+
+
+def _looks(ep: Episode) -> tuple[bool, bool]:
+    """An episode's ``(shadows, antialias)`` attributes (files without them: both on)."""
+    return (bool(ep.attrs.get("shadows", True)), bool(ep.attrs.get("antialias", True)))
+
+
+def _describe_looks(ep: Episode) -> str:
+    shadows, antialias = _looks(ep)
+    return f"shadows {'on' if shadows else 'off'}, antialiasing {'on' if antialias else 'off'}"
 
 
 def _parsed_crops(ep: Episode) -> tuple[CameraCrop, ...]:

@@ -11,7 +11,9 @@ a checkpoint's ``trossen_settings.json``, a dataset's ``meta/info.json``, ``eval
 
     {"cam_names": ["cam_high"], "image_size": [60, 80], "crops": ["cam_high:217,243,150,200"]}
 
-``image_size`` is null without cameras (a size means nothing then).
+``image_size`` is null without cameras (a size means nothing then). ``shadows`` and
+``antialias`` (``sim.looks.SceneLooks``: how the frames were drawn) are written only when
+false: a file without them was drawn with both.
 
     >>> cams = CameraSettings.from_cli("cam_high", "60x80", "cam_high:217,243,150,200")
     >>> cams.names, cams.size, cams.crop_of("cam_high").height
@@ -26,6 +28,7 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.sim.camera_crop import FRAME, CameraCrop, parse_crops
+from trossen_arm_mujoco.sim.looks import SceneLooks
 
 __all__ = [
     "DEFAULT_SIZE",
@@ -75,11 +78,15 @@ class CameraSettings:
         size: (H, W) of every observed camera's images, pixels.
         crops: the rectangle of its 480x640 frame each cropped camera shows
             (``sim.camera_crop.CameraCrop``, one per camera at most); default none.
+        shadows, antialias: how the frames are drawn (``sim.looks.SceneLooks``); default
+            both on.
     """
 
     names: tuple[str, ...] = ()
     size: tuple[int, int] = DEFAULT_SIZE
     crops: tuple[CameraCrop, ...] = ()
+    shadows: bool = True
+    antialias: bool = True
 
     def __post_init__(self) -> None:
         names = self.names
@@ -97,6 +104,9 @@ class CameraSettings:
         if not all(isinstance(c, CameraCrop) for c in crops):
             raise UserError("crops must be CameraCrop values (sim.camera_crop.parse_crop)")
         object.__setattr__(self, "crops", parse_crops(tuple(crops)))  # one per camera
+        for name in ("shadows", "antialias"):
+            if not isinstance(getattr(self, name), bool):
+                raise UserError(f"{name} must be true or false, got {getattr(self, name)!r:.40}")
 
     @classmethod
     def from_cli(
@@ -120,17 +130,24 @@ class CameraSettings:
         """The crop ``camera`` shows, or None for its whole frame."""
         return next((c for c in self.crops if c.camera == camera), None)
 
+    def scene_looks(self) -> SceneLooks:
+        """The scene looks that draw these cameras' frames (crops, shadows, antialiasing)."""
+        return SceneLooks(shadows=self.shadows, antialias=self.antialias, crops=self.crops)
+
     def crop_texts(self) -> tuple[str, ...]:
         """The ``--crop`` texts of the crops (for a command line or a message)."""
         return tuple(c.text() for c in self.crops)
 
     def to_json(self) -> dict[str, Any]:
         """The file form (see the module docstring): ``cam_names``, ``image_size`` (null
-        without cameras), ``crops`` (their ``--crop`` texts)."""
+        without cameras), ``crops`` (their ``--crop`` texts), ``shadows`` and ``antialias``
+        when false."""
+        looks = {name: False for name in ("shadows", "antialias") if not getattr(self, name)}
         return {
             "cam_names": list(self.names),
             "image_size": list(self.size) if self.names else None,
             "crops": list(self.crop_texts()),
+            **looks,
         }
 
     @classmethod
@@ -146,6 +163,8 @@ class CameraSettings:
                 names=tuple(str(c) for c in names),
                 size=parse_image_size(size) if size else DEFAULT_SIZE,
                 crops=parse_crops(list(data.get("crops") or ())),
+                shadows=data.get("shadows", True),
+                antialias=data.get("antialias", True),
             )
         except (AttributeError, TypeError, ValueError, UserError) as exc:
             raise UserError(f"{where}: unreadable camera settings ({exc})") from None
