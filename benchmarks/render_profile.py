@@ -3,6 +3,7 @@
 
     MUJOCO_GL=egl python benchmarks/render_profile.py                    # every size, 1 and 4 cams
     MUJOCO_GL=egl python benchmarks/render_profile.py --sizes 60x80 --cams 1 --frames 100
+    MUJOCO_GL=egl python benchmarks/render_profile.py --sizes 60x80 --cams 1 --crop  # recipes' view
 
 The Stationary AI kit at its home pose (``trossen_ai_scene_joint.xml``), rendered with raw
 ``mujoco.Renderer`` calls, one process a row (Mesa reads its thread count once per process).
@@ -16,6 +17,8 @@ copies the pixels). Rows:
   rasterizer threads, 4x multisampling);
 - one row for each change alone on top of ``before`` (a finite floor, the 1024 shadow map,
   coarser built-in shapes, no rasterizer threads);
+- ``view culling``: each frame leaves out the geoms its camera can neither see nor see the
+  shadow of (``sim.view_cull``; the same pixels);
 - ``now``: what ``sim.cameras.CameraSet`` does by default, then with ``--no_antialias`` and
   with ``--no_shadows`` (``SceneLooks``).
 
@@ -39,28 +42,35 @@ SCENE = "stationary_ai/trossen_ai_scene_joint.xml"
 CAMERAS = ("cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist")
 #: MuJoCo's default cuts of its built-in shapes (numquads, numslices, numstacks).
 MUJOCO_SHAPES = (4, 28, 16)
-#: row name -> (floor, model shadow map, built-in shapes, threads, antialias, shadows);
-#: "model" shapes are the model's own ``<quality>``, "auto" threads are ``CameraSet``'s choice.
+#: the camera recipes' crop of ``cam_high`` (``--crop``)
+RECIPE_CROP = "cam_high:217,243,150,200"
+#: row name -> (floor, model shadow map, built-in shapes, threads, antialias, shadows, view
+#: culling); "model" shapes are the model's own ``<quality>``, "auto" threads are
+#: ``CameraSet``'s choice.
 ROWS = {
-    "before": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True),
-    "finite floor": ("finite", 2048, MUJOCO_SHAPES, "mesa", True, True),
-    "shadow map 1024": ("infinite", 1024, MUJOCO_SHAPES, "mesa", True, True),
-    "coarser shapes": ("infinite", 2048, "model", "mesa", True, True),
-    "no raster threads": ("infinite", 2048, MUJOCO_SHAPES, "none", True, True),
-    "now": ("finite", 1024, "model", "auto", True, True),
-    "now --no_antialias": ("finite", 1024, "model", "auto", False, True),
-    "now --no_shadows": ("finite", 1024, "model", "auto", True, False),
+    "before": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True, False),
+    "finite floor": ("finite", 2048, MUJOCO_SHAPES, "mesa", True, True, False),
+    "shadow map 1024": ("infinite", 1024, MUJOCO_SHAPES, "mesa", True, True, False),
+    "coarser shapes": ("infinite", 2048, "model", "mesa", True, True, False),
+    "no raster threads": ("infinite", 2048, MUJOCO_SHAPES, "none", True, True, False),
+    "view culling": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True, True),
+    "now": ("finite", 1024, "model", "auto", True, True, True),
+    "now --no_antialias": ("finite", 1024, "model", "auto", False, True, True),
+    "now --no_shadows": ("finite", 1024, "model", "auto", True, False, True),
 }
 
 
-def child(row: str, size: tuple[int, int], ncams: int, frames: int, out: Path) -> dict:
+def child(
+    row: str, size: tuple[int, int], ncams: int, frames: int, out: Path, crop: bool = False
+) -> dict:
     """Measure one row in this process; the frames go to ``out`` (.npz)."""
-    floor, map_size, shapes, threads, antialias, shadows = ROWS[row]
+    floor, map_size, shapes, threads, antialias, shadows, culled = ROWS[row]
     import mujoco
     import numpy as np
 
     from trossen_arm_mujoco.constants import ASSETS_DIR
     from trossen_arm_mujoco.sim.cameras import render_threads, shadow_map_size
+    from trossen_arm_mujoco.sim.view_cull import ViewCull
 
     chosen = {"none": "0", "mesa": None, "auto": render_threads(*size)}[threads]
     if chosen is not None:  # read when Mesa starts, at the first context below
@@ -69,6 +79,10 @@ def child(row: str, size: tuple[int, int], ncams: int, frames: int, out: Path) -
     if floor == "infinite":
         spec.geom("ground").size = [0, 0, 0.05]
     model = spec.compile()
+    if crop:
+        from trossen_arm_mujoco.sim.camera_crop import apply_crops, parse_crops
+
+        apply_crops(model, parse_crops([RECIPE_CROP]))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     if not shadows:
@@ -81,6 +95,7 @@ def child(row: str, size: tuple[int, int], ncams: int, frames: int, out: Path) -
     model.vis.quality.shadowsize = shadow_map_size(map_size, *size)
     renderer = mujoco.Renderer(model, *size)
     cams = CAMERAS[:ncams]
+    cull = ViewCull(model)
     opt, pert = mujoco.MjvOption(), mujoco.MjvPerturb()
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
@@ -92,7 +107,12 @@ def child(row: str, size: tuple[int, int], ncams: int, frames: int, out: Path) -
         for name in cams:
             cam.fixedcamid = model.camera(name).id
             t0 = time.process_time()
-            mujoco.mjv_updateScene(model, data, opt, pert, cam, mujoco.mjtCatBit.mjCAT_ALL, scene)
+            if culled:
+                cull.update_scene(renderer, data, cam.fixedcamid)
+            else:
+                mujoco.mjv_updateScene(
+                    model, data, opt, pert, cam, mujoco.mjtCatBit.mjCAT_ALL, scene
+                )
             t1 = time.process_time()
             mujoco.mjr_render(rect, scene, con)
             t2 = time.process_time()
@@ -114,11 +134,14 @@ def main(argv=None) -> None:
     p.add_argument("--cams", default="1,4", help="camera counts (cam_high first)")
     p.add_argument("--frames", type=int, default=0, help="frames a row (default by size)")
     p.add_argument("--rows", default=",".join(ROWS), help="comma list of rows")
+    p.add_argument(
+        "--crop", action="store_true", help=f"cam_high cropped as the recipes do ({RECIPE_CROP})"
+    )
     p.add_argument("--child", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.child:
-        row, size, ncams, frames, out = json.loads(args.child)
-        print(json.dumps(child(row, tuple(size), ncams, frames, Path(out))))
+        row, size, ncams, frames, out, crop = json.loads(args.child)
+        print(json.dumps(child(row, tuple(size), ncams, frames, Path(out), crop)))
         return
     import numpy as np
 
@@ -142,7 +165,7 @@ def main(argv=None) -> None:
                 base = None
                 for row in rows:
                     out = Path(tmp) / f"{row.replace(' ', '_')}_{text}_{ncams}.npz"
-                    job = json.dumps([row, size, ncams, frames, str(out)])
+                    job = json.dumps([row, size, ncams, frames, str(out), args.crop])
                     done = subprocess.run(
                         [sys.executable, __file__, "--child", job],
                         env=env, capture_output=True, text=True, check=False,
