@@ -55,6 +55,7 @@ ROWS = {
     "no raster threads": ("infinite", 2048, MUJOCO_SHAPES, "none", True, True, False),
     "view culling": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True, True),
     "now": ("finite", 1024, "model", "auto", True, True, True),
+    "now without view culling": ("finite", 1024, "model", "auto", True, True, False),
     "now --no_antialias": ("finite", 1024, "model", "auto", False, True, True),
     "now --no_shadows": ("finite", 1024, "model", "auto", True, False, True),
 }

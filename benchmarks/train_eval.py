@@ -54,9 +54,9 @@ from train_eval_command import train_args  # noqa: E402
 from train_eval_jobs import Job, cores, fail, run_jobs  # noqa: E402
 from train_eval_pose import (  # noqa: E402
     POSE_DATASET,
-    add_encoder,
     derived_ready,
     encode_job,
+    encoder_of,
     encoder_report,
     pose_dataset,  # noqa: E402
     static_folder,
@@ -96,18 +96,18 @@ def _carry_settings(dataset: Path, train: Path) -> None:
 
 
 def _prepare(ckpt: Path, dataset: Path, pose: bool = False) -> None:
-    """Before a checkpoint is scored (here, where the simulator is installed): the arm
-    controller's limits in its saved postprocessor (``eval.controller_limits_step``), the
-    dataset's settings beside its weights, and with ``pose`` the dataset's pose encoder in
-    its preprocessor (``eval.camera_pose_step``)."""
-    from trossen_arm_mujoco.eval.controller_limits_step import add_to_checkpoint
+    """Before a checkpoint is scored (here, where the simulator is installed): the dataset's
+    settings beside its weights, then ``trossen-mujoco prepare``'s steps (its images cut and
+    scaled as trained, with ``pose`` the dataset's pose encoder, the arm controller's
+    limits: ``eval.prepare``)."""
+    from trossen_arm_mujoco.eval.prepare import prepare_checkpoint
 
     if not (ckpt / SETTINGS_FILE).exists() and (dataset / "meta" / "info.json").exists():
         _carry_settings(dataset, ckpt.parent.parent.parent)
-    if pose:
-        add_encoder(ckpt, dataset)
-    if add_to_checkpoint(ckpt):  # after the settings: its joint steps need their fps
-        print(f"{ckpt}: the arm controller's limits added to its processors")
+    encoder, camera = encoder_of(dataset) if pose else (None, None)
+    changed = prepare_checkpoint(ckpt, encoder, camera)  # after the settings: they say how
+    if changed:
+        print(f"{ckpt}: prepared ({', '.join(changed)})")
 
 
 def _scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: bool) -> bool:

@@ -86,9 +86,6 @@ def encoder_report(dataset: Path) -> dict:
     return json.loads((dataset / REPORT_FILE).read_text())
 
 
-def add_encoder(ckpt: Path, dataset: Path) -> None:
-    """The derived dataset's encoder into the checkpoint's preprocessor."""
-    from trossen_arm_mujoco.eval.camera_pose_step import add_to_checkpoint
-
-    camera = encoder_report(dataset)["camera"]
-    add_to_checkpoint(ckpt, dataset / ENCODER_FILE, camera)
+def encoder_of(dataset: Path) -> tuple[Path, str]:
+    """The derived dataset's encoder file and the camera it reads."""
+    return dataset / ENCODER_FILE, encoder_report(dataset)["camera"]

@@ -155,6 +155,7 @@ PY312_MODULES = (
     "tests/eval/test_env.py",
     "tests/eval/test_controller_limits_step.py",
     "tests/eval/test_camera_pose_step.py",
+    "tests/eval/test_prepare.py",
     "tests/scripts/test_eval_policy.py",
     "tests/export/test_lerobot_export.py",
     "tests/robot/test_lerobot_keys.py",

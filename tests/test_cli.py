@@ -24,7 +24,7 @@ def test_unknown_subcommand_is_one_error_line(capsys):
     out, err = capsys.readouterr()
     assert out == ""
     assert err == (
-        "error: unknown subcommand 'recrod'; valid subcommands: eval, export, record, "
+        "error: unknown subcommand 'recrod'; valid subcommands: eval, export, prepare, record, "
         "replay-real, serve, teleop, visualize (see 'trossen-mujoco --help')\n"
     )
 

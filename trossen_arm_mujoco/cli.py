@@ -2,7 +2,8 @@
 
 Subcommands: ``record`` (scripts/record_sim_episodes.py), ``visualize``
 (scripts/visualize_eps.py), ``replay-real`` (scripts/replay_episode_real.py), ``export``
-(scripts/export_dataset.py), ``eval`` (scripts/eval_policy.py), ``serve``
+(scripts/export_dataset.py), ``eval`` (scripts/eval_policy.py), ``prepare``
+(scripts/prepare_checkpoint.py), ``serve``
 (scripts/serve.py), ``teleop`` (scripts/teleop.py).
 """
 
@@ -22,17 +23,20 @@ SUBCOMMANDS = {
     "replay-real": "trossen_arm_mujoco.scripts.replay_episode_real",
     "export": "trossen_arm_mujoco.scripts.export_dataset",
     "eval": "trossen_arm_mujoco.scripts.eval_policy",
+    "prepare": "trossen_arm_mujoco.scripts.prepare_checkpoint",
     "serve": "trossen_arm_mujoco.scripts.serve",
     "teleop": "trossen_arm_mujoco.scripts.teleop",
 }
 
 USAGE = (
-    "usage: trossen-mujoco {record,visualize,replay-real,export,eval,serve,teleop} [flags]\n"
+    "usage: trossen-mujoco {record,visualize,replay-real,export,eval,prepare,serve,teleop} "
+    "[flags]\n"
     "  record       scripted rollouts -> HDF5 episodes\n"
     "  visualize    HDF5 episodes -> mp4 camera grid + joint plots\n"
     "  replay-real  replay an episode on two arms (or their simulated twin)\n"
     "  export       HDF5 episodes -> LeRobot v3.0 dataset (parquet + mp4)\n"
     "  eval         score a policy (LeRobot checkpoint, scripted, module:function) in the sim\n"
+    "  prepare      make LeRobot checkpoints deployable by any runner (images, limits)\n"
     "  serve        serve the simulated kit over the arms' wire protocol (loopback), record it\n"
     "  teleop       leader arms drive the simulated kit, recording HDF5 episodes\n"
     "Run 'trossen-mujoco <subcommand> --help' for its flags."

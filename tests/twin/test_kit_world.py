@@ -7,7 +7,13 @@ import pytest
 
 from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, POSITION, VELOCITY
+from trossen_arm_mujoco.real.controller_checks import (
+    EFFORT,
+    EXTERNAL_EFFORT,
+    POSITION,
+    VELOCITY,
+    controller_limits,
+)
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
 from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
 from trossen_arm_mujoco.tasks import registry
@@ -178,3 +184,21 @@ def test_frames_and_a_new_episode_keeping_the_arms(world: KitWorld) -> None:
     assert world.arms["left"].target[0] == 0.4
     assert not np.allclose(world.env_state(), objects)
     assert world.seed == episode_seed(7, 1)
+
+
+def test_a_joint_sunk_past_its_stop_reports_the_stop(world: KitWorld) -> None:
+    """MuJoCo's soft limits let the closed gripper sink about 1 mm below 0; the served arm
+    reports its hard stop (a position its controller accepts back as a command)."""
+    left = ArmAdapter(world, "left")
+    world.reset(0)
+    goal = GOAL.copy()
+    goal[6] = 0.0
+    feed(left, [POSITION] * 7, [(g, 0.0, 0.0) for g in goal], 1.0)
+    assert left.output_table()[6, 0] >= 0.0
+    with world.lock:
+        world.data.qpos[world.qadr["left"][6]] = -0.0012  # sunk past the stop
+        world.data.qpos[world.qadr["left"][1]] = -0.02  # joint_1 below its 0 rad stop
+    table = left.output_table()
+    assert table[6, 0] == 0.0 and table[1, 0] == 0.0
+    lims = controller_limits()
+    assert all(lim.position_min <= v <= lim.position_max for lim, v in zip(lims, table[:, 0]))

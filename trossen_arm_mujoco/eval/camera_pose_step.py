@@ -20,6 +20,7 @@ Editing the JSON needs no LeRobot; running the step does::
 
 from __future__ import annotations
 
+import filecmp
 import shutil
 import sys
 from collections.abc import Sequence
@@ -27,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval import step_names
 from trossen_arm_mujoco.eval.processor_files import (
     PREPROCESSOR_FILE,
     place_step,
@@ -34,12 +36,11 @@ from trossen_arm_mujoco.eval.processor_files import (
     write_json,
 )
 from trossen_arm_mujoco.fileio import atomic_path
-from trossen_arm_mujoco.robot.lerobot_keys import ENV_STATE_KEY, image_key
 
 __all__ = ["REGISTRY_NAME", "STATE_FILE", "add_to_checkpoint", "camera_of", "register"]
 
 #: Name of the step in LeRobot's processor registry (and in ``policy_preprocessor.json``).
-REGISTRY_NAME = "trossen_camera_pose"
+REGISTRY_NAME = step_names.POSE
 #: The encoder's weights in the checkpoint folder (the step's ``state_file``).
 STATE_FILE = "policy_preprocessor_trossen_camera_pose.safetensors"
 
@@ -57,9 +58,10 @@ def camera_of(folder: str | Path) -> str | None:
     return None
 
 
-def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> None:
+def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> bool:
     """Put the encoder saved at ``encoder`` (``train.pose_encoder.save_encoder``) in the
-    checkpoint ``folder``'s preprocessor, reading ``camera``; again replaces it."""
+    checkpoint ``folder``'s preprocessor, reading ``camera``; again replaces it. False when
+    that very encoder and step were there already."""
     folder, encoder = Path(folder), Path(encoder)
     pre = folder / PREPROCESSOR_FILE
     try:
@@ -71,68 +73,22 @@ def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> N
     if not encoder.is_file():
         raise UserError(f"{encoder}: no pose encoder there; derive the dataset first "
                         "(python -m trossen_arm_mujoco.train.pose_dataset)")  # fmt: skip
-    with atomic_path(folder / STATE_FILE) as tmp:
-        shutil.copyfile(encoder, tmp)
+    state = folder / STATE_FILE
+    same = state.is_file() and filecmp.cmp(encoder, state, shallow=False)
+    if not same:
+        with atomic_path(state) as tmp:
+            shutil.copyfile(encoder, tmp)
     step = {"registry_name": REGISTRY_NAME, "config": {"camera": camera}, "state_file": STATE_FILE}
-    if place_step(steps, REGISTRY_NAME, step, before="normalizer_processor"):
+    placed = place_step(steps, REGISTRY_NAME, step, before="normalizer_processor")
+    if placed:
         write_json(pre, pipeline)
+    return placed or not same
 
 
 def register() -> None:
-    """Register the step with LeRobot's processor registry (needs LeRobot; twice is fine)."""
-    from dataclasses import dataclass, field
-
-    import torch
-    from lerobot.processor import ProcessorStepRegistry
-    from lerobot.processor.pipeline import ObservationProcessorStep
-
-    from trossen_arm_mujoco.train.pose_encoder import encoder_from_state
-
-    if REGISTRY_NAME in ProcessorStepRegistry.list():
-        return
-
-    @ProcessorStepRegistry.register(REGISTRY_NAME)
-    @dataclass
-    class CameraPoseStep(ObservationProcessorStep):
-        """``observation.environment_state`` from the camera's image, by the frozen encoder
-        of the step's state file (the env's own value, if any, is replaced)."""
-
-        camera: str = "cam_high"
-        _net: Any = field(default=None, init=False, repr=False)
-
-        def observation(self, observation):
-            key = image_key(self.camera)
-            image = observation.get(key)
-            if image is None:
-                raise ValueError(f"the checkpoint's pose encoder reads {key}, which this "
-                                 f"observation lacks: serve the camera {self.camera}")  # fmt: skip
-            if self._net is None:
-                raise ValueError("the pose step has no encoder weights (its state file)")
-            image = torch.as_tensor(image)
-            if image.ndim == 3:
-                image = image.unsqueeze(0)
-            net = self._net.to(image.device)
-            with torch.inference_mode():
-                pose = net(image.float())
-            observation = dict(observation)
-            observation[ENV_STATE_KEY] = pose.clone()
-            return observation
-
-        def get_config(self) -> dict[str, Any]:
-            return {"camera": self.camera}
-
-        def state_dict(self) -> dict[str, Any]:
-            return (
-                {}
-                if self._net is None
-                else {k: v.detach().cpu().contiguous() for k, v in self._net.state_dict().items()}
-            )
-
-        def load_state_dict(self, state: dict[str, Any]) -> None:
-            self._net = encoder_from_state(state)
-
-        def transform_features(self, features):
-            return features
+    """Register the step with LeRobot's processor registry (needs LeRobot; importing
+    ``eval.steps`` does it, once a process)."""
+    import trossen_arm_mujoco.eval.steps  # noqa: F401
 
 
 def main(argv: Sequence[str] | None = None) -> int:

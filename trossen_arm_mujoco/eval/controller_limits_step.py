@@ -52,6 +52,7 @@ from pathlib import Path
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval import step_names
 from trossen_arm_mujoco.eval.processor_files import (
     POSTPROCESSOR_FILE,
     PREPROCESSOR_FILE,
@@ -65,7 +66,7 @@ from trossen_arm_mujoco.real.controller_checks import controller_limits
 from trossen_arm_mujoco.real.goal_trajectory import GOAL_TIME_FACTOR
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
 from trossen_arm_mujoco.robot.configs import MOBILE_AI_BASE_LIMITS
-from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY, STATE_KEY
+from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY
 
 __all__ = ["MEASURED_NAME", "POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "REGISTRY_NAME",
            "GRIPPER_RATE_MARGIN", "SPEED_MARGIN", "add_to_checkpoint", "controller_bounds",
@@ -74,9 +75,9 @@ __all__ = ["MEASURED_NAME", "POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "REGISTRY
 
 #: Name of the postprocessor step in LeRobot's processor registry (and in
 #: ``policy_postprocessor.json``).
-REGISTRY_NAME = "trossen_arm_controller_limits"
+REGISTRY_NAME = step_names.LIMITS
 #: Name of the preprocessor step that notes the measured joints.
-MEASURED_NAME = "trossen_arm_measured_joints"
+MEASURED_NAME = step_names.MEASURED
 #: Fraction of each joint's velocity limit a goal may ask from the measured joints (the
 #: driver starts from its setpoint, which leads the measured joints a little in motion).
 SPEED_MARGIN = 0.75
@@ -87,9 +88,6 @@ MOBILEAI = "mobileai"
 #: Fraction of a gripper's velocity limit its goals may change by per period (the recorded
 #: grippers move at up to 0.8 of it).
 GRIPPER_RATE_MARGIN = 0.9
-
-# The measured joints of the latest observation, by link (one per loaded checkpoint).
-_MEASURED: dict[str, Any] = {}
 
 
 def controller_bounds(size: int, layout: str | None = None) -> tuple[list[float], list[float]]:
@@ -182,97 +180,9 @@ def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
 
 
 def register() -> None:
-    """Register both steps with LeRobot's processor registry (needs LeRobot; twice is
-    fine)."""
-    from dataclasses import dataclass, field
-
-    import torch
-    from lerobot.processor import ProcessorStepRegistry
-    from lerobot.processor.pipeline import ActionProcessorStep, ObservationProcessorStep
-
-    if REGISTRY_NAME in ProcessorStepRegistry.list():
-        return
-
-    @ProcessorStepRegistry.register(MEASURED_NAME)
-    @dataclass
-    class MeasuredJointsStep(ObservationProcessorStep):
-        """Note the observation's measured joints (``observation.state``) for the
-        postprocessor step with the same ``link``; the observation is left as it is."""
-
-        link: str = ""
-
-        def observation(self, observation):
-            state = observation.get(STATE_KEY)
-            if state is not None:
-                _MEASURED[self.link] = torch.as_tensor(state).detach().clone()
-            return observation
-
-        def get_config(self) -> dict[str, Any]:
-            return {"link": self.link}
-
-        def transform_features(self, features):
-            return features
-
-    @ProcessorStepRegistry.register(REGISTRY_NAME)
-    @dataclass
-    class ControllerLimitsStep(ActionProcessorStep):
-        """Clip each action value into [low, high] (the arm controller's accepted range);
-        where ``max_step`` is positive and the measured joints are known, into measured +-
-        ``max_step``; where ``max_rate`` is positive (the grippers), within ``max_rate`` of
-        the value this step gave last (of the measured value at an episode's start: after
-        :meth:`reset`, or when the measured joints jump further than an arm can move in a
-        period, as at an env's reset)."""
-
-        low: list[float] = field(default_factory=list)
-        high: list[float] = field(default_factory=list)
-        max_step: list[float] = field(default_factory=list)
-        max_rate: list[float] = field(default_factory=list)
-        link: str = ""
-        _last: Any = field(default=None, init=False, repr=False)
-        _seen: Any = field(default=None, init=False, repr=False)
-
-        def reset(self) -> None:
-            self._last = self._seen = None
-
-        def action(self, action):
-            def tensor(values):
-                return torch.as_tensor(values, dtype=action.dtype, device=action.device)
-
-            action = torch.clamp(action, tensor(self.low), tensor(self.high))
-            measured = _MEASURED.get(self.link) if self.max_step else None
-            if measured is None or measured.shape[-1] != action.shape[-1]:
-                return action
-            near = measured.to(device=action.device, dtype=action.dtype)
-            step = tensor(self.max_step)
-            held = torch.clamp(action, near - step, near + step)
-            action = torch.where(step > 0, held, action)
-            if self.max_rate:
-                last = self._last
-                if last is None or last.shape != action.shape:
-                    last = near
-                elif self._seen is not None and self._seen.shape == near.shape:
-                    # an arm cannot move 1.5 x max_step (3.4 periods at its top speed)
-                    # between two observations: a new episode started
-                    jumped = ((near - self._seen).abs() > 1.5 * step) & (step > 0)
-                    last = torch.where(jumped.any(dim=-1, keepdim=True), near, last)
-                rate = tensor(self.max_rate)
-                rated = torch.clamp(action, last - rate, last + rate)
-                action = torch.where(rate > 0, rated, action)
-                action = torch.clamp(action, tensor(self.low), tensor(self.high))
-            self._seen = near.clone()
-            self._last = action.detach().clone()
-            return action
-
-        def get_config(self) -> dict[str, Any]:
-            config: dict[str, Any] = {"low": list(self.low), "high": list(self.high)}
-            if self.max_step:
-                config.update(max_step=list(self.max_step), link=self.link)
-            if self.max_rate:
-                config.update(max_rate=list(self.max_rate))
-            return config
-
-        def transform_features(self, features):
-            return features
+    """Register both steps with LeRobot's processor registry (needs LeRobot; importing
+    ``eval.steps`` does it, once a process)."""
+    import trossen_arm_mujoco.eval.steps  # noqa: F401
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.prepare import carries_images
 from trossen_arm_mujoco.eval.runner import EvalSettings, PolicyCallError
 from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore, eval_info, stages_reached
 from trossen_arm_mujoco.eval.speed_clamp import SpeedClamp
@@ -137,9 +138,11 @@ class WireEpisodeRunner:
         self.speed_fraction = speed_fraction
         self._measured: np.ndarray | None = None
         self.env = WireEnv(settings)
-        # cropped cameras: the kit streams whole frames, as real cameras do, and each crop is
-        # cut out here (sim.camera_crop.crop_frame), as a deployed policy's would be
+        # cropped cameras: the kit streams whole frames, as real cameras do; a checkpoint
+        # prepared with its image step cuts them itself, any other policy gets each crop cut
+        # out here (sim.camera_crop.crop_frame), as a deployed policy's would be
         self.stream_size = FRAME if settings.cameras.crops else tuple(self.env.image_size)
+        self.whole_frames = carries_images(settings.policy)
         self.period = 1.0 / self.env.fps
         self.kit = self.control = self.cameras = self.arms = self.policy = None
         self.kit_lines: list[str] = []
@@ -183,8 +186,11 @@ class WireEpisodeRunner:
                 raise UserError(f"the stream's {cam} images are {img.shape[0]}x{img.shape[1]}, "
                                 f"the policy needs {self.stream_size[0]}x"
                                 f"{self.stream_size[1]}: serve --image_size")  # fmt: skip
-            pixels[cam] = crop_frame(img, self.settings.cameras.crop_of(cam),
-                                     self.env.image_size)  # fmt: skip
+            pixels[cam] = (
+                img
+                if self.whole_frames
+                else crop_frame(img, self.settings.cameras.crop_of(cam), self.env.image_size)
+            )
             stamp = min(stamp, t)
         obs["pixels"] = pixels
         return obs, stamp, None

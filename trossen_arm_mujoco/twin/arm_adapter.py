@@ -81,6 +81,10 @@ class ArmAdapter:
         self.world, self.side = world, side
         self.checker = InputChecker(limits if limits is not None else controller_limits())
         self._last_input: float | None = None
+        # the joints' hard stops: a reported position never lies beyond them (see output_table)
+        stops = controller_limits()
+        self._stop_low = np.array([lim.position_min for lim in stops], dtype="<f4")
+        self._stop_high = np.array([lim.position_max for lim in stops], dtype="<f4")
         with world.lock:
             world.arms[side].limits = self.limits  # the world checks the motion too
 
@@ -173,7 +177,10 @@ class ArmAdapter:
     # -- outputs --------------------------------------------------------------------------
     def output_table(self) -> np.ndarray:
         """The robot output of the 7 values as little-endian float32 ``(7, 6)``, the wire
-        layout of ``JointOutput``: position, velocity; effort: the actuator force (N m / N;
+        layout of ``JointOutput``: position (within the joint's hard stops: MuJoCo's soft
+        joint limits let a joint pressed against its stop sink past it, the closed gripper by
+        about 1 mm, which a real encoder never reports and the controller refuses as a
+        command), velocity; effort: the actuator force (N m / N;
         it carries the gravity compensation) plus any applied effort; external effort: the
         constraint force on the joint (contacts, joint limits; for the gripper summed over
         both fingers, whose coupling cancels); rotor and driver temperature (40 C)."""
@@ -181,7 +188,7 @@ class ArmAdapter:
         w, side = self.world, self.side
         with w.lock:
             d, dof = w.data, w.dadr[side]
-            table[:, 0] = d.qpos[w.qadr[side]]
+            table[:, 0] = np.clip(d.qpos[w.qadr[side]], self._stop_low, self._stop_high)
             table[:, 1] = d.qvel[dof]
             table[:, 2] = d.actuator_force[w.act[side]] + d.qfrc_applied[dof]
             table[:, 3] = d.qfrc_constraint[dof]

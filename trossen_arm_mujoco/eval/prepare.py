@@ -1,0 +1,141 @@
+"""Make a LeRobot checkpoint trained on this project's export deployable by any runner.
+
+``trossen-mujoco prepare CHECKPOINT`` puts in the checkpoint's saved processors every step
+a runner needs to give the policy what training gave it and the arms only what their
+controller accepts (the step classes: ``eval.steps``):
+
+- the image step (``trossen_camera_image``), when its cameras were cropped or recorded at
+  another size than the whole 480x640 frame: a whole frame becomes the trained images;
+- the pose encoder (``trossen_camera_pose``), when the checkpoint was trained on a dataset
+  that ``train.pose_dataset`` derived (its encoder lies in the dataset's
+  ``meta/pose_encoder.safetensors``; ``--encoder`` names another);
+- the controller's limits (``trossen_arm_measured_joints`` and
+  ``trossen_arm_controller_limits``).
+
+What the checkpoint was trained with comes from its settings
+(``export.dataset_settings.checkpoint_settings``). Preparing twice leaves the checkpoint as
+once. Plain JSON: LeRobot is needed to run the steps, not to add them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval import camera_pose_step, controller_limits_step, step_names
+from trossen_arm_mujoco.eval.processor_files import (
+    PREPROCESSOR_FILE,
+    place_step,
+    read_json,
+    write_json,
+)
+from trossen_arm_mujoco.export.dataset_settings import DatasetSettings, checkpoint_settings
+from trossen_arm_mujoco.sim.camera_crop import FRAME
+
+__all__ = ["ENCODER_FILE", "IMAGE_STEP", "carries_images", "dataset_encoder", "image_step",
+           "prepare_checkpoint"]  # fmt: skip
+
+#: Registry name of the image step (``eval.steps.camera_image``).
+IMAGE_STEP = step_names.IMAGE
+#: Where ``train.pose_dataset`` saves the encoder, in the derived dataset's folder.
+ENCODER_FILE = "meta/pose_encoder.safetensors"
+
+
+def image_step(settings: DatasetSettings | None) -> dict[str, Any] | None:
+    """The saved image step for a checkpoint trained with ``settings`` (None: its images
+    are whole 480x640 frames, or it has no cameras, or no settings)."""
+    if settings is None or not settings.cameras.names:
+        return None
+    cams = settings.cameras
+    cameras = {}
+    for name in cams.names:
+        crop = cams.crop_of(name)
+        if crop is None and tuple(cams.size) == FRAME:
+            continue
+        box = [] if crop is None else [crop.top, crop.left, crop.height, crop.width]
+        cameras[name] = {"size": [int(v) for v in cams.size], "crop": box}
+    if not cameras:
+        return None
+    return {"registry_name": IMAGE_STEP, "config": {"cameras": cameras}}
+
+
+def carries_images(policy: str | Path) -> bool:
+    """Whether ``policy`` is a checkpoint folder whose preprocessor cuts and scales its
+    cameras' whole frames itself (the image step): runners then hand it whole frames."""
+    path = Path(policy).expanduser()
+    folder = path / "pretrained_model" if (path / "pretrained_model").is_dir() else path
+    try:
+        steps = read_json(folder / PREPROCESSOR_FILE).get("steps", [])
+        return any(s.get("registry_name") == IMAGE_STEP for s in steps)
+    except (OSError, ValueError, AttributeError, TypeError):
+        return False
+
+
+def dataset_encoder(folder: str | Path) -> Path | None:
+    """The pose encoder of the dataset the checkpoint in ``folder`` was trained on (its
+    ``train_config.json``'s dataset root), or None."""
+    try:
+        config = read_json(Path(folder) / "train_config.json")
+        root = (config.get("dataset") or {}).get("root")
+    except (OSError, ValueError, AttributeError):
+        return None
+    path = Path(root).expanduser() / ENCODER_FILE if root else None
+    return path if path is not None and path.is_file() else None
+
+
+def _add_image_step(folder: Path, settings: DatasetSettings | None) -> bool:
+    step = image_step(settings)
+    if step is None:
+        return False
+    pre = folder / PREPROCESSOR_FILE
+    pipeline = read_json(pre)
+    steps = pipeline["steps"]
+    names = [s.get("registry_name") for s in steps]
+    anchor = (
+        camera_pose_step.REGISTRY_NAME
+        if camera_pose_step.REGISTRY_NAME in names
+        else ("normalizer_processor")
+    )
+    if not place_step(steps, IMAGE_STEP, step, before=anchor):
+        return False
+    write_json(pre, pipeline)
+    return True
+
+
+def prepare_checkpoint(
+    folder: str | Path, encoder: str | Path | None = None, camera: str | None = None
+) -> list[str]:
+    """Add (or bring up to date) every step the checkpoint in ``folder`` needs; returns the
+    names of the steps added or changed (empty: it was prepared already).
+
+    Args:
+        folder: the checkpoint folder (the one holding ``config.json``).
+        encoder: a pose encoder to put in (default: the training dataset's, if any).
+        camera: the camera the encoder reads (default: the checkpoint's first camera).
+    """
+    folder = Path(folder)
+    if not (folder / "config.json").is_file():
+        raise UserError(f"{folder}: no config.json there; give a LeRobot checkpoint folder "
+                        "(.../checkpoints/last/pretrained_model)")  # fmt: skip
+    settings, _ = checkpoint_settings(folder)
+    changed: list[str] = []
+    encoder = Path(encoder) if encoder is not None else dataset_encoder(folder)
+    if encoder is not None:
+        name = camera or camera_pose_step.camera_of(folder)
+        if name is None:
+            name = settings.cameras.names[0] if settings and settings.cameras.names else None
+        if name is None:
+            raise UserError(f"{folder}: which camera does the pose encoder read? its settings "
+                            "name none; give --camera")  # fmt: skip
+        if camera_pose_step.add_to_checkpoint(folder, encoder, name):
+            changed.append(camera_pose_step.REGISTRY_NAME)
+    try:
+        if _add_image_step(folder, settings):
+            changed.append(IMAGE_STEP)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
+                        f"({exc})") from None  # fmt: skip
+    if controller_limits_step.add_to_checkpoint(folder):
+        changed.append(controller_limits_step.REGISTRY_NAME)
+    return changed
