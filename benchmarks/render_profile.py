@@ -17,8 +17,6 @@ copies the pixels). Rows:
   rasterizer threads, 4x multisampling);
 - one row for each change alone on top of ``before`` (a finite floor, the 1024 shadow map,
   coarser built-in shapes, no rasterizer threads);
-- ``view culling``: each frame leaves out the geoms its camera can neither see nor see the
-  shadow of (``sim.view_cull``; the same pixels);
 - ``now``: what ``sim.cameras.CameraSet`` does by default, then with ``--no_antialias`` and
   with ``--no_shadows`` (``SceneLooks``).
 
@@ -44,20 +42,17 @@ CAMERAS = ("cam_high", "cam_low", "cam_left_wrist", "cam_right_wrist")
 MUJOCO_SHAPES = (4, 28, 16)
 #: the camera recipes' crop of ``cam_high`` (``--crop``)
 RECIPE_CROP = "cam_high:217,243,150,200"
-#: row name -> (floor, model shadow map, built-in shapes, threads, antialias, shadows, view
-#: culling); "model" shapes are the model's own ``<quality>``, "auto" threads are
-#: ``CameraSet``'s choice.
+#: row name -> (floor, model shadow map, built-in shapes, threads, antialias, shadows);
+#: "model" shapes are the model's own ``<quality>``, "auto" threads are ``CameraSet``'s choice.
 ROWS = {
-    "before": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True, False),
-    "finite floor": ("finite", 2048, MUJOCO_SHAPES, "mesa", True, True, False),
-    "shadow map 1024": ("infinite", 1024, MUJOCO_SHAPES, "mesa", True, True, False),
-    "coarser shapes": ("infinite", 2048, "model", "mesa", True, True, False),
-    "no raster threads": ("infinite", 2048, MUJOCO_SHAPES, "none", True, True, False),
-    "view culling": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True, True),
-    "now": ("finite", 1024, "model", "auto", True, True, True),
-    "now without view culling": ("finite", 1024, "model", "auto", True, True, False),
-    "now --no_antialias": ("finite", 1024, "model", "auto", False, True, True),
-    "now --no_shadows": ("finite", 1024, "model", "auto", True, False, True),
+    "before": ("infinite", 2048, MUJOCO_SHAPES, "mesa", True, True),
+    "finite floor": ("finite", 2048, MUJOCO_SHAPES, "mesa", True, True),
+    "shadow map 1024": ("infinite", 1024, MUJOCO_SHAPES, "mesa", True, True),
+    "coarser shapes": ("infinite", 2048, "model", "mesa", True, True),
+    "no raster threads": ("infinite", 2048, MUJOCO_SHAPES, "none", True, True),
+    "now": ("finite", 1024, "model", "auto", True, True),
+    "now --no_antialias": ("finite", 1024, "model", "auto", False, True),
+    "now --no_shadows": ("finite", 1024, "model", "auto", True, False),
 }
 
 
@@ -65,13 +60,12 @@ def child(
     row: str, size: tuple[int, int], ncams: int, frames: int, out: Path, crop: bool = False
 ) -> dict:
     """Measure one row in this process; the frames go to ``out`` (.npz)."""
-    floor, map_size, shapes, threads, antialias, shadows, culled = ROWS[row]
+    floor, map_size, shapes, threads, antialias, shadows = ROWS[row]
     import mujoco
     import numpy as np
 
     from trossen_arm_mujoco.constants import ASSETS_DIR
     from trossen_arm_mujoco.sim.cameras import render_threads, shadow_map_size
-    from trossen_arm_mujoco.sim.view_cull import ViewCull
 
     chosen = {"none": "0", "mesa": None, "auto": render_threads(*size)}[threads]
     if chosen is not None:  # read when Mesa starts, at the first context below
@@ -96,7 +90,6 @@ def child(
     model.vis.quality.shadowsize = shadow_map_size(map_size, *size)
     renderer = mujoco.Renderer(model, *size)
     cams = CAMERAS[:ncams]
-    cull = ViewCull(model)
     opt, pert = mujoco.MjvOption(), mujoco.MjvPerturb()
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
@@ -108,12 +101,7 @@ def child(
         for name in cams:
             cam.fixedcamid = model.camera(name).id
             t0 = time.process_time()
-            if culled:
-                cull.update_scene(renderer, data, cam.fixedcamid)
-            else:
-                mujoco.mjv_updateScene(
-                    model, data, opt, pert, cam, mujoco.mjtCatBit.mjCAT_ALL, scene
-                )
+            mujoco.mjv_updateScene(model, data, opt, pert, cam, mujoco.mjtCatBit.mjCAT_ALL, scene)
             t1 = time.process_time()
             mujoco.mjr_render(rect, scene, con)
             t2 = time.process_time()

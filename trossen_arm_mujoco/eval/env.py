@@ -49,7 +49,7 @@ shapes, the names the export writes.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import gymnasium
@@ -72,6 +72,7 @@ from trossen_arm_mujoco.sim.camera_settings import CameraSettings, parse_cameras
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_KEY
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 __all__ = [
@@ -213,6 +214,11 @@ class KitPolicyEnv(gymnasium.Env):
             ``cam_high`` at 240x320 when none is observed) or None.
         controller_checks: apply the real arm controller's checks to every setpoint (a
             fault ends the episode, failed); False: the unconstrained score.
+        randomize: each episode's scene randomized as the task's ``randomization`` section
+            says (lights, table, colours, friction, masses, damping, camera poses, the arms'
+            start), from the episode's seed: same seed, same scene. Default off (nominal).
+        randomization: a ``randomization`` section (kinds and ranges, checked like the
+            task's YAML) that replaces the task's; implies ``randomize``.
 
     Attributes (what LeRobot's evaluation reads): ``task`` (the task's name),
     ``cameras`` (its ``CameraSettings``; ``cam_names`` and ``image_size`` read them),
@@ -239,6 +245,8 @@ class KitPolicyEnv(gymnasium.Env):
         cam_names: str | Sequence[str] | None = None,
         image_size: str | Sequence[int] | None = None,
         crops: str | Sequence[str] | None = None,
+        randomize: bool = False,
+        randomization: Mapping[str, Any] | None = None,
     ):
         entry = registry.load(task)
         valid = task_layouts(entry.name)
@@ -254,7 +262,10 @@ class KitPolicyEnv(gymnasium.Env):
         config = entry.load_config()
         native = 1.0 / float(config["policy_dt"])
         self.fps = float(native if fps is None else fps)
-        overrides = controller_timing(self.fps)
+        overrides: dict[str, Any] = dict(controller_timing(self.fps))
+        self.randomize = bool(randomize) or randomization is not None
+        if randomization is not None:
+            overrides[RANDOMIZATION_KEY] = dict(randomization)
         record_len = int(entry.record.get("episode_len") or config.get("max_episode_steps"))
         if episode_length is None:
             episode_length = max(1, round(record_len * self.fps / native))
@@ -266,7 +277,7 @@ class KitPolicyEnv(gymnasium.Env):
         cams = self.cameras
         settings = SamplerSettings(
             camera_names=cams.names, height=cams.size[0], width=cams.size[1],
-            looks=cams.scene_looks(),
+            looks=cams.scene_looks(), randomize=self.randomize,
         )  # fmt: skip
         self.sampler = registry.make_sampler(entry.name, settings, **overrides)
         self.scene = self.sampler.env
@@ -471,6 +482,12 @@ class KitPolicyEnv(gymnasium.Env):
             self._images = self.scene.render_images()
             out["pixels"] = self._images
         return out
+
+    @property
+    def randomization(self) -> dict[str, Any] | None:
+        """What the running episode's scene was randomized by (``tasks.randomization``'s
+        record; None: the nominal scene)."""
+        return self.sampler.randomization if self.randomize else None
 
     def _info(self, reward: float, last: bool = False) -> dict[str, Any]:
         if self.controller_checks:  # judged once the episode is over: no fault, then success

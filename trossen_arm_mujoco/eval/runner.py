@@ -138,6 +138,10 @@ class EvalSettings:
     device: str = "cpu"
     #: the arm controller's checks on every setpoint (a fault ends the episode, failed)
     controller_checks: bool = True
+    #: each episode's scene randomized (``KitPolicyEnv``'s ``randomize``), by
+    #: ``randomization`` (a section replacing the task's; None: the task's own)
+    randomize: bool = False
+    randomization: dict[str, Any] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     def make_env(self) -> KitPolicyEnv:
@@ -151,6 +155,8 @@ class EvalSettings:
             layout=self.layout,
             render_mode="rgb_array",
             controller_checks=self.controller_checks,
+            randomize=self.randomize,
+            randomization=self.randomization,
         )
 
     def run_block(self) -> dict[str, Any]:
@@ -209,6 +215,8 @@ class EpisodeRunner:
         analysis = self.recorder.summary(success)
         if fault is not None:
             analysis["fault"] = fault
+        if env.randomization is not None:  # what the scene was randomized by
+            analysis["randomization"] = env.randomization
         if "base_clipped" in info:  # a Mobile AI base: its commands clipped to its limits
             analysis["base_clipped_commands"] = int(info["base_clipped"])
         score = EpisodeScore(

@@ -208,8 +208,10 @@ class WireEpisodeRunner:
         self._call(index, "reset", self.policy.reset, self.env, seed, timeout=RESET_TIMEOUT_S)
         self.arms.close()  # the old sessions stop streaming before the scene is reset
         began = time.time()
-        self.control.request("start", seed=seed, object_poses={k: v.tolist() for k, v in
-                                                               poses.items()})  # fmt: skip
+        scene = {"object_poses": {k: v.tolist() for k, v in poses.items()}}
+        if self.env.randomization is not None:  # the in-process eval's scene, applied there
+            scene["randomization"] = self.env.randomization
+        self.control.request("start", seed=seed, **scene)
         # the kit put the arms at the initial pose: new driver sessions start from there
         # (a driver interpolates from its last goal) and clear any error state
         self.arms.connect()
@@ -297,6 +299,8 @@ class WireEpisodeRunner:
         stage_times = {name: times.get(name) for name in STAGES.get(task, {})}
         success = bool(end["success"]) and failure is None
         analysis: dict[str, Any] = {"stage_times_s": stage_times, "timing": timing.summary()}
+        if end.get("randomization") is not None:  # what the served scene was randomized by
+            analysis["randomization"] = end["randomization"]
         if not success:
             from trossen_arm_mujoco.eval.rollout_analysis import stopped_at
 

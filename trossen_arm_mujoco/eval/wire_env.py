@@ -37,11 +37,15 @@ class WireEnv:
         self.episode_length, self.max_reward = s.episode_length, s.max_reward
         self.action_low, self.action_high = s.action_low, s.action_high
         self._poses: dict[str, np.ndarray] = {}
+        #: what the last drawn scene was randomized by (None: nominal, or not randomizing)
+        self.randomization: dict | None = None
 
     def draw_scene(self, seed: int) -> dict[str, np.ndarray]:
-        """The object poses of the in-process eval's ``reset(seed=seed)``."""
+        """The object poses of the in-process eval's ``reset(seed=seed)`` (and, with
+        ``randomize``, its randomization in :attr:`randomization`)."""
         self.scenes.reset(seed=seed)
         self._poses = {k: np.asarray(v).copy() for k, v in self.scenes.object_poses().items()}
+        self.randomization = self.scenes.randomization
         return self._poses
 
     def object_poses(self) -> dict[str, np.ndarray]:

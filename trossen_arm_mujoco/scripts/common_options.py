@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from trossen_arm_mujoco.constants import ROOT_DIR, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.schema import COMPRESSIONS, DEFAULT_COMPRESSION
@@ -42,9 +42,11 @@ __all__ = [
     "MAX_EPISODE_LEN",
     "MAX_RECORD_IMAGE_SIZE",
     "MAX_SEED",
+    "randomization_of",
     "add_cameras",
     "add_compression",
     "add_crop",
+    "add_randomize",
     "add_data_dir",
     "add_engine",
     "add_episode_len",
@@ -184,6 +186,30 @@ def add_looks(p: _Parser, visual: bool = True) -> None:
             help="arm meshes: 'own' (default) or 'menagerie' (the official Trossen meshes of "
             "the MuJoCo Menagerie checkout named by TROSSEN_MENAGERIE_DIR)",
         )
+
+
+def add_randomize(p: _Parser, where: str) -> None:
+    """``--randomize`` and ``--randomization FILE``: each episode's scene randomized
+    (``randomization_of`` reads them); ``where``: where each episode's record goes."""
+    p.add_argument("--randomize", action="store_true",
+                   help="randomize each episode's scene as the task's randomization section "
+                   "says (lights, table, colours, friction, masses, damping, camera poses, the "
+                   f"arms' start), from the episode's seed; the record goes to {where} "
+                   "(default: the nominal scene)")  # fmt: skip
+    p.add_argument("--randomization", default=None, metavar="FILE",
+                   help="YAML file of randomization kinds and ranges (its 'randomization' "
+                   "section, or kinds at the top level) replacing the task's, kind by kind; "
+                   "implies --randomize")  # fmt: skip
+
+
+def randomization_of(args: argparse.Namespace) -> tuple[bool, dict[str, Any] | None]:
+    """``(randomize, section)`` of ``add_randomize``'s flags: the file read and checked
+    (one-line UserErrors), None without one."""
+    from trossen_arm_mujoco.tasks.config import read_randomization
+
+    path = args.randomization
+    section = None if path is None else read_randomization(Path(path).expanduser())
+    return bool(args.randomize) or section is not None, section
 
 
 def add_crop(p: _Parser) -> None:

@@ -67,7 +67,9 @@ from trossen_arm_mujoco.scripts.common_options import (
     add_image_size,
     add_num_episodes,
     add_overwrite,
+    add_randomize,
     add_seed,
+    randomization_of,
 )
 
 #: Largest number of episodes one run takes.
@@ -136,6 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "nothing refused (the unconstrained score); both: on, then off, the two "
                    "scores side by side (twice the time). --backend wire: always on, the "
                    "served kit is the controller")  # fmt: skip
+    add_randomize(p, "rollouts.json")
     add_overwrite(p, "replace an eval_info.json already in --output_dir")
     return p
 
@@ -197,6 +200,8 @@ def _settings(args: argparse.Namespace):
         raise UserError(f"{out / 'eval_info.json'} exists; choose another --output_dir or pass "
                         "--overwrite")  # fmt: skip
     check_writable_dir(out, "--output_dir")  # before any episode, not after the last one
+    randomize, randomization = randomization_of(args)
+    randomize, randomization = randomization_of(args)
     settings = EvalSettings(
         policy=args.policy,
         task=task,
@@ -210,6 +215,8 @@ def _settings(args: argparse.Namespace):
         output_dir=str(out),
         device=args.device,
         controller_checks=args.controller_checks != "off",
+        randomize=randomize,
+        randomization=randomization,
         extra={
             "settings_source": inferred.get("settings_source"),
             "sim_only": inferred.get("sim_only", False),

@@ -63,6 +63,7 @@ from trossen_arm_mujoco.scripts.common_options import (
     add_fps,
     add_image_size,
     add_looks,
+    add_randomize,
     add_root_dir,
     add_seed,
     add_task_name,
@@ -111,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "session is split", "one episode per session")  # fmt: skip
     add_compression(p)
     add_looks(p, visual=False)
+    add_randomize(p, "the control channel's start reply ('randomization')")
     add_wait(p, "with --record: wait for another run writing to DIR instead of refusing")
     p.add_argument("--role", default="follower", choices=("follower", "leader"),
                    help="follower: the kit world (default); leader: two leader arms "
@@ -242,14 +244,17 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
         first = _first_index(record[0])
     if stops.requested:
         return _stopped_early(stops)
-    from trossen_arm_mujoco.scripts.common_options import scene_looks
+    from trossen_arm_mujoco.scripts.common_options import randomization_of, scene_looks
 
+    randomize, randomization = randomization_of(args)
     world = KitWorld(
         args.task_name,
         base_seed=args.seed,
         episode_index=first,
         fps=args.fps,
         looks=scene_looks(args),
+        randomize=randomize,
+        randomization=randomization,
     )
     recorder = None
     try:

@@ -10,8 +10,7 @@ Cost (docs/benchmarks.md, "Rendering cost"): the model's shadow map
 (``visual/quality/shadowsize``) is meant for 640-pixel images and smaller images get a
 proportionally smaller one (at least 256); a process whose first renderer draws small images
 (``SMALL_IMAGE``) renders without Mesa's rasterizer threads, whose hand-off costs more than
-such a frame (``LP_NUM_THREADS`` set by the user wins); each frame leaves out the geoms its
-camera can neither see nor see the shadow of (``sim.view_cull``, the same pixels).
+such a frame (``LP_NUM_THREADS`` set by the user wins).
 
 Forked processes: a process forked from one that had opened a GL context cannot open one
 itself (MuJoCo's EGL/Mesa state does not survive ``fork``; rendering hangs). Such a child
@@ -32,7 +31,6 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.names import lookup_id, names_of
 from trossen_arm_mujoco.sim.closing import close_at_exit, forget
-from trossen_arm_mujoco.sim.view_cull import ViewCull
 
 __all__ = [
     "SHADOW_MAP_IMAGE",
@@ -138,7 +136,6 @@ class CameraSet:
             )
         self.height, self.width = height, width
         self._renderer: mujoco.Renderer | None = None
-        self._cull = ViewCull(model)
 
     @staticmethod
     def available(model: mujoco.MjModel) -> list[str]:
@@ -155,7 +152,7 @@ class CameraSet:
         self.check(name)
         if self._renderer is None:
             self._renderer = self._open_renderer()
-        self._cull.update_scene(self._renderer, data, self.ids[name])
+        self._renderer.update_scene(data, camera=self.ids[name])
         return self._renderer.render()
 
     def _open_renderer(self) -> mujoco.Renderer:

@@ -37,6 +37,7 @@ __all__ = [
     "merge_overrides",
     "merge_randomization",
     "parse_randomization",
+    "read_randomization",
     "read_yaml",
 ]
 
@@ -140,6 +141,23 @@ def read_yaml(path: str | Path) -> dict[str, Any]:
             f"{origin}: expected a mapping of keys to values, got {type(data).__name__}"
         )
     return data
+
+
+def read_randomization(path: str | Path) -> dict[str, Any]:
+    """The ``randomization`` section of a YAML file: the file's ``randomization`` key, or
+    the whole file when it has none (kinds at the top level). Checked against the schema
+    (``tasks.randomization_schema``): an unknown kind or setting, or a value out of its
+    bounds, is a one-line UserError naming the file."""
+    from trossen_arm_mujoco.tasks.randomization_schema import (
+        RANDOMIZATION_KEY,
+        check_randomization,
+        default_randomization,
+    )
+
+    data = read_yaml(path)
+    section = data.get(RANDOMIZATION_KEY, data) if RANDOMIZATION_KEY in data else data
+    check_randomization(Source.file(Path(path)), default_randomization(), section)
+    return dict(section)
 
 
 def merge_overrides(

@@ -10,6 +10,10 @@ only). A client sends one JSON object per line and gets one JSON object per line
                                             objects placed at these poses (m, quat wxyz);
                                             eval --backend wire sends the poses of the
                                             in-process eval's env.reset(seed=7)
+    {"cmd": "start", "seed": 7, "randomization": {...}}
+                                            the scene randomized by this record (a start
+                                            reply's), not drawn: eval --backend wire
+                                            --randomize sends the in-process eval's
     {"cmd": "end"}                          ends the episode; replies its score
     {"cmd": "status"}                       the episode now (and the sim-only ground truth)
 
@@ -30,7 +34,9 @@ the episode's poses; scoring runs from the next frame. Replies of ``start``, ``e
     success (the task judged success at any frame), stages {"1": s, "2": s, ...}: the first
     time (s after start) each reward level was reached (eval.scores.STAGES names them),
     object_names, env_state (sim-only: object poses now, 7 values each, the
-    ``observation.environment_state`` of state-based checkpoints)
+    ``observation.environment_state`` of state-based checkpoints), randomization (what
+    the scene was randomized by, ``tasks.randomization``'s record; only when it was:
+    ``serve --randomize`` or a start that sent one)
 
 With ``serve --record``, each ``start`` .. ``end`` is one episode file (client connections
 then no longer delimit episodes). Requests are applied by the stepping thread between two
@@ -123,6 +129,8 @@ class EpisodeTracker:
             "task_max_reward": float(getattr(w.task, "max_reward", 1.0)),
             "success": self.success, "stages": dict(self.stages),
             "object_names": list(poses), "env_state": w.env_state().tolist(),
+            **({} if w.scene_randomization is None
+               else {"randomization": w.scene_randomization}),
         }  # fmt: skip
 
 
@@ -192,8 +200,12 @@ class EpisodeControl:
         cmd = request["cmd"]
         if cmd == "start":
             seed, episode, poses = _start_args(request, self.world)
+            record = request.get("randomization")
+            if record is not None and not isinstance(record, dict):
+                raise UserError("start: randomization must be a record (an object) as the "
+                                "start reply's 'randomization' gives it")  # fmt: skip
             self.world.base_seed = seed
-            self.world.reset(episode, object_poses=poses)
+            self.world.reset(episode, object_poses=poses, randomization=record)
             self.tracker.begin()
             if self.recorder is not None:
                 self.recorder.session_started()

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Mapping
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -36,6 +37,7 @@ from trossen_arm_mujoco.robot.layout import ARM_JOINTS, SIDES, VENDOR16_LAYOUT
 from trossen_arm_mujoco.sim.env import whole_ratio
 from trossen_arm_mujoco.sim.looks import SceneLooks, checked_looks
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_KEY
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 from trossen_arm_mujoco.twin.commands import ArmState
 from trossen_arm_mujoco.twin.faults import lag_fault_of
@@ -64,6 +66,10 @@ class KitWorld:
             ones in the first episode (a replay starting from a recorded scene).
         looks: how the served cameras and the recorder draw the scene (shadows,
             antialiasing; ``sim.looks.SceneLooks``); default ``SceneLooks()``.
+        randomize: each episode's scene randomized as the task's ``randomization`` section
+            says, from the episode's seed (``serve --randomize``); default the nominal scene.
+        randomization: a ``randomization`` section replacing the task's, kind by kind
+            (``serve --randomization FILE``); implies ``randomize``.
     """
 
     def __init__(
@@ -74,6 +80,8 @@ class KitWorld:
         fps: float | None = None,
         object_poses: Mapping[str, np.ndarray] | None = None,
         looks: SceneLooks | None = None,
+        randomize: bool = False,
+        randomization: Mapping[str, Any] | None = None,
     ) -> None:
         entry = registry.load(task_name)
         if entry.name not in registry.kit_names():
@@ -93,9 +101,11 @@ class KitWorld:
             raise UserError(f"{exc}; e.g. --fps {valid}") from None
         self.task_name, self.base_seed = entry.name, int(base_seed)
         self.frame_dt, self.ctrl_dt = self.ticks_per_frame * ctrl_dt, ctrl_dt
-        settings = SamplerSettings(looks=checked_looks(looks))
+        self.randomize = bool(randomize) or randomization is not None
+        settings = SamplerSettings(looks=checked_looks(looks), randomize=self.randomize)
+        section = {} if randomization is None else {RANDOMIZATION_KEY: dict(randomization)}
         self.sampler = registry.make_sampler(
-            entry.name, settings, ctrl_dt=ctrl_dt, policy_dt=frame_dt
+            entry.name, settings, ctrl_dt=ctrl_dt, policy_dt=frame_dt, **section
         )
         self.env = self.sampler.env
         self.model, self.data = self.env.model, self.env.data
@@ -144,11 +154,14 @@ class KitWorld:
         episode_index: int,
         keep_arms: bool = False,
         object_poses: Mapping[str, np.ndarray] | None = None,
+        randomization: Mapping[str, Any] | None = None,
     ) -> None:
         """Start episode ``episode_index``: the scene of ``record``'s episode of that index.
 
         ``keep_arms``: only the objects move to the new episode's poses; the arms keep their
-        state and targets (a new episode while clients are connected).
+        state and targets (a new episode while clients are connected). ``randomization``: a
+        record (``tasks.randomization``) applied to the scene instead of drawing one (a
+        client's scene, e.g. ``eval --backend wire --randomize``'s).
         """
         with self.lock:
             saved = None
@@ -157,7 +170,9 @@ class KitWorld:
                 saved = (d.qpos[self.layout_qadr].copy(), d.qvel[self.layout_dadr].copy(),
                          d.ctrl.copy())  # fmt: skip
             seed = episode_seed(self.base_seed, episode_index)
-            self.task = self.sampler.next_task(seed, object_poses=object_poses)
+            self.task = self.sampler.next_task(
+                seed, object_poses=object_poses, randomization=randomization
+            )
             self.episode_index, self.seed = int(episode_index), seed
             if saved is not None:
                 self.data.qpos[self.layout_qadr], self.data.qvel[self.layout_dadr] = saved[:2]
@@ -166,6 +181,11 @@ class KitWorld:
             elif hasattr(self, "arms"):
                 for side in SIDES:
                     self.arms[side] = ArmState(self.measured(side), self.arms[side].limits)
+
+    @property
+    def scene_randomization(self) -> dict[str, Any] | None:
+        """What the running episode's scene was randomized by (None: the nominal scene)."""
+        return self.sampler.randomization
 
     def object_poses(self) -> dict[str, np.ndarray]:
         """Object name -> pose (7,) now, in the task's ``env_state`` order."""

@@ -17,11 +17,15 @@ rate), ``--env.layout`` (``kit14``, the real kit's 14 values, or ``vendor16``), 
 dataset recorded with ``record --crop`` shows; default none), ``--env.controller_checks``
 (default true: every action reaches the arms as on the real kit, the driver's trajectory over
 3/fps s, and the arm controller's checks apply: a fault ends the episode as failed; false:
-the unconstrained score).
+the unconstrained score), ``--env.randomize`` (default false: each episode's scene
+randomized as the task's ``randomization`` section says, from the episode's seed),
+``--env.randomization`` (a YAML file of kinds and ranges replacing the task's; implies
+randomize).
 
-Importing the plugin also registers the postprocessor step ``trossen_arm_controller_limits``
-(``trossen_arm_mujoco.eval.controller_limits_step``), so a checkpoint that carries the arm
-controller's limits loads in every LeRobot tool (``lerobot-rollout`` on the real kit too).
+Importing the plugin also registers this project's processor steps
+(``trossen_arm_mujoco.eval.steps``: the image step, the pose encoder, the arm controller's
+limits; ``trossen-mujoco prepare`` puts them in a checkpoint), so a prepared checkpoint
+loads in every LeRobot tool (``lerobot-rollout`` on the real kit too).
 
 With ``--policy.path`` a local checkpoint, every option above but ``episode_length`` and
 ``controller_checks`` defaults to what the checkpoint was trained with (the settings its
@@ -40,6 +44,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import gymnasium as gym
 from lerobot.configs import FeatureType, PolicyFeature
@@ -51,6 +56,7 @@ from trossen_arm_mujoco.eval.controller_limits_step import register as register_
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.config import read_randomization
 
 __all__ = ["TrossenEnvConfig"]
 
@@ -78,6 +84,8 @@ class TrossenEnvConfig(EnvConfig):
     layout: str = "kit14"
     crop: str = ""
     controller_checks: bool = True
+    randomize: bool = False
+    randomization: str = ""
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
 
@@ -92,6 +100,12 @@ class TrossenEnvConfig(EnvConfig):
                 f"valid: {', '.join(registry.kit_names())}"
             )
         self.task = name
+        # --env.randomization=FILE: read and checked once here (one line on a bad file)
+        self._randomization = (
+            read_randomization(Path(self.randomization).expanduser())
+            if self.randomization
+            else None
+        )
         cams = self.cameras
         self.features, self.features_map = {}, {}
         spec = feature_spec(name, cams.names, cams.size, self.layout)
@@ -161,6 +175,8 @@ class TrossenEnvConfig(EnvConfig):
             "layout": self.layout,
             "render_mode": "rgb_array",
             "controller_checks": bool(self.controller_checks),
+            "randomize": bool(self.randomize),
+            "randomization": self._randomization,
         }
 
     def create_envs(
