@@ -17,7 +17,7 @@ so they would make every package a cycle). Import paths held as strings and reso
 ``importlib`` at run time (the task registry's ``"module:Class"`` entries, gymnasium entry
 points, optional extras) are not imports and are not counted.
 
-Layers are those of the project's ARCHITECTURE.md ("the flow of data" and principle 9:
+Layers are those of the design page, docs/concepts/architecture.md (the flow of data:
 imports point down the flow, never back up), listed in ``LAYERS`` lowest first. A module may
 import modules of its own unit (the same subpackage, or itself for a top-level module) and of
 units in lower layers; units sharing a layer may not import each other. A unit that is in no
@@ -254,7 +254,7 @@ def test_no_import_cycles(graph):
 
 def test_imports_point_down_the_layers(graph):
     bad = layer_violations(graph)
-    assert not bad, "imports against the layers of ARCHITECTURE.md:\n" + "\n".join(bad)
+    assert not bad, "imports against the layers of docs/concepts/architecture.md:\n" + "\n".join(bad)
 
 
 def test_no_module_getattr_shims():

@@ -58,7 +58,7 @@ def test_the_step_goes_before_the_normalizer_once_and_eval_sees_the_camera(tmp_p
 
 
 def test_bad_folders_and_encoders_are_one_line(tmp_path, capsys):
-    with pytest.raises(UserError, match="not a LeRobot checkpoint with saved processors"):
+    with pytest.raises(UserError, match="no policy_preprocessor.json; give a LeRobot"):
         cps.add_to_checkpoint(tmp_path, tmp_path / "enc.safetensors", "cam_high")
     ckpt = _checkpoint(tmp_path / "ckpt")
     with pytest.raises(UserError, match="no pose encoder there; derive the dataset first"):

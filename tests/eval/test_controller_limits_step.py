@@ -73,7 +73,7 @@ def test_joint_steps_follow_the_speed_limits_at_the_checkpoints_rate(tmp_path):
     cls.add_to_checkpoint(ckpt)
     config = json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())["steps"][1]["config"]
     assert config["max_step"] == pytest.approx(cls.joint_steps(14, 30))
-    with pytest.raises(UserError, match="fps must be positive"):
+    with pytest.raises(UserError, match="fps must be a positive finite number"):
         cls.joint_steps(14, 0)
     with pytest.raises(UserError, match="14 or 16 values, not 7"):
         cls.joint_steps(7, 50)
@@ -116,7 +116,7 @@ def test_an_older_range_only_step_is_brought_up_to_date(tmp_path):
 
 
 def test_a_folder_that_is_not_a_checkpoint_is_one_line(tmp_path, capsys):
-    with pytest.raises(UserError, match="not a LeRobot checkpoint with saved processors"):
+    with pytest.raises(UserError, match="no config.json there; give a LeRobot checkpoint folder"):
         cls.add_to_checkpoint(tmp_path)
     ckpt = _checkpoint(tmp_path / "ckpt")
     (ckpt / CHECKPOINT_FILE).write_text("{not json")

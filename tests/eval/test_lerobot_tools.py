@@ -52,7 +52,7 @@ def _run(args: list[str], cwd: Path, timeout: int = 600) -> subprocess.Completed
                           timeout=timeout)  # fmt: skip
 
 
-def _train(python: str, dataset: Path, out: Path, cwd: Path) -> Path:
+def _train(python: str, dataset: Path, out: Path, cwd: Path, extra: tuple = ()) -> Path:
     proc = _run([
         python, "-m", "lerobot.scripts.lerobot_train",
         "--dataset.repo_id=local/transfer", f"--dataset.root={dataset}",
@@ -62,6 +62,7 @@ def _train(python: str, dataset: Path, out: Path, cwd: Path) -> Path:
         "--policy.dim_feedforward=64", "--policy.n_encoder_layers=1",
         "--policy.n_decoder_layers=1", "--steps=3", "--batch_size=2", "--num_workers=0",
         "--save_freq=3", "--log_freq=1", "--wandb.enable=false", f"--output_dir={out}",
+        *extra,
     ], cwd)  # fmt: skip
     assert proc.returncode == 0, proc.stderr[-3000:]
     checkpoint = out / "checkpoints" / "last" / "pretrained_model"
@@ -203,3 +204,43 @@ def test_a_cropped_checkpoint_evaluates_with_its_crop_on_both_backends(trained):
     winfo = json.loads((root / "crop_wire" / "eval_info.json").read_text())
     assert winfo["run"]["crops"] == [CROP] and winfo["aggregated"]["n_episodes"] == 1
     assert any("cameras:" in line for line in winfo["timing"]["kit"]), winfo["timing"]
+
+
+def test_trossens_plugin_rolls_out_a_prepared_checkpoint_on_the_served_kit(trained):
+    """lerobot-rollout with Trossen's own robot (bi_widowxai_follower_robot) runs a camera
+    checkpoint (the state and a cropped cam_high only, as a real kit gives) against the
+    served kit streaming whole 480x640 frames: ``benchmarks/plugin_rollout.py``, one short
+    episode, no fault, its control loop running."""
+    python, root = _python(), trained["root"]
+    probe = _run([python, "-c", "import lerobot_robot_trossen"], root)
+    if probe.returncode != 0:
+        pytest.skip("Trossen's robot plugin package is not installed in that venv (install it "
+                    "from its GitHub repository: docs/rehearsal.md)")  # fmt: skip
+    inputs = {
+        "observation.state": {"type": "STATE", "shape": [14]},
+        "observation.images.cam_high": {"type": "VISUAL", "shape": [3, 24, 32]},
+    }
+    ckpt = _train(python, root / "ds_cropped", root / "train_deployable", root,
+                  ("--policy.input_features=" + json.dumps(inputs),))  # fmt: skip
+    script = Path(__file__).parents[2] / "benchmarks" / "plugin_rollout.py"
+    env_ports = [str(p) for p in (_free_port(), _free_port())]
+    proc = _run([sys.executable, str(script), "--policy", str(ckpt), "--episodes", "1",
+                 "--duration", "3", "--camera_port", env_ports[0], "--control_port",
+                 env_ports[1]], root, timeout=300)  # fmt: skip
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    row = json.loads(next(line for line in proc.stdout.splitlines() if line.startswith("{")))
+    # its control loop ran on the streamed whole frames for the episode's seconds (a 3-step
+    # policy's gripper may still be moving when the plugin's disconnect sends the arm to its
+    # staged pose, which the served controller may refuse: counted as a fault, not asserted)
+    assert row["loops"] > 5 and row["seconds"] >= 2.0, row
+    assert "max_reward" in row and isinstance(row["fault"], bool)
+    steps = json.loads((ckpt / "policy_preprocessor.json").read_text())["steps"]
+    assert "trossen_camera_image" in [s.get("registry_name") for s in steps]  # whole frames in
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

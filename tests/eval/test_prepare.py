@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from trossen_arm_mujoco.cli import main as cli_main
+from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval import camera_pose_step, controller_limits_step
 from trossen_arm_mujoco.eval.prepare import (
     ENCODER_FILE,
@@ -21,7 +22,11 @@ from trossen_arm_mujoco.eval.prepare import (
     prepare_checkpoint,
 )
 from trossen_arm_mujoco.eval.processor_files import POSTPROCESSOR_FILE, PREPROCESSOR_FILE
-from trossen_arm_mujoco.export.dataset_settings import DatasetSettings, write_checkpoint_settings
+from trossen_arm_mujoco.export.dataset_settings import (
+    CHECKPOINT_FILE,
+    DatasetSettings,
+    write_checkpoint_settings,
+)
 from trossen_arm_mujoco.sim.camera_crop import CameraCrop, crop_frame
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 
@@ -182,3 +187,61 @@ def test_two_policies_from_one_checkpoint_keep_their_own_measured_joints(tmp_pat
     a1, a2 = act(post1), act(post2)
     assert a1[0, 0].item() == pytest.approx(step, abs=1e-6)  # held near its own joints
     assert a2[0, 0].item() == pytest.approx(1.0 - step, abs=1e-6)
+
+
+@pytest.mark.parametrize(
+    "damage, words",
+    [
+        ('{"steps": "to_batch_processor"}', "its 'steps' is not a list"),
+        ('{"steps": {"a": 1}}', "its 'steps' is not a list"),
+        ('{"steps": null}', "its 'steps' is not a list"),
+        ("[" * 100_000 + "]" * 100_000, "cannot read it as JSON"),
+        ('{"steps": [{"config": {}}]}', "step 0 is not a named step"),
+        ("", "cannot read it as JSON"),
+    ],
+)
+def test_a_damaged_processor_file_is_one_line_and_nothing_changes(tmp_path, damage, words):
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    (ckpt / POSTPROCESSOR_FILE).write_text(damage)
+    before = _files(ckpt)
+    with pytest.raises(UserError, match=words) as e:
+        prepare_checkpoint(ckpt)
+    assert "\n" not in str(e.value) and POSTPROCESSOR_FILE in str(e.value)
+    assert _files(ckpt) == before
+
+
+def test_an_unreadable_rate_is_one_line(tmp_path):
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    settings = ckpt / CHECKPOINT_FILE
+    settings.write_text(settings.read_text().replace('"fps": 30', '"fps": 1e999'))
+    with pytest.raises(UserError, match="unreadable dataset settings"):
+        prepare_checkpoint(ckpt)
+
+
+def test_a_failed_write_leaves_both_files_as_they_were(tmp_path, monkeypatch):
+    """The postprocessor cannot be replaced (read-only, immutable): the preprocessor,
+    replaced first, is put back, and the error is one line."""
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    before = _files(ckpt)
+    real_replace = os.replace
+
+    def refuse_post(src, dst):
+        if str(dst).endswith(POSTPROCESSOR_FILE):
+            raise PermissionError(1, "Operation not permitted")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", refuse_post)
+    with pytest.raises(UserError, match="cannot write its processors .* nothing was changed"):
+        prepare_checkpoint(ckpt)
+    assert _files(ckpt) == before  # no temp file left behind either
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_a_read_only_checkpoint_is_one_line(tmp_path):
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    ckpt.chmod(0o555)
+    try:
+        with pytest.raises(UserError, match="cannot write its processors"):
+            prepare_checkpoint(ckpt)
+    finally:
+        ckpt.chmod(0o755)

@@ -1,8 +1,17 @@
-"""``eval.processor_files``: where a step goes in a saved processor, and the atomic write."""
+"""``eval.processor_files``: where a step goes in a saved processor, and the all-or-none
+write."""
 
 from __future__ import annotations
 
-from trossen_arm_mujoco.eval.processor_files import place_step, read_json, write_json
+import json
+
+from trossen_arm_mujoco.eval.processor_files import (
+    POSTPROCESSOR_FILE,
+    PREPROCESSOR_FILE,
+    SavedProcessors,
+    place_step,
+    read_json,
+)
 
 
 def _steps(*names):
@@ -24,8 +33,13 @@ def test_a_step_goes_after_before_or_last_and_replaces_its_namesake():
     assert not place_step(steps, "mine", dict(newer))  # the same step: nothing changed
 
 
-def test_write_json_leaves_no_temp_file_and_reads_back(tmp_path):
-    path = tmp_path / "policy_preprocessor.json"
-    write_json(path, {"steps": _steps("a")})
-    assert read_json(path) == {"steps": [{"registry_name": "a"}]}
-    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+def test_save_writes_what_changed_and_leaves_no_temp_file(tmp_path):
+    for name in (PREPROCESSOR_FILE, POSTPROCESSOR_FILE):
+        (tmp_path / name).write_text(json.dumps({"steps": _steps("a")}))
+    procs = SavedProcessors.load(tmp_path)
+    assert not procs.changed() and procs.save() is False
+    procs.pre["steps"].append({"registry_name": "b"})
+    assert procs.changed() and procs.save() is True
+    assert read_json(tmp_path / PREPROCESSOR_FILE)["steps"][-1] == {"registry_name": "b"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == [POSTPROCESSOR_FILE, PREPROCESSOR_FILE]
+    assert procs.save() is False  # saved: nothing new

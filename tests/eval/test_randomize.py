@@ -116,3 +116,31 @@ def test_the_served_kit_reports_and_applies_a_record():
     finally:
         world.close()
         plain.close()
+
+
+def test_the_levels_nominal_train_and_hard():
+    from trossen_arm_mujoco.tasks import registry
+    from trossen_arm_mujoco.tasks.randomization_levels import harder, level_section
+
+    assert level_section(None, TASK) == (False, None)
+    assert level_section("nominal", TASK) == (False, None)
+    assert level_section("train", TASK) == (True, None)
+    randomize, hard = level_section("hard", TASK)
+    train = registry.load(TASK).load_config()["randomization"]
+    assert randomize and hard == harder(train)
+    assert hard["camera"]["position"] == pytest.approx(3 * train["camera"]["position"])
+    assert hard["camera"]["orientation_deg"] == pytest.approx(
+        3 * train["camera"]["orientation_deg"]
+    )
+    assert hard["lights"]["direction_deg"] >= 35.0
+    lo, hi = hard["friction"]["scale"]
+    assert lo < train["friction"]["scale"][0] and hi > train["friction"]["scale"][1]
+    with pytest.raises(UserError, match="unknown randomization level 'harder'"):
+        level_section("harder", TASK)
+    env = KitPolicyEnv(TASK, randomization=hard, render_mode=None)
+    try:
+        env.reset(seed=2)
+        offsets = env.randomization["camera"]
+        assert offsets  # drawn from the wider ranges, within the schema's bounds
+    finally:
+        env.close()

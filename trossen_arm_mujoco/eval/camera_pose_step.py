@@ -25,19 +25,19 @@ import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval import step_names
 from trossen_arm_mujoco.eval.processor_files import (
     PREPROCESSOR_FILE,
+    SavedProcessors,
     place_step,
     read_json,
-    write_json,
 )
 from trossen_arm_mujoco.fileio import atomic_path
 
-__all__ = ["REGISTRY_NAME", "STATE_FILE", "add_to_checkpoint", "camera_of", "register"]
+__all__ = ["REGISTRY_NAME", "STATE_FILE", "add_pose", "add_to_checkpoint", "camera_of",
+           "copy_encoder", "register"]  # fmt: skip
 
 #: Name of the step in LeRobot's processor registry (and in ``policy_preprocessor.json``).
 REGISTRY_NAME = step_names.POSE
@@ -58,31 +58,40 @@ def camera_of(folder: str | Path) -> str | None:
     return None
 
 
-def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> bool:
-    """Put the encoder saved at ``encoder`` (``train.pose_encoder.save_encoder``) in the
-    checkpoint ``folder``'s preprocessor, reading ``camera``; again replaces it. False when
-    that very encoder and step were there already."""
+def add_pose(procs: SavedProcessors, camera: str) -> None:
+    """Put (or bring up to date) the pose step reading ``camera`` in ``procs``'s
+    preprocessor (in memory), before the normalizer; its weights are :data:`STATE_FILE`."""
+    step = {"registry_name": REGISTRY_NAME, "config": {"camera": camera}, "state_file": STATE_FILE}
+    place_step(procs.pre["steps"], REGISTRY_NAME, step, before="normalizer_processor")
+
+
+def copy_encoder(folder: str | Path, encoder: str | Path) -> bool:
+    """The encoder saved at ``encoder`` as the checkpoint's :data:`STATE_FILE` (atomically);
+    False when that very file is there already."""
     folder, encoder = Path(folder), Path(encoder)
-    pre = folder / PREPROCESSOR_FILE
-    try:
-        pipeline = read_json(pre)
-        steps: list[dict[str, Any]] = pipeline["steps"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
-                        f"({exc})") from None  # fmt: skip
     if not encoder.is_file():
         raise UserError(f"{encoder}: no pose encoder there; derive the dataset first "
                         "(python -m trossen_arm_mujoco.train.pose_dataset)")  # fmt: skip
     state = folder / STATE_FILE
-    same = state.is_file() and filecmp.cmp(encoder, state, shallow=False)
-    if not same:
+    if state.is_file() and filecmp.cmp(encoder, state, shallow=False):
+        return False
+    try:
         with atomic_path(state) as tmp:
             shutil.copyfile(encoder, tmp)
-    step = {"registry_name": REGISTRY_NAME, "config": {"camera": camera}, "state_file": STATE_FILE}
-    placed = place_step(steps, REGISTRY_NAME, step, before="normalizer_processor")
-    if placed:
-        write_json(pre, pipeline)
-    return placed or not same
+    except OSError as exc:
+        raise UserError(f"{state}: cannot write it ({exc.strerror or exc}); make the "
+                        "checkpoint folder writable") from None  # fmt: skip
+    return True
+
+
+def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> bool:
+    """Put the encoder saved at ``encoder`` (``train.pose_encoder.save_encoder``) in the
+    checkpoint ``folder``'s preprocessor, reading ``camera``; again replaces it. False when
+    that very encoder and step were there already."""
+    procs = SavedProcessors.load(folder, post=False)
+    copied = copy_encoder(folder, encoder)
+    add_pose(procs, camera)
+    return procs.save() or copied
 
 
 def register() -> None:

@@ -45,6 +45,7 @@ Editing the JSON needs no LeRobot (:func:`add_to_checkpoint`); running the steps
 
 from __future__ import annotations
 
+import math
 import secrets
 import sys
 from collections.abc import Sequence
@@ -56,9 +57,9 @@ from trossen_arm_mujoco.eval import step_names
 from trossen_arm_mujoco.eval.processor_files import (
     POSTPROCESSOR_FILE,
     PREPROCESSOR_FILE,
+    SavedProcessors,
     place_step,
     read_json,
-    write_json,
 )
 from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings
 from trossen_arm_mujoco.real.arm_controller import controller_target
@@ -69,8 +70,8 @@ from trossen_arm_mujoco.robot.configs import MOBILE_AI_BASE_LIMITS
 from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY
 
 __all__ = ["MEASURED_NAME", "POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "REGISTRY_NAME",
-           "GRIPPER_RATE_MARGIN", "SPEED_MARGIN", "add_to_checkpoint", "controller_bounds",
-           "gripper_rates", "joint_steps",
+           "GRIPPER_RATE_MARGIN", "SPEED_MARGIN", "action_size", "add_limits",
+           "add_to_checkpoint", "controller_bounds", "gripper_rates", "joint_steps",
            "register"]  # fmt: skip
 
 #: Name of the postprocessor step in LeRobot's processor registry (and in
@@ -115,8 +116,8 @@ def joint_steps(size: int, fps: float, layout: str | None = None) -> list[float]
     at ``fps``: :data:`SPEED_MARGIN` x the joint's velocity limit x ``GOAL_TIME_FACTOR /
     fps``; 0 for the grippers and the Mobile AI's base velocities (not limited). Same
     layouts as :func:`controller_bounds`."""
-    if not fps > 0:
-        raise UserError(f"fps must be positive, got {fps}")
+    if not (math.isfinite(fps) and fps > 0):
+        raise UserError(f"fps must be a positive finite number, got {fps}")
     goal_time = GOAL_TIME_FACTOR / float(fps)
     joints = [SPEED_MARGIN * lim.velocity_max * goal_time for lim in controller_limits()[:6]]
     if size == 14:
@@ -141,42 +142,58 @@ def gripper_rates(size: int, fps: float, layout: str | None = None) -> list[floa
     return [rate if i in grippers else 0.0 for i in range(len(steps))]
 
 
-def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
-    """Add (or bring up to date) the two steps in the checkpoint's saved processors; False
-    when they are there already as they would be written. The action size comes from the
-    checkpoint's ``config.json``, the rate from ``fps``, else the checkpoint's settings
-    (``export.dataset_settings.checkpoint_settings``: its ``trossen_settings.json`` or its
-    training dataset's metadata; without any, only the range is clipped)."""
-    folder = Path(folder)
-    post, pre = folder / POSTPROCESSOR_FILE, folder / PREPROCESSOR_FILE
+def action_size(folder: str | Path) -> int:
+    """The number of action values of the checkpoint in ``folder`` (its ``config.json``'s
+    ``output_features``); a one-line UserError when it does not say."""
+    path = Path(folder) / "config.json"
     try:
-        post_pipeline, pre_pipeline = read_json(post), read_json(pre)
-        size = int(read_json(folder / "config.json")["output_features"][ACTION_KEY]["shape"][0])
-        post_steps: list[dict[str, Any]] = post_pipeline["steps"]
-        pre_steps: list[dict[str, Any]] = pre_pipeline["steps"]
+        size = read_json(path)["output_features"][ACTION_KEY]["shape"][0]
+    except FileNotFoundError:
+        raise UserError(f"{Path(folder)}: no config.json there; give a LeRobot checkpoint "
+                        "folder (.../checkpoints/last/pretrained_model)") from None  # fmt: skip
     except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
-        raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
-                        f"({exc})") from None  # fmt: skip
-    settings, _ = checkpoint_settings(folder)  # its own, else its dataset's
-    layout = None if settings is None else settings.layout
-    if fps is None:
-        fps = None if settings is None else float(settings.fps)
+        raise UserError(f"{path}: no action shape in it ({type(exc).__name__}: {exc}); "
+                        "not a LeRobot checkpoint's config") from None  # fmt: skip
+    if isinstance(size, bool) or not isinstance(size, int) or size <= 0:
+        raise UserError(f"{path}: the action shape {size!r} is not a positive whole number")
+    return size
+
+
+def add_limits(procs: SavedProcessors, size: int, fps: float | None, layout: str | None) -> None:
+    """Put (or bring up to date) the two steps in ``procs`` (in memory): the range for
+    ``size`` action values of ``layout``; with ``fps``, the joint steps and gripper rates
+    at that rate and the measured-joints step sharing the limits step's ``link``."""
+    if fps is not None and not (isinstance(fps, int | float) and math.isfinite(fps) and fps > 0):
+        raise UserError(f"the checkpoint's rate must be a positive number of frames per "
+                        f"second, got {fps!r}")  # fmt: skip
+    pre_steps, post_steps = procs.pre["steps"], procs.post["steps"]
     low, high = controller_bounds(size, layout)
     config: dict[str, Any] = {"low": low, "high": high}
     old = next((s for s in post_steps if s.get("registry_name") == REGISTRY_NAME), None)
     link = (old or {}).get("config", {}).get("link") or secrets.token_hex(8)
-    changed = False
     if fps is not None:
         config.update(max_step=joint_steps(size, fps, layout),
                       max_rate=gripper_rates(size, fps, layout), link=link)  # fmt: skip
         measured = {"registry_name": MEASURED_NAME, "config": {"link": link}}
-        changed = place_step(pre_steps, MEASURED_NAME, measured, before="normalizer_processor")
+        place_step(pre_steps, MEASURED_NAME, measured, before="normalizer_processor")
     step = {"registry_name": REGISTRY_NAME, "config": config}
-    changed = place_step(post_steps, REGISTRY_NAME, step, after="unnormalizer_processor") or changed
-    if changed:
-        write_json(pre, pre_pipeline)
-        write_json(post, post_pipeline)
-    return changed
+    place_step(post_steps, REGISTRY_NAME, step, after="unnormalizer_processor")
+
+
+def add_to_checkpoint(folder: str | Path, fps: float | None = None) -> bool:
+    """Add (or bring up to date) the two steps in the checkpoint's saved processors, both
+    files or neither; False when they are there already as they would be written. The
+    action size comes from the checkpoint's ``config.json``, the rate from ``fps``, else the
+    checkpoint's settings (``export.dataset_settings.checkpoint_settings``: its
+    ``trossen_settings.json`` or its training dataset's metadata; without any, only the
+    range is clipped)."""
+    size = action_size(folder)
+    procs = SavedProcessors.load(folder)
+    settings, _ = checkpoint_settings(folder)  # its own, else its dataset's
+    if fps is None and settings is not None:
+        fps = float(settings.fps)
+    add_limits(procs, size, fps, None if settings is None else settings.layout)
+    return procs.save()
 
 
 def register() -> None:

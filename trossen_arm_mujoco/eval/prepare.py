@@ -26,9 +26,9 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval import camera_pose_step, controller_limits_step, step_names
 from trossen_arm_mujoco.eval.processor_files import (
     PREPROCESSOR_FILE,
+    SavedProcessors,
     place_step,
     read_json,
-    write_json,
 )
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings, checkpoint_settings
 from trossen_arm_mujoco.sim.camera_crop import FRAME
@@ -84,58 +84,61 @@ def dataset_encoder(folder: str | Path) -> Path | None:
     return path if path is not None and path.is_file() else None
 
 
-def _add_image_step(folder: Path, settings: DatasetSettings | None) -> bool:
-    step = image_step(settings)
-    if step is None:
-        return False
-    pre = folder / PREPROCESSOR_FILE
-    pipeline = read_json(pre)
-    steps = pipeline["steps"]
-    names = [s.get("registry_name") for s in steps]
-    anchor = (
-        camera_pose_step.REGISTRY_NAME
-        if camera_pose_step.REGISTRY_NAME in names
-        else ("normalizer_processor")
-    )
-    if not place_step(steps, IMAGE_STEP, step, before=anchor):
-        return False
-    write_json(pre, pipeline)
-    return True
+def _steps_by_name(procs: SavedProcessors) -> dict[str, Any]:
+    steps = procs.pre["steps"] + (procs.post or {}).get("steps", [])
+    return {str(st.get("registry_name", st.get("class"))): st for st in steps}
 
 
 def prepare_checkpoint(
     folder: str | Path, encoder: str | Path | None = None, camera: str | None = None
 ) -> list[str]:
-    """Add (or bring up to date) every step the checkpoint in ``folder`` needs; returns the
-    names of the steps added or changed (empty: it was prepared already).
+    """Add (or bring up to date) every step the checkpoint in ``folder`` needs, in both
+    processor files or neither; returns the names of the steps added or changed (empty: it
+    was prepared already). The files are checked before anything is edited; a damaged one,
+    or a folder that cannot be written, is one ``UserError`` and leaves the checkpoint as it
+    was.
 
     Args:
         folder: the checkpoint folder (the one holding ``config.json``).
         encoder: a pose encoder to put in (default: the training dataset's, if any).
-        camera: the camera the encoder reads (default: the checkpoint's first camera).
+        camera: the camera the encoder reads (default: the checkpoint's pose step's, else
+            its first camera).
     """
     folder = Path(folder)
-    if not (folder / "config.json").is_file():
-        raise UserError(f"{folder}: no config.json there; give a LeRobot checkpoint folder "
-                        "(.../checkpoints/last/pretrained_model)")  # fmt: skip
+    size = controller_limits_step.action_size(folder)
+    procs = SavedProcessors.load(folder)
     settings, _ = checkpoint_settings(folder)
-    changed: list[str] = []
+    before = _steps_by_name(procs)
+    copied = False
     encoder = Path(encoder) if encoder is not None else dataset_encoder(folder)
     if encoder is not None:
         name = camera or camera_pose_step.camera_of(folder)
-        if name is None:
-            name = settings.cameras.names[0] if settings and settings.cameras.names else None
+        if name is None and settings is not None and settings.cameras.names:
+            name = settings.cameras.names[0]
         if name is None:
             raise UserError(f"{folder}: which camera does the pose encoder read? its settings "
                             "name none; give --camera")  # fmt: skip
-        if camera_pose_step.add_to_checkpoint(folder, encoder, name):
-            changed.append(camera_pose_step.REGISTRY_NAME)
-    try:
-        if _add_image_step(folder, settings):
-            changed.append(IMAGE_STEP)
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise UserError(f"{folder}: not a LeRobot checkpoint with saved processors "
-                        f"({exc})") from None  # fmt: skip
-    if controller_limits_step.add_to_checkpoint(folder):
+        copied = camera_pose_step.copy_encoder(folder, encoder)
+        camera_pose_step.add_pose(procs, name)
+    step = image_step(settings)
+    if step is not None:
+        names = [st.get("registry_name") for st in procs.pre["steps"]]
+        pose = camera_pose_step.REGISTRY_NAME
+        anchor = pose if pose in names else "normalizer_processor"
+        place_step(procs.pre["steps"], IMAGE_STEP, step, before=anchor)
+    fps = None if settings is None else float(settings.fps)
+    controller_limits_step.add_limits(
+        procs, size, fps, None if settings is None else settings.layout
+    )
+    procs.save()
+    after = _steps_by_name(procs)
+    changed = [n for n in (camera_pose_step.REGISTRY_NAME, IMAGE_STEP,
+                           controller_limits_step.REGISTRY_NAME)
+               if after.get(n) != before.get(n)]  # fmt: skip
+    if copied and camera_pose_step.REGISTRY_NAME not in changed:
+        changed.insert(0, camera_pose_step.REGISTRY_NAME)
+    if (controller_limits_step.REGISTRY_NAME not in changed
+            and after.get(controller_limits_step.MEASURED_NAME)
+            != before.get(controller_limits_step.MEASURED_NAME)):  # fmt: skip
         changed.append(controller_limits_step.REGISTRY_NAME)
     return changed

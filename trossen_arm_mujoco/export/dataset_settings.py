@@ -89,7 +89,7 @@ class DatasetSettings:
                 task=str(data["task"]) if data.get("task") else None,
                 state_extras=tuple(str(e) for e in data.get("state_extras") or ()),
             )
-        except (KeyError, TypeError, ValueError, IndexError, UserError) as exc:
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError, UserError) as exc:
             raise UserError(f"{where}: unreadable dataset settings ({exc}); export the "
                             "dataset again with trossen-mujoco export") from None  # fmt: skip
         if settings.fps <= 0:

@@ -191,25 +191,31 @@ def add_looks(p: _Parser, visual: bool = True) -> None:
 def add_randomize(p: _Parser, where: str) -> None:
     """``--randomize`` and ``--randomization FILE``: each episode's scene randomized
     (``randomization_of`` reads them); ``where``: where each episode's record goes."""
-    p.add_argument("--randomize", action="store_true",
-                   help="randomize each episode's scene as the task's randomization section "
-                   "says (lights, table, colours, friction, masses, damping, camera poses, the "
-                   f"arms' start), from the episode's seed; the record goes to {where} "
-                   "(default: the nominal scene)")  # fmt: skip
+    from trossen_arm_mujoco.tasks.randomization_levels import LEVELS
+
+    p.add_argument("--randomize", nargs="?", const="train", default=None, choices=LEVELS,
+                   metavar="LEVEL",
+                   help="randomize each episode's scene from the episode's seed: 'train' (the "
+                   "flag alone: the task's randomization section: lights, table, colours, "
+                   "friction, masses, damping, camera poses, the arms' start), 'hard' (every "
+                   "range widened past training's) or 'nominal' (none, the default); the "
+                   f"record goes to {where}")  # fmt: skip
     p.add_argument("--randomization", default=None, metavar="FILE",
                    help="YAML file of randomization kinds and ranges (its 'randomization' "
                    "section, or kinds at the top level) replacing the task's, kind by kind; "
                    "implies --randomize")  # fmt: skip
 
 
-def randomization_of(args: argparse.Namespace) -> tuple[bool, dict[str, Any] | None]:
-    """``(randomize, section)`` of ``add_randomize``'s flags: the file read and checked
-    (one-line UserErrors), None without one."""
+def randomization_of(args: argparse.Namespace, task: str) -> tuple[bool, dict[str, Any] | None]:
+    """``(randomize, section)`` of ``add_randomize``'s flags for ``task``: the level
+    (``tasks.randomization_levels``) and the file read and checked (one-line UserErrors);
+    section None: the task's own."""
     from trossen_arm_mujoco.tasks.config import read_randomization
+    from trossen_arm_mujoco.tasks.randomization_levels import level_section
 
     path = args.randomization
     section = None if path is None else read_randomization(Path(path).expanduser())
-    return bool(args.randomize) or section is not None, section
+    return level_section(args.randomize, task, section)
 
 
 def add_crop(p: _Parser) -> None:

@@ -200,8 +200,8 @@ def _settings(args: argparse.Namespace):
         raise UserError(f"{out / 'eval_info.json'} exists; choose another --output_dir or pass "
                         "--overwrite")  # fmt: skip
     check_writable_dir(out, "--output_dir")  # before any episode, not after the last one
-    randomize, randomization = randomization_of(args)
-    randomize, randomization = randomization_of(args)
+    randomize, randomization = randomization_of(args, task)
+    randomize, randomization = randomization_of(args, task)
     settings = EvalSettings(
         policy=args.policy,
         task=task,

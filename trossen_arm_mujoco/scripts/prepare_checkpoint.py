@@ -18,6 +18,7 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
     sys.path[0] = str(
         next(p for p in Path(__file__).resolve().parents if not (p / "__init__.py").is_file())
     )
+    import trossen_arm_mujoco  # noqa: F401  (as with -m: the package sets MUJOCO_GL first)
 
 import argparse
 import sys

@@ -246,7 +246,7 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
         return _stopped_early(stops)
     from trossen_arm_mujoco.scripts.common_options import randomization_of, scene_looks
 
-    randomize, randomization = randomization_of(args)
+    randomize, randomization = randomization_of(args, args.task_name)
     world = KitWorld(
         args.task_name,
         base_seed=args.seed,

@@ -17,10 +17,11 @@ rate), ``--env.layout`` (``kit14``, the real kit's 14 values, or ``vendor16``), 
 dataset recorded with ``record --crop`` shows; default none), ``--env.controller_checks``
 (default true: every action reaches the arms as on the real kit, the driver's trajectory over
 3/fps s, and the arm controller's checks apply: a fault ends the episode as failed; false:
-the unconstrained score), ``--env.randomize`` (default false: each episode's scene
-randomized as the task's ``randomization`` section says, from the episode's seed),
-``--env.randomization`` (a YAML file of kinds and ranges replacing the task's; implies
-randomize).
+the unconstrained score), ``--env.randomize`` (``nominal``, the default; ``train`` or
+``true``: each episode's scene randomized as the task's ``randomization`` section says, from
+the episode's seed; ``hard``: every range widened past training's,
+``tasks.randomization_levels``), ``--env.randomization`` (a YAML file of kinds and ranges
+replacing the task's).
 
 Importing the plugin also registers this project's processor steps
 (``trossen_arm_mujoco.eval.steps``: the image step, the pose encoder, the arm controller's
@@ -57,6 +58,7 @@ from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.config import read_randomization
+from trossen_arm_mujoco.tasks.randomization_levels import level_section
 
 __all__ = ["TrossenEnvConfig"]
 
@@ -84,7 +86,7 @@ class TrossenEnvConfig(EnvConfig):
     layout: str = "kit14"
     crop: str = ""
     controller_checks: bool = True
-    randomize: bool = False
+    randomize: str = "nominal"
     randomization: str = ""
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
@@ -100,12 +102,17 @@ class TrossenEnvConfig(EnvConfig):
                 f"valid: {', '.join(registry.kit_names())}"
             )
         self.task = name
-        # --env.randomization=FILE: read and checked once here (one line on a bad file)
-        self._randomization = (
+        # --env.randomize=LEVEL (true: train) and --env.randomization=FILE, read and checked
+        # once here (one line on a bad level or file)
+        level = {"true": "train", "false": "nominal", "": None}.get(
+            str(self.randomize).lower(), str(self.randomize)
+        )
+        replacement = (
             read_randomization(Path(self.randomization).expanduser())
             if self.randomization
             else None
         )
+        self._randomize, self._randomization = level_section(level, name, replacement)
         cams = self.cameras
         self.features, self.features_map = {}, {}
         spec = feature_spec(name, cams.names, cams.size, self.layout)
@@ -175,7 +182,7 @@ class TrossenEnvConfig(EnvConfig):
             "layout": self.layout,
             "render_mode": "rgb_array",
             "controller_checks": bool(self.controller_checks),
-            "randomize": bool(self.randomize),
+            "randomize": self._randomize,
             "randomization": self._randomization,
         }
 
