@@ -530,3 +530,15 @@ def test_bad_crop_is_one_line_exit_2(tmp_path, capsys, crop):
     last = err.strip().splitlines()[-1]  # after the warning about the short --episode_len
     assert last.startswith("error: ") and ("--crop" in last or "valid cameras" in last), err
     assert "Traceback" not in err and not (tmp_path / "d").exists()
+
+
+def test_a_crop_of_a_camera_not_recorded_is_one_line_exit_2(tmp_path, capsys):
+    rc, out, err = _run_cli(
+        ["--data_dir", "d", "--root_dir", str(tmp_path), "--cam_names", "cam_high",
+         "--crop", "cam_low:0,0,100,100", "--episode_len", "20"], capsys,
+    )  # fmt: skip
+    assert rc == 2 and out == "", err
+    last = err.strip().splitlines()[-1]
+    assert last == ("error: --crop cam_low:0,0,100,100: camera cam_low is not recorded "
+                    "(cam_high); add it to --cam_names or leave the crop out")  # fmt: skip
+    assert not (tmp_path / "d").exists()

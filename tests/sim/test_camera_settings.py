@@ -28,9 +28,13 @@ def test_from_cli_parses_the_three_flags():
     assert cams.crop_texts() == (CROP,)
     # several --crop texts, or one with ';' between cameras; pairs and lists
     two = "cam_high:0,0,10,10;cam_low:5,5,20,20"
-    assert CameraSettings.from_cli(["cam_high"], (24, 32), two.split(";")) == CameraSettings(
-        ("cam_high",), (24, 32), CameraSettings.from_cli(crops=two).crops
+    both = ["cam_high", "cam_low"]
+    assert CameraSettings.from_cli(both, (24, 32), two.split(";")) == CameraSettings(
+        tuple(both), (24, 32), CameraSettings.from_cli(both, crops=two).crops
     )
+    # a crop of a camera that is not observed is one line
+    with pytest.raises(UserError, match="camera cam_low is not observed .cam_high.; add it"):
+        CameraSettings.from_cli(["cam_high"], (24, 32), two)
 
 
 def test_flags_not_given_take_the_defaults():

@@ -40,6 +40,7 @@ from trossen_arm_mujoco.scripts.common_options import (
     image_size,
     scene_looks,
 )
+from trossen_arm_mujoco.sim.camera_crop import check_observed
 
 __all__ = [
     "RecordOptions",
@@ -208,6 +209,7 @@ def record_options(args: argparse.Namespace) -> RecordOptions:
     looks = scene_looks(args)
     for crop in looks.crops:  # a camera of the task's scene, checked before any episode
         camera_names(crop.camera, args.task_name)
+    check_observed(looks.crops, cams, "recorded")
     args.num_workers = num_workers(args)
 
     from trossen_arm_mujoco.collect.pipeline import RecordSettings

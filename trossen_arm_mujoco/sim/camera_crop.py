@@ -30,8 +30,8 @@ from PIL import Image
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 
-__all__ = ["FRAME", "CameraCrop", "apply_crops", "crop_frame", "crop_texts", "parse_crop",
-           "parse_crops"]  # fmt: skip
+__all__ = ["FRAME", "CameraCrop", "apply_crops", "check_observed", "crop_frame", "crop_texts",
+           "parse_crop", "parse_crops"]  # fmt: skip
 
 #: (height, width) of the full frame a crop is given in, pixels (the cameras' 4:3 image).
 FRAME: tuple[int, int] = (480, 640)
@@ -139,6 +139,16 @@ def crop_frame(image: np.ndarray, crop: CameraCrop | None, size: Sequence[int]) 
             return np.ascontiguousarray(image)
     resized = Image.fromarray(np.ascontiguousarray(image)).resize((w, h), Image.Resampling.BOX)
     return np.asarray(resized, dtype=np.uint8)
+
+
+def check_observed(crops: Sequence[CameraCrop], cameras: Sequence[str], what: str) -> None:
+    """A one-line UserError when a crop names a camera that is not among ``cameras`` (the
+    ones recorded or observed: ``what`` says which)."""
+    for crop in crops:
+        if crop.camera not in cameras:
+            shown = ", ".join(cameras) or "none"
+            raise UserError(f"--crop {crop.text()}: camera {crop.camera} is not {what} "
+                            f"({shown}); add it to --cam_names or leave the crop out")  # fmt: skip
 
 
 def crop_texts(crops: str | Sequence[str | CameraCrop] | None) -> str:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.sim.camera_crop import FRAME, CameraCrop, parse_crops
+from trossen_arm_mujoco.sim.camera_crop import FRAME, CameraCrop, check_observed, parse_crops
 from trossen_arm_mujoco.sim.looks import SceneLooks
 
 __all__ = [
@@ -104,6 +104,7 @@ class CameraSettings:
         if not all(isinstance(c, CameraCrop) for c in crops):
             raise UserError("crops must be CameraCrop values (sim.camera_crop.parse_crop)")
         object.__setattr__(self, "crops", parse_crops(tuple(crops)))  # one per camera
+        check_observed(self.crops, self.names, "observed")
         for name in ("shadows", "antialias"):
             if not isinstance(getattr(self, name), bool):
                 raise UserError(f"{name} must be true or false, got {getattr(self, name)!r:.40}")
