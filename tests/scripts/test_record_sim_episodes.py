@@ -542,3 +542,14 @@ def test_a_crop_of_a_camera_not_recorded_is_one_line_exit_2(tmp_path, capsys):
     assert last == ("error: --crop cam_low:0,0,100,100: camera cam_low is not recorded "
                     "(cam_high); add it to --cam_names or leave the crop out")  # fmt: skip
     assert not (tmp_path / "d").exists()
+
+
+def test_onscreen_render_without_a_display_says_so_once(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    rc, _, err = _run_cli(
+        ["--data_dir", "d", "--root_dir", str(tmp_path), "--num_episodes", "2",
+         "--onscreen_render", *FAST], capsys,
+    )  # fmt: skip
+    assert rc == 1, err  # 20 steps: failed episodes, kept
+    assert err.count("live view off: no DISPLAY; continuing headless") == 1, err

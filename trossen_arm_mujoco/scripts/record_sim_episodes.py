@@ -171,13 +171,15 @@ def _engine(
 
 
 def _live_view_hook(settings):
-    """A step hook that shows the joint env and its camera images in a live viewer."""
+    """A step hook that shows the joint env and its camera images in a live viewer; the
+    viewer is tried once (without a display, one line says so and the run goes on)."""
     from trossen_arm_mujoco.viewer import LiveViewer
 
-    holder: list = [None]
+    holder: list = [None, False]  # the viewer, whether it was tried
 
     def hook(t: int, observation: dict, env) -> None:
-        if holder[0] is None:
+        if not holder[1]:
+            holder[1] = True
             holder[0] = LiveViewer.open(env.model, env.data)
         if holder[0] is not None:
             holder[0].update(observation.get("images"))
