@@ -196,3 +196,35 @@ def test_bad_targets(wxai):
         robot.set_ee_pose([0.3, np.nan, 0.1])
     with pytest.raises(UserError, match="nonzero quaternion"):
         robot.set_ee_pose([0.3, 0.0, 0.1], [0, 0, 0, 0])
+
+
+def test_set_arm_joint_positions_leaves_the_arm_going_there_under_plain_mj_step(wxai):
+    """As the vendor's: the targets go to the actuators, and mj_step alone takes the arm
+    there (no speed-limited single step)."""
+    model, data = wxai
+    robot = Controller(model, data, RobotType.WXAI)
+    start = robot.get_arm_joint_positions()
+    goal = start + np.array([0.4, 0.3, 0.3, 0.2, 0.2, -0.2])
+    robot.set_arm_joint_positions(goal)
+    np.testing.assert_allclose(data.ctrl[robot.arm_actuator_ids], goal)
+    for _ in range(int(3.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    np.testing.assert_allclose(robot.get_arm_joint_positions(), goal, atol=0.02)
+    with pytest.raises(UserError, match="joint_positions must be 6 finite numbers"):
+        robot.set_arm_joint_positions([0.0] * 5)
+
+
+def test_the_vendors_attributes_and_constants(wxai):
+    model, data = wxai
+    robot = Controller(model, data, RobotType.WXAI)
+    assert robot.num_arm_joints == 6 and len(robot.arm_qpos_indices) == 6
+    names = [model.joint(j).name for j in robot.arm_joint_ids]
+    assert names == [f"joint_{i}" for i in range(6)]
+    assert list(robot.arm_dof_indices) == [model.jnt_dofadr[j] for j in robot.arm_joint_ids]
+    assert len(robot.arm_actuator_ids) == 6 and len(robot.gripper_actuator_ids) == 1
+    assert len(robot.gripper_joint_ids) >= 1 and len(robot.gripper_qpos_indices) >= 1
+    assert robot.jac_pos.shape == robot.jac_rot.shape == (3, model.nv)
+    robot.compute_ik_step([0.3, 0.0, 0.2])
+    assert np.abs(robot.jac_pos).sum() > 0  # filled by the IK step
+    assert Controller.GRIPPER_OPEN_POSITION == 0.044
+    assert Controller.GRIPPER_CLOSED_POSITION == 0.022

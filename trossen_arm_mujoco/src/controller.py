@@ -38,11 +38,16 @@ from trossen_arm_mujoco.src.robot_types import (
     to_project_name,
 )
 
-__all__ = ["DEFAULT_IK_DAMPING", "DEFAULT_IK_SCALE", "Controller", "RobotType"]
+__all__ = ["DEFAULT_IK_DAMPING", "DEFAULT_IK_SCALE", "GRIPPER_CLOSED_POSITION",
+           "GRIPPER_OPEN_POSITION", "Controller", "RobotType"]  # fmt: skip
 
 #: The vendor's defaults (its README states ik_scale 1.0; its code, which this follows, 0.5).
 DEFAULT_IK_SCALE = 0.5
 DEFAULT_IK_DAMPING = 0.03
+#: The vendor's gripper constants (m of finger travel): fully open, and the width its demos
+#: close to on their 50 mm cube (``close_gripper`` here closes fully; see docs/vendor-api.md).
+GRIPPER_OPEN_POSITION = 0.044
+GRIPPER_CLOSED_POSITION = 0.022
 
 _TABLE = object()  # table_height default: the robot type's scenes' table top
 
@@ -67,7 +72,17 @@ class Controller:
         table_height: the safety floor (m, world z) the arm is held above; default the
             robot type's table top (WXAI 0.0, STATIONARY_AI 0.02, MOBILE_AI 0.75); None: no
             floor.
+
+    The vendor's public attributes: ``arm_joint_ids``, ``arm_qpos_indices``,
+    ``arm_dof_indices``, ``arm_actuator_ids``, ``gripper_joint_ids``,
+    ``gripper_qpos_indices``, ``gripper_actuator_ids`` (int arrays into the model and data),
+    ``num_arm_joints`` (6), ``jac_pos`` and ``jac_rot`` ((3, nv) arrays: the tool frame's
+    Jacobian, filled by :meth:`compute_ik_step` and :meth:`set_ee_pose`),
+    ``GRIPPER_OPEN_POSITION`` and ``GRIPPER_CLOSED_POSITION``.
     """
+
+    GRIPPER_OPEN_POSITION = GRIPPER_OPEN_POSITION
+    GRIPPER_CLOSED_POSITION = GRIPPER_CLOSED_POSITION
 
     def __init__(
         self,
@@ -105,6 +120,17 @@ class Controller:
         self._first_joint = int(self.arm.joint_ids[0])
         self.out_of_reach = False
         self.out_of_reach_count = 0
+        # the vendor's attribute names
+        self.arm_joint_ids = np.asarray(self.arm.joint_ids, dtype=int)
+        self.arm_qpos_indices = np.asarray(self.arm.qpos_idx, dtype=int)
+        self.arm_dof_indices = np.asarray(self.arm.dof_idx, dtype=int)
+        self.arm_actuator_ids = np.asarray(self.arm.actuator_ids, dtype=int)
+        self.gripper_joint_ids = np.asarray(self.gripper.joint_ids, dtype=int)
+        self.gripper_qpos_indices = np.asarray(self.gripper.qpos_idx, dtype=int)
+        self.gripper_actuator_ids = np.asarray(self.gripper.actuator_ids, dtype=int)
+        self.num_arm_joints = len(self.arm_joint_ids)
+        self.jac_pos = np.zeros((3, model.nv))
+        self.jac_rot = np.zeros((3, model.nv))
 
     # -- state -----------------------------------------------------------------------------
     def get_ee_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -125,10 +151,13 @@ class Controller:
 
     # -- commands --------------------------------------------------------------------------
     def set_arm_joint_positions(self, joint_positions: np.ndarray) -> None:
-        """Joint targets (6,) rad for the arm; applied through the robot (speed limits,
-        safety floor)."""
-        self.robot.update_control({self.arm_group_id: np.asarray(joint_positions, float)})
-        self.robot.compute_control(self.data)
+        """Joint targets (6,) rad for the arm, written to its position actuators (within the
+        joint ranges), as the vendor's: under plain ``mj_step`` the actuators take the arm
+        there at their own pace. (``set_ee_pose`` goes through the robot layer's speed
+        limits and safety floor; a later call starts from these targets.)"""
+        q = _vector("joint_positions", joint_positions, self.num_arm_joints)
+        low, high = self.arm.joint_range[:, 0], self.arm.joint_range[:, 1]
+        self.arm.set_ctrl(self.data, np.clip(q, low, high))
 
     def set_gripper_position(self, position: float) -> None:
         """Gripper target (m of finger travel, within the actuator's range); the actuator
@@ -188,7 +217,9 @@ class Controller:
             return error
         self.out_of_reach = False
         q = self._ik_target(target, target_orientation, position_only, clip=True)
-        self.set_arm_joint_positions(q)
+        # through the robot layer: speed limits and the safety floor
+        self.robot.update_control({self.arm_group_id: q})
+        self.robot.compute_control(self.data)
         return error
 
     def _ik_target(self, target_position, target_orientation, position_only, clip: bool):
@@ -202,6 +233,7 @@ class Controller:
                 raise UserError("target_orientation must be a nonzero quaternion [w, x, y, z]")
             err = np.concatenate([err, orientation_error(goal / norm, quat)])
         twist = self.ik_scale * err
+        mujoco.mj_jacSite(self.model, self.data, self.jac_pos, self.jac_rot, self.ee_site_id)
         q_next = self.kinematics.delta_step(self.data.qpos, twist, self.ik_damping)
         if clip:
             return q_next
