@@ -123,7 +123,7 @@ def main(argv=None) -> int:
     lo, hi = wilson_interval(wins, len(results))
     rates = [r["hz"] for r in results if r.get("hz")]
     print(f"success {wins}/{len(results)} ({100 * wins / max(1, len(results)):.1f} %, 95 % CI "
-          f"{100 * lo:.1f}-{100 * hi:.1f}); faults {sum(r['fault'] for r in results)}; loop "
+          f"{lo:.1f}-{hi:.1f}); faults {sum(r['fault'] for r in results)}; loop "
           f"{min(rates, default=0):.1f}-{max(rates, default=0):.1f} Hz "
           f"(asked {args.fps})")  # fmt: skip
     return 0
