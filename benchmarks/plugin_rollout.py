@@ -12,8 +12,9 @@ its randomization), starts it on the kit's control channel, runs ``lerobot-rollo
 ``TROSSEN_LEROBOT_PYTHON``, through ``benchmarks/rollout_probe.py``, which counts its control
 loop) for the episode's length, then ends the episode and reads its score. The checkpoint
 is prepared first (``trossen-mujoco prepare``: its image steps turn the streamed whole frames
-into the images it was trained on). A rollout that exits non-zero, or any arm fault the kit
-reports, counts as a fault. Prints one line per episode and the success rate with its
+into the images it was trained on). An episode succeeds when the kit judged it a success at
+any frame; a rollout that exits non-zero, or any arm fault the kit reports (the plugin's
+shutdown moves included), is counted as a fault beside it. Prints one line per episode and the success rate with its
 Wilson 95 % interval, the faults and the loop rate.
 """
 
@@ -108,7 +109,7 @@ def main(argv=None) -> int:
                           if line.startswith("PROBE ")), {"exit": proc.returncode})  # fmt: skip
             faults = [line.strip() for line in kit.lines[before:] if _is_fault(line)]
             failed = proc.returncode != 0 or bool(faults)
-            row = {"seed": seed, "success": bool(end["success"]) and not failed,
+            row = {"seed": seed, "success": bool(end["success"]),
                    "max_reward": end["max_reward"], "fault": failed, "kit_faults": faults,
                    "wall_s": round(time.monotonic() - began, 1), **probe}  # fmt: skip
             if proc.returncode != 0:
