@@ -14,8 +14,8 @@ loop) for the episode's length, then ends the episode and reads its score. The c
 is prepared first (``trossen-mujoco prepare``: its image steps turn the streamed whole frames
 into the images it was trained on). An episode succeeds when the kit judged it a success at
 any frame; a rollout that exits non-zero, or any arm fault the kit reports (the plugin's
-shutdown moves included), is counted as a fault beside it. Prints one line per episode and the success rate with its
-Wilson 95 % interval, the faults and the loop rate.
+shutdown moves included), is counted as a fault beside it. Prints one line per episode and
+the success rate with its Wilson 95 % interval, the faults and the loop rate.
 """
 
 from __future__ import annotations

@@ -254,7 +254,9 @@ def test_no_import_cycles(graph):
 
 def test_imports_point_down_the_layers(graph):
     bad = layer_violations(graph)
-    assert not bad, "imports against the layers of docs/concepts/architecture.md:\n" + "\n".join(bad)
+    assert not bad, "imports against the layers of docs/concepts/architecture.md:\n" + "\n".join(
+        bad
+    )
 
 
 def test_no_module_getattr_shims():
