@@ -270,8 +270,10 @@ def test_a_cropped_camera_shows_its_rectangle_of_the_frame(make_env):
     scaled = full[216:366, 240:440].reshape(30, 5, 40, 5, 3).mean(axis=(1, 3))
     assert np.abs(image - scaled).mean() < 8.0  # the same rectangle, 5x smaller
     assert np.abs(image - full[::16, ::16]).mean() > 20.0  # not the whole frame
-    with pytest.raises(UserError, match="valid cameras"):
+    with pytest.raises(UserError, match="camera cam_nope is not observed"):
         make_env(cam_names=("cam_high",), crops=("cam_nope:0,0,10,10",))
+    with pytest.raises(UserError, match="valid cameras"):  # observed but not in the scene
+        make_env(cam_names=("cam_nope",), crops=("cam_nope:0,0,10,10",))
 
 
 def test_the_cameras_come_as_one_settings_object_or_as_the_three_values(make_env):
