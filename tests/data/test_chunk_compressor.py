@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import threading
 import zlib
 
 import h5py
@@ -66,12 +67,23 @@ def test_incompressible_frames_are_stored_raw_and_still_read(tmp_path):
         assert mask == 1 and raw == frames[1].tobytes()  # deflate skipped for this chunk
 
 
-def test_cancel_writes_nothing_more(tmp_path):
+def test_cancel_writes_nothing_more(tmp_path, monkeypatch):
+    # the worker's first write waits until cancel has been asked for: the 49 frames still
+    # queued behind it are then dropped, however fast the machine (no race)
+    gate = threading.Event()
+    write = chunk_compressor.write_chunk
+
+    def held(*args, **kwargs):
+        gate.wait(10)
+        return write(*args, **kwargs)
+
+    monkeypatch.setattr(chunk_compressor, "write_chunk", held)
     with h5py.File(tmp_path / "a.hdf5", "w") as f:
         ds = _dataset(f, 50)
         comp = ChunkCompressor(1, workers=1, max_pending=100)
         for t, frame in enumerate(_smooth_frames(50)):
             comp.submit(ds, t, frame)
+        threading.Timer(0.3, gate.set).start()  # cancel is asked for first, then it goes on
         comp.cancel()
         comp.cancel()  # idempotent
         written = ds.id.get_num_chunks()
