@@ -76,6 +76,7 @@ def main(argv=None) -> int:
     from trossen_arm_mujoco.eval.env import KitPolicyEnv
     from trossen_arm_mujoco.eval.prepare import prepare_checkpoint
     from trossen_arm_mujoco.eval.scores import wilson_interval
+    from trossen_arm_mujoco.eval.wire_env import start_fields
     from trossen_arm_mujoco.eval.wire_link import ControlClient, KitLink, start_kit, stop_kit
     from trossen_arm_mujoco.tasks.randomization_levels import level_section
 
@@ -95,10 +96,7 @@ def main(argv=None) -> int:
         for i in range(args.episodes):
             seed = args.seed + i
             scenes.reset(seed=seed)
-            scene = {"object_poses": {k: v.tolist() for k, v in scenes.object_poses().items()}}
-            if scenes.randomization is not None:
-                scene["randomization"] = scenes.randomization
-            control.request("start", seed=seed, **scene)
+            control.request("start", seed=seed, **start_fields(scenes))
             before = len(kit.lines)
             began = time.monotonic()
             proc = subprocess.run([python, str(PROBE), *rollout_args(policy, cams, link,

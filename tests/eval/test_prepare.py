@@ -245,3 +245,27 @@ def test_a_read_only_checkpoint_is_one_line(tmp_path):
             prepare_checkpoint(ckpt)
     finally:
         ckpt.chmod(0o755)
+
+
+def test_ctrl_c_between_the_renames_leaves_both_files_as_they_were(tmp_path, monkeypatch):
+    ckpt = _checkpoint(tmp_path / "ckpt")
+    before = _files(ckpt)
+    real_replace = os.replace
+
+    def interrupted(src, dst):
+        if str(dst).endswith(POSTPROCESSOR_FILE):
+            raise KeyboardInterrupt
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        prepare_checkpoint(ckpt)
+    assert _files(ckpt) == before
+
+
+def test_two_preparations_of_one_checkpoint_write_the_same_link(tmp_path):
+    a, b = _checkpoint(tmp_path / "a"), _checkpoint(tmp_path / "b")  # the same config.json
+    prepare_checkpoint(a)
+    prepare_checkpoint(b)
+    assert (a / PREPROCESSOR_FILE).read_text() == (b / PREPROCESSOR_FILE).read_text()
+    assert (a / POSTPROCESSOR_FILE).read_text() == (b / POSTPROCESSOR_FILE).read_text()

@@ -45,6 +45,7 @@ Editing the JSON needs no LeRobot (:func:`add_to_checkpoint`); running the steps
 
 from __future__ import annotations
 
+import hashlib
 import math
 import secrets
 import sys
@@ -159,6 +160,14 @@ def action_size(folder: str | Path) -> int:
     return size
 
 
+def _link_of(folder: Path) -> str:
+    """16 hex digits from the checkpoint's ``config.json`` (random where it cannot be read)."""
+    try:
+        return hashlib.sha256((Path(folder) / "config.json").read_bytes()).hexdigest()[:16]
+    except OSError:
+        return secrets.token_hex(8)
+
+
 def add_limits(procs: SavedProcessors, size: int, fps: float | None, layout: str | None) -> None:
     """Put (or bring up to date) the two steps in ``procs`` (in memory): the range for
     ``size`` action values of ``layout``; with ``fps``, the joint steps and gripper rates
@@ -170,7 +179,9 @@ def add_limits(procs: SavedProcessors, size: int, fps: float | None, layout: str
     low, high = controller_bounds(size, layout)
     config: dict[str, Any] = {"low": low, "high": high}
     old = next((s for s in post_steps if s.get("registry_name") == REGISTRY_NAME), None)
-    link = (old or {}).get("config", {}).get("link") or secrets.token_hex(8)
+    # the token pairing the two steps: derived from the checkpoint's config, so that two
+    # runs preparing one checkpoint at once write the same one into both files
+    link = (old or {}).get("config", {}).get("link") or _link_of(procs.folder)
     if fps is not None:
         config.update(max_step=joint_steps(size, fps, layout),
                       max_rate=gripper_rates(size, fps, layout), link=link)  # fmt: skip

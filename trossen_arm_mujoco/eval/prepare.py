@@ -32,14 +32,13 @@ from trossen_arm_mujoco.eval.processor_files import (
 )
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings, checkpoint_settings
 from trossen_arm_mujoco.sim.camera_crop import FRAME
+from trossen_arm_mujoco.train.pose_dataset import ENCODER_FILE
 
 __all__ = ["ENCODER_FILE", "IMAGE_STEP", "carries_images", "dataset_encoder", "image_step",
            "prepare_checkpoint"]  # fmt: skip
 
 #: Registry name of the image step (``eval.steps.camera_image``).
 IMAGE_STEP = step_names.IMAGE
-#: Where ``train.pose_dataset`` saves the encoder, in the derived dataset's folder.
-ENCODER_FILE = "meta/pose_encoder.safetensors"
 
 
 def image_step(settings: DatasetSettings | None) -> dict[str, Any] | None:
@@ -63,12 +62,12 @@ def image_step(settings: DatasetSettings | None) -> dict[str, Any] | None:
 def carries_images(policy: str | Path) -> bool:
     """Whether ``policy`` is a checkpoint folder whose preprocessor cuts and scales its
     cameras' whole frames itself (the image step): runners then hand it whole frames."""
-    path = Path(policy).expanduser()
-    folder = path / "pretrained_model" if (path / "pretrained_model").is_dir() else path
+    from trossen_arm_mujoco.eval.lerobot_policy import checkpoint_dir
+
     try:
-        steps = read_json(folder / PREPROCESSOR_FILE).get("steps", [])
+        steps = read_json(checkpoint_dir(policy) / PREPROCESSOR_FILE).get("steps", [])
         return any(s.get("registry_name") == IMAGE_STEP for s in steps)
-    except (OSError, ValueError, AttributeError, TypeError):
+    except (UserError, OSError, ValueError, AttributeError, TypeError):
         return False
 
 
@@ -112,7 +111,9 @@ def prepare_checkpoint(
     copied = False
     encoder = Path(encoder) if encoder is not None else dataset_encoder(folder)
     if encoder is not None:
-        name = camera or camera_pose_step.camera_of(folder)
+        pose_steps = [st for st in procs.pre["steps"]
+                      if st.get("registry_name") == camera_pose_step.REGISTRY_NAME]  # fmt: skip
+        name = camera or (pose_steps[0].get("config", {}).get("camera") if pose_steps else None)
         if name is None and settings is not None and settings.cameras.names:
             name = settings.cameras.names[0]
         if name is None:

@@ -112,12 +112,14 @@ class SavedProcessors:
             for name in names:
                 os.replace(temps[name], self.folder / name)
                 done.append(name)
-        except OSError as exc:
+        except BaseException as exc:  # an OSError, or Ctrl-C / SIGTERM between the renames
             for name in done:  # put back what was already replaced
                 try:
                     (self.folder / name).write_bytes(self._raw[name])
                 except OSError:
                     pass
+            if not isinstance(exc, OSError):
+                raise
             why = exc.strerror or type(exc).__name__
             raise UserError(
                 f"{self.folder}: cannot write its processors ({why}); nothing was changed: "

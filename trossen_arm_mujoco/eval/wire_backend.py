@@ -203,15 +203,12 @@ class WireEpisodeRunner:
                 f"{self.action_timeout:g} s; stopped before episode {index}"
             )
         seed = self.settings.seed + index
-        poses = self.env.draw_scene(seed)
+        scene = self.env.draw_scene(seed)
         # before the kit's episode starts: a plan made here (scripted) costs no control time
         self._call(index, "reset", self.policy.reset, self.env, seed, timeout=RESET_TIMEOUT_S)
         self.arms.close()  # the old sessions stop streaming before the scene is reset
         began = time.time()
-        scene = {"object_poses": {k: v.tolist() for k, v in poses.items()}}
-        if self.env.randomization is not None:  # the in-process eval's scene, applied there
-            scene["randomization"] = self.env.randomization
-        self.control.request("start", seed=seed, **scene)
+        self.control.request("start", seed=seed, **scene)  # the in-process eval's scene
         # the kit put the arms at the initial pose: new driver sessions start from there
         # (a driver interpolates from its last goal) and clear any error state
         self.arms.connect()

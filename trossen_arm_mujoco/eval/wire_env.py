@@ -16,7 +16,17 @@ from trossen_arm_mujoco.eval.runner import EvalSettings
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 
-__all__ = ["WireEnv"]
+__all__ = ["WireEnv", "start_fields"]
+
+
+def start_fields(scenes) -> dict:
+    """The served kit's ``start`` fields that show the scene ``scenes`` (a ``KitPolicyEnv``
+    just reset) drew: its object poses and, when randomizing, its randomization record."""
+    fields: dict = {"object_poses": {k: np.asarray(v).tolist()
+                                     for k, v in scenes.object_poses().items()}}  # fmt: skip
+    if scenes.randomization is not None:
+        fields["randomization"] = scenes.randomization
+    return fields
 
 
 class WireEnv:
@@ -37,16 +47,13 @@ class WireEnv:
         self.episode_length, self.max_reward = s.episode_length, s.max_reward
         self.action_low, self.action_high = s.action_low, s.action_high
         self._poses: dict[str, np.ndarray] = {}
-        #: what the last drawn scene was randomized by (None: nominal, or not randomizing)
-        self.randomization: dict | None = None
 
-    def draw_scene(self, seed: int) -> dict[str, np.ndarray]:
-        """The object poses of the in-process eval's ``reset(seed=seed)`` (and, with
-        ``randomize``, its randomization in :attr:`randomization`)."""
+    def draw_scene(self, seed: int) -> dict:
+        """The served kit's ``start`` fields (:func:`start_fields`) of the in-process eval's
+        ``reset(seed=seed)``."""
         self.scenes.reset(seed=seed)
         self._poses = {k: np.asarray(v).copy() for k, v in self.scenes.object_poses().items()}
-        self.randomization = self.scenes.randomization
-        return self._poses
+        return start_fields(self.scenes)
 
     def object_poses(self) -> dict[str, np.ndarray]:
         """The object poses of the episode's scene: name -> (7,) world position (m) and
