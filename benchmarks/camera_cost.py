@@ -43,8 +43,13 @@ def record(folder: str, flags: list[str], env: dict) -> float | None:
     """CPU seconds of one ``record`` run into ``folder`` (None: this version lacks a flag).
     Exit status 1 (episodes kept as failed: the 60-step runs end before the task) counts."""
     before = children_cpu()
-    done = subprocess.run(CLI + ["record", "--data_dir", folder, *flags], env=env,
-                          capture_output=True, text=True, check=False)  # fmt: skip
+    done = subprocess.run(
+        CLI + ["record", "--data_dir", folder, *flags],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     if "unrecognized arguments" in done.stderr:
         return None
     if done.returncode not in (0, 1) or not list(Path(folder).glob("episode_*.hdf5")):
@@ -53,8 +58,15 @@ def record(folder: str, flags: list[str], env: dict) -> float | None:
 
 
 def record_part(episodes: int, repeats: int, env: dict) -> None:
-    common = ["--task_name", "sim_transfer_cube", "--inject_noise", "--seed", "11",
-              "--num_episodes", str(episodes)]  # fmt: skip
+    common = [
+        "--task_name",
+        "sim_transfer_cube",
+        "--inject_noise",
+        "--seed",
+        "11",
+        "--num_episodes",
+        str(episodes),
+    ]
     cam = ["--cam_names", "cam_high", "--image_size", "60x80", "--crop", CROP]
     runs = [
         ("state only", common + ["--cam_names", "none"], None),
@@ -63,9 +75,12 @@ def record_part(episodes: int, repeats: int, env: dict) -> None:
         ("  --no_shadows", common + cam + ["--no_shadows"], "state only"),
         ("state only, 60 steps", common + ["--cam_names", "none", "--episode_len", "60"], None),
         ("4 cams 480x640, 60 steps", common + ["--episode_len", "60"], "state only, 60 steps"),
-        ("  --no_antialias", common + ["--episode_len", "60", "--no_antialias"],
-         "state only, 60 steps"),
-    ]  # fmt: skip
+        (
+            "  --no_antialias",
+            common + ["--episode_len", "60", "--no_antialias"],
+            "state only, 60 steps",
+        ),
+    ]
     cpu: dict[str, float] = {}
     print(f"record: {episodes} noisy transfer episode(s), seed 11, least of {repeats} runs")
     with tempfile.TemporaryDirectory() as tmp:
@@ -83,8 +98,9 @@ def record_part(episodes: int, repeats: int, env: dict) -> None:
 def stream_part(seconds: float, env: dict, flags: list[str]) -> None:
     cmd = CLI + ["serve", "--left_ip", "127.0.0.2", "--right_ip", "127.0.0.3", *flags]
     cmd += ["--cameras", "cam_high", "--image_size", "480x640", "--camera_port", "5591"]
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)  # fmt: skip
+    proc = subprocess.Popen(
+        cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
     time.sleep(seconds)
     proc.send_signal(signal.SIGINT)
     try:
@@ -97,8 +113,10 @@ def stream_part(seconds: float, env: dict, flags: list[str]) -> None:
     if not rate or not rtf:
         sys.exit(f"error: serve did not report its rates:\n{out[-800:]}")
     shown = " ".join(flags) or "defaults"
-    print(f"stream: cam_high 480x640, {shown}, {seconds:g} s: {rate.group(2)} frames per s "
-          f"(30 asked), physics real-time factor {rtf.group(1)}")  # fmt: skip
+    print(
+        f"stream: cam_high 480x640, {shown}, {seconds:g} s: {rate.group(2)} frames per s "
+        f"(30 asked), physics real-time factor {rtf.group(1)}"
+    )
 
 
 def main(argv=None) -> None:

@@ -203,10 +203,15 @@ def policy_rates(args, workers: int) -> tuple[float, float]:
     found = {} if args.policy == "scripted" else checkpoint_features(args.policy)
     cameras = CameraSettings(found.get("cam_names", ()), found.get("image_size", DEFAULT_SIZE))
     settings = EvalSettings(
-        policy=args.policy, task=args.task, num_episodes=args.episodes, cameras=cameras,
-        episode_length=args.episode_length, layout=found.get("layout", "kit14"),
-        output_dir=os.devnull, controller_checks=args.controller_checks == "on",
-    )  # fmt: skip
+        policy=args.policy,
+        task=args.task,
+        num_episodes=args.episodes,
+        cameras=cameras,
+        episode_length=args.episode_length,
+        layout=found.get("layout", "kit14"),
+        output_dir=os.devnull,
+        controller_checks=args.controller_checks == "on",
+    )
     arrivals: list[float] = []
     t0 = time.perf_counter()
     evaluate(settings, workers, on_episode=lambda _: arrivals.append(time.perf_counter()))
@@ -219,9 +224,22 @@ def policy_rates(args, workers: int) -> tuple[float, float]:
 def fresh_rates(args, workers: int) -> tuple[float, float]:
     """``policy_rates`` in a new Python process (nothing imported yet: the whole call pays
     every import, as a ``trossen-mujoco eval`` run does)."""
-    argv = [sys.executable, __file__, "--policy", args.policy, "--task", args.task,
-            "--episodes", str(args.episodes), "--episode_length", str(args.episode_length),
-            "--controller_checks", args.controller_checks, "--rates_of", str(workers)]  # fmt: skip
+    argv = [
+        sys.executable,
+        __file__,
+        "--policy",
+        args.policy,
+        "--task",
+        args.task,
+        "--episodes",
+        str(args.episodes),
+        "--episode_length",
+        str(args.episode_length),
+        "--controller_checks",
+        args.controller_checks,
+        "--rates_of",
+        str(workers),
+    ]
     run = subprocess.run(argv, capture_output=True, text=True)
     line = next((x for x in run.stdout.splitlines() if x.startswith("RATES ")), None)
     if run.returncode != 0 or line is None:
@@ -235,18 +253,25 @@ def policy_table(args, counts: list[int]) -> None:
 
     cpus = available_cpus()
     where = "each count in a new process" if args.fresh else "the counts in one process"
-    print(f"policy throughput: {args.policy}, {args.task}, {args.episodes} episodes of "
-          f"{args.episode_length} steps, controller checks {args.controller_checks}, {where}; "
-          f"{cpus} usable CPUs, load average {os.getloadavg()[0]:.1f} (other processes "
-          "share these cores)")  # fmt: skip
-    print(f"  {'workers':>7}  {'threads':>7}  {'episodes/s':>10}  {'(whole)':>8}  "
-          f"{'ratio':>6}  {'(whole)':>7}")  # fmt: skip
+    print(
+        f"policy throughput: {args.policy}, {args.task}, {args.episodes} episodes of "
+        f"{args.episode_length} steps, controller checks {args.controller_checks}, {where}; "
+        f"{cpus} usable CPUs, load average {os.getloadavg()[0]:.1f} (other processes "
+        "share these cores)"
+    )
+    print(
+        f"  {'workers':>7}  {'threads':>7}  {'episodes/s':>10}  {'(whole)':>8}  "
+        f"{'ratio':>6}  {'(whole)':>7}"
+    )
     base = None
     for n in counts:
         steady, whole = (fresh_rates if args.fresh else policy_rates)(args, n)
         base = base or (steady, whole)
-        print(f"  {n:>7}  {threads_per_worker(n, cpus):>7}  {steady:>10.3f}  {whole:>8.3f}  "
-              f"{steady / base[0]:>6.2f}  {whole / base[1]:>7.2f}", flush=True)  # fmt: skip
+        print(
+            f"  {n:>7}  {threads_per_worker(n, cpus):>7}  {steady:>10.3f}  {whole:>8.3f}  "
+            f"{steady / base[0]:>6.2f}  {whole / base[1]:>7.2f}",
+            flush=True,
+        )
 
 
 def main(argv=None) -> None:
@@ -264,11 +289,16 @@ def main(argv=None) -> None:
     )
     p.add_argument("--episodes", type=int, default=8, help="episodes per --policy run")
     p.add_argument("--episode_length", type=int, default=100, help="steps per episode")
-    p.add_argument("--controller_checks", choices=("on", "off"), default="on",
-                   help="the arm controller's checks in --policy runs (off: an untrained "
-                   "checkpoint's episodes run to the end)")  # fmt: skip
-    p.add_argument("--fresh", action="store_true",
-                   help="run each --policy worker count in a new process")  # fmt: skip
+    p.add_argument(
+        "--controller_checks",
+        choices=("on", "off"),
+        default="on",
+        help="the arm controller's checks in --policy runs (off: an untrained "
+        "checkpoint's episodes run to the end)",
+    )
+    p.add_argument(
+        "--fresh", action="store_true", help="run each --policy worker count in a new process"
+    )
     p.add_argument("--rates_of", type=int, default=0, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     from trossen_arm_mujoco.eval.env import parse_cameras, parse_image_size
@@ -308,12 +338,16 @@ def main(argv=None) -> None:
     env_rate, raw_rate = args.steps / env_wall, args.steps / raw_wall
     per_step = f"{ticks * substeps} mj_step + {len(args.cam_list)} render(s) per step"
     print(f"  KitPolicyEnv.step     {env_rate:8.1f} steps/s  {1e3 / env_rate:7.2f} ms/step")
-    print(f"  raw floor             {raw_rate:8.1f} steps/s  {1e3 / raw_rate:7.2f} ms/step"
-          f"  ({per_step})")  # fmt: skip
+    print(
+        f"  raw floor             {raw_rate:8.1f} steps/s  {1e3 / raw_rate:7.2f} ms/step"
+        f"  ({per_step})"
+    )
     print(f"  ratio env/raw         {env_rate / raw_rate:8.2f}")
     if same is not None:
-        print(f"  (floor renders the env's view{shadow}; last images identical: "
-              f"{'yes' if same else 'NO'})")  # fmt: skip
+        print(
+            f"  (floor renders the env's view{shadow}; last images identical: "
+            f"{'yes' if same else 'NO'})"
+        )
     print("scaling (spawned worker processes, each its own env):")
     print(f"  {'workers':>7}  {'total steps/s':>13}  {'speedup':>7}  {'efficiency':>10}")
     base = None

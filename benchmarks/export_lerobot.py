@@ -163,8 +163,10 @@ def main() -> None:
         steps = sum(ep.num_steps for ep in episodes)
         h, w = episodes[0].image_shapes[cams[0]][:2]
         print(f"{len(episodes)} episodes, {steps} steps, {len(cams)} cameras {h}x{w}")
-        print(f"{'encoding':24s} {'export f/s':>10s} {'floor f/s':>9s} {'ratio':>6s} "
-              f"{'PSNR min':>8s} {'mean':>5s} {'KiB/frame':>9s}")  # fmt: skip
+        print(
+            f"{'encoding':24s} {'export f/s':>10s} {'floor f/s':>9s} {'ratio':>6s} "
+            f"{'PSNR min':>8s} {'mean':>5s} {'KiB/frame':>9s}"
+        )
         for name, video in ENCODINGS.items():
             out = tmp / name.replace(" ", "_")
             summary = export_lerobot(data_dir, out, "bench/ds", video=video, progress=False)

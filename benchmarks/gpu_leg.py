@@ -139,9 +139,12 @@ def main() -> None:
         default=0,
         help="cut packs larger than this many MiB into parts (0: never)",
     )
-    p.add_argument("--wheels", default="",
-                   help="folder of wheels to install first (offline); a *.tar.xz there is an "
-                   "unpacked wheel packed smaller, extracted as it is")  # fmt: skip
+    p.add_argument(
+        "--wheels",
+        default="",
+        help="folder of wheels to install first (offline); a *.tar.xz there is an "
+        "unpacked wheel packed smaller, extracted as it is",
+    )
     p.add_argument(
         "--stub_av",
         action="store_true",
@@ -161,9 +164,24 @@ def main() -> None:
     if args.wheels and Path(args.wheels).is_dir():
         site = "/tmp/gpu_leg_site"
         wheels = sorted(str(w) for w in Path(args.wheels).glob("*.whl"))
-        subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-index", "--no-deps",
-                        "--no-compile", "--no-cache-dir", "--upgrade", "--target", site, *wheels],
-                       check=True)  # fmt: skip
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "pip",
+                "install",
+                "-q",
+                "--no-index",
+                "--no-deps",
+                "--no-compile",
+                "--no-cache-dir",
+                "--upgrade",
+                "--target",
+                site,
+                *wheels,
+            ],
+            check=True,
+        )
         for packed in sorted(Path(args.wheels).glob("*.tar.xz")):  # unpacked wheels, xz'd
             with tarfile.open(packed) as tar:
                 tar.extractall(site, filter="data")
@@ -179,8 +197,15 @@ def main() -> None:
         work.mkdir(parents=True, exist_ok=True)
         log = open(work / "gpu_leg.log", "w")
         cmd = [sys.executable, str(HERE / "train_eval.py"), "--phase", "train", *run["args"]]
-        procs.append((run, work, subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
-                                                  env=env, start_new_session=True)))  # fmt: skip
+        procs.append(
+            (
+                run,
+                work,
+                subprocess.Popen(
+                    cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True
+                ),
+            )
+        )
     while any(pr.poll() is None for _, _, pr in procs):
         if time.perf_counter() - start > args.deadline_s:
             for _, _, pr in procs:
@@ -200,8 +225,12 @@ def main() -> None:
             seed = first + k
             last = work / "train" / f"seed_{seed}" / "checkpoints" / "last"
             model = last / "pretrained_model"
-            entry = {"name": run["name"], "seed": seed, "exit": pr.returncode,
-                     **_log_stats(work / f"train_seed_{seed}.log")}  # fmt: skip
+            entry = {
+                "name": run["name"],
+                "seed": seed,
+                "exit": pr.returncode,
+                **_log_stats(work / f"train_seed_{seed}.log"),
+            }
             if model.is_dir():
                 steps = int(last.resolve().name)
                 took = wall

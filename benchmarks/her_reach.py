@@ -71,8 +71,10 @@ def main(argv=None) -> int:
         device="cpu",
         verbose=0,
     )
-    print(f"{ENV_ID}: SAC + HER, seed {args.seed}, target {args.target:.0%} over "
-          f"{args.eval_episodes} episodes")  # fmt: skip
+    print(
+        f"{ENV_ID}: SAC + HER, seed {args.seed}, target {args.target:.0%} over "
+        f"{args.eval_episodes} episodes"
+    )
     start = time.perf_counter()
     steps, rate, train_s = 0, 0.0, 0.0
     while steps < args.total_steps:
@@ -84,9 +86,11 @@ def main(argv=None) -> int:
         rate = evaluate(model, eval_env, args.eval_episodes, args.seed)
         print(f"steps {steps:7d}  success {rate:6.1%}  training {train_s:7.1f} s", flush=True)
         if rate >= args.target:
-            print(f"reached {rate:.1%} >= {args.target:.0%} after {steps} steps, "
-                  f"{train_s:.1f} s of training wall time "
-                  f"({time.perf_counter() - start:.1f} s including evaluations)")  # fmt: skip
+            print(
+                f"reached {rate:.1%} >= {args.target:.0%} after {steps} steps, "
+                f"{train_s:.1f} s of training wall time "
+                f"({time.perf_counter() - start:.1f} s including evaluations)"
+            )
             return 0
     print(f"not reached: {rate:.1%} after {steps} steps, {time.perf_counter() - start:.1f} s")
     return 1

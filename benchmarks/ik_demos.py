@@ -15,8 +15,12 @@ import subprocess
 import sys
 import time
 
-SCRIPTS = ("wxai_pick_place", "stationary_ai_pick_place", "mobile_ai_pick_place",
-           "wxai_follow_target")  # fmt: skip
+SCRIPTS = (
+    "wxai_pick_place",
+    "stationary_ai_pick_place",
+    "mobile_ai_pick_place",
+    "wxai_follow_target",
+)
 
 
 def main() -> int:
@@ -28,8 +32,10 @@ def main() -> int:
         start = time.perf_counter()
         proc = subprocess.run(
             [sys.executable, "-m", f"trossen_arm_mujoco.scripts.{name}", "--headless"],
-            capture_output=True, text=True, env=env,
-        )  # fmt: skip
+            capture_output=True,
+            text=True,
+            env=env,
+        )
         took = time.perf_counter() - start
         lines = (proc.stdout.strip() or proc.stderr.strip() or "(no output)").splitlines()
         result = lines[-1] if proc.returncode == 0 else f"exit {proc.returncode}: {lines[-1]}"

@@ -100,10 +100,14 @@ def same_draws(low, high, size, draws: int) -> bool:
 
 
 def bench_uniform(args, clock) -> None:
-    print(f"uniform: us per call (best of {args.repeats} x {args.n} calls); same draws over "
-          f"{args.draws} calls")  # fmt: skip
-    print(f"| {'arguments':<20} | {'Generator.uniform':>17} | {'written out':>11} | "
-          f"{'difference':>10} | same draws |")  # fmt: skip
+    print(
+        f"uniform: us per call (best of {args.repeats} x {args.n} calls); same draws over "
+        f"{args.draws} calls"
+    )
+    print(
+        f"| {'arguments':<20} | {'Generator.uniform':>17} | {'written out':>11} | "
+        f"{'difference':>10} | same draws |"
+    )
     print(f"|{'-' * 22}|{'-' * 19}|{'-' * 13}|{'-' * 12}|------------|")
     for label, low, high, size in UNIFORM_CALLS:
         rng_a, rng_b = np.random.default_rng(0), np.random.default_rng(0)
@@ -119,8 +123,10 @@ def bench_uniform(args, clock) -> None:
             clock,
         )
         same = "yes" if same_draws(low, high, size, args.draws) else "NO"
-        print(f"| {label:<20} | {t['public']:>17.2f} | {t['written']:>11.2f} | "
-              f"{t['public'] - t['written']:>+10.2f} | {same:>10} |")  # fmt: skip
+        print(
+            f"| {label:<20} | {t['public']:>17.2f} | {t['written']:>11.2f} | "
+            f"{t['public'] - t['written']:>+10.2f} | {same:>10} |"
+        )
 
 
 # -- clip ----------------------------------------------------------------------------------------
@@ -269,20 +275,34 @@ def bench_step_overhead(args) -> None:
     so = load_step_overhead()
     names = [name for name, _ in gym_cases(so, args)]
     labels = list(clip_variants())
-    print(f"\nper gym id (default action mode, state): step_overhead.py's ratio env / raw "
-          f"mj_step ({args.clock} clock, {args.steps} steps, best of {args.so_repeats}) measured "
-          "with each clip; the clip calls of one step timed alone (us) with each; the shift of "
-          "the ratio each variant gives against the shipped one = (its clip us - shipped's) / "
-          "raw us per step (robust to load, unlike the measured ratios)")  # fmt: skip
+    print(
+        f"\nper gym id (default action mode, state): step_overhead.py's ratio env / raw "
+        f"mj_step ({args.clock} clock, {args.steps} steps, best of {args.so_repeats}) measured "
+        "with each clip; the clip calls of one step timed alone (us) with each; the shift of "
+        "the ratio each variant gives against the shipped one = (its clip us - shipped's) / "
+        "raw us per step (robust to load, unlike the measured ratios)"
+    )
     head = " | ".join(f"{v:>10}" for v in labels)
     print(f"| {'gym id':<28} | raw us | calls | ratio {head} | clip us {head} | shift {head} |")
-    passed = ["--steps", str(args.steps), "--so-repeats", str(args.so_repeats), "--clock",
-              args.clock, "--n", str(args.n), "--repeats", str(args.repeats)]  # fmt: skip
+    passed = [
+        "--steps",
+        str(args.steps),
+        "--so-repeats",
+        str(args.so_repeats),
+        "--clock",
+        args.clock,
+        "--n",
+        str(args.n),
+        "--repeats",
+        str(args.repeats),
+    ]
     for index, name in enumerate(names):
         done = subprocess.run(
             [sys.executable, __file__, "--case", str(index), *passed],
-            capture_output=True, text=True, check=False,
-        )  # fmt: skip
+            capture_output=True,
+            text=True,
+            check=False,
+        )
         rows = [x for x in done.stdout.splitlines() if x.startswith("ROW ")]
         if done.returncode != 0 or not rows:
             last = (done.stderr.strip().splitlines() or ["no output"])[-1]
@@ -292,8 +312,11 @@ def bench_step_overhead(args) -> None:
         ratio = " | ".join(f"{row['ratio'][v]:>10.3f}" for v in labels)
         cost = " | ".join(f"{row['clip_us'][v]:>10.2f}" for v in labels)
         shift = " | ".join(f"{(row['clip_us'][v] - base) / row['raw_us']:>+10.3f}" for v in labels)
-        print(f"| {name:<28} | {row['raw_us']:>6.1f} | {row['calls']:>5.2f} | ratio {ratio} | "
-              f"clip us {cost} | shift {shift} |", flush=True)  # fmt: skip
+        print(
+            f"| {name:<28} | {row['raw_us']:>6.1f} | {row['calls']:>5.2f} | ratio {ratio} | "
+            f"clip us {cost} | shift {shift} |",
+            flush=True,
+        )
     print(f"(shipped clip: {row['shipped']})")
 
 
@@ -312,8 +335,10 @@ def main(argv=None) -> None:
     if args.case is not None:
         print("ROW " + json.dumps(step_overhead_case(args, args.case)))
         return
-    print(f"numpy {np.__version__}, Python {sys.version.split()[0]}, load average "
-          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs")  # fmt: skip
+    print(
+        f"numpy {np.__version__}, Python {sys.version.split()[0]}, load average "
+        f"{' '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs"
+    )
     bench_uniform(args, clock)
     bench_clip(args, clock)
     if args.step_overhead:

@@ -117,9 +117,13 @@ def measure(robot: Robot, name: str, n: int, args, clock) -> dict[str, tuple]:
     t_loop, looped = best(lambda: loop(1e-6, m), r, clock)
     ok_loop = np.mean([res.converged for res in looped])
     rows["converge"] = (
-        n / t_batch, n / t_loop, t_loop / t_batch,
-        batched.converged.mean(), ok_loop, batched.iterations.mean(),
-    )  # fmt: skip
+        n / t_batch,
+        n / t_loop,
+        t_loop / t_batch,
+        batched.converged.mean(),
+        ok_loop,
+        batched.iterations.mean(),
+    )
 
     t_batch, _ = best(lambda: par.leaf_poses(q_true), r, clock)
     t_loop, _ = best(lambda: [kin.fk({name: q}) for q in q_true], r, clock)

@@ -117,19 +117,25 @@ def main(argv=None) -> None:
         for shadows in (True, False):
             rows.append(measure(env_id, shadows, args.steps, size, args.repeats))
             r = rows[-1]
-            print(f"{r['name']:<46} env {r['env']:7.1f}  raw {r['raw']:7.1f}  "
-                  f"ratio {r['ratio']:.2f}", flush=True)  # fmt: skip
+            print(
+                f"{r['name']:<46} env {r['env']:7.1f}  raw {r['raw']:7.1f}  ratio {r['ratio']:.2f}",
+                flush=True,
+            )
     unit = "steps/s" if args.clock == "wall" else "steps/cpu s"
     print(f"\n{args.size} images, {unit}, best of {args.repeats} x {args.steps} steps")
     head = ("env", "env", "raw", "ratio", "shadow map", "raw, model map")
-    print(f"| {head[0]:<46} | {head[1]:>7} | {head[2]:>7} | {head[3]:>5} | {head[4]:>10} "
-          f"| {head[5]:>14} |")  # fmt: skip
+    print(
+        f"| {head[0]:<46} | {head[1]:>7} | {head[2]:>7} | {head[3]:>5} | {head[4]:>10} "
+        f"| {head[5]:>14} |"
+    )
     print(f"|{'-' * 48}|{'-' * 9}|{'-' * 9}|{'-' * 7}|{'-' * 12}|{'-' * 16}|")
     for r in rows:
         full = f"{r['raw_full']:.1f}" if r["raw_full"] else "-"
         shadow_map = str(r["map"]) if r["map"] else "-"
-        print(f"| {r['name']:<46} | {r['env']:>7.1f} | {r['raw']:>7.1f} | {r['ratio']:>5.2f} "
-              f"| {shadow_map:>10} | {full:>14} |")  # fmt: skip
+        print(
+            f"| {r['name']:<46} | {r['env']:>7.1f} | {r['raw']:>7.1f} | {r['ratio']:>5.2f} "
+            f"| {shadow_map:>10} | {full:>14} |"
+        )
 
 
 if __name__ == "__main__":

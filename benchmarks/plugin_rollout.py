@@ -39,13 +39,17 @@ def rollout_args(policy: Path, cams: list[str], link, duration: float, fps: int)
         for c in cams
     )
     return [
-        "--strategy.type=base", f"--policy.path={policy}", "--policy.device=cpu",
+        "--strategy.type=base",
+        f"--policy.path={policy}",
+        "--policy.device=cpu",
         "--robot.type=bi_widowxai_follower_robot",
         f"--robot.left_arm_ip_address={link.left_ip}",
         f"--robot.right_arm_ip_address={link.right_ip}",
-        f"--robot.cameras={{{cameras}}}", "--task=Transfer the cube",
-        f"--duration={duration:g}", f"--fps={fps}",
-    ]  # fmt: skip
+        f"--robot.cameras={{{cameras}}}",
+        "--task=Transfer the cube",
+        f"--duration={duration:g}",
+        f"--fps={fps}",
+    ]
 
 
 def _is_fault(line: str) -> bool:
@@ -62,8 +66,12 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0, help="episode i is eval's seed S + i")
     p.add_argument("--task", default="sim_transfer_cube")
     p.add_argument("--cameras", default="cam_high", help="comma list of streamed cameras")
-    p.add_argument("--duration", type=float, default=None,
-                   help="seconds a rollout (default: the task's episode, 12 s)")  # fmt: skip
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="seconds a rollout (default: the task's episode, 12 s)",
+    )
     p.add_argument("--fps", type=int, default=30, help="the plugin's loop rate")
     p.add_argument("--randomize", default=None, choices=("nominal", "train", "hard"))
     p.add_argument("--camera_port", type=int, default=5591)
@@ -71,8 +79,10 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
     if not python or not Path(python).is_file():
-        sys.exit("error: set TROSSEN_LEROBOT_PYTHON to the Python with LeRobot and Trossen's "
-                 "plugin (lerobot_robot_trossen)")  # fmt: skip
+        sys.exit(
+            "error: set TROSSEN_LEROBOT_PYTHON to the Python with LeRobot and Trossen's "
+            "plugin (lerobot_robot_trossen)"
+        )
     from trossen_arm_mujoco.eval.env import KitPolicyEnv
     from trossen_arm_mujoco.eval.prepare import prepare_checkpoint
     from trossen_arm_mujoco.eval.scores import wilson_interval
@@ -84,8 +94,7 @@ def main(argv=None) -> int:
     prepare_checkpoint(policy)
     cams = [c for c in args.cameras.split(",") if c]
     randomize, section = level_section(args.randomize, args.task)
-    scenes = KitPolicyEnv(args.task, render_mode=None, randomize=randomize,
-                          randomization=section)  # fmt: skip
+    scenes = KitPolicyEnv(args.task, render_mode=None, randomize=randomize, randomization=section)
     duration = args.duration or scenes.episode_length / scenes.fps
     link = KitLink(camera_port=args.camera_port, control_port=args.control_port).checked()
     kit = start_kit(link, args.task, tuple(cams), (480, 640), args.fps)
@@ -99,17 +108,33 @@ def main(argv=None) -> int:
             control.request("start", seed=seed, **start_fields(scenes))
             before = len(kit.lines)
             began = time.monotonic()
-            proc = subprocess.run([python, str(PROBE), *rollout_args(policy, cams, link,
-                                   duration, args.fps)], env=env, capture_output=True,
-                                  text=True, timeout=600)  # fmt: skip
+            proc = subprocess.run(
+                [python, str(PROBE), *rollout_args(policy, cams, link, duration, args.fps)],
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=600,
+            )
             end = control.request("end")
-            probe = next((json.loads(line[6:]) for line in proc.stdout.splitlines()
-                          if line.startswith("PROBE ")), {"exit": proc.returncode})  # fmt: skip
+            probe = next(
+                (
+                    json.loads(line[6:])
+                    for line in proc.stdout.splitlines()
+                    if line.startswith("PROBE ")
+                ),
+                {"exit": proc.returncode},
+            )
             faults = [line.strip() for line in kit.lines[before:] if _is_fault(line)]
             failed = proc.returncode != 0 or bool(faults)
-            row = {"seed": seed, "success": bool(end["success"]),
-                   "max_reward": end["max_reward"], "fault": failed, "kit_faults": faults,
-                   "wall_s": round(time.monotonic() - began, 1), **probe}  # fmt: skip
+            row = {
+                "seed": seed,
+                "success": bool(end["success"]),
+                "max_reward": end["max_reward"],
+                "fault": failed,
+                "kit_faults": faults,
+                "wall_s": round(time.monotonic() - began, 1),
+                **probe,
+            }
             if proc.returncode != 0:
                 row["stderr"] = proc.stderr.strip().splitlines()[-3:]
             results.append(row)
@@ -121,10 +146,12 @@ def main(argv=None) -> int:
     wins = sum(r["success"] for r in results)
     lo, hi = wilson_interval(wins, len(results))
     rates = [r["hz"] for r in results if r.get("hz")]
-    print(f"success {wins}/{len(results)} ({100 * wins / max(1, len(results)):.1f} %, 95 % CI "
-          f"{lo:.1f}-{hi:.1f}); faults {sum(r['fault'] for r in results)}; loop "
-          f"{min(rates, default=0):.1f}-{max(rates, default=0):.1f} Hz "
-          f"(asked {args.fps})")  # fmt: skip
+    print(
+        f"success {wins}/{len(results)} ({100 * wins / max(1, len(results)):.1f} %, 95 % CI "
+        f"{lo:.1f}-{hi:.1f}); faults {sum(r['fault'] for r in results)}; loop "
+        f"{min(rates, default=0):.1f}-{max(rates, default=0):.1f} Hz "
+        f"(asked {args.fps})"
+    )
     return 0
 
 

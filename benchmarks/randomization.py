@@ -71,8 +71,10 @@ def episode_row(name: str, args, clock) -> str:
     physics = mj_step_time(on.env.model, 2000, args.repeats, clock) * steps
     on.close()
     off.close()
-    return (f"{name:20s} {t_rand * 1e6:15.0f}  {t_off * 1e6:15.0f}  {t_on * 1e6:14.0f}  "
-            f"{physics * 1e6:15.0f}  {t_rand / physics:19.4f}")  # fmt: skip
+    return (
+        f"{name:20s} {t_rand * 1e6:15.0f}  {t_off * 1e6:15.0f}  {t_on * 1e6:14.0f}  "
+        f"{physics * 1e6:15.0f}  {t_rand / physics:19.4f}"
+    )
 
 
 def action_time(env_id: str, mode: str, args, clock) -> str:
@@ -109,8 +111,10 @@ def main() -> None:
     from trossen_arm_mujoco.gym.registration import ENV_IDS
     from trossen_arm_mujoco.tasks import registry
 
-    print("per episode (us)      randomize_scene  sample_task off  sample_task on  "
-          "episode physics  randomize / physics")  # fmt: skip
+    print(
+        "per episode (us)      randomize_scene  sample_task off  sample_task on  "
+        "episode physics  randomize / physics"
+    )
     for name in registry.names():
         print(episode_row(name, args, clock), flush=True)
     print(
@@ -120,8 +124,10 @@ def main() -> None:
     tasks = {task: env_id for env_id, (_, task, _) in reversed(ENV_IDS.items())}
     for task, env_id in sorted(tasks.items()):
         modes = ("joint_position", "joint_rel_position", "ee_delta")
-        print(f"{task:20s} " + "   ".join(action_time(env_id, m, args, clock) for m in modes),
-              flush=True)  # fmt: skip
+        print(
+            f"{task:20s} " + "   ".join(action_time(env_id, m, args, clock) for m in modes),
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

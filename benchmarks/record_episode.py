@@ -192,8 +192,9 @@ def marginal(settings, actions, poses, out: Path, lengths: tuple[int, int], repe
     ``repeats`` runs per length (floor and phase 2 alternate, so load hits both alike)."""
     recorder = EpisodeRecorder(settings)
     floor = RawFloor(recorder, actions, poses)
-    best = {(name, n): [float("inf"), float("inf")] for name in ("floor", "phase 2")
-            for n in lengths}  # fmt: skip
+    best = {
+        (name, n): [float("inf"), float("inf")] for name in ("floor", "phase 2") for n in lengths
+    }
     for _ in range(repeats):
         for n in lengths:
             path = out / "marginal.hdf5"
@@ -203,7 +204,7 @@ def marginal(settings, actions, poses, out: Path, lengths: tuple[int, int], repe
                 "phase 2": (
                     recorder.replay_steps(actions, poses, np.empty(len(actions)), writer),
                     writer,
-                ),  # fmt: skip
+                ),
             }
             for name, (run, w) in runs.items():
                 wall, cpu = _timed(run, n, w)
@@ -281,8 +282,13 @@ def sweep(settings: RecordSettings, lengths: list[int], repeats: int, out: Path)
             size = path.stat().st_size
             path.unlink()
         recorder.close()
-        point = {"steps": steps, "wall_s": round(best_wall, 3), "cpu_s": round(best_cpu, 3),
-                 "setup_s": round(setup, 3), "bytes": size}  # fmt: skip
+        point = {
+            "steps": steps,
+            "wall_s": round(best_wall, 3),
+            "cpu_s": round(best_cpu, 3),
+            "setup_s": round(setup, 3),
+            "bytes": size,
+        }
         print(
             f"  {steps:6d} steps: wall {best_wall:7.2f} s  CPU {best_cpu:7.2f} s  "
             f"({best_wall / steps * 1e3:6.1f} ms/step; recorder setup {setup:.2f} s)  "

@@ -144,8 +144,10 @@ def main(argv=None) -> None:
         rows.insert(0, "before")
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     env.pop("LP_NUM_THREADS", None)
-    print(f"{'size':>8} {'cams':>4} {'row':<22} {'update':>7} {'draw':>7} {'read':>7} "
-          f"{'ms/frame':>9} {'ratio':>6} {'PSNR':>6}")  # fmt: skip
+    print(
+        f"{'size':>8} {'cams':>4} {'row':<22} {'update':>7} {'draw':>7} {'read':>7} "
+        f"{'ms/frame':>9} {'ratio':>6} {'PSNR':>6}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for text in args.sizes.split(","):
             size = tuple(int(v) for v in text.lower().split("x"))
@@ -157,8 +159,11 @@ def main(argv=None) -> None:
                     job = json.dumps([row, size, ncams, frames, str(out), args.crop])
                     done = subprocess.run(
                         [sys.executable, __file__, "--child", job],
-                        env=env, capture_output=True, text=True, check=False,
-                    )  # fmt: skip
+                        env=env,
+                        capture_output=True,
+                        text=True,
+                        check=False,
+                    )
                     if done.returncode:
                         sys.exit(f"error: row {row} failed: {done.stderr.strip()[-500:]}")
                     r = json.loads(done.stdout.strip().splitlines()[-1])
@@ -167,9 +172,12 @@ def main(argv=None) -> None:
                         base, base_shots = r, shots
                     quality = min(psnr(shots[n], base_shots[n]) for n in shots)
                     shown = "same" if quality == float("inf") else f"{quality:.1f}"
-                    print(f"{text:>8} {ncams:>4} {row:<22} {r['update']:7.2f} {r['draw']:7.2f} "
-                          f"{r['read']:7.2f} {r['total']:9.2f} {r['total'] / base['total']:6.2f} "
-                          f"{shown:>6}", flush=True)  # fmt: skip
+                    print(
+                        f"{text:>8} {ncams:>4} {row:<22} {r['update']:7.2f} {r['draw']:7.2f} "
+                        f"{r['read']:7.2f} {r['total']:9.2f} {r['total'] / base['total']:6.2f} "
+                        f"{shown:>6}",
+                        flush=True,
+                    )
 
 
 if __name__ == "__main__":

@@ -80,8 +80,10 @@ def main() -> None:
     wall = time.perf_counter() - start
     recorder.close()
     n = args.episodes
-    print(f"task={args.task} noise={args.noise} randomize={args.randomize} episodes={n} "
-          f"wall={wall:.1f}s")  # fmt: skip
+    print(
+        f"task={args.task} noise={args.noise} randomize={args.randomize} episodes={n} "
+        f"wall={wall:.1f}s"
+    )
     print(f"per episode: {wall / n:.2f} s")
     print(f"phase 1 (EE env) success:    {ee_ok}/{n} = {100 * ee_ok / n:.1f}%")
     print(f"phase 2 (joint env) success: {joint_ok}/{n} = {100 * joint_ok / n:.1f}%")

@@ -240,8 +240,16 @@ def main(argv=None) -> None:
         name, run = cases[args.case]
         print("ROW " + json.dumps(measure(name, run, args.repeats)))
         return
-    passed = ["--steps", str(args.steps), "--dm-steps", str(args.dm_steps),
-              "--repeats", str(args.repeats), "--clock", args.clock]  # fmt: skip
+    passed = [
+        "--steps",
+        str(args.steps),
+        "--dm-steps",
+        str(args.dm_steps),
+        "--repeats",
+        str(args.repeats),
+        "--clock",
+        args.clock,
+    ]
     rows = []
     for index, (name, run) in enumerate(cases):
         if args.only not in name:
@@ -251,8 +259,10 @@ def main(argv=None) -> None:
         else:
             done = subprocess.run(
                 [sys.executable, os.path.abspath(__file__), "--case", str(index), *passed],
-                capture_output=True, text=True, check=False,
-            )  # fmt: skip
+                capture_output=True,
+                text=True,
+                check=False,
+            )
             lines = [x for x in done.stdout.splitlines() if x.startswith("ROW ")]
             if done.returncode != 0 or not lines:
                 last = (done.stderr.strip().splitlines() or ["no output"])[-1]

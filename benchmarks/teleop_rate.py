@@ -42,17 +42,43 @@ def _cli(*args: str) -> list[str]:
 def measure(root: Path, episode: Path, name: str, steps: int, fps: int) -> dict[str, float]:
     """Serve the leaders, teleop one episode with setting ``name``, return its attributes."""
     leaders = subprocess.Popen(
-        _cli("serve", "--role", "leader", "--replay", str(episode),
-             "--left_ip", LEADERS[0], "--right_ip", LEADERS[1]),
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
+        _cli(
+            "serve",
+            "--role",
+            "leader",
+            "--replay",
+            str(episode),
+            "--left_ip",
+            LEADERS[0],
+            "--right_ip",
+            LEADERS[1],
+        ),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         subprocess.run(
-            _cli("teleop", "--leader_left_ip", LEADERS[0], "--leader_right_ip", LEADERS[1],
-                 "--root_dir", str(root), "--data_dir", f"teleop_{name}", "--fps", str(fps),
-                 "--episode_len", str(steps), *SETTINGS[name]),
-            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, check=True, timeout=600,
-        )  # fmt: skip
+            _cli(
+                "teleop",
+                "--leader_left_ip",
+                LEADERS[0],
+                "--leader_right_ip",
+                LEADERS[1],
+                "--root_dir",
+                str(root),
+                "--data_dir",
+                f"teleop_{name}",
+                "--fps",
+                str(fps),
+                "--episode_len",
+                str(steps),
+                *SETTINGS[name],
+            ),
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            check=True,
+            timeout=600,
+        )
     finally:
         leaders.terminate()
         leaders.wait(timeout=30)
@@ -71,18 +97,31 @@ def main() -> None:
     if unknown:
         parser.error(f"unknown settings {unknown}; valid: {list(SETTINGS)}")
     os.environ.setdefault("MUJOCO_GL", "egl")
-    print(f"teleop loop rate, {args.episode_len} steps at --fps {args.fps}, {os.cpu_count()} CPUs, "
-          f"load average {os.getloadavg()[0]:.1f}, {time.strftime('%Y-%m-%d')}")  # fmt: skip
+    print(
+        f"teleop loop rate, {args.episode_len} steps at --fps {args.fps}, {os.cpu_count()} CPUs, "
+        f"load average {os.getloadavg()[0]:.1f}, {time.strftime('%Y-%m-%d')}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         subprocess.run(
-            _cli("record", "--root_dir", tmp, "--data_dir", "leaders", "--num_episodes", "1",
-                 "--cam_names", "none"),
-            stdout=subprocess.DEVNULL, check=True,
-        )  # fmt: skip
+            _cli(
+                "record",
+                "--root_dir",
+                tmp,
+                "--data_dir",
+                "leaders",
+                "--num_episodes",
+                "1",
+                "--cam_names",
+                "none",
+            ),
+            stdout=subprocess.DEVNULL,
+            check=True,
+        )
         for name in names:
-            got = measure(root, root / "leaders" / "episode_0.hdf5", name, args.episode_len,
-                          args.fps)  # fmt: skip
+            got = measure(
+                root, root / "leaders" / "episode_0.hdf5", name, args.episode_len, args.fps
+            )
             print(
                 f"  {name:20s} {got['achieved_fps']:5.1f} Hz of {args.fps}, "
                 f"{got['loop_overruns']:.0f} late steps, tracking RMS "

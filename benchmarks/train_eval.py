@@ -117,8 +117,10 @@ def _scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: bool) -
     try:
         info = json.loads(info_path.read_text())
         run = info["run"]
-        made = max((ckpt / name).stat().st_mtime
-                   for name in ("model.safetensors", "policy_postprocessor.json"))  # fmt: skip
+        made = max(
+            (ckpt / name).stat().st_mtime
+            for name in ("model.safetensors", "policy_postprocessor.json")
+        )
         newer = info_path.stat().st_mtime > made
     except (OSError, ValueError, KeyError, TypeError):
         return False
@@ -138,28 +140,43 @@ def _checkpoint(train: Path) -> Path:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work_dir", default="train_eval_out")
-    p.add_argument("--recipe", choices=tuple(RECIPES), default="state",
-                   help="flag defaults: state (the joints and the object poses, 50 fps), "
-                   "camera_pose (the joints and cam_high only, as a real kit gives, 30 fps, a "
-                   "pose encoder reading the camera) or camera (the same, end to end; see "
-                   "train_eval_recipes.py); flags given still win (default: state)")  # fmt: skip
-    p.add_argument("--phase", default=",".join(DEFAULT_PHASES),
-                   help="comma list of phases to run, any subset of record,export,encode,"
-                   "train,eval,wire (default: record,export,encode,train,eval)")  # fmt: skip
+    p.add_argument(
+        "--recipe",
+        choices=tuple(RECIPES),
+        default="state",
+        help="flag defaults: state (the joints and the object poses, 50 fps), "
+        "camera_pose (the joints and cam_high only, as a real kit gives, 30 fps, a "
+        "pose encoder reading the camera) or camera (the same, end to end; see "
+        "train_eval_recipes.py); flags given still win (default: state)",
+    )
+    p.add_argument(
+        "--phase",
+        default=",".join(DEFAULT_PHASES),
+        help="comma list of phases to run, any subset of record,export,encode,"
+        "train,eval,wire (default: record,export,encode,train,eval)",
+    )
     p.add_argument("--task", default="sim_transfer_cube")
-    p.add_argument("--episodes", type=int, default=200,
-                   help="scripted episodes to record (200: the amount whose runs met the goal; "
-                   "docs Benchmarks, 'The whole loop')")  # fmt: skip
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=200,
+        help="scripted episodes to record (200: the amount whose runs met the goal; "
+        "docs Benchmarks, 'The whole loop')",
+    )
     p.add_argument("--seed", type=int, default=0, help="recording seed")
     p.add_argument(
         "--inject_noise", action="store_true", help="record with the scripted plan's waypoint noise"
     )
     p.add_argument("--cam_names", default="none")
     p.add_argument("--image_size", default="96x128")
-    p.add_argument("--crop", default=None, metavar="CAMERA:TOP,LEFT,HEIGHT,WIDTH",
-                   help="record and evaluate this rectangle of the camera's 480x640 frame "
-                   "(trossen-mujoco record --crop; e.g. cam_high:217,243,150,200, the "
-                   "transfer cube's spawn region; default: whole frames)")  # fmt: skip
+    p.add_argument(
+        "--crop",
+        default=None,
+        metavar="CAMERA:TOP,LEFT,HEIGHT,WIDTH",
+        help="record and evaluate this rectangle of the camera's 480x640 frame "
+        "(trossen-mujoco record --crop; e.g. cam_high:217,243,150,200, the "
+        "transfer cube's spawn region; default: whole frames)",
+    )
     p.add_argument("--fps", type=int, default=50, help="export (and eval) rate")
     p.add_argument(
         "--train_seeds",
@@ -168,8 +185,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="training runs on the same data, seeds --train_seed, +1, ...",
     )
     p.add_argument("--train_seed", type=int, default=1000, help="first training seed")
-    p.add_argument("--train_jobs", type=int, default=1,
-                   help="training runs at a time (several fit one GPU)")  # fmt: skip
+    p.add_argument(
+        "--train_jobs", type=int, default=1, help="training runs at a time (several fit one GPU)"
+    )
     p.add_argument(
         "--train_threads",
         type=int,
@@ -180,18 +198,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--steps", type=int, default=7000)
     p.add_argument("--batch_size", type=int, default=16)
     p.add_argument("--num_workers", type=int, default=0, help="lerobot-train's data loaders")
-    p.add_argument("--video_backend", default="",
-                   help="lerobot-train's --dataset.video_backend (pyav where torchcodec "
-                   "has no FFmpeg; default: LeRobot's)")  # fmt: skip
+    p.add_argument(
+        "--video_backend",
+        default="",
+        help="lerobot-train's --dataset.video_backend (pyav where torchcodec "
+        "has no FFmpeg; default: LeRobot's)",
+    )
     p.add_argument("--save_freq", type=int, default=1000, help="checkpoint every N steps")
     p.add_argument("--lr", type=float, default=1e-4)
-    p.add_argument("--lr_schedule", choices=["constant", "cosine"], default="cosine",
-                   help="cosine (default): decayed from --lr to --lr_final over --steps; "
-                   "constant: ACT's preset, whose rate never decays, so the last checkpoint "
-                   "lands wherever the noise of the updates left it (one run's score moved "
-                   "between 52 %% and 92 %% from one saved checkpoint to the next)")  # fmt: skip
-    p.add_argument("--lr_final", type=float, default=1e-6,
-                   help="the rate at the last step with --lr_schedule cosine")  # fmt: skip
+    p.add_argument(
+        "--lr_schedule",
+        choices=["constant", "cosine"],
+        default="cosine",
+        help="cosine (default): decayed from --lr to --lr_final over --steps; "
+        "constant: ACT's preset, whose rate never decays, so the last checkpoint "
+        "lands wherever the noise of the updates left it (one run's score moved "
+        "between 52 %% and 92 %% from one saved checkpoint to the next)",
+    )
+    p.add_argument(
+        "--lr_final",
+        type=float,
+        default=1e-6,
+        help="the rate at the last step with --lr_schedule cosine",
+    )
     p.add_argument("--dim_model", type=int, default=256)
     p.add_argument("--dim_feedforward", type=int, default=1024)
     p.add_argument("--n_encoder_layers", type=int, default=4)
@@ -232,21 +261,32 @@ def build_parser() -> argparse.ArgumentParser:
         help="train a small encoder once to find the cube in the camera and train every run "
         "on its estimates (the camera_pose recipe; train_eval_pose.py)",
     )
-    p.add_argument("--static_frames", type=int, default=None,
-                   help="with --pose_encoder: record this many 3-step episodes (the scene at "
-                   "its start, objects sampled) whose first frames the encoder also trains on "
-                   "(default: the task's TaskEntry.pose_static_frames: 1000 for the "
-                   "insertion, 0 for the transfer)")  # fmt: skip
-    p.add_argument("--train_arg", action="append", default=[],
-                   help="one more lerobot-train flag, e.g. --train_arg=--policy.dropout=0.1 "
-                   "(repeatable)")  # fmt: skip
+    p.add_argument(
+        "--static_frames",
+        type=int,
+        default=None,
+        help="with --pose_encoder: record this many 3-step episodes (the scene at "
+        "its start, objects sampled) whose first frames the encoder also trains on "
+        "(default: the task's TaskEntry.pose_static_frames: 1000 for the "
+        "insertion, 0 for the transfer)",
+    )
+    p.add_argument(
+        "--train_arg",
+        action="append",
+        default=[],
+        help="one more lerobot-train flag, e.g. --train_arg=--policy.dropout=0.1 (repeatable)",
+    )
     p.add_argument("--device", default="cpu")
     p.add_argument("--eval_episodes", type=int, default=50)
     p.add_argument("--eval_workers", type=int, default=2)
     p.add_argument("--eval_seed", type=int, default=0)
-    p.add_argument("--controller_checks", choices=("both", "on", "off"), default="both",
-                   help="eval's --controller_checks: both (default: the score with the arm "
-                   "controller's checks and, beside it, without), on, or off")  # fmt: skip
+    p.add_argument(
+        "--controller_checks",
+        choices=("both", "on", "off"),
+        default="both",
+        help="eval's --controller_checks: both (default: the score with the arm "
+        "controller's checks and, beside it, without), on, or off",
+    )
     p.add_argument(
         "--eval_episode_length",
         type=int,
@@ -273,8 +313,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     if args.static_frames is not None and args.static_frames < 0:
         fail(f"--static_frames {args.static_frames}: give a count >= 0 (0: none)")
     if args.static_frames and not args.pose_encoder:
-        fail("--static_frames trains the pose encoder: use it with --recipe camera_pose (or "
-             "--pose_encoder), or leave it out")  # fmt: skip
+        fail(
+            "--static_frames trains the pose encoder: use it with --recipe camera_pose (or "
+            "--pose_encoder), or leave it out"
+        )
     args.static_frames = args.static_frames or 0
     problem = camera_settings_error(args.cam_names, args.image_size, args.crop, args.pose_encoder)
     if problem:
@@ -309,14 +351,18 @@ def main(argv: list[str] | None = None) -> None:
             summary = json.loads(summary_path.read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:  # truncated, not UTF-8, unreadable
             why = exc.strerror if isinstance(exc, OSError) else " ".join(str(exc).split())
-            fail(f"{summary_path} cannot be read as JSON ({why}); repair it, or move it away "
-                  "to start a new summary")  # fmt: skip
+            fail(
+                f"{summary_path} cannot be read as JSON ({why}); repair it, or move it away "
+                "to start a new summary"
+            )
         ok = isinstance(summary, dict)
         kept = (summary.get("settings", {}), summary.get("runs", {})) if ok else ({}, {})
         ok = ok and all(isinstance(part, dict) for part in kept)
         if not ok or not all(isinstance(run, dict) for run in kept[1].values()):
-            fail(f"{summary_path} is not a summary of this benchmark (a JSON object whose "
-                  "'settings' and 'runs' are objects); move it away to start anew")  # fmt: skip
+            fail(
+                f"{summary_path} is not a summary of this benchmark (a JSON object whose "
+                "'settings' and 'runs' are objects); move it away to start anew"
+            )
     summary.setdefault("settings", {})[",".join(phases)] = vars(args)
     runs: dict[str, dict] = summary.setdefault("runs", {})
     data, dataset = work / "episodes", work / "dataset"
@@ -332,29 +378,80 @@ def main(argv: list[str] | None = None) -> None:
         if (data / f"episode_{args.episodes - 1}.hdf5").exists():
             print(f"record: {data} already holds {args.episodes} episodes")
         else:
-            summary["record"] = run_jobs([("record", cli + [
-                "record", "--task_name", args.task, "--data_dir", str(data),
-                "--num_episodes", str(args.episodes), "--seed", str(args.seed),
-                "--cam_names", args.cam_names, "--image_size", args.image_size,
-                "--num_workers", "2", "--skip_failed",
-            ] + (["--inject_noise"] if args.inject_noise else []) + crop,
-                work / "record.log")], env, 1)[0]  # fmt: skip
+            summary["record"] = run_jobs(
+                [
+                    (
+                        "record",
+                        cli
+                        + [
+                            "record",
+                            "--task_name",
+                            args.task,
+                            "--data_dir",
+                            str(data),
+                            "--num_episodes",
+                            str(args.episodes),
+                            "--seed",
+                            str(args.seed),
+                            "--cam_names",
+                            args.cam_names,
+                            "--image_size",
+                            args.image_size,
+                            "--num_workers",
+                            "2",
+                            "--skip_failed",
+                        ]
+                        + (["--inject_noise"] if args.inject_noise else [])
+                        + crop,
+                        work / "record.log",
+                    )
+                ],
+                env,
+                1,
+            )[0]
         static = static_folder(work)
         if args.static_frames and not (static / f"episode_{args.static_frames - 1}.hdf5").exists():
-            job = Job("record static frames", static_job(cli, args, static), work / "static.log",
-                      env, ok=(0, 1))  # fmt: skip
+            job = Job(
+                "record static frames",
+                static_job(cli, args, static),
+                work / "static.log",
+                env,
+                ok=(0, 1),
+            )
             summary["record_static"] = job.wait()  # exit 1: its episodes end before success
             if not (static / f"episode_{args.static_frames - 1}.hdf5").exists():
-                fail(f"record static frames wrote fewer than {args.static_frames} episodes "
-                     f"in {static}; see {work / 'static.log'}")  # fmt: skip
+                fail(
+                    f"record static frames wrote fewer than {args.static_frames} episodes "
+                    f"in {static}; see {work / 'static.log'}"
+                )
     if "export" in phases:
         if (dataset / "meta/info.json").exists():
             print(f"export: {dataset} already exported")
         else:
-            summary["export"] = run_jobs([("export", cli + [
-                "export", "--data_dir", str(data), "--output", str(dataset),
-                "--repo_id", "local/sim_dataset", "--fps", str(args.fps), "--vcodec", "h264",
-            ], work / "export.log")], env, 1)[0]  # fmt: skip
+            summary["export"] = run_jobs(
+                [
+                    (
+                        "export",
+                        cli
+                        + [
+                            "export",
+                            "--data_dir",
+                            str(data),
+                            "--output",
+                            str(dataset),
+                            "--repo_id",
+                            "local/sim_dataset",
+                            "--fps",
+                            str(args.fps),
+                            "--vcodec",
+                            "h264",
+                        ],
+                        work / "export.log",
+                    )
+                ],
+                env,
+                1,
+            )[0]
     save()
     if args.pose_encoder:  # every run trains on (and every score uses) the derived dataset
         derived = pose_dataset(work)
@@ -369,9 +466,17 @@ def main(argv: list[str] | None = None) -> None:
                     f"the episodes are (and carry {POSE_DATASET}/ to a train-only machine)"
                 )
             static = static_folder(work) if args.static_frames else None
-            summary["encode"] = run_jobs([("pose encoder", encode_job(
-                python, dataset, data, derived, cores(), args.seed, static),
-                work / "encode.log")], env, 1)[0]  # fmt: skip
+            summary["encode"] = run_jobs(
+                [
+                    (
+                        "pose encoder",
+                        encode_job(python, dataset, data, derived, cores(), args.seed, static),
+                        work / "encode.log",
+                    )
+                ],
+                env,
+                1,
+            )[0]
             summary["encode"]["report"] = encoder_report(derived)
             save()
         dataset = derived
@@ -388,8 +493,16 @@ def main(argv: list[str] | None = None) -> None:
                 fail(f"{out} holds an unfinished run: remove it to train seed {seed} again")
             out.parent.mkdir(parents=True, exist_ok=True)
             log = work / f"train_seed_{seed}.log"
-            jobs.append((seed, (f"lerobot-train seed {seed}",
-                                train_args(args, python, dataset, out, seed), log)))  # fmt: skip
+            jobs.append(
+                (
+                    seed,
+                    (
+                        f"lerobot-train seed {seed}",
+                        train_args(args, python, dataset, out, seed),
+                        log,
+                    ),
+                )
+            )
         at_once = min(args.train_jobs, max(1, len(jobs)))
         threads = args.train_threads or max(1, cores() // at_once)
         train_env = {**env, **{k: str(threads) for k in THREAD_VARS}}
@@ -398,11 +511,17 @@ def main(argv: list[str] | None = None) -> None:
         for (seed, (_, _, log)), took in zip(jobs, timings):
             rate = round(args.steps / took["wall_s"], 2) if took["wall_s"] > 0 else None
             runs[str(seed)] = {
-                "train": {**took, "steps": args.steps, "steps_per_s": rate,
-                          "device": args.device, "jobs_at_once": at_once, "threads": threads},
+                "train": {
+                    **took,
+                    "steps": args.steps,
+                    "steps_per_s": rate,
+                    "device": args.device,
+                    "jobs_at_once": at_once,
+                    "threads": threads,
+                },
                 "loss_curve": losses(log),
                 "trained_with": recipe_flags(vars(args)),
-            }  # fmt: skip
+            }
             save()
         for seed in seeds:  # the dataset's settings travel with each checkpoint
             _carry_settings(dataset, work / "train" / f"seed_{seed}")
@@ -418,14 +537,36 @@ def main(argv: list[str] | None = None) -> None:
                 print(f"eval seed {seed}: {out} already holds its scores")
                 runs.setdefault(str(seed), {}).update(results(out / "eval_info.json"))
                 continue
-            took = run_jobs([(f"eval seed {seed}", cli + [
-                "eval", "--policy", str(ckpt), "--task_name", args.task,
-                "--num_episodes", str(args.eval_episodes),
-                "--num_workers", str(args.eval_workers), "--seed", str(args.eval_seed),
-                "--output_dir", str(out), "--overwrite",
-                "--controller_checks", args.controller_checks,
-            ] + (length if args.eval_episode_length else []),
-                work / f"eval_seed_{seed}.log")], env, 1)[0]  # fmt: skip
+            took = run_jobs(
+                [
+                    (
+                        f"eval seed {seed}",
+                        cli
+                        + [
+                            "eval",
+                            "--policy",
+                            str(ckpt),
+                            "--task_name",
+                            args.task,
+                            "--num_episodes",
+                            str(args.eval_episodes),
+                            "--num_workers",
+                            str(args.eval_workers),
+                            "--seed",
+                            str(args.eval_seed),
+                            "--output_dir",
+                            str(out),
+                            "--overwrite",
+                            "--controller_checks",
+                            args.controller_checks,
+                        ]
+                        + (length if args.eval_episode_length else []),
+                        work / f"eval_seed_{seed}.log",
+                    )
+                ],
+                env,
+                1,
+            )[0]
             run = runs.setdefault(str(seed), {})
             run["eval"] = took
             run.update(results(out / "eval_info.json"))
@@ -449,12 +590,34 @@ def main(argv: list[str] | None = None) -> None:
                 print(f"wire seed {seed}: {out} already holds its scores")
                 runs.setdefault(str(seed), {})["wire"] = results(out / "eval_info.json")
                 continue
-            took = run_jobs([(f"wire seed {seed}", cli + [
-                "eval", "--backend", "wire", "--policy", str(ckpt), "--task_name", args.task,
-                "--num_episodes", str(args.eval_episodes), "--seed", str(args.eval_seed),
-                "--output_dir", str(out), "--overwrite",
-            ] + (length if args.eval_episode_length else []),
-                work / f"wire_seed_{seed}.log")], env, 1)[0]  # fmt: skip
+            took = run_jobs(
+                [
+                    (
+                        f"wire seed {seed}",
+                        cli
+                        + [
+                            "eval",
+                            "--backend",
+                            "wire",
+                            "--policy",
+                            str(ckpt),
+                            "--task_name",
+                            args.task,
+                            "--num_episodes",
+                            str(args.eval_episodes),
+                            "--seed",
+                            str(args.eval_seed),
+                            "--output_dir",
+                            str(out),
+                            "--overwrite",
+                        ]
+                        + (length if args.eval_episode_length else []),
+                        work / f"wire_seed_{seed}.log",
+                    )
+                ],
+                env,
+                1,
+            )[0]
             run = runs.setdefault(str(seed), {})
             run["wire_eval"] = took
             run["wire"] = results(out / "eval_info.json")

@@ -31,8 +31,9 @@ def _inputs_flag(args: argparse.Namespace, dataset: Path) -> list[str]:
     return ["--policy.input_features=" + json.dumps(inputs)]
 
 
-def train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
-                seed: int) -> list[str]:  # fmt: skip
+def train_args(
+    args: argparse.Namespace, python: str, dataset: Path, out: Path, seed: int
+) -> list[str]:
     n_action = args.n_action_steps or args.chunk_size
     extra = []
     if args.temporal_ensemble_coeff:
@@ -42,29 +43,55 @@ def train_args(args: argparse.Namespace, python: str, dataset: Path, out: Path,
         extra.append(f"--dataset.video_backend={args.video_backend}")
     if args.lr_schedule == "cosine":  # ACT's own optimizer settings, the rate decayed to the end
         extra += [
-            "--use_policy_training_preset=false", "--optimizer.type=adamw",
-            f"--optimizer.lr={args.lr}", "--optimizer.weight_decay=0.0001",
-            "--optimizer.grad_clip_norm=10", "--scheduler.type=cosine_decay_with_warmup",
-            "--scheduler.num_warmup_steps=0", f"--scheduler.num_decay_steps={args.steps}",
-            f"--scheduler.peak_lr={args.lr}", f"--scheduler.decay_lr={args.lr_final}",
-        ]  # fmt: skip
-    return [
-        python, "-m", "lerobot.scripts.lerobot_train",
-        "--dataset.repo_id=local/sim_dataset", f"--dataset.root={dataset}",
-        "--policy.type=act", f"--policy.device={args.device}", "--policy.push_to_hub=false",
-        "--policy.pretrained_backbone_weights=null", f"--policy.use_vae={args.use_vae}",
-        f"--policy.dim_model={args.dim_model}", f"--policy.chunk_size={args.chunk_size}",
-        f"--policy.dim_feedforward={args.dim_feedforward}",
-        f"--policy.n_encoder_layers={args.n_encoder_layers}",
-        f"--policy.n_decoder_layers={args.n_decoder_layers}",
-        "--policy.normalization_mapping=" + json.dumps({
-            "VISUAL": "MEAN_STD", "STATE": "MEAN_STD", "ACTION": "MEAN_STD",
-            "ENV": args.normalize_env,
-        }),
-        f"--policy.n_action_steps={n_action}", f"--policy.optimizer_lr={args.lr}",
-        f"--steps={args.steps}", f"--batch_size={args.batch_size}",
-        f"--num_workers={args.num_workers}", f"--seed={seed}",
-        f"--save_freq={min(args.save_freq, args.steps)}", "--log_freq=200",
-        "--wandb.enable=false", f"--output_dir={out}",
-    ] + extra + (inputs_flag(dataset) if args.pose_encoder else _inputs_flag(args, dataset)
-                 ) + list(args.train_arg)  # fmt: skip
+            "--use_policy_training_preset=false",
+            "--optimizer.type=adamw",
+            f"--optimizer.lr={args.lr}",
+            "--optimizer.weight_decay=0.0001",
+            "--optimizer.grad_clip_norm=10",
+            "--scheduler.type=cosine_decay_with_warmup",
+            "--scheduler.num_warmup_steps=0",
+            f"--scheduler.num_decay_steps={args.steps}",
+            f"--scheduler.peak_lr={args.lr}",
+            f"--scheduler.decay_lr={args.lr_final}",
+        ]
+    return (
+        [
+            python,
+            "-m",
+            "lerobot.scripts.lerobot_train",
+            "--dataset.repo_id=local/sim_dataset",
+            f"--dataset.root={dataset}",
+            "--policy.type=act",
+            f"--policy.device={args.device}",
+            "--policy.push_to_hub=false",
+            "--policy.pretrained_backbone_weights=null",
+            f"--policy.use_vae={args.use_vae}",
+            f"--policy.dim_model={args.dim_model}",
+            f"--policy.chunk_size={args.chunk_size}",
+            f"--policy.dim_feedforward={args.dim_feedforward}",
+            f"--policy.n_encoder_layers={args.n_encoder_layers}",
+            f"--policy.n_decoder_layers={args.n_decoder_layers}",
+            "--policy.normalization_mapping="
+            + json.dumps(
+                {
+                    "VISUAL": "MEAN_STD",
+                    "STATE": "MEAN_STD",
+                    "ACTION": "MEAN_STD",
+                    "ENV": args.normalize_env,
+                }
+            ),
+            f"--policy.n_action_steps={n_action}",
+            f"--policy.optimizer_lr={args.lr}",
+            f"--steps={args.steps}",
+            f"--batch_size={args.batch_size}",
+            f"--num_workers={args.num_workers}",
+            f"--seed={seed}",
+            f"--save_freq={min(args.save_freq, args.steps)}",
+            "--log_freq=200",
+            "--wandb.enable=false",
+            f"--output_dir={out}",
+        ]
+        + extra
+        + (inputs_flag(dataset) if args.pose_encoder else _inputs_flag(args, dataset))
+        + list(args.train_arg)
+    )

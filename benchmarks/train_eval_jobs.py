@@ -39,8 +39,10 @@ class Job:
             "wall_s": round(time.perf_counter() - self.start, 1),
             "cpu_s": round(usage.ru_utime + usage.ru_stime, 1),
         }
-        print(f"{self.name}: {took['wall_s']:.0f} s wall, {took['cpu_s']:.0f} s CPU "
-              f"(log {self.log})", flush=True)  # fmt: skip
+        print(
+            f"{self.name}: {took['wall_s']:.0f} s wall, {took['cpu_s']:.0f} s CPU (log {self.log})",
+            flush=True,
+        )
         if self.proc.returncode not in self.ok:
             fail(f"{self.name} failed (exit {self.proc.returncode}); see {self.log}")
         return took

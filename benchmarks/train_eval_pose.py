@@ -36,13 +36,29 @@ def derived_ready(derived: Path) -> bool:
     return (derived / "meta" / "info.json").is_file() and (derived / ENCODER_FILE).is_file()
 
 
-def encode_job(python: str, dataset: Path, episodes: Path, out: Path, threads: int,
-               seed: int, static: Path | None = None) -> list[str]:  # fmt: skip
+def encode_job(
+    python: str,
+    dataset: Path,
+    episodes: Path,
+    out: Path,
+    threads: int,
+    seed: int,
+    static: Path | None = None,
+) -> list[str]:
     """The command that derives ``out`` from ``dataset`` and its ``episodes`` (and the
     ``static`` episodes' first frames)."""
-    return [python, "-m", "trossen_arm_mujoco.train.pose_dataset", str(dataset), str(episodes),
-            str(out), "--threads", str(threads), "--seed", str(seed)] + (
-        ["--static_episodes", str(static)] if static else [])  # fmt: skip
+    return [
+        python,
+        "-m",
+        "trossen_arm_mujoco.train.pose_dataset",
+        str(dataset),
+        str(episodes),
+        str(out),
+        "--threads",
+        str(threads),
+        "--seed",
+        str(seed),
+    ] + (["--static_episodes", str(static)] if static else [])
 
 
 def static_folder(work: Path) -> Path:
@@ -58,12 +74,29 @@ def static_job(cli: list[str], args: Any, folder: Path) -> list[str]:
     seeds are a stream of their own (``args.seed`` + 1,000,000). The episodes end long before
     the task could succeed: the recorder keeps them and exits with status 1."""
     crop = ["--crop", args.crop] if args.crop else []
-    return cli + [
-        "record", "--task_name", args.task, "--data_dir", str(folder),
-        "--num_episodes", str(args.static_frames), "--seed", str(args.seed + STATIC_SEED),
-        "--cam_names", args.cam_names, "--image_size", args.image_size, "--episode_len", "3",
-        "--num_workers", "2",
-    ] + crop  # fmt: skip
+    return (
+        cli
+        + [
+            "record",
+            "--task_name",
+            args.task,
+            "--data_dir",
+            str(folder),
+            "--num_episodes",
+            str(args.static_frames),
+            "--seed",
+            str(args.seed + STATIC_SEED),
+            "--cam_names",
+            args.cam_names,
+            "--image_size",
+            args.image_size,
+            "--episode_len",
+            "3",
+            "--num_workers",
+            "2",
+        ]
+        + crop
+    )
 
 
 def inputs_flag(dataset: Path) -> list[str]:
@@ -74,8 +107,10 @@ def inputs_flag(dataset: Path) -> list[str]:
     inputs = {
         "observation.state": {"type": "STATE", "shape": feats["observation.state"]["shape"]},
         "observation.environment_state": {
-            "type": "ENV", "shape": feats["observation.environment_state"]["shape"]},
-    }  # fmt: skip
+            "type": "ENV",
+            "shape": feats["observation.environment_state"]["shape"],
+        },
+    }
     return ["--policy.input_features=" + json.dumps(inputs)]
 
 

@@ -99,14 +99,21 @@ def task_camera_facts(recipe: str, task: str) -> tuple[str | None, int, str | No
         crop, static = entry.camera_crop or None, entry.pose_static_frames
         why = f"its TaskEntry declares no camera_crop ({entry.package})"
     if recipe in CROPPED and crop is None:
-        return None, static, (f"--recipe {recipe} knows no crop of cam_high for task {task!r} "
-                              f"({why}); give --crop cam_high:TOP,LEFT,HEIGHT,WIDTH around the "
-                              "task's objects, or declare TaskEntry(camera_crop=...)")  # fmt: skip
+        return (
+            None,
+            static,
+            (
+                f"--recipe {recipe} knows no crop of cam_high for task {task!r} "
+                f"({why}); give --crop cam_high:TOP,LEFT,HEIGHT,WIDTH around the "
+                "task's objects, or declare TaskEntry(camera_crop=...)"
+            ),
+        )
     return crop, static, None
 
 
-def camera_settings_error(cam_names: str, image_size: str, crop: str | None,
-                          pose_encoder: bool = False) -> str | None:  # fmt: skip
+def camera_settings_error(
+    cam_names: str, image_size: str, crop: str | None, pose_encoder: bool = False
+) -> str | None:
     """What is wrong with these camera settings, in one line (None: nothing).
 
     ``pose_encoder``: the images feed the pose encoder (``camera_pose``), not ResNet-18, so
@@ -120,34 +127,50 @@ def camera_settings_error(cam_names: str, image_size: str, crop: str | None,
         names = []
     unknown = [n for n in names if n not in KIT_CAMERAS]
     if unknown:
-        return (f"--cam_names {','.join(unknown)}: the kit has no such camera; choose from "
-                f"{', '.join(KIT_CAMERAS)} (or none)")  # fmt: skip
+        return (
+            f"--cam_names {','.join(unknown)}: the kit has no such camera; choose from "
+            f"{', '.join(KIT_CAMERAS)} (or none)"
+        )
     if names:
         try:
             height, width = (int(v) for v in image_size.lower().split("x"))
         except ValueError:
             return f"--image_size must be HEIGHTxWIDTH in pixels, e.g. 60x80; got '{image_size}'"
         if pose_encoder and min(height, width) < POSE_ENCODER_MIN:
-            return (f"--image_size {image_size} is below what the pose encoder resolves: its "
-                    f"keypoint maps are at half the image's size, so give at least "
-                    f"{POSE_ENCODER_MIN} pixels each way (e.g. 60x80)")  # fmt: skip
+            return (
+                f"--image_size {image_size} is below what the pose encoder resolves: its "
+                f"keypoint maps are at half the image's size, so give at least "
+                f"{POSE_ENCODER_MIN} pixels each way (e.g. 60x80)"
+            )
         if not pose_encoder and min(height, width) < ENCODER_STRIDE:
-            return (f"--image_size {image_size} is below what the image encoder resolves: "
-                    f"ResNet-18 sees one feature per {ENCODER_STRIDE}x{ENCODER_STRIDE} pixels, "
-                    f"so give at least {ENCODER_STRIDE} pixels each way (e.g. 60x80)")  # fmt: skip
+            return (
+                f"--image_size {image_size} is below what the image encoder resolves: "
+                f"ResNet-18 sees one feature per {ENCODER_STRIDE}x{ENCODER_STRIDE} pixels, "
+                f"so give at least {ENCODER_STRIDE} pixels each way (e.g. 60x80)"
+            )
     if crop:
         camera, _, rest = crop.partition(":")
         try:
             top, left, height, width = (int(v) for v in rest.split(","))
         except ValueError:
-            return (f"--crop must be CAMERA:TOP,LEFT,HEIGHT,WIDTH in pixels of the 480x640 "
-                    f"frame, e.g. cam_high:217,243,150,200; got '{crop}'")  # fmt: skip
+            return (
+                f"--crop must be CAMERA:TOP,LEFT,HEIGHT,WIDTH in pixels of the 480x640 "
+                f"frame, e.g. cam_high:217,243,150,200; got '{crop}'"
+            )
         if camera not in names:
-            return (f"--crop {crop}: camera {camera!r} is not observed; add it to --cam_names "
-                    f"({cam_names})")  # fmt: skip
-        if min(top, left) < 0 or min(height, width) < 1 or top + height > FRAME[0] \
-                or left + width > FRAME[1]:  # fmt: skip
-            return (f"--crop {crop} is outside the camera's {FRAME[0]}x{FRAME[1]} frame "
-                    f"(top, left >= 0; top + height <= {FRAME[0]}; left + width <= "
-                    f"{FRAME[1]})")  # fmt: skip
+            return (
+                f"--crop {crop}: camera {camera!r} is not observed; add it to --cam_names "
+                f"({cam_names})"
+            )
+        if (
+            min(top, left) < 0
+            or min(height, width) < 1
+            or top + height > FRAME[0]
+            or left + width > FRAME[1]
+        ):
+            return (
+                f"--crop {crop} is outside the camera's {FRAME[0]}x{FRAME[1]} frame "
+                f"(top, left >= 0; top + height <= {FRAME[0]}; left + width <= "
+                f"{FRAME[1]})"
+            )
     return None

@@ -11,10 +11,21 @@ __all__ = ["alike", "losses", "recipe_flags", "report", "results", "wilson"]
 
 #: the flags that say where, with which seeds, how fast and how it is scored a run was made:
 #: two runs that differ only in these (and in ``eval_*``) learned the same recipe
-RUN_FLAGS = frozenset({
-    "work_dir", "phase", "train_seeds", "train_seed", "train_jobs", "train_threads",
-    "num_workers", "video_backend", "save_freq", "device", "controller_checks",
-})  # fmt: skip
+RUN_FLAGS = frozenset(
+    {
+        "work_dir",
+        "phase",
+        "train_seeds",
+        "train_seed",
+        "train_jobs",
+        "train_threads",
+        "num_workers",
+        "video_backend",
+        "save_freq",
+        "device",
+        "controller_checks",
+    }
+)
 
 
 def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
@@ -42,16 +53,25 @@ def results(path: Path) -> dict:
     (``result``), without them (``unconstrained``, when run), the controller block (faults,
     largest asked speeds) and whether the policy deploys."""
     info = json.loads(path.read_text())
-    out = {"result": info["aggregated"], "controller": info.get("controller"),
-           "deployment": info.get("deployment")}  # fmt: skip
+    out = {
+        "result": info["aggregated"],
+        "controller": info.get("controller"),
+        "deployment": info.get("deployment"),
+    }
     if "unconstrained" in info:
         out["unconstrained"] = info["unconstrained"]["aggregated"]
     run = info.get("run") or {}
     out["scored_on"] = {k: run.get(k) for k in ("task", "num_episodes", "seed", "episode_length")}
     if "timing" in info:
-        out["timing"] = {k: info["timing"].get(k) for k in (
-            "missed_periods", "actions", "obs_age_ms_median_of_episodes",
-            "action_latency_ms_median_of_episodes")}  # fmt: skip
+        out["timing"] = {
+            k: info["timing"].get(k)
+            for k in (
+                "missed_periods",
+                "actions",
+                "obs_age_ms_median_of_episodes",
+                "action_latency_ms_median_of_episodes",
+            )
+        }
     return out
 
 
@@ -105,11 +125,13 @@ def report(runs: dict[str, dict], label: str = "in-process", each: bool = True) 
         free = run.get("unconstrained")
         freely = f"; checks off {free['pc_success']:.1f}%" if free else ""
         if each:
-            print(f"training seed {seed} ({label}): success {res['pc_success']:.1f}% (95% CI "
-                  f"{lo:.1f}-{hi:.1f}) over {res['n_episodes']} episodes{freely}; faults "
-                  f"{ctl.get('faulted_episodes', 'n/a')}; fastest asked {top[0]} at "
-                  f"{top[1]:.2f} of its limit; stages {res['stages']}; "
-                  f"{_training(run.get('train') or {})}")  # fmt: skip
+            print(
+                f"training seed {seed} ({label}): success {res['pc_success']:.1f}% (95% CI "
+                f"{lo:.1f}-{hi:.1f}) over {res['n_episodes']} episodes{freely}; faults "
+                f"{ctl.get('faulted_episodes', 'n/a')}; fastest asked {top[0]} at "
+                f"{top[1]:.2f} of its limit; stages {res['stages']}; "
+                f"{_training(run.get('train') or {})}"
+            )
         rates.append(res["pc_success"])
         total += round(res["pc_success"] * res["n_episodes"] / 100.0)
         n += res["n_episodes"]
@@ -123,7 +145,9 @@ def report(runs: dict[str, dict], label: str = "in-process", each: bool = True) 
         "pooled_pc_success_ci95": list(wilson(total, n)),
     }
     lo, hi = spread["pooled_pc_success_ci95"]
-    print(f"over {len(rates)} training runs ({label}): mean {spread['mean_pc_success']:.1f}%, "
-          f"worst {spread['worst_pc_success']:.1f}%, best {spread['best_pc_success']:.1f}% "
-          f"(all {n} episodes pooled: 95% CI {lo:.1f}-{hi:.1f})")  # fmt: skip
+    print(
+        f"over {len(rates)} training runs ({label}): mean {spread['mean_pc_success']:.1f}%, "
+        f"worst {spread['worst_pc_success']:.1f}%, best {spread['best_pc_success']:.1f}% "
+        f"(all {n} episodes pooled: 95% CI {lo:.1f}-{hi:.1f})"
+    )
     return spread

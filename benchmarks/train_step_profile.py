@@ -91,8 +91,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = p.parse_args(argv)
     if not (args.dataset / "meta" / "info.json").is_file():
-        _fail(f"{args.dataset} is not a LeRobot dataset (no meta/info.json); make one with "
-              "trossen-mujoco export")  # fmt: skip
+        _fail(
+            f"{args.dataset} is not a LeRobot dataset (no meta/info.json); make one with "
+            "trossen-mujoco export"
+        )
     if args.steps < 1 or args.warmup < 0 or args.batch_size < 1 or args.num_workers < 0:
         _fail("--steps and --batch_size must be >= 1, --warmup and --num_workers >= 0")
     return args
@@ -150,8 +152,10 @@ def build(args: argparse.Namespace):
     if args.no_images:
         from lerobot.configs.types import FeatureType, PolicyFeature
 
-        kinds = {"observation.state": FeatureType.STATE,
-                 "observation.environment_state": FeatureType.ENV}  # fmt: skip
+        kinds = {
+            "observation.state": FeatureType.STATE,
+            "observation.environment_state": FeatureType.ENV,
+        }
         config.input_features = {
             key: PolicyFeature(type=kind, shape=tuple(meta.features[key]["shape"]))
             for key, kind in kinds.items()
@@ -303,8 +307,10 @@ def main(argv: list[str] | None = None) -> None:
     try:
         import lerobot  # noqa: F401
     except ImportError:
-        _fail(f"LeRobot is not installed in {sys.executable} (Python {platform.python_version()});"
-              " run this with the LeRobot venv's python (TROSSEN_LEROBOT_PYTHON)")  # fmt: skip
+        _fail(
+            f"LeRobot is not installed in {sys.executable} (Python {platform.python_version()});"
+            " run this with the LeRobot venv's python (TROSSEN_LEROBOT_PYTHON)"
+        )
     result = profile(args)
     print(report(result), flush=True)
     if args.json is not None:

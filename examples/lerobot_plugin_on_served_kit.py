@@ -25,9 +25,11 @@ import time
 
 import numpy as np
 
-HINT = ("Trossen's LeRobot plugin is not importable here: in a Python 3.12 environment with "
-        "LeRobot, pip install --no-deps <lerobot_trossen>/packages/lerobot_robot_trossen, then "
-        "pip install trossen_arm trossen-slate")  # fmt: skip
+HINT = (
+    "Trossen's LeRobot plugin is not importable here: in a Python 3.12 environment with "
+    "LeRobot, pip install --no-deps <lerobot_trossen>/packages/lerobot_robot_trossen, then "
+    "pip install trossen_arm trossen-slate"
+)
 
 
 def serve_command(given: str | None) -> list[str]:
@@ -46,9 +48,11 @@ def start_server(cmd: list[str], left: str, right: str) -> tuple[subprocess.Pope
     """Start serve; return once it says it serves (its output lines go to the queue)."""
     proc = subprocess.Popen(
         [*cmd, "serve", "--task_name", "sim_transfer_cube", "--left_ip", left, "--right_ip", right],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # Ctrl-C stops it
-    )  # fmt: skip
+    )
     lines: queue.Queue = queue.Queue()
     pump = threading.Thread(target=lambda: [lines.put(x.rstrip()) for x in proc.stdout])
     pump.daemon = True
@@ -128,10 +132,14 @@ def drive(left: str, right: str) -> None:
     joints, grippers = [i for i in range(14) if i % 7 != 6], [6, 13]
     print(f"loop: {1.0 / np.mean(periods[1:]):.2f} Hz achieved at the plugin's loop_rate {rate}")
     rms, top, grip = np.sqrt(np.mean(lag[:, joints] ** 2)), lag[:, joints].max(), lag[:, grippers]
-    print(f"while streaming (measured - last command): joints {rms:.4f} rad RMS, "
-          f"{top:.4f} max; grippers {1e3 * grip.max():.2f} mm max")  # fmt: skip
-    print(f"settled 0.5 s after the last command: joints {err[joints].max():.2e} rad max, "
-          f"grippers {1e3 * err[grippers].max():.3f} mm max")  # fmt: skip
+    print(
+        f"while streaming (measured - last command): joints {rms:.4f} rad RMS, "
+        f"{top:.4f} max; grippers {1e3 * grip.max():.2f} mm max"
+    )
+    print(
+        f"settled 0.5 s after the last command: joints {err[joints].max():.2e} rad max, "
+        f"grippers {1e3 * err[grippers].max():.3f} mm max"
+    )
     t0 = time.perf_counter()
     robot.disconnect()  # staged pose, then sleep pose, then cleanup
     print(f"disconnect: {time.perf_counter() - t0:.2f} s")

@@ -320,8 +320,20 @@ def write_fake_menagerie(root, layout: str = "new"):
     from trossen_arm_mujoco.sim.looks import MENAGERIE_MESHES
 
     corners = [(x, y, z) for x in (0, 0.02) for y in (-0.01, 0.01) for z in (0, 0.02)]
-    faces = ((1, 2, 4), (1, 4, 3), (5, 7, 8), (5, 8, 6), (1, 5, 6), (1, 6, 2),
-             (3, 4, 8), (3, 8, 7), (1, 3, 7), (1, 7, 5), (2, 6, 8), (2, 8, 4))  # fmt: skip
+    faces = (
+        (1, 2, 4),
+        (1, 4, 3),
+        (5, 7, 8),
+        (5, 8, 6),
+        (1, 5, 6),
+        (1, 6, 2),
+        (3, 4, 8),
+        (3, 8, 7),
+        (1, 3, 7),
+        (1, 7, 5),
+        (2, 6, 8),
+        (2, 8, 4),
+    )
     text = "".join(f"v {x} {y} {z}\n" for x, y, z in corners)
     text += "".join(f"f {a} {b} {c}\n" for a, b, c in faces)
     for parts in MENAGERIE_MESHES.values():
@@ -435,9 +447,10 @@ class XScreen:
         if not (shutil.which("Xvfb") and shutil.which("xwd")):
             pytest.skip("Xvfb and xwd needed (apt-get install xvfb x11-apps)")
         free = [
-            n for n in range(120, 160)
+            n
+            for n in range(120, 160)
             if not Path(f"/tmp/.X11-unix/X{n}").exists() and not Path(f"/tmp/.X{n}-lock").exists()
-        ]  # fmt: skip
+        ]
         if not free:
             pytest.skip("no free X display number")
         self.tries: list[str] = []  # each screenshot's outcome, for report()

@@ -74,16 +74,28 @@ def place(tmp_path_factory) -> dict[str, str]:
     attrs = {"task_name": "sim_transfer_cube", "seed": 0, "success": False}
     with EpisodeWriter(ep, 3, [], 24, 32, attrs=attrs) as w:
         for _ in range(3):
-            w.append(qpos=[0.0] * 16, qvel=[0.0] * 16, action=[0.0] * 16, reward=0.0,
-                     env_state=[0.0] * 7, images={})  # fmt: skip
+            w.append(
+                qpos=[0.0] * 16,
+                qvel=[0.0] * 16,
+                action=[0.0] * 16,
+                reward=0.0,
+                env_state=[0.0] * 7,
+                images={},
+            )
     plain = tmp / "plain.txt"
     plain.write_text("not a folder\n")
     (tmp / "loop").symlink_to(tmp / "loop2")
     (tmp / "loop2").symlink_to(tmp / "loop")
     (tmp / "dangling").symlink_to(tmp / "gone")
     (tmp / "eps_dir" / "episode_0.hdf5").mkdir(parents=True)  # a folder named like an episode
-    return {"tmp": str(tmp), "dir": str(folder), "ep": str(ep), "file": str(plain),
-            "loop": str(tmp / "loop"), "dangling": str(tmp / "dangling")}  # fmt: skip
+    return {
+        "tmp": str(tmp),
+        "dir": str(folder),
+        "ep": str(ep),
+        "file": str(plain),
+        "loop": str(tmp / "loop"),
+        "dangling": str(tmp / "dangling"),
+    }
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: " ".join(c)[:60])
@@ -91,9 +103,14 @@ def test_bad_input_is_one_line(case, place, tmp_path):
     args = [part.format(**place) for part in case]
     before = set(Path(place["tmp"]).rglob("*"))
     env = {**os.environ, "MUJOCO_GL": "egl", "HOME": str(tmp_path)}
-    proc = subprocess.run([sys.executable, "-m", "trossen_arm_mujoco.cli", *args],
-                          capture_output=True, text=True, cwd=tmp_path, env=env,
-                          timeout=120)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "trossen_arm_mujoco.cli", *args],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=env,
+        timeout=120,
+    )
     lines = [line for line in proc.stderr.splitlines() if line.strip()]
     assert proc.returncode == 2, (args, proc.returncode, proc.stderr[-2000:])
     assert "Traceback" not in proc.stderr, proc.stderr[-2000:]

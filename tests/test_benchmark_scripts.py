@@ -16,8 +16,13 @@ SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "step_overhead.py"
 def run_benchmark(name: str, args: list[str], timeout: float = 300):
     """``python benchmarks/NAME ARGS`` with software EGL; the finished process."""
     env = {**os.environ, "MUJOCO_GL": "egl"}
-    return subprocess.run([sys.executable, str(SCRIPT.parent / name), *args],
-                          capture_output=True, text=True, env=env, timeout=timeout)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, str(SCRIPT.parent / name), *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=timeout,
+    )
 
 
 def test_step_overhead_measures_each_env_in_its_own_process():
@@ -61,20 +66,51 @@ def test_train_step_profile_splits_an_act_step_into_its_parts(tmp_path):
     cli = [sys.executable, "-m", "trossen_arm_mujoco.cli"]
     data, dataset = tmp_path / "episodes", tmp_path / "dataset"
     for args in (
-        ["record", "--data_dir", str(data), "--num_episodes", "1", "--episode_len", "440",
-         "--cam_names", "none", "--seed", "0"],
+        [
+            "record",
+            "--data_dir",
+            str(data),
+            "--num_episodes",
+            "1",
+            "--episode_len",
+            "440",
+            "--cam_names",
+            "none",
+            "--seed",
+            "0",
+        ],
         ["export", "--data_dir", str(data), "--output", str(dataset), "--repo_id", "local/tiny"],
-    ):  # fmt: skip
+    ):
         done = subprocess.run([*cli, *args], capture_output=True, text=True, env=env, timeout=300)
         assert done.returncode == 0, done.stderr
     script = SCRIPT.parent / "train_step_profile.py"
-    args = ["--steps", "2", "--warmup", "1", "--batch_size", "4", "--dim_model", "32",
-            "--dim_feedforward", "64", "--n_encoder_layers", "1", "--chunk_size", "5",
-            "--threads", "1", "--json", str(tmp_path / "profile.json")]  # fmt: skip
+    args = [
+        "--steps",
+        "2",
+        "--warmup",
+        "1",
+        "--batch_size",
+        "4",
+        "--dim_model",
+        "32",
+        "--dim_feedforward",
+        "64",
+        "--n_encoder_layers",
+        "1",
+        "--chunk_size",
+        "5",
+        "--threads",
+        "1",
+        "--json",
+        str(tmp_path / "profile.json"),
+    ]
     done = subprocess.run(
         [lerobot_python, str(script), str(dataset), *args],
-        capture_output=True, text=True, env=env, timeout=300,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     rows = [line.split("|") for line in done.stdout.splitlines() if line.startswith("| ")]
     parts = [r[1].strip() for r in rows[1:]]

@@ -56,8 +56,10 @@ def _check_vector_is_the_dict(env: gym.Env, obs: Any) -> None:
         np.testing.assert_array_equal(
             obs["observation"], _as_in_space(values, space["observation"])
         )
-        for key, want in (("achieved_goal", task.achieved_goal()),
-                          ("desired_goal", task.desired_goal())):  # fmt: skip
+        for key, want in (
+            ("achieved_goal", task.achieved_goal()),
+            ("desired_goal", task.desired_goal()),
+        ):
             np.testing.assert_array_equal(obs[key], _as_in_space([want], space[key]))
         return
     if task.goal_conditioned:
@@ -236,23 +238,28 @@ class TipHeightSampler(ReachSampler):
         return self.task_cls(env, self.config, target=uniform(self.rng, 0.1, 0.3))
 
 
-TIP_IDS = {"TrossenMujocoTest/TipHeight-v0": "trossen_arm_mujoco.gym.env:TrossenMujocoEnv",
-           "TrossenMujocoTest/TipHeightGoal-v0":
-           "trossen_arm_mujoco.gym.goal_env:TrossenMujocoGoalEnv"}  # fmt: skip
+TIP_IDS = {
+    "TrossenMujocoTest/TipHeight-v0": "trossen_arm_mujoco.gym.env:TrossenMujocoEnv",
+    "TrossenMujocoTest/TipHeightGoal-v0": "trossen_arm_mujoco.gym.goal_env:TrossenMujocoGoalEnv",
+}
 
 
 @pytest.fixture
 def tip_height(monkeypatch):
     """``TipHeightTask`` registered (task registry and gym ids) for one test, then removed."""
     entry = registry.TaskEntry(
-        TipHeightTask.name, f"{__name__}:TipHeightTask", f"{__name__}:TipHeightSampler",
-        "reach", "test: hold the tool frame at a height",
+        TipHeightTask.name,
+        f"{__name__}:TipHeightTask",
+        f"{__name__}:TipHeightSampler",
+        "reach",
+        "test: hold the tool frame at a height",
         keys=registry.load("reach").keys,  # the keys of the config it borrows
-    )  # fmt: skip
+    )
     monkeypatch.setitem(registry.TASKS, entry.name, entry)
     for env_id, entry_point in TIP_IDS.items():
-        spec = TaskEnvSpec(id=env_id, entry_point=entry_point, kwargs={"task": entry.name},
-                           task=entry.name)  # fmt: skip
+        spec = TaskEnvSpec(
+            id=env_id, entry_point=entry_point, kwargs={"task": entry.name}, task=entry.name
+        )
         monkeypatch.setitem(gym.registry, env_id, spec)
     yield entry.name
     # monkeypatch removes the entry and the ids after the test
@@ -332,10 +339,17 @@ def test_scripted_task_dm_control_env(name, flavour):
             ts = env.reset()
             first = ts.observation["env_state"].copy()
             hold = (
-                np.concatenate([ts.observation["mocap_pose_left"], [0.044],
-                                ts.observation["mocap_pose_right"], [0.044]])
-                if flavour == "ee" else ts.observation["qpos"]
-            )  # fmt: skip
+                np.concatenate(
+                    [
+                        ts.observation["mocap_pose_left"],
+                        [0.044],
+                        ts.observation["mocap_pose_right"],
+                        [0.044],
+                    ]
+                )
+                if flavour == "ee"
+                else ts.observation["qpos"]
+            )
             rewards = []
             for _ in range(5):
                 ts = env.step(hold)

@@ -20,8 +20,11 @@ PLUGIN_EXAMPLE = REPO / "examples" / "lerobot_plugin_on_served_kit.py"
 def run_example(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, str(PLUGIN_EXAMPLE), *args],
-        capture_output=True, text=True, timeout=300, cwd=REPO,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=REPO,
+    )
 
 
 def test_plugin_example_drives_the_served_kit_or_says_what_is_missing():
@@ -59,8 +62,11 @@ def _require_task_package() -> None:
 def _cli(*args: str, cwd: Path) -> str:
     proc = subprocess.run(
         [sys.executable, "-m", "trossen_arm_mujoco.cli", *args],
-        capture_output=True, text=True, timeout=300, cwd=cwd,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=cwd,
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return proc.stdout
 
@@ -68,16 +74,46 @@ def _cli(*args: str, cwd: Path) -> str:
 @pytest.mark.once
 def test_the_example_task_package_records_exports_and_evaluates(tmp_path):
     _require_task_package()
-    out = _cli("record", "--task_name", "lift_puck", "--data_dir", str(tmp_path / "eps"),
-               "--num_episodes", "2", "--cam_names", "none", cwd=tmp_path)  # fmt: skip
+    out = _cli(
+        "record",
+        "--task_name",
+        "lift_puck",
+        "--data_dir",
+        str(tmp_path / "eps"),
+        "--num_episodes",
+        "2",
+        "--cam_names",
+        "none",
+        cwd=tmp_path,
+    )
     assert "Success: 2 / 2" in out, out
-    out = _cli("export", "--data_dir", str(tmp_path / "eps"), "--output", str(tmp_path / "ds"),
-               "--repo_id", "me/lift_puck", cwd=tmp_path)  # fmt: skip
+    out = _cli(
+        "export",
+        "--data_dir",
+        str(tmp_path / "eps"),
+        "--output",
+        str(tmp_path / "ds"),
+        "--repo_id",
+        "me/lift_puck",
+        cwd=tmp_path,
+    )
     assert "exported 2 episode(s)" in out, out
     info = json.loads((tmp_path / "ds" / "meta" / "info.json").read_text())
     assert info["total_episodes"] == 2
-    _cli("eval", "--policy", "scripted", "--task_name", "lift_puck", "--num_episodes", "2",
-         "--cam_names", "none", "--output_dir", str(tmp_path / "ev"), cwd=tmp_path)  # fmt: skip
+    _cli(
+        "eval",
+        "--policy",
+        "scripted",
+        "--task_name",
+        "lift_puck",
+        "--num_episodes",
+        "2",
+        "--cam_names",
+        "none",
+        "--output_dir",
+        str(tmp_path / "ev"),
+        cwd=tmp_path,
+    )
     agg = json.loads((tmp_path / "ev" / "eval_info.json").read_text())["aggregated"]
     assert agg["pc_success"] == 100.0 and agg["stages"] == {"touched": 100.0, "lifted": 100.0}
 
@@ -87,8 +123,11 @@ def test_the_example_task_packages_own_tests_pass():
     _require_task_package()
     proc = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests"],
-        capture_output=True, text=True, timeout=300, cwd=TASK_PACKAGE,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=TASK_PACKAGE,
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
@@ -102,42 +141,105 @@ def test_lerobot_eval_runs_the_example_package_task(tmp_path):
     python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
     if not python or not Path(python).is_file():
         pytest.skip("TROSSEN_LEROBOT_PYTHON is not set to a Python with LeRobot (.ci/run sets it)")
-    probe = subprocess.run([python, "-c", "import my_trossen_task, lerobot_env_trossen"],
-                           capture_output=True, text=True, timeout=300)  # fmt: skip
+    probe = subprocess.run(
+        [python, "-c", "import my_trossen_task, lerobot_env_trossen"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert probe.returncode == 0, (
         f"the example task package and the env plugin are not importable next to LeRobot: "
         f"{python} -m pip install -e {TASK_PACKAGE.relative_to(REPO)} "
         f"-e plugins/lerobot_env_trossen (tools/run_tests.sh does): {probe.stderr[-500:]}"
     )
     record = subprocess.run(
-        [sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--task_name", "lift_puck",
-         "--data_dir", str(tmp_path / "eps"), "--num_episodes", "2", "--episode_len", "30",
-         "--cam_names", "none"],
-        capture_output=True, text=True, timeout=300, cwd=tmp_path,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "record",
+            "--task_name",
+            "lift_puck",
+            "--data_dir",
+            str(tmp_path / "eps"),
+            "--num_episodes",
+            "2",
+            "--episode_len",
+            "30",
+            "--cam_names",
+            "none",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+    )
     assert record.returncode in (0, 1), record.stderr  # 30 steps lift nothing: episodes kept
-    _cli("export", "--data_dir", str(tmp_path / "eps"), "--output", str(tmp_path / "ds"),
-         "--repo_id", "me/lift_puck", cwd=tmp_path)  # fmt: skip
+    _cli(
+        "export",
+        "--data_dir",
+        str(tmp_path / "eps"),
+        "--output",
+        str(tmp_path / "ds"),
+        "--repo_id",
+        "me/lift_puck",
+        cwd=tmp_path,
+    )
     env = {**os.environ, "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl", "WANDB_MODE": "disabled"}
     train = subprocess.run(
-        [python, "-m", "lerobot.scripts.lerobot_train", "--dataset.repo_id=me/lift_puck",
-         f"--dataset.root={tmp_path / 'ds'}", "--policy.type=act", "--policy.device=cpu",
-         "--policy.push_to_hub=false", "--policy.use_vae=false", "--policy.chunk_size=5",
-         "--policy.n_action_steps=5", "--policy.dim_model=32", "--policy.dim_feedforward=64",
-         "--policy.n_encoder_layers=1", "--policy.n_decoder_layers=1", "--steps=2",
-         "--batch_size=2", "--num_workers=0", "--save_freq=2", "--wandb.enable=false",
-         f"--output_dir={tmp_path / 'train'}"],
-        capture_output=True, text=True, timeout=600, cwd=tmp_path, env=env,
-    )  # fmt: skip
+        [
+            python,
+            "-m",
+            "lerobot.scripts.lerobot_train",
+            "--dataset.repo_id=me/lift_puck",
+            f"--dataset.root={tmp_path / 'ds'}",
+            "--policy.type=act",
+            "--policy.device=cpu",
+            "--policy.push_to_hub=false",
+            "--policy.use_vae=false",
+            "--policy.chunk_size=5",
+            "--policy.n_action_steps=5",
+            "--policy.dim_model=32",
+            "--policy.dim_feedforward=64",
+            "--policy.n_encoder_layers=1",
+            "--policy.n_decoder_layers=1",
+            "--steps=2",
+            "--batch_size=2",
+            "--num_workers=0",
+            "--save_freq=2",
+            "--wandb.enable=false",
+            f"--output_dir={tmp_path / 'train'}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tmp_path,
+        env=env,
+    )
     assert train.returncode == 0, train.stderr[-3000:]
     ckpt = tmp_path / "train" / "checkpoints" / "last" / "pretrained_model"
     evaluated = subprocess.run(
-        [python, "-m", "lerobot.scripts.lerobot_eval", f"--policy.path={ckpt}",
-         "--env.type=trossen", "--env.task=lift_puck", "--env.cam_names=none",
-         "--env.episode_length=10", "--env.controller_checks=false", "--eval.n_episodes=1",
-         "--eval.batch_size=1", "--seed=3", f"--output_dir={tmp_path / 'ev'}"],
-        capture_output=True, text=True, timeout=600, cwd=tmp_path, env=env,
-    )  # fmt: skip
+        [
+            python,
+            "-m",
+            "lerobot.scripts.lerobot_eval",
+            f"--policy.path={ckpt}",
+            "--env.type=trossen",
+            "--env.task=lift_puck",
+            "--env.cam_names=none",
+            "--env.episode_length=10",
+            "--env.controller_checks=false",
+            "--eval.n_episodes=1",
+            "--eval.batch_size=1",
+            "--seed=3",
+            f"--output_dir={tmp_path / 'ev'}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tmp_path,
+        env=env,
+    )
     assert evaluated.returncode == 0, evaluated.stderr[-3000:]
     info = json.loads((tmp_path / "ev" / "eval_info.json").read_text())
     (task,) = info["per_task"]

@@ -27,8 +27,14 @@ ATTRS = {"task_name": "sim_transfer_cube", "seed": 0, "success": False}
 def _episode(path: Path) -> Path:
     with EpisodeWriter(path, 2, [], 24, 32, attrs=ATTRS) as w:
         for _ in range(2):
-            w.append(qpos=[0.0] * 16, qvel=[0.0] * 16, action=[0.0] * 16, reward=0.0,
-                     env_state=[0.0] * 7, images={})  # fmt: skip
+            w.append(
+                qpos=[0.0] * 16,
+                qvel=[0.0] * 16,
+                action=[0.0] * 16,
+                reward=0.0,
+                env_state=[0.0] * 7,
+                images={},
+            )
     return path
 
 
@@ -220,12 +226,18 @@ def test_every_command_on_a_read_only_file_system(place, fs_faults, monkeypatch,
         runs = [
             ("--data_dir", record_sim_episodes.cli, ["--data_dir", str(ro / "demo")]),
             ("--data_dir", record_sim_episodes.cli, ["--root_dir", str(ro), "--data_dir", "d"]),
-            ("--output", export_dataset.cli,
-             ["--data_dir", eps, "--output", str(ro / "ds"), "--repo_id", "me/ds"]),
+            (
+                "--output",
+                export_dataset.cli,
+                ["--data_dir", eps, "--output", str(ro / "ds"), "--repo_id", "me/ds"],
+            ),
             ("--output_dir", visualize_eps.cli, ["--data_dir", eps, "--output_dir", str(ro)]),
-            ("--output_dir", visualize_eps.cli,
-             ["--data_dir", eps, "--output_dir", str(ro / "empty" / "videos")]),
-        ]  # fmt: skip
+            (
+                "--output_dir",
+                visualize_eps.cli,
+                ["--data_dir", eps, "--output_dir", str(ro / "empty" / "videos")],
+            ),
+        ]
         for flag, cli, argv in runs:
             assert cli(argv) == 2, argv
             line = _one_error(capfd)

@@ -21,9 +21,21 @@ pytestmark = pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "train_eval.py"
 SETTINGS_KEY, SETTINGS_FILE = "trossen_arm_mujoco", "trossen_settings.json"
 TINY = [
-    "--steps", "2", "--save_freq", "2", "--batch_size", "2", "--dim_model", "32",
-    "--dim_feedforward", "64", "--n_encoder_layers", "1", "--chunk_size", "5",
-]  # fmt: skip
+    "--steps",
+    "2",
+    "--save_freq",
+    "2",
+    "--batch_size",
+    "2",
+    "--dim_model",
+    "32",
+    "--dim_feedforward",
+    "64",
+    "--n_encoder_layers",
+    "1",
+    "--chunk_size",
+    "5",
+]
 
 
 def _python() -> str:
@@ -36,9 +48,11 @@ def _python() -> str:
 def _bench(work: Path, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, str(SCRIPT), "--work_dir", str(work), *args],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True,
+        text=True,
+        timeout=600,
         env={**os.environ, "TROSSEN_LEROBOT_PYTHON": _python()},
-    )  # fmt: skip
+    )
 
 
 def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
@@ -49,14 +63,41 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
     assert not (work / "train").exists()  # only the phases asked for ran
 
     seeds = ["--train_seeds", "2", "--train_seed", "5"]
-    trained = _bench(work, "--phase", "train", *seeds, "--train_jobs", "2", *TINY,
-                     "--lr_schedule", "cosine", "--lr_final", "3e-7")  # fmt: skip
+    trained = _bench(
+        work,
+        "--phase",
+        "train",
+        *seeds,
+        "--train_jobs",
+        "2",
+        *TINY,
+        "--lr_schedule",
+        "cosine",
+        "--lr_final",
+        "3e-7",
+    )
     assert trained.returncode == 0, trained.stdout + trained.stderr
     for seed in (5, 6):
-        assert (work / "train" / f"seed_{seed}" / "checkpoints" / "last" / "pretrained_model"
-                / "model.safetensors").is_file()  # fmt: skip
-        config = json.loads((work / "train" / f"seed_{seed}" / "checkpoints" / "last"
-                             / "pretrained_model" / "train_config.json").read_text())  # fmt: skip
+        assert (
+            work
+            / "train"
+            / f"seed_{seed}"
+            / "checkpoints"
+            / "last"
+            / "pretrained_model"
+            / "model.safetensors"
+        ).is_file()
+        config = json.loads(
+            (
+                work
+                / "train"
+                / f"seed_{seed}"
+                / "checkpoints"
+                / "last"
+                / "pretrained_model"
+                / "train_config.json"
+            ).read_text()
+        )
         assert config["seed"] == seed
         # LeRobot took the decayed schedule with ACT's own optimizer settings
         assert config["scheduler"]["type"] == "cosine_decay_with_warmup"
@@ -67,8 +108,18 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
     again = _bench(work, "--phase", "train", *seeds, *TINY)
     assert again.returncode == 0 and "already holds a checkpoint" in again.stdout
 
-    scored = _bench(work, "--phase", "eval", *seeds, "--eval_episodes", "2",
-                    "--eval_episode_length", "10", "--eval_workers", "1")  # fmt: skip
+    scored = _bench(
+        work,
+        "--phase",
+        "eval",
+        *seeds,
+        "--eval_episodes",
+        "2",
+        "--eval_episode_length",
+        "10",
+        "--eval_workers",
+        "1",
+    )
     assert scored.returncode == 0, scored.stdout + scored.stderr
     summary = json.loads((work / "summary.json").read_text())
     assert set(summary["runs"]) == {"5", "6"}
@@ -88,15 +139,31 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
         assert run["deployment"]["settings_source"].endswith(SETTINGS_FILE)
     from trossen_arm_mujoco.export.dataset_settings import checkpoint_settings
 
-    carried, source = checkpoint_settings(work / "train" / "seed_5" / "checkpoints" / "last"
-                                          / "pretrained_model")  # fmt: skip
+    carried, source = checkpoint_settings(
+        work / "train" / "seed_5" / "checkpoints" / "last" / "pretrained_model"
+    )
     assert carried is not None and carried.fps == 50 and carried.layout == "kit14"
     assert "record" in summary and "export" in summary  # earlier phases kept in the summary
     assert "spread_all" not in summary  # no run beyond this call's
 
-    more = _bench(work, "--phase", "train,eval", "--train_seed", "7", *TINY, "--lr_schedule",
-                  "cosine", "--lr_final", "3e-7", "--eval_episodes", "2",
-                  "--eval_episode_length", "10", "--eval_workers", "1")  # fmt: skip
+    more = _bench(
+        work,
+        "--phase",
+        "train,eval",
+        "--train_seed",
+        "7",
+        *TINY,
+        "--lr_schedule",
+        "cosine",
+        "--lr_final",
+        "3e-7",
+        "--eval_episodes",
+        "2",
+        "--eval_episode_length",
+        "10",
+        "--eval_workers",
+        "1",
+    )
     assert more.returncode == 0, more.stdout + more.stderr
     summary = json.loads((work / "summary.json").read_text())
     assert summary["spread"]["runs"] == 1  # this call's run
@@ -120,20 +187,24 @@ def _bench_without_lerobot(work: Path, *args: str) -> subprocess.CompletedProces
     """The benchmark up to its first phase: TROSSEN_LEROBOT_PYTHON only has to be set."""
     return subprocess.run(
         [sys.executable, str(SCRIPT), "--work_dir", str(work), "--phase", "train", *args],
-        capture_output=True, text=True, timeout=120,
+        capture_output=True,
+        text=True,
+        timeout=120,
         env={**os.environ, "TROSSEN_LEROBOT_PYTHON": sys.executable},
-    )  # fmt: skip
+    )
 
 
 @pytest.mark.parametrize(
     ("summary", "expected"),
-    [(b'{"settings": {}, "runs": {"5": {"train": ', "summary.json cannot be read as JSON ("),
-     (b"", "summary.json cannot be read as JSON (Expecting value"),
-     (b"\xff\xfe{}", "summary.json cannot be read as JSON ("),
-     (b"[1, 2]", "summary.json is not a summary of this benchmark"),
-     (b'{"runs": []}', "summary.json is not a summary of this benchmark"),
-     (b'{"runs": {"5": 3}}', "summary.json is not a summary of this benchmark")],
-)  # fmt: skip
+    [
+        (b'{"settings": {}, "runs": {"5": {"train": ', "summary.json cannot be read as JSON ("),
+        (b"", "summary.json cannot be read as JSON (Expecting value"),
+        (b"\xff\xfe{}", "summary.json cannot be read as JSON ("),
+        (b"[1, 2]", "summary.json is not a summary of this benchmark"),
+        (b'{"runs": []}', "summary.json is not a summary of this benchmark"),
+        (b'{"runs": {"5": 3}}', "summary.json is not a summary of this benchmark"),
+    ],
+)
 def test_a_broken_summary_is_one_line_and_left_as_it_is(tmp_path, summary, expected):
     work = tmp_path / "w"
     work.mkdir()
@@ -148,9 +219,10 @@ def test_a_broken_summary_is_one_line_and_left_as_it_is(tmp_path, summary, expec
 def test_a_file_as_work_dir_is_one_line(tmp_path):
     given = tmp_path / "notes.txt"
     given.write_text("mine\n")
-    for work, expected in ((given, f"error: --work_dir {given} is a file; give a folder"),
-                           (given / "sub", f"error: --work_dir {given / 'sub'}: cannot create "
-                            "it (")):  # fmt: skip
+    for work, expected in (
+        (given, f"error: --work_dir {given} is a file; give a folder"),
+        (given / "sub", f"error: --work_dir {given / 'sub'}: cannot create it ("),
+    ):
         run = _bench_without_lerobot(work)
         assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
         lines = run.stderr.strip().splitlines()
@@ -170,11 +242,24 @@ def test_gpu_leg_trains_the_plan_and_packs_each_checkpoint_for_the_trip(tmp_path
     plan.write_text(json.dumps([{"name": "tiny", "args": args}]))
     pack = tmp_path / "pack"
     leg = subprocess.run(
-        [python, str(SCRIPT.with_name("gpu_leg.py")), "--plan", str(plan), "--deadline_s", "300",
-         "--pack_dir", str(pack), "--half", "--split_mb", "0.05"],
-        capture_output=True, text=True, timeout=600,
+        [
+            python,
+            str(SCRIPT.with_name("gpu_leg.py")),
+            "--plan",
+            str(plan),
+            "--deadline_s",
+            "300",
+            "--pack_dir",
+            str(pack),
+            "--half",
+            "--split_mb",
+            "0.05",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
         env={**os.environ, "TROSSEN_LEROBOT_PYTHON": python},
-    )  # fmt: skip
+    )
     assert leg.returncode == 0, leg.stdout + leg.stderr
     report = json.loads((pack / "gpu_leg.json").read_text())
     assert [(r["seed"], r["steps"]) for r in report["runs"]] == [(1000, 2), (1001, 2)]
@@ -190,12 +275,18 @@ def test_gpu_leg_trains_the_plan_and_packs_each_checkpoint_for_the_trip(tmp_path
         model = dest / "pretrained_model"
         assert (model / "config.json").is_file()
         check = subprocess.run(
-            [python, "-c", "import sys; from safetensors import safe_open; "
-             "f = safe_open(sys.argv[1], 'pt'); "
-             "print({str(f.get_tensor(k).dtype) for k in f.keys()})",
-             str(model / "model.safetensors")],
-            capture_output=True, text=True, timeout=120,
-        )  # fmt: skip
+            [
+                python,
+                "-c",
+                "import sys; from safetensors import safe_open; "
+                "f = safe_open(sys.argv[1], 'pt'); "
+                "print({str(f.get_tensor(k).dtype) for k in f.keys()})",
+                str(model / "model.safetensors"),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         assert check.returncode == 0 and "torch.float16" in check.stdout, check.stderr
 
 
@@ -222,9 +313,12 @@ def test_gpu_leg_stand_in_for_pyav_lets_lerobot_train_import_and_refuses_to_deco
         "try:\n    av.open('x.mp4')\nexcept ImportError as e:\n    print('refused:', e)\n"
     )
     run = subprocess.run(
-        [python, "-c", probe], capture_output=True, text=True, timeout=300,
+        [python, "-c", probe],
+        capture_output=True,
+        text=True,
+        timeout=300,
         env={**os.environ, "PYTHONPATH": str(tmp_path)},
-    )  # fmt: skip
+    )
     assert run.returncode == 0, run.stderr
     assert str(tmp_path / "av" / "__init__.py") in run.stdout
     assert "refused: PyAV is not installed here" in run.stdout
@@ -254,9 +348,22 @@ def test_the_camera_recipe_runs_small_and_reports_its_cost(tmp_path):
     joints and cam_high's crop at 60x80, 30 fps, no object pose), each run's success,
     interval, CPU seconds and steps/s in summary.json."""
     work = tmp_path / "cam"
-    run = _bench(work, "--recipe", "camera", "--episodes", "2", *TINY, "--eval_episodes", "1",
-                 "--eval_episode_length", "15", "--eval_workers", "1",
-                 "--controller_checks", "on")  # fmt: skip
+    run = _bench(
+        work,
+        "--recipe",
+        "camera",
+        "--episodes",
+        "2",
+        *TINY,
+        "--eval_episodes",
+        "1",
+        "--eval_episode_length",
+        "15",
+        "--eval_workers",
+        "1",
+        "--controller_checks",
+        "on",
+    )
     assert run.returncode == 0, run.stdout + run.stderr
     info = json.loads((work / "dataset" / "meta" / "info.json").read_text())
     assert info["fps"] == 30
@@ -285,8 +392,9 @@ def test_the_camera_pose_recipe_runs_small_through_the_gpu_route_and_deploys(tmp
     python = _python()
     work = tmp_path / "pose"
     pose = ["--recipe", "camera_pose", *TINY]
-    made = _bench(work, *pose, "--episodes", "2", "--static_frames", "2",
-                  "--phase", "record,export,encode")  # fmt: skip
+    made = _bench(
+        work, *pose, "--episodes", "2", "--static_frames", "2", "--phase", "record,export,encode"
+    )
     assert made.returncode == 0, made.stdout + made.stderr
     assert len(list((work / "static").glob("episode_*.hdf5"))) == 2  # 3 steps each
     derived = work / "dataset_pose"
@@ -306,11 +414,22 @@ def test_the_camera_pose_recipe_runs_small_through_the_gpu_route_and_deploys(tmp
     plan.write_text(json.dumps([{"name": "pose", "args": [*pose, "--work_dir", str(gpu)]}]))
     pack = tmp_path / "pack"
     leg = subprocess.run(
-        [python, str(SCRIPT.with_name("gpu_leg.py")), "--plan", str(plan), "--deadline_s", "300",
-         "--pack_dir", str(pack), "--stub_av"],
-        capture_output=True, text=True, timeout=600,
+        [
+            python,
+            str(SCRIPT.with_name("gpu_leg.py")),
+            "--plan",
+            str(plan),
+            "--deadline_s",
+            "300",
+            "--pack_dir",
+            str(pack),
+            "--stub_av",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
         env={**os.environ, "TROSSEN_LEROBOT_PYTHON": python},
-    )  # fmt: skip
+    )
     assert leg.returncode == 0, leg.stdout + leg.stderr + (gpu / "gpu_leg.log").read_text()
     (entry,) = json.loads((pack / "gpu_leg.json").read_text())["runs"]
     assert entry["steps"] == 2 and entry["exit"] == 0
@@ -319,12 +438,22 @@ def test_the_camera_pose_recipe_runs_small_through_the_gpu_route_and_deploys(tmp
         tar.extractall(last, filter="data")
     ckpt = last / "pretrained_model"
     config = json.loads((ckpt / "config.json").read_text())
-    assert set(config["input_features"]) == {"observation.state",
-                                             "observation.environment_state"}  # fmt: skip
+    assert set(config["input_features"]) == {"observation.state", "observation.environment_state"}
 
-    scored = _bench(work, *pose, "--phase", "eval", "--eval_episodes", "1",
-                    "--eval_episode_length", "15", "--eval_workers", "1",
-                    "--controller_checks", "on")  # fmt: skip
+    scored = _bench(
+        work,
+        *pose,
+        "--phase",
+        "eval",
+        "--eval_episodes",
+        "1",
+        "--eval_episode_length",
+        "15",
+        "--eval_workers",
+        "1",
+        "--controller_checks",
+        "on",
+    )
     assert scored.returncode == 0, scored.stdout + scored.stderr
     steps = json.loads((ckpt / "policy_preprocessor.json").read_text())["steps"]
     names = [step["registry_name"] for step in steps]
@@ -340,8 +469,11 @@ def test_a_train_only_machine_without_the_derived_copy_is_told_what_to_carry(tmp
     run = _bench_without_lerobot(tmp_path / "w", "--recipe", "camera_pose")
     assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
     lines = run.stderr.strip().splitlines()
-    assert len(lines) == 1 and "run --phase record,export,encode where the episodes are" in \
-        lines[0] and "carry dataset_pose/" in lines[0], lines  # fmt: skip
+    assert (
+        len(lines) == 1
+        and "run --phase record,export,encode where the episodes are" in lines[0]
+        and "carry dataset_pose/" in lines[0]
+    ), lines
 
 
 def _recipe_module(name: str):
@@ -359,31 +491,38 @@ def _recipe_module(name: str):
 
 @pytest.mark.parametrize(
     ("flags", "crop"),
-    [(["--recipe", "camera_pose"], "cam_high:217,243,150,200"),
-     (["--recipe", "camera_pose", "--task", "sim_insertion"], "cam_high:170,211,180,240"),
-     (["--recipe", "camera", "--task", "insertion"], "cam_high:170,211,180,240"),
-     (["--recipe", "camera_pose", "--task", "sim_insertion", "--crop", "cam_high:0,0,48,64"],
-      "cam_high:0,0,48,64"),
-     (["--task", "sim_insertion"], None)],
-)  # fmt: skip
+    [
+        (["--recipe", "camera_pose"], "cam_high:217,243,150,200"),
+        (["--recipe", "camera_pose", "--task", "sim_insertion"], "cam_high:170,211,180,240"),
+        (["--recipe", "camera", "--task", "insertion"], "cam_high:170,211,180,240"),
+        (
+            ["--recipe", "camera_pose", "--task", "sim_insertion", "--crop", "cam_high:0,0,48,64"],
+            "cam_high:0,0,48,64",
+        ),
+        (["--task", "sim_insertion"], None),
+    ],
+)
 def test_the_cropped_recipes_take_their_tasks_crop(flags, crop):
     assert _recipe_module("train_eval").parse_args(flags).crop == crop
 
 
 @pytest.mark.parametrize(
     ("flags", "static"),
-    [(["--recipe", "camera_pose", "--task", "sim_insertion"], 1000),
-     (["--recipe", "camera_pose"], 0),
-     (["--recipe", "camera_pose", "--task", "insertion", "--static_frames", "5"], 5),
-     (["--task", "sim_insertion"], 0)],
-)  # fmt: skip
+    [
+        (["--recipe", "camera_pose", "--task", "sim_insertion"], 1000),
+        (["--recipe", "camera_pose"], 0),
+        (["--recipe", "camera_pose", "--task", "insertion", "--static_frames", "5"], 5),
+        (["--task", "sim_insertion"], 0),
+    ],
+)
 def test_the_pose_recipe_takes_its_tasks_static_frames(flags, static):
     assert _recipe_module("train_eval").parse_args(flags).static_frames == static
 
 
 def test_the_pose_encoder_takes_images_resnet_could_not():
-    args = _recipe_module("train_eval").parse_args(["--recipe", "camera_pose", "--image_size",
-                                                    "24x32"])  # fmt: skip
+    args = _recipe_module("train_eval").parse_args(
+        ["--recipe", "camera_pose", "--image_size", "24x32"]
+    )
     assert args.image_size == "24x32" and args.pose_encoder
 
 
@@ -405,18 +544,31 @@ def test_each_task_crop_holds_its_objects_spawn_region():
     from trossen_arm_mujoco.tasks import insertion, transfer_cube
     from trossen_arm_mujoco.tasks.registry import load
 
-    crops = {name: load(name).camera_crop for name in ("sim_transfer_cube", "transfer_cube",
-                                                       "sim_insertion", "insertion")}  # fmt: skip
-    scenes = {"sim_transfer_cube": "trossen_ai_scene_joint.xml",
-              "sim_insertion": "trossen_ai_insertion_scene_joint.xml"}  # fmt: skip
+    crops = {
+        name: load(name).camera_crop
+        for name in ("sim_transfer_cube", "transfer_cube", "sim_insertion", "insertion")
+    }
+    scenes = {
+        "sim_transfer_cube": "trossen_ai_scene_joint.xml",
+        "sim_insertion": "trossen_ai_insertion_scene_joint.xml",
+    }
     corners = {
-        "sim_transfer_cube": [(x, y, z) for x in transfer_cube.BOX_X_RANGE
-                              for y in transfer_cube.BOX_Y_RANGE for z in (0.02, 0.05)],
-        "sim_insertion": [(x, y, z) for x in insertion.PEG_X_RANGE
-                          for y in (insertion.PEG_Y_RANGE[0] - insertion.PEG_HALF[1],
-                                    insertion.SOCKET_Y_RANGE[1] + insertion.SOCKET_HALF_LENGTH)
-                          for z in (0.02, 0.25)],
-    }  # fmt: skip
+        "sim_transfer_cube": [
+            (x, y, z)
+            for x in transfer_cube.BOX_X_RANGE
+            for y in transfer_cube.BOX_Y_RANGE
+            for z in (0.02, 0.05)
+        ],
+        "sim_insertion": [
+            (x, y, z)
+            for x in insertion.PEG_X_RANGE
+            for y in (
+                insertion.PEG_Y_RANGE[0] - insertion.PEG_HALF[1],
+                insertion.SOCKET_Y_RANGE[1] + insertion.SOCKET_HALF_LENGTH,
+            )
+            for z in (0.02, 0.25)
+        ],
+    }
     for task, points in corners.items():
         model = mujoco.MjModel.from_xml_path(str(asset_path(f"stationary_ai/{scenes[task]}")))
         data = mujoco.MjData(model)
@@ -434,20 +586,31 @@ def test_each_task_crop_holds_its_objects_spawn_region():
 
 @pytest.mark.parametrize(
     ("flags", "expected"),
-    [(["--cam_names", "cam_top"], "--cam_names cam_top: the kit has no such camera; choose"),
-     (["--recipe", "camera", "--image_size", "24x32"], "--image_size 24x32 is below what the "
-      "image encoder resolves"),
-     (["--recipe", "camera_pose", "--image_size", "12x16"], "--image_size 12x16 is below what "
-      "the pose encoder resolves"),
-     (["--recipe", "camera", "--crop", "cam_high:400,0,100,100"], "--crop cam_high:400,0,100,"
-      "100 is outside the camera's 480x640 frame"),
-     (["--recipe", "camera", "--crop", "cam_low:0,0,10,10"], "camera 'cam_low' is not "
-      "observed"),
-     (["--recipe", "camera_pose", "--static_frames", "-5"], "--static_frames -5: give a "
-      "count >= 0"),
-     (["--recipe", "camera", "--static_frames", "5"], "--static_frames trains the pose "
-      "encoder: use it with --recipe camera_pose")],
-)  # fmt: skip
+    [
+        (["--cam_names", "cam_top"], "--cam_names cam_top: the kit has no such camera; choose"),
+        (
+            ["--recipe", "camera", "--image_size", "24x32"],
+            "--image_size 24x32 is below what the image encoder resolves",
+        ),
+        (
+            ["--recipe", "camera_pose", "--image_size", "12x16"],
+            "--image_size 12x16 is below what the pose encoder resolves",
+        ),
+        (
+            ["--recipe", "camera", "--crop", "cam_high:400,0,100,100"],
+            "--crop cam_high:400,0,100,100 is outside the camera's 480x640 frame",
+        ),
+        (["--recipe", "camera", "--crop", "cam_low:0,0,10,10"], "camera 'cam_low' is not observed"),
+        (
+            ["--recipe", "camera_pose", "--static_frames", "-5"],
+            "--static_frames -5: give a count >= 0",
+        ),
+        (
+            ["--recipe", "camera", "--static_frames", "5"],
+            "--static_frames trains the pose encoder: use it with --recipe camera_pose",
+        ),
+    ],
+)
 def test_camera_settings_are_checked_before_anything_runs(tmp_path, flags, expected):
     run = _bench_without_lerobot(tmp_path / "w", *flags)
     assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
@@ -474,28 +637,45 @@ def test_the_recipe_knows_the_kit_cameras():
 
 def test_the_spread_over_every_run_pools_only_runs_trained_and_scored_alike(tmp_path, capsys):
     rep = _bench_module("train_eval_report")
-    flags = {"work_dir": "w", "phase": "train", "train_seed": 5, "train_jobs": 2,
-             "steps": 7000, "lr": 1e-4, "eval_episodes": 50, "controller_checks": "on"}  # fmt: skip
+    flags = {
+        "work_dir": "w",
+        "phase": "train",
+        "train_seed": 5,
+        "train_jobs": 2,
+        "steps": 7000,
+        "lr": 1e-4,
+        "eval_episodes": 50,
+        "controller_checks": "on",
+    }
     made = rep.recipe_flags(flags)
     assert made == {"steps": 7000, "lr": 1e-4}  # where, which seeds, how fast, how scored: out
-    info = {"aggregated": {"pc_success": 80.0}, "run": {"task": "t", "num_episodes": 50,
-            "seed": 0, "episode_length": None, "policy": "p", "num_workers": 2}}  # fmt: skip
+    info = {
+        "aggregated": {"pc_success": 80.0},
+        "run": {
+            "task": "t",
+            "num_episodes": 50,
+            "seed": 0,
+            "episode_length": None,
+            "policy": "p",
+            "num_workers": 2,
+        },
+    }
     (tmp_path / "eval_info.json").write_text(json.dumps(info))
     scored = rep.results(tmp_path / "eval_info.json")["scored_on"]
     assert scored == {"task": "t", "num_episodes": 50, "seed": 0, "episode_length": None}
 
     def run(pc: float, **other) -> dict:
-        result = {"pc_success": pc, "pc_success_ci95": [0.0, 100.0], "n_episodes": 50,
-                  "stages": {}}  # fmt: skip
+        result = {"pc_success": pc, "pc_success_ci95": [0.0, 100.0], "n_episodes": 50, "stages": {}}
         return {"result": result, "trained_with": {**made, **other}, "scored_on": scored}
 
     runs = {
-        "5": run(80.0), "6": run(90.0),
+        "5": run(80.0),
+        "6": run(90.0),
         "7": run(70.0, steps=2000),  # another recipe
         "8": {**run(60.0), "scored_on": {**scored, "seed": 1}},  # other episodes
         "9": {"train": {"cpu_s": 1.0}, "trained_with": made},  # trained, not scored
         "4": {k: v for k, v in run(50.0).items() if k != "trained_with"},  # an older summary
-    }  # fmt: skip
+    }
     assert set(rep.alike(runs, ["6"])) == {"5", "6"}
     assert set(rep.alike(runs, ["6", "9"])) == {"5", "6"}
     assert set(rep.alike(runs, ["8"])) == {"8"}

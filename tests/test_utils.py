@@ -89,9 +89,12 @@ def test_make_sim_env_looks(fake_menagerie):
     env = make_sim_env(TransferCubeTask, cam_list=["cam_high"], image_size=(24, 32))
     assert env.physics.model.light_castshadow.sum() == 1  # the key light
     env = make_sim_env(
-        TransferCubeTask, cam_list=["cam_high"], image_size=(24, 32), shadows=False,
+        TransferCubeTask,
+        cam_list=["cam_high"],
+        image_size=(24, 32),
+        shadows=False,
         visual="menagerie",
-    )  # fmt: skip
+    )
     model = env.physics.model
     assert not model.light_castshadow.any()
     assert "menagerie_link_2" in [model.mesh(i).name for i in range(model.nmesh)]
@@ -153,12 +156,18 @@ def test_make_sim_env_randomize_same_seed_same_scene():
 def test_joint_env_replays_in_the_ee_env_scene():
     """The two phases of a recording: the joint env given the EE env's record and cube pose
     sees the same scene (model fields, initial joints, images)."""
-    ee = make_sim_env(TransferCubeEETask, random=3, cam_list=["cam_high"], image_size=(32, 40),
-                      randomize=True)  # fmt: skip
+    ee = make_sim_env(
+        TransferCubeEETask, random=3, cam_list=["cam_high"], image_size=(32, 40), randomize=True
+    )
     first = ee.reset().observation
     record = ee.task.applied_randomization
-    joint = make_sim_env(TransferCubeTask, cam_list=["cam_high"], image_size=(32, 40),
-                         randomization=record, box_pose=first["env_state"])  # fmt: skip
+    joint = make_sim_env(
+        TransferCubeTask,
+        cam_list=["cam_high"],
+        image_size=(32, 40),
+        randomization=record,
+        box_pose=first["env_state"],
+    )
     try:
         replay = joint.reset().observation
         fields_ee, fields_joint = _scene_fields(ee), _scene_fields(joint)

@@ -204,19 +204,39 @@ FINGER_NAME = {"carriage_left": "gripper_follower_left", "carriage_right": "grip
 FINGER_GEOMS = {  # body: [(name suffix, mesh, half-size, pos, quat)]
     "carriage_right": [
         ("", "wxai_finger_tip", TIP_HALF, (0.0622, 0.02083, -0.00105), (1, 0, 0, 0)),
-        ("_pad_upper", "wxai_finger_pad", PAD_HALF, (0.0286, 0.01436, 0.0037),
-         (0.99257, -0.00451, 0.10246, 0.06547)),
-        ("_pad_lower", "wxai_finger_pad", PAD_HALF, (0.0285, 0.01429, -0.00973),
-         (0.98344, 0.0133, -0.16893, 0.06427)),
+        (
+            "_pad_upper",
+            "wxai_finger_pad",
+            PAD_HALF,
+            (0.0286, 0.01436, 0.0037),
+            (0.99257, -0.00451, 0.10246, 0.06547),
+        ),
+        (
+            "_pad_lower",
+            "wxai_finger_pad",
+            PAD_HALF,
+            (0.0285, 0.01429, -0.00973),
+            (0.98344, 0.0133, -0.16893, 0.06427),
+        ),
     ],
     "carriage_left": [
         ("", "wxai_finger_tip", TIP_HALF, (0.0622, -0.02083, -0.00105), (1, 0, 0, 0)),
-        ("_pad_upper", "wxai_finger_pad", PAD_HALF, (0.0286, -0.01436, 0.0037),
-         (0.99257, 0.00451, 0.10246, -0.06547)),
-        ("_pad_lower", "wxai_finger_pad", PAD_HALF, (0.0285, -0.01429, -0.00973),
-         (0.98344, -0.0133, -0.16893, -0.06427)),
+        (
+            "_pad_upper",
+            "wxai_finger_pad",
+            PAD_HALF,
+            (0.0286, -0.01436, 0.0037),
+            (0.99257, 0.00451, 0.10246, -0.06547),
+        ),
+        (
+            "_pad_lower",
+            "wxai_finger_pad",
+            PAD_HALF,
+            (0.0285, -0.01429, -0.00973),
+            (0.98344, -0.0133, -0.16893, -0.06427),
+        ),
     ],
-}  # fmt: skip
+}
 #: Box-shaped convex meshes: name -> half-size (m).
 BOX_MESHES = {"wxai_finger_pad": PAD_HALF, "wxai_finger_tip": TIP_HALF}
 

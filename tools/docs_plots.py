@@ -45,13 +45,13 @@ def plot_training_success(curves: dict[str, Any]) -> Path:
             mine = [r for r in runs if r["data"] == variant and r["device"] == device]
             if not mine:
                 continue
-            x = [r["steps"] + (i - len(variants) / 2) * 90 + (r["seed"] - 1000) * 30
-                 for r in mine]  # fmt: skip
+            x = [r["steps"] + (i - len(variants) / 2) * 90 + (r["seed"] - 1000) * 30 for r in mine]
             y = [r["success"] for r in mine]
             low = [r["success"] - float(r["ci"][0]) for r in mine]
             err = [low, [float(r["ci"][1]) - r["success"] for r in mine]]
-            ax.errorbar(x, y, yerr=err, fmt=marker, color=f"C{i}", capsize=3,
-                        label=f"{variant} ({device})")  # fmt: skip
+            ax.errorbar(
+                x, y, yerr=err, fmt=marker, color=f"C{i}", capsize=3, label=f"{variant} ({device})"
+            )
     steps = sorted({r["steps"] for r in runs})
     ax.set_xticks(steps)
     ax.set_xticklabels([f"{k // 1000}k" for k in steps])
@@ -97,10 +97,20 @@ def plot_recording_cost(cost: dict[str, Any]) -> Path:
         axis = right if small else ax
         steps = [p["steps"] for p in setting["points"]]
         label = setting["setting"].replace(" compression", "") + (" (right axis)" if small else "")
-        axis.plot(steps, [p["wall_s"] for p in setting["points"]], "o-", color=f"C{i}",
-                  label=f"{label}: wall")  # fmt: skip
-        axis.plot(steps, [p["cpu_s"] for p in setting["points"]], "x--", color=f"C{i}",
-                  label=f"{label}: CPU")  # fmt: skip
+        axis.plot(
+            steps,
+            [p["wall_s"] for p in setting["points"]],
+            "o-",
+            color=f"C{i}",
+            label=f"{label}: wall",
+        )
+        axis.plot(
+            steps,
+            [p["cpu_s"] for p in setting["points"]],
+            "x--",
+            color=f"C{i}",
+            label=f"{label}: CPU",
+        )
     ax.set_xlabel("episode length (steps at 50 Hz)")
     ax.set_ylabel("seconds per episode (left-hand settings)")
     right.set_ylabel("seconds per episode (right-hand settings)")

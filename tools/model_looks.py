@@ -175,12 +175,16 @@ def corners(u0: float, u1: float, v0: float, v1: float, r: float) -> list[tuple]
 def _finger_meshes() -> dict[str, np.ndarray]:
     """Carriage and finger of the right side (carriage frame): a mount block behind a
     tapered blade that carries the pads; the left side is the mirror image."""
-    carriage = rounded_prism(corners(-0.0145, 0.012, -0.015, 0.0243, 0.004), "yz",
-                             -0.0185, -0.0005, 0.002)  # fmt: skip
-    mount = rounded_prism(corners(-0.0134, 0.0094, -0.029, 0.029, 0.003), "yz",
-                          0.0, 0.014, 0.0015)  # fmt: skip
-    blade_profile = [(0.004, 0.026, 0.004), (0.004, -0.026, 0.004), (0.062, 0.004, 0.005),
-                     (0.062, -0.006, 0.005)]  # fmt: skip
+    carriage = rounded_prism(
+        corners(-0.0145, 0.012, -0.015, 0.0243, 0.004), "yz", -0.0185, -0.0005, 0.002
+    )
+    mount = rounded_prism(corners(-0.0134, 0.0094, -0.029, 0.029, 0.003), "yz", 0.0, 0.014, 0.0015)
+    blade_profile = [
+        (0.004, 0.026, 0.004),
+        (0.004, -0.026, 0.004),
+        (0.062, 0.004, 0.005),
+        (0.062, -0.006, 0.005),
+    ]
     blade = rounded_prism(blade_profile, "xz", 0.0014, 0.0094, 0.0015)
     return {
         "wxai_carriage_right": carriage,

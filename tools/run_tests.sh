@@ -80,6 +80,8 @@ export TROSSEN_LEROBOT_REQUIRED=1
 
 # The legs (docs/testing.md has their timings). Each runs even when an earlier one failed;
 # the exit status is non-zero if any did.
+# 0. Lint: `ruff check` and `ruff format --check` (the formatter owns the layout; the
+#    version is pinned in pyproject.toml's dev extra, so every machine formats alike).
 # 1. This Python (3.11 in CI), every test but those marked serial, spread over the cores by
 #    pytest-xdist (PYTEST_WORKERS=N to choose; a test file stays on one worker, so its module
 #    fixtures are built once and the served kits' loopback addresses, one block a module, never
@@ -103,6 +105,7 @@ leg() {  # leg NAME COMMAND...: runs it, prints its wall-clock time, notes a fai
     if ! MUJOCO_GL=egl "$@"; then FAILED="${FAILED:+$FAILED, }$name"; fi
     echo "== $name: $(( $(date +%s) - start )) s"
 }
+leg "leg 0 (lint)" bash -c 'ruff check --quiet . && ruff format --check --quiet .'
 leg "leg 1 (this Python, parallel)" python -m pytest -q -n "$WORKERS" --dist loadfile -m "not serial"
 leg "leg 2 (this Python, serial)" python -m pytest -q -p no:cacheprovider -n 0 -m serial
 leg "leg 3 (Python 3.12, LeRobot)" "$LEROBOT_VENV/bin/python" -m pytest -q -p no:cacheprovider \

@@ -159,11 +159,18 @@ _received: list[int] = []
 TERMINATING_SIGNALS: tuple[signal.Signals, ...] = tuple(
     getattr(signal, name)
     for name in (
-        "SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2", "SIGALRM", "SIGVTALRM",
-        "SIGPROF", "SIGXCPU",
+        "SIGTERM",
+        "SIGHUP",
+        "SIGQUIT",
+        "SIGUSR1",
+        "SIGUSR2",
+        "SIGALRM",
+        "SIGVTALRM",
+        "SIGPROF",
+        "SIGXCPU",
     )
     if hasattr(signal, name)
-)  # fmt: skip
+)
 
 
 def _default_sigterm_in_child() -> None:

@@ -58,9 +58,14 @@ class Program:
     def __init__(self, args: list[str], cwd: Path) -> None:
         env = dict(os.environ, MUJOCO_GL="egl", PYTHONUNBUFFERED="1")
         self.proc = subprocess.Popen(
-            [sys.executable, *args], cwd=cwd, env=env, stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, start_new_session=True,
-        )  # fmt: skip
+            [sys.executable, *args],
+            cwd=cwd,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -257,11 +262,24 @@ def test_record_killed_with_sigkill_leaves_quiet_workers_and_whole_episodes(
     without a word, and what was published must load."""
     data = tmp_path / "data"
     program = Program(
-        ["-m", "trossen_arm_mujoco.scripts.record_sim_episodes", "--data_dir", str(data),
-         "--num_episodes", "8", "--num_workers", "2", "--episode_len", "150",
-         "--cam_names", "cam_high", "--image_size", "48x64"],
+        [
+            "-m",
+            "trossen_arm_mujoco.scripts.record_sim_episodes",
+            "--data_dir",
+            str(data),
+            "--num_episodes",
+            "8",
+            "--num_workers",
+            "2",
+            "--episode_len",
+            "150",
+            "--cam_names",
+            "cam_high",
+            "--image_size",
+            "48x64",
+        ],
         REPO,
-    )  # fmt: skip
+    )
     programs.append(program)
     program.wait_for("episode 0: ", timeout=180)  # an episode is published, others run
     workers = worker_pids(program.proc.pid)

@@ -93,8 +93,10 @@ def test_failed_episodes_are_recorded_again_with_fresh_attempts(tmp_path):
     assert (plan.indices, plan.attempts, plan.failed) == ([0, 1, 2], [3, 4, 2], [0, 1])
     report = _run(tmp_path, 3)
     assert [(o.attempt, k) for o, k in zip(report.saved, report.saved_at)] == [
-        (3, 0), (4, 1), (2, 2),
-    ]  # fmt: skip
+        (3, 0),
+        (4, 1),
+        (2, 2),
+    ]
     assert [load_episode(p).attrs["attempt"] for _, p in list_episodes(tmp_path)] == [3, 4, 2]
 
 
@@ -298,5 +300,8 @@ def test_report_lists_failures_and_sizes(tmp_path):
 
 def test_format_size():
     assert [format_size(n) for n in (999, 44_300, 97_100_000, 2_212_296_072)] == [
-        "999 B", "44.3 kB", "97.1 MB", "2.212 GB",
-    ]  # fmt: skip
+        "999 B",
+        "44.3 kB",
+        "97.1 MB",
+        "2.212 GB",
+    ]

@@ -177,10 +177,14 @@ def test_randomized_recording_stores_its_record_and_is_reproducible(tmp_path):
 
 
 #: kind of a record -> (model accessor, attributes compared between the two flavours)
-_COMPARED = {"lights": ("light", ("dir", "diffuse", "specular", "ambient")),
-             "table": ("geom", ("rgba", "matid")), "objects": ("geom", ("rgba",)),
-             "friction": ("geom", ("friction",)), "object_mass": ("body", ("mass", "inertia")),
-             "camera": ("cam", ("pos", "quat"))}  # fmt: skip
+_COMPARED = {
+    "lights": ("light", ("dir", "diffuse", "specular", "ambient")),
+    "table": ("geom", ("rgba", "matid")),
+    "objects": ("geom", ("rgba",)),
+    "friction": ("geom", ("friction",)),
+    "object_mass": ("body", ("mass", "inertia")),
+    "camera": ("cam", ("pos", "quat")),
+}
 
 
 def test_both_phases_see_the_same_randomized_scene():

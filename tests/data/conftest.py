@@ -53,9 +53,15 @@ def write_episode(
     data = episode_data(num_steps, cams, height, width, seed)
     attrs = {"task_name": "sim_transfer_cube", "seed": seed, "box_pose": BOX_POSE}
     with EpisodeWriter(
-        path, num_steps, cams, height, width, compression=compression, attrs=attrs,
+        path,
+        num_steps,
+        cams,
+        height,
+        width,
+        compression=compression,
+        attrs=attrs,
         **writer_kwargs,
-    ) as writer:  # fmt: skip
+    ) as writer:
         for t in range(num_steps):
             writer.append(
                 data["qpos"][t],

@@ -18,9 +18,13 @@ H, W = 24, 32
 
 def _dataset(f: h5py.File, n: int, level: int = 1) -> h5py.Dataset:
     return f.create_dataset(
-        "img", shape=(n, H, W, 3), dtype=np.uint8, chunks=(1, H, W, 3),
-        compression="gzip", compression_opts=level,
-    )  # fmt: skip
+        "img",
+        shape=(n, H, W, 3),
+        dtype=np.uint8,
+        chunks=(1, H, W, 3),
+        compression="gzip",
+        compression_opts=level,
+    )
 
 
 def _smooth_frames(n: int) -> np.ndarray:
@@ -68,26 +72,27 @@ def test_incompressible_frames_are_stored_raw_and_still_read(tmp_path):
 
 
 def test_cancel_writes_nothing_more(tmp_path, monkeypatch):
-    # the worker's first write waits until cancel has been asked for: the 49 frames still
-    # queued behind it are then dropped, however fast the machine (no race)
+    # the one compression thread is held until cancel has been asked for, so no frame is
+    # finished while they are submitted and none may be written after cancel (no race: the
+    # writes happen on the caller's thread, only for finished frames)
     gate = threading.Event()
-    write = chunk_compressor.write_chunk
+    compress = chunk_compressor._compress
 
     def held(*args, **kwargs):
         gate.wait(10)
-        return write(*args, **kwargs)
+        return compress(*args, **kwargs)
 
-    monkeypatch.setattr(chunk_compressor, "write_chunk", held)
+    monkeypatch.setattr(chunk_compressor, "_compress", held)
     with h5py.File(tmp_path / "a.hdf5", "w") as f:
         ds = _dataset(f, 50)
         comp = ChunkCompressor(1, workers=1, max_pending=100)
         for t, frame in enumerate(_smooth_frames(50)):
             comp.submit(ds, t, frame)
-        threading.Timer(0.3, gate.set).start()  # cancel is asked for first, then it goes on
+        threading.Timer(0.3, gate.set).start()  # cancel waits for the running frame, then
         comp.cancel()
         comp.cancel()  # idempotent
         written = ds.id.get_num_chunks()
-    assert written < 50
+    assert written == 0
 
 
 def test_write_failure_surfaces_on_the_caller_thread(tmp_path, monkeypatch):

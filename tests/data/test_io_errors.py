@@ -82,8 +82,9 @@ def _failing_setitem(monkeypatch, after: int, exc: OSError) -> None:
 def test_disk_full_mid_episode(tmp_path, monkeypatch, compression):
     _failing_setitem(monkeypatch, 12, OSError(errno.ENOSPC, "No space left on device"))
     with pytest.raises(EpisodeIOError) as exc_info:
-        with EpisodeWriter(tmp_path / "episode_0.hdf5", 5, ["cam_a"], H, W,
-                           compression=compression, attrs=ATTRS) as w:  # fmt: skip
+        with EpisodeWriter(
+            tmp_path / "episode_0.hdf5", 5, ["cam_a"], H, W, compression=compression, attrs=ATTRS
+        ) as w:
             for _ in range(5):
                 _append(w)
     text = _one_line(exc_info.value)
@@ -135,8 +136,9 @@ def test_folder_removed_mid_episode_is_reported_not_recreated(tmp_path):
     folder = tmp_path / "d"
     folder.mkdir()
     with pytest.raises(EpisodeIOError) as exc_info:
-        with EpisodeWriter(folder / "episode_0.hdf5", 3, ["cam_a"], H, W, attrs=ATTRS,
-                           create_folder=False) as w:  # fmt: skip
+        with EpisodeWriter(
+            folder / "episode_0.hdf5", 3, ["cam_a"], H, W, attrs=ATTRS, create_folder=False
+        ) as w:
             _append(w)
             shutil.rmtree(folder)
             _append(w)

@@ -80,8 +80,13 @@ def test_schema_1_and_2_files_load_alike(tmp_path, make_episode, dtype):
     data = make_episode(path, num_steps=3, cams=["cam_high"], compression="gzip")
     if dtype is np.float64:  # rewrite as this package wrote files before version 2
         with h5py.File(path, "r+") as f:
-            for name in ("observations/qpos", "observations/qvel", "action", "reward",
-                         "observations/env_state"):  # fmt: skip
+            for name in (
+                "observations/qpos",
+                "observations/qvel",
+                "action",
+                "reward",
+                "observations/env_state",
+            ):
                 _replace(f, name, data[name.split("/")[-1]].astype(np.float64))
             f.attrs["schema_version"] = 1
     with h5py.File(path, "r") as f:

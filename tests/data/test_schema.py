@@ -28,9 +28,17 @@ DOCUMENTED_ARRAYS = {
     "observations/env_state": ((7,), np.float32),
 }
 DOCUMENTED_ATTRS = {
-    "sim", "task_name", "seed", "success", "episode_len", "dt", "camera_names",
-    "package_version", "mujoco_version", "schema_version",
-}  # fmt: skip
+    "sim",
+    "task_name",
+    "seed",
+    "success",
+    "episode_len",
+    "dt",
+    "camera_names",
+    "package_version",
+    "mujoco_version",
+    "schema_version",
+}
 #: Checked when present, not required (written for tasks with the cube).
 OPTIONAL_CHECKED_ATTRS = {"box_pose"}
 
@@ -50,8 +58,10 @@ def test_schema_object_matches_documented_layout():
     assert SCHEMA.image_dtype == np.uint8
     assert SCHEMA.image_chunks(480, 640) == (1, 480, 640, 3)
     assert {spec.path for spec in SCHEMA.arrays if spec.vendor} == {
-        "action", "observations/qpos", "observations/qvel",
-    }  # fmt: skip
+        "action",
+        "observations/qpos",
+        "observations/qvel",
+    }
 
 
 def test_written_file_has_documented_layout(tmp_path, make_episode):

@@ -24,8 +24,12 @@ def test_remove_stale_temp_files(tmp_path, make_episode):
 
     make_episode(tmp_path / "episode_0.hdf5", num_steps=1, cams=[])
     old_style = tmp_path / ".episode_1.hdf5.tmp"
-    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                          capture_output=True, text=True, check=True)  # fmt: skip
+    gone = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     dead_writer = tmp_path / f".episode_2.hdf5.{int(gone.stdout)}-0a1b2c3d.tmp"
     mine = tmp_path / f".episode_3.hdf5.{os.getpid()}-0a1b2c3d.tmp"
     for path in (old_style, dead_writer, mine):

@@ -272,7 +272,8 @@ def test_env_state_width_is_chosen_per_episode(tmp_path):
     assert ep.env_state.shape == (2, 14)
     np.testing.assert_array_equal(ep.env_state[1], np.arange(14.0))
     with pytest.raises(EpisodeWriteError, match=r"env_state has shape \(7,\), expected \(14,\)"):
-        with EpisodeWriter(tmp_path / "episode_1.hdf5", episode_len=1, attrs=ATTRS,
-                           env_state_dim=14) as w:  # fmt: skip
+        with EpisodeWriter(
+            tmp_path / "episode_1.hdf5", episode_len=1, attrs=ATTRS, env_state_dim=14
+        ) as w:
             w.append(np.zeros(16), np.zeros(16), np.zeros(16), 0.0, np.zeros(7), {})
     assert not (tmp_path / "episode_1.hdf5").exists()

@@ -95,15 +95,23 @@ def test_page_code_runs(page: Path, tmp_path: Path):
         script = tmp_path / "page_blocks.py"
         script.write_text(python)
         proc = subprocess.run(
-            [sys.executable, str(script)], cwd=tmp_path, env=env,
-            capture_output=True, text=True, timeout=180,
-        )  # fmt: skip
+            [sys.executable, str(script)],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=180,
+        )
         assert proc.returncode == 0, f"{page}:\n{proc.stdout}\n{proc.stderr}"
     for fence in (f for f in runnable if f.language == "bash"):
         proc = subprocess.run(
-            ["bash", "-euo", "pipefail", "-c", fence.text], cwd=tmp_path, env=env,
-            capture_output=True, text=True, timeout=180,
-        )  # fmt: skip
+            ["bash", "-euo", "pipefail", "-c", fence.text],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=180,
+        )
         assert proc.returncode == 0, f"{fence.page}:{fence.line}:\n{proc.stdout}\n{proc.stderr}"
     assert time.monotonic() - start < 120, "keep the site's runnable blocks small"
 

@@ -19,12 +19,20 @@ import pytest
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 OFFLINE_FLAGS = (
-    "--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-    "--no-first-run", "--disable-background-networking", "--disable-component-update",
-    "--disable-sync", "--disable-default-apps", "--disable-domain-reliability",
-    "--proxy-server=127.0.0.1:9", "--host-resolver-rules=MAP * ~NOTFOUND",
+    "--headless=new",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--hide-scrollbars",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-default-apps",
+    "--disable-domain-reliability",
+    "--proxy-server=127.0.0.1:9",
+    "--host-resolver-rules=MAP * ~NOTFOUND",
     "--window-size=1280,900",
-)  # fmt: skip
+)
 
 
 @pytest.fixture(scope="module")
@@ -41,8 +49,10 @@ def browser() -> str:
 def run_browser(browser: str, profile: Path, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [browser, *OFFLINE_FLAGS, f"--user-data-dir={profile}", *args],
-        capture_output=True, text=True, timeout=90,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=90,
+    )
 
 
 @pytest.mark.parametrize(
@@ -217,8 +227,9 @@ def test_home_page_first_command_is_fully_visible(site: Path, browser: str, tmp_
     ink = np.flatnonzero((block < 128).any(axis=0))  # columns with text drawn in them
     assert ink.size and ink[-1] - ink[0] > block.shape[1] // 2, "no command drawn in the block"
 
-    unstyled = measure(browser, probe_copy(site, "index.html", tmp_path, drop=EXTRA_CSS),
-                       tmp_path / "profile3")  # fmt: skip
+    unstyled = measure(
+        browser, probe_copy(site, "index.html", tmp_path, drop=EXTRA_CSS), tmp_path / "profile3"
+    )
     assert cut_off(unstyled["blocks"][0]), "without the wrapping style the command should overflow"
 
 

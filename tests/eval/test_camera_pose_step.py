@@ -20,14 +20,20 @@ def _checkpoint(folder: Path) -> Path:
     """A checkpoint's config and preprocessor (no weights): the joints and the poses in."""
     folder.mkdir(parents=True)
     config = {
-        "input_features": {"observation.state": {"type": "STATE", "shape": [14]},
-                           "observation.environment_state": {"type": "ENV", "shape": [7]}},
+        "input_features": {
+            "observation.state": {"type": "STATE", "shape": [14]},
+            "observation.environment_state": {"type": "ENV", "shape": [7]},
+        },
         "output_features": {"action": {"type": "ACTION", "shape": [14]}},
-    }  # fmt: skip
+    }
     (folder / "config.json").write_text(json.dumps(config))
-    pre = {"name": "policy_preprocessor", "steps": [
-        {"registry_name": "to_batch_processor", "config": {}},
-        {"registry_name": "normalizer_processor", "config": {}}]}  # fmt: skip
+    pre = {
+        "name": "policy_preprocessor",
+        "steps": [
+            {"registry_name": "to_batch_processor", "config": {}},
+            {"registry_name": "normalizer_processor", "config": {}},
+        ],
+    }
     (folder / PREPROCESSOR_FILE).write_text(json.dumps(pre))
     return folder
 
@@ -49,7 +55,10 @@ def test_the_step_goes_before_the_normalizer_once_and_eval_sees_the_camera(tmp_p
     cps.add_to_checkpoint(ckpt, enc, "cam_high")  # again: replaced, not doubled
     steps = json.loads((ckpt / PREPROCESSOR_FILE).read_text())["steps"]
     assert [s["registry_name"] for s in steps] == [
-        "to_batch_processor", cps.REGISTRY_NAME, "normalizer_processor"]  # fmt: skip
+        "to_batch_processor",
+        cps.REGISTRY_NAME,
+        "normalizer_processor",
+    ]
     assert (ckpt / steps[1]["state_file"]).read_bytes() == enc.read_bytes()
     assert cps.camera_of(ckpt) == "cam_high"
     found = checkpoint_features(ckpt)
@@ -88,8 +97,7 @@ def test_the_step_replaces_the_envs_poses_with_the_encoders_estimate(tmp_path):
     from trossen_arm_mujoco.train.pose_encoder import load_encoder
 
     ckpt = _checkpoint(tmp_path / "ckpt")
-    (ckpt / PREPROCESSOR_FILE).write_text(json.dumps({"name": "policy_preprocessor",
-                                                      "steps": []}))  # fmt: skip
+    (ckpt / PREPROCESSOR_FILE).write_text(json.dumps({"name": "policy_preprocessor", "steps": []}))
     enc = _encoder(tmp_path / "enc.safetensors")
     cps.add_to_checkpoint(ckpt, enc, "cam_high")
     cps.register()
@@ -97,12 +105,16 @@ def test_the_step_replaces_the_envs_poses_with_the_encoders_estimate(tmp_path):
     pipeline = DataProcessorPipeline.from_pretrained(str(ckpt), config_filename=PREPROCESSOR_FILE)
     image = torch.rand(1, 3, 24, 32)
     truth = torch.ones(1, 7)
-    obs = {"observation.images.cam_high": image, "observation.environment_state": truth,
-           "observation.state": torch.zeros(1, 14)}  # fmt: skip
+    obs = {
+        "observation.images.cam_high": image,
+        "observation.environment_state": truth,
+        "observation.state": torch.zeros(1, 14),
+    }
     out = pipeline(obs)  # a batch in, a batch out (LeRobot's default converters)
     expected = load_encoder(enc)(image)
-    np.testing.assert_allclose(out["observation.environment_state"].numpy(),
-                               expected.detach().numpy(), atol=1e-6)  # fmt: skip
+    np.testing.assert_allclose(
+        out["observation.environment_state"].numpy(), expected.detach().numpy(), atol=1e-6
+    )
     assert not torch.equal(out["observation.environment_state"], truth)
     step = pipeline.steps[0]
     with pytest.raises(ValueError, match="reads observation.images.cam_high"):

@@ -50,8 +50,19 @@ def _run(args, capsys):
 
 def test_a_joint_jump_faults_in_process_naming_joint_limit_and_step(tmp_path, jump_module, capsys):
     out_dir = tmp_path / "eval"
-    rc, out, err = _run(["--policy", jump_module, "--num_episodes", "1", "--episode_length",
-                         "20", "--output_dir", str(out_dir)], capsys)  # fmt: skip
+    rc, out, err = _run(
+        [
+            "--policy",
+            jump_module,
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "20",
+            "--output_dir",
+            str(out_dir),
+        ],
+        capsys,
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     (episode,) = info["per_episode"]
@@ -72,9 +83,21 @@ def test_checks_off_gives_the_unconstrained_run_and_both_shows_them_side_by_side
     tmp_path, jump_module, capsys
 ):
     out_dir = tmp_path / "eval"
-    rc, out, err = _run(["--policy", jump_module, "--num_episodes", "1", "--episode_length",
-                         "20", "--output_dir", str(out_dir), "--controller_checks", "both"],
-                        capsys)  # fmt: skip
+    rc, out, err = _run(
+        [
+            "--policy",
+            jump_module,
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "20",
+            "--output_dir",
+            str(out_dir),
+            "--controller_checks",
+            "both",
+        ],
+        capsys,
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     assert info["controller"]["faulted_episodes"] == 1
@@ -82,9 +105,22 @@ def test_checks_off_gives_the_unconstrained_run_and_both_shows_them_side_by_side
     assert free["controller"]["checks"] is False and free["controller"]["faulted_episodes"] == 0
     assert free["aggregated"]["n_episodes"] == 1
     assert "without the controller's checks: 0.0%" in out
-    rc, out, err = _run(["--policy", jump_module, "--num_episodes", "1", "--episode_length",
-                         "20", "--output_dir", str(out_dir), "--overwrite",
-                         "--controller_checks", "off"], capsys)  # fmt: skip
+    rc, out, err = _run(
+        [
+            "--policy",
+            jump_module,
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "20",
+            "--output_dir",
+            str(out_dir),
+            "--overwrite",
+            "--controller_checks",
+            "off",
+        ],
+        capsys,
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     assert info["per_episode"][0]["fault"] is None and info["per_episode"][0]["steps"] == 20
@@ -94,8 +130,9 @@ def test_checks_off_gives_the_unconstrained_run_and_both_shows_them_side_by_side
 
 def test_the_scripted_policy_passes_with_the_checks_on(tmp_path, capsys):
     out_dir = tmp_path / "eval"
-    rc, out, err = _run(["--policy", "scripted", "--num_episodes", "10", "--output_dir",
-                         str(out_dir)], capsys)  # fmt: skip
+    rc, out, err = _run(
+        ["--policy", "scripted", "--num_episodes", "10", "--output_dir", str(out_dir)], capsys
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     assert info["aggregated"]["pc_success"] >= 90.0
@@ -119,8 +156,9 @@ def test_a_non_finite_action_is_the_controllers_fault_and_success_needs_no_fault
 
 
 def test_the_wire_backend_refuses_checks_off(capsys):
-    rc = cli.main(["eval", "--policy", "scripted", "--backend", "wire", "--controller_checks",
-                   "off"])  # fmt: skip
+    rc = cli.main(
+        ["eval", "--policy", "scripted", "--backend", "wire", "--controller_checks", "off"]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "Traceback" not in err
     assert "error: --controller_checks off is for --backend sim" in err
@@ -134,8 +172,11 @@ def _fake_checkpoint(folder, with_env_state: bool):
     }
     if with_env_state:
         inputs["observation.environment_state"] = {"type": "ENV", "shape": [7]}
-    config = {"type": "act", "input_features": inputs,
-              "output_features": {"action": {"type": "ACTION", "shape": [14]}}}  # fmt: skip
+    config = {
+        "type": "act",
+        "input_features": inputs,
+        "output_features": {"action": {"type": "ACTION", "shape": [14]}},
+    }
     (folder / "config.json").write_text(json.dumps(config))
     return folder
 

@@ -22,18 +22,27 @@ from trossen_arm_mujoco.export.dataset_settings import (
 from trossen_arm_mujoco.real.controller_checks import controller_limits
 
 
-def _checkpoint(folder: Path, size: int = 14, fps: float | None = 50,
-                layout: str = "kit14") -> Path:  # fmt: skip
+def _checkpoint(
+    folder: Path, size: int = 14, fps: float | None = 50, layout: str = "kit14"
+) -> Path:
     """The files of a LeRobot checkpoint that the steps touch (no weights)."""
     folder.mkdir(parents=True)
     config = {"output_features": {"action": {"type": "ACTION", "shape": [size]}}}
     (folder / "config.json").write_text(json.dumps(config))
-    pre = {"name": "policy_preprocessor", "steps": [
-        {"registry_name": "to_batch_processor", "config": {}},
-        {"registry_name": "normalizer_processor", "config": {}}]}  # fmt: skip
-    post = {"name": "policy_postprocessor", "steps": [
-        {"registry_name": "unnormalizer_processor", "config": {}},
-        {"registry_name": "device_processor", "config": {}}]}  # fmt: skip
+    pre = {
+        "name": "policy_preprocessor",
+        "steps": [
+            {"registry_name": "to_batch_processor", "config": {}},
+            {"registry_name": "normalizer_processor", "config": {}},
+        ],
+    }
+    post = {
+        "name": "policy_postprocessor",
+        "steps": [
+            {"registry_name": "unnormalizer_processor", "config": {}},
+            {"registry_name": "device_processor", "config": {}},
+        ],
+    }
     (folder / cls.PREPROCESSOR_FILE).write_text(json.dumps(pre))
     (folder / cls.POSTPROCESSOR_FILE).write_text(json.dumps(post))
     if fps is not None:
@@ -50,9 +59,15 @@ def test_both_steps_are_added_in_place_once(tmp_path):
     ckpt = _checkpoint(tmp_path / "ckpt")
     assert cls.add_to_checkpoint(ckpt) is True
     assert _names(ckpt / cls.PREPROCESSOR_FILE) == [
-        "to_batch_processor", cls.MEASURED_NAME, "normalizer_processor"]  # fmt: skip
+        "to_batch_processor",
+        cls.MEASURED_NAME,
+        "normalizer_processor",
+    ]
     assert _names(ckpt / cls.POSTPROCESSOR_FILE) == [
-        "unnormalizer_processor", cls.REGISTRY_NAME, "device_processor"]  # fmt: skip
+        "unnormalizer_processor",
+        cls.REGISTRY_NAME,
+        "device_processor",
+    ]
     before = (ckpt / cls.POSTPROCESSOR_FILE).read_text()
     assert cls.add_to_checkpoint(ckpt) is False  # already as it would be written
     assert (ckpt / cls.POSTPROCESSOR_FILE).read_text() == before
@@ -105,14 +120,16 @@ def test_an_older_range_only_step_is_brought_up_to_date(tmp_path):
     ckpt = _checkpoint(tmp_path / "ckpt")
     post = json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())
     low, high = cls.controller_bounds(14)
-    post["steps"].insert(1, {"registry_name": cls.REGISTRY_NAME,
-                             "config": {"low": low, "high": high}})  # fmt: skip
+    post["steps"].insert(
+        1, {"registry_name": cls.REGISTRY_NAME, "config": {"low": low, "high": high}}
+    )
     (ckpt / cls.POSTPROCESSOR_FILE).write_text(json.dumps(post))
     assert cls.add_to_checkpoint(ckpt) is True
     names = _names(ckpt / cls.POSTPROCESSOR_FILE)
     assert names.count(cls.REGISTRY_NAME) == 1
-    assert "max_step" in json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())["steps"][1][
-        "config"]  # fmt: skip
+    assert (
+        "max_step" in json.loads((ckpt / cls.POSTPROCESSOR_FILE).read_text())["steps"][1]["config"]
+    )
 
 
 def test_a_folder_that_is_not_a_checkpoint_is_one_line(tmp_path, capsys):
@@ -144,12 +161,13 @@ def _steps(ckpt: Path):
     cls.register()  # twice is fine
 
     def build(path: Path, name: str):
-        step = next(s for s in json.loads(path.read_text())["steps"]
-                    if s["registry_name"] == name)  # fmt: skip
+        step = next(s for s in json.loads(path.read_text())["steps"] if s["registry_name"] == name)
         return ProcessorStepRegistry.get(name)(**step["config"])
 
-    return (build(ckpt / cls.PREPROCESSOR_FILE, cls.MEASURED_NAME),
-            build(ckpt / cls.POSTPROCESSOR_FILE, cls.REGISTRY_NAME))  # fmt: skip
+    return (
+        build(ckpt / cls.PREPROCESSOR_FILE, cls.MEASURED_NAME),
+        build(ckpt / cls.POSTPROCESSOR_FILE, cls.REGISTRY_NAME),
+    )
 
 
 @pytest.fixture

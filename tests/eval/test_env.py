@@ -95,8 +95,13 @@ def test_observations_stay_inside_the_space_when_a_finger_overshoots(make_env, l
 
 def test_feature_spec_names_what_the_env_observes():
     spec = feature_spec("sim_insertion", ("cam_high",), (48, 64), "kit14")
-    assert set(spec) == {"action", "agent_pos", "velocity", "environment_state",
-                         "observation.images.cam_high"}  # fmt: skip
+    assert set(spec) == {
+        "action",
+        "agent_pos",
+        "velocity",
+        "environment_state",
+        "observation.images.cam_high",
+    }
     assert spec["action"] == ("action", "ACTION", (14,))
     assert spec["agent_pos"] == ("observation.state", "STATE", (14,))
     assert spec["velocity"] == ("observation.velocity", "STATE", (14,))
@@ -201,8 +206,9 @@ def test_bad_actions_raise_user_errors(make_env, action, match):
 
 # -- rates and length -----------------------------------------------------------------------
 def test_30_fps_rates_and_default_length(make_env):
-    assert rate_timing(30) == pytest.approx({"policy_dt": 1 / 30, "ctrl_dt": 1 / 30,
-                                             "sim_dt": 1 / 510})  # fmt: skip
+    assert rate_timing(30) == pytest.approx(
+        {"policy_dt": 1 / 30, "ctrl_dt": 1 / 30, "sim_dt": 1 / 510}
+    )
     assert rate_timing(50) == pytest.approx({"policy_dt": 0.02, "ctrl_dt": 0.02, "sim_dt": 0.002})
     env = make_env(fps=30)
     env.reset(seed=0)

@@ -167,8 +167,13 @@ def test_a_spawned_worker_scores_an_episode_as_this_process_does(make_runner, tm
 
     from trossen_arm_mujoco.eval.runner import EpisodeRunner, EvalSettings
 
-    settings = EvalSettings(policy="scripted", num_episodes=2, seed=5, episode_length=120,
-                            output_dir=str(tmp_path / "out"))  # fmt: skip
+    settings = EvalSettings(
+        policy="scripted",
+        num_episodes=2,
+        seed=5,
+        episode_length=120,
+        output_dir=str(tmp_path / "out"),
+    )
     here = EpisodeRunner(settings)
     try:
         expected = [asdict(here.run(i)[0]) for i in range(2)]

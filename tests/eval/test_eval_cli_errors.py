@@ -29,8 +29,9 @@ def _no_episode(monkeypatch):
 
 
 @pytest.mark.parametrize("where", ["under_a_file", "proc"])
-def test_unwritable_output_dir_is_refused_before_the_first_episode(where, tmp_path, capsys,
-                                                                   monkeypatch):  # fmt: skip
+def test_unwritable_output_dir_is_refused_before_the_first_episode(
+    where, tmp_path, capsys, monkeypatch
+):
     _no_episode(monkeypatch)
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
@@ -55,8 +56,9 @@ def test_the_output_dir_probe_writes_and_removes_a_file(tmp_path, capsys, monkey
 
     monkeypatch.setattr(os, "open", spy)
     out_dir = tmp_path / "new" / "eval"
-    rc, _, err = _eval(["--policy", "no_such_module_for_eval:act", "--output_dir",
-                        str(out_dir)], capsys)  # fmt: skip
+    rc, _, err = _eval(
+        ["--policy", "no_such_module_for_eval:act", "--output_dir", str(out_dir)], capsys
+    )
     assert rc == 2 and "cannot import it" in err
     probes = [p for p in made if os.path.basename(p).startswith(PROBE_PREFIX)]
     assert probes and all(os.path.dirname(p) == str(out_dir) for p in probes)
@@ -68,10 +70,20 @@ def test_the_output_dir_probe_writes_and_removes_a_file(tmp_path, capsys, monkey
 def test_a_raising_policy_names_the_call_then_shows_its_traceback(workers, tmp_path, capsys):
     out_dir = tmp_path / "eval"
     rc, _, err = _eval(
-        ["--policy", "os:getcwd", "--num_episodes", "2", "--episode_length", "3",
-         "--num_workers", str(workers), "--output_dir", str(out_dir)],
+        [
+            "--policy",
+            "os:getcwd",
+            "--num_episodes",
+            "2",
+            "--episode_length",
+            "3",
+            "--num_workers",
+            str(workers),
+            "--output_dir",
+            str(out_dir),
+        ],
         capsys,
-    )  # fmt: skip
+    )
     assert rc == 1
     lines = err.splitlines()
     first = [i for i, ln in enumerate(lines) if ln.startswith("error:")]
@@ -89,10 +101,20 @@ def test_too_many_workers_is_one_plain_note(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(runner, "available_cpus", lambda: 1)
     out_dir = tmp_path / "eval"
     rc, out, err = _eval(
-        ["--policy", "os:getcwd", "--num_episodes", "3", "--episode_length", "2",
-         "--num_workers", "1000", "--output_dir", str(out_dir)],
+        [
+            "--policy",
+            "os:getcwd",
+            "--num_episodes",
+            "3",
+            "--episode_length",
+            "2",
+            "--num_workers",
+            "1000",
+            "--output_dir",
+            str(out_dir),
+        ],
         capsys,
-    )  # fmt: skip
+    )
     notes = [ln for ln in err.splitlines() if ln.startswith("note:")]
     assert notes == ["note: --num_workers 1000 > 1 CPUs; using 1"], err
     assert "Warning" not in err and "warnings.warn" not in err
@@ -102,15 +124,30 @@ def test_too_many_workers_is_one_plain_note(tmp_path, capsys, monkeypatch):
 def test_a_run_writes_rollouts_json_and_prints_the_failures(tmp_path, capsys):
     out_dir = tmp_path / "eval"
     rc, out, err = _eval(
-        ["--policy", "scripted", "--num_episodes", "1", "--episode_length", "200",
-         "--output_dir", str(out_dir)],
+        [
+            "--policy",
+            "scripted",
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "200",
+            "--output_dir",
+            str(out_dir),
+        ],
         capsys,
-    )  # fmt: skip
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     assert set(info["per_episode"][0]) == {
-        "episode_ix", "seed", "sum_reward", "max_reward", "success", "steps", "stages", "fault",
-    }  # fmt: skip
+        "episode_ix",
+        "seed",
+        "sum_reward",
+        "max_reward",
+        "success",
+        "steps",
+        "stages",
+        "fault",
+    }
     report = json.loads((out_dir / "rollouts.json").read_text())
     episode = report["episodes"][0]
     assert episode["stopped"] == {"reached": "lifted", "missed": "transferred"}  # 4 s only
@@ -126,8 +163,9 @@ def test_a_run_writes_rollouts_json_and_prints_the_failures(tmp_path, capsys):
         (["--crop", "cam_high:1,2,3"], "--crop must look like CAMERA:TOP,LEFT,HEIGHT,WIDTH"),
     ],
 )
-def test_bad_crop_is_refused_before_the_first_episode(extra, message, tmp_path, capsys,
-                                                      monkeypatch):  # fmt: skip
+def test_bad_crop_is_refused_before_the_first_episode(
+    extra, message, tmp_path, capsys, monkeypatch
+):
     _no_episode(monkeypatch)
     args = ["--policy", "scripted", "--output_dir", str(tmp_path / "out"), *extra]
     rc, out, err = _eval(args, capsys)

@@ -19,10 +19,24 @@ def test_the_console_script_imports_a_policy_from_the_current_folder(tmp_path: P
     env = {**os.environ, "MUJOCO_GL": "egl"}
     env.pop("PYTHONPATH", None)
     done = subprocess.run(
-        [str(script), "eval", "--policy", "my_hold_policy:hold", "--num_episodes", "1",
-         "--episode_length", "5", "--output_dir", "out"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
+        [
+            str(script),
+            "eval",
+            "--policy",
+            "my_hold_policy:hold",
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "5",
+            "--output_dir",
+            "out",
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     info = json.loads((tmp_path / "out" / "eval_info.json").read_text())
     assert info["aggregated"]["n_episodes"] == 1

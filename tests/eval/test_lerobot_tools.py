@@ -48,22 +48,39 @@ def _python() -> str:
 
 def _run(args: list[str], cwd: Path, timeout: int = 600) -> subprocess.CompletedProcess:
     env = {**os.environ, "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl", "WANDB_MODE": "disabled"}
-    return subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True,
-                          timeout=timeout)  # fmt: skip
+    return subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
 
 
 def _train(python: str, dataset: Path, out: Path, cwd: Path, extra: tuple = ()) -> Path:
-    proc = _run([
-        python, "-m", "lerobot.scripts.lerobot_train",
-        "--dataset.repo_id=local/transfer", f"--dataset.root={dataset}",
-        "--policy.type=act", "--policy.device=cpu", "--policy.push_to_hub=false",
-        "--policy.pretrained_backbone_weights=null", "--policy.use_vae=false",
-        "--policy.chunk_size=10", "--policy.n_action_steps=10", "--policy.dim_model=32",
-        "--policy.dim_feedforward=64", "--policy.n_encoder_layers=1",
-        "--policy.n_decoder_layers=1", "--steps=3", "--batch_size=2", "--num_workers=0",
-        "--save_freq=3", "--log_freq=1", "--wandb.enable=false", f"--output_dir={out}",
-        *extra,
-    ], cwd)  # fmt: skip
+    proc = _run(
+        [
+            python,
+            "-m",
+            "lerobot.scripts.lerobot_train",
+            "--dataset.repo_id=local/transfer",
+            f"--dataset.root={dataset}",
+            "--policy.type=act",
+            "--policy.device=cpu",
+            "--policy.push_to_hub=false",
+            "--policy.pretrained_backbone_weights=null",
+            "--policy.use_vae=false",
+            "--policy.chunk_size=10",
+            "--policy.n_action_steps=10",
+            "--policy.dim_model=32",
+            "--policy.dim_feedforward=64",
+            "--policy.n_encoder_layers=1",
+            "--policy.n_decoder_layers=1",
+            "--steps=3",
+            "--batch_size=2",
+            "--num_workers=0",
+            "--save_freq=3",
+            "--log_freq=1",
+            "--wandb.enable=false",
+            f"--output_dir={out}",
+            *extra,
+        ],
+        cwd,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     checkpoint = out / "checkpoints" / "last" / "pretrained_model"
     assert (checkpoint / "config.json").is_file()
@@ -76,16 +93,37 @@ def trained(tmp_path_factory) -> dict[str, Path]:
     python = _python()
     root = tmp_path_factory.mktemp("loop")
     out = {}
-    for name, cams, crop in (("camera", "cam_high", []), ("state", "none", []),
-                             ("cropped", "cam_high", ["--crop", CROP])):  # fmt: skip
-        rc = record_cli([
-            "--data_dir", name, "--root_dir", str(root), "--num_episodes", "2",
-            "--episode_len", str(STEPS), "--cam_names", cams, "--image_size", "24x32", *crop,
-        ])  # fmt: skip
+    for name, cams, crop in (
+        ("camera", "cam_high", []),
+        ("state", "none", []),
+        ("cropped", "cam_high", ["--crop", CROP]),
+    ):
+        rc = record_cli(
+            [
+                "--data_dir",
+                name,
+                "--root_dir",
+                str(root),
+                "--num_episodes",
+                "2",
+                "--episode_len",
+                str(STEPS),
+                "--cam_names",
+                cams,
+                "--image_size",
+                "24x32",
+                *crop,
+            ]
+        )
         assert rc in (0, 1)  # 30 steps are too few to succeed: the episodes are kept
         dataset = root / f"ds_{name}"
-        export_lerobot(root / name, dataset, "local/transfer", progress=False,
-                       video=VideoSettings(codec="h264"))  # fmt: skip
+        export_lerobot(
+            root / name,
+            dataset,
+            "local/transfer",
+            progress=False,
+            video=VideoSettings(codec="h264"),
+        )
         out[name] = _train(python, dataset, root / f"train_{name}", root)
     out["root"] = root
     return out
@@ -95,19 +133,45 @@ def test_lerobot_eval_runs_the_plugin_and_agrees_with_ours(trained):
     python, root = _python(), trained["root"]
     ckpt = trained["camera"]
     ours_dir, theirs_dir = root / "ours", root / "theirs"
-    theirs = _run([
-        python, "-m", "lerobot.scripts.lerobot_eval", f"--policy.path={ckpt}",
-        "--env.type=trossen", "--env.task=sim_transfer_cube", "--env.cam_names=cam_high",
-        "--env.image_size=24x32", f"--env.episode_length={EVAL_LEN}", "--eval.n_episodes=2",
-        "--eval.batch_size=2", "--eval.use_async_envs=true", f"--seed={SEED}",
-        f"--output_dir={theirs_dir}",
-    ], root)  # fmt: skip
+    theirs = _run(
+        [
+            python,
+            "-m",
+            "lerobot.scripts.lerobot_eval",
+            f"--policy.path={ckpt}",
+            "--env.type=trossen",
+            "--env.task=sim_transfer_cube",
+            "--env.cam_names=cam_high",
+            "--env.image_size=24x32",
+            f"--env.episode_length={EVAL_LEN}",
+            "--eval.n_episodes=2",
+            "--eval.batch_size=2",
+            "--eval.use_async_envs=true",
+            f"--seed={SEED}",
+            f"--output_dir={theirs_dir}",
+        ],
+        root,
+    )
     assert theirs.returncode == 0, theirs.stderr[-3000:]
-    ours = _run([
-        python, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", str(ckpt),
-        "--num_episodes", "2", "--seed", str(SEED), "--episode_length", str(EVAL_LEN),
-        "--output_dir", str(ours_dir),
-    ], root)  # fmt: skip
+    ours = _run(
+        [
+            python,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "eval",
+            "--policy",
+            str(ckpt),
+            "--num_episodes",
+            "2",
+            "--seed",
+            str(SEED),
+            "--episode_length",
+            str(EVAL_LEN),
+            "--output_dir",
+            str(ours_dir),
+        ],
+        root,
+    )
     assert ours.returncode == 0, ours.stderr[-3000:]
     metrics = json.loads((theirs_dir / "eval_info.json").read_text())["per_task"][0]["metrics"]
     mine = json.loads((ours_dir / "eval_info.json").read_text())
@@ -127,13 +191,25 @@ def test_recorded_rollout_equals_our_loop(trained):
     3-step policy's first action is a jump the controller refuses)."""
     python, root = _python(), trained["root"]
     ckpt, out = trained["state"], root / "recorded"
-    proc = _run([
-        python, "-m", "lerobot.scripts.lerobot_eval", f"--policy.path={ckpt}",
-        "--env.type=trossen", "--env.task=sim_transfer_cube", "--env.cam_names=none",
-        f"--env.episode_length={EVAL_LEN}", "--eval.n_episodes=1", "--eval.batch_size=1",
-        f"--seed={SEED}", "--eval.recording=true", f"--output_dir={out}",
-        "--env.controller_checks=false",  # the untrained policy's first jump would end it
-    ], root)  # fmt: skip
+    proc = _run(
+        [
+            python,
+            "-m",
+            "lerobot.scripts.lerobot_eval",
+            f"--policy.path={ckpt}",
+            "--env.type=trossen",
+            "--env.task=sim_transfer_cube",
+            "--env.cam_names=none",
+            f"--env.episode_length={EVAL_LEN}",
+            "--eval.n_episodes=1",
+            "--eval.batch_size=1",
+            f"--seed={SEED}",
+            "--eval.recording=true",
+            f"--output_dir={out}",
+            "--env.controller_checks=false",  # the untrained policy's first jump would end it
+        ],
+        root,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     import pyarrow.parquet as pq
 
@@ -151,11 +227,25 @@ def test_recorded_rollout_equals_our_loop(trained):
 
 def test_checkpoint_for_other_cameras_is_one_line(trained):
     python, root = _python(), trained["root"]
-    proc = _run([
-        python, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", str(trained["camera"]),
-        "--cam_names", "cam_low", "--image_size", "24x32", "--num_episodes", "1",
-        "--output_dir", str(root / "mismatch"),
-    ], root)  # fmt: skip
+    proc = _run(
+        [
+            python,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "eval",
+            "--policy",
+            str(trained["camera"]),
+            "--cam_names",
+            "cam_low",
+            "--image_size",
+            "24x32",
+            "--num_episodes",
+            "1",
+            "--output_dir",
+            str(root / "mismatch"),
+        ],
+        root,
+    )
     assert proc.returncode == 2
     lines = [x for x in proc.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
@@ -168,14 +258,28 @@ def test_missing_lerobot_is_one_line(tmp_path):
     refused with one line."""
     ckpt = tmp_path / "ckpt"
     ckpt.mkdir()
-    (ckpt / "config.json").write_text(json.dumps({"type": "act", "input_features": {},
-                                                  "output_features": {}}))  # fmt: skip
+    (ckpt / "config.json").write_text(
+        json.dumps({"type": "act", "input_features": {}, "output_features": {}})
+    )
     hide = (
         "import sys; sys.modules['lerobot'] = None; from trossen_arm_mujoco.cli import main; "
         "sys.exit(main(sys.argv[1:]))"
     )
-    proc = _run([sys.executable, "-c", hide, "eval", "--policy", str(ckpt),
-                 "--num_episodes", "1", "--output_dir", str(tmp_path / "o")], tmp_path)  # fmt: skip
+    proc = _run(
+        [
+            sys.executable,
+            "-c",
+            hide,
+            "eval",
+            "--policy",
+            str(ckpt),
+            "--num_episodes",
+            "1",
+            "--output_dir",
+            str(tmp_path / "o"),
+        ],
+        tmp_path,
+    )
     assert proc.returncode == 2
     assert proc.stderr.strip().startswith("error: ") and "LeRobot" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
@@ -187,19 +291,60 @@ def test_a_cropped_checkpoint_evaluates_with_its_crop_on_both_backends(trained):
     as real cameras do, and eval cuts the crop out of them."""
     python, root = _python(), trained["root"]
     ckpt = trained["cropped"]
-    common = ["--policy", str(ckpt), "--num_episodes", "1", "--episode_length", "8",
-              "--controller_checks", "off"]  # fmt: skip
-    sim = _run([python, "-m", "trossen_arm_mujoco.cli", "eval", *common, "--output_dir",
-                str(root / "crop_sim")], root)  # fmt: skip
+    common = [
+        "--policy",
+        str(ckpt),
+        "--num_episodes",
+        "1",
+        "--episode_length",
+        "8",
+        "--controller_checks",
+        "off",
+    ]
+    sim = _run(
+        [
+            python,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "eval",
+            *common,
+            "--output_dir",
+            str(root / "crop_sim"),
+        ],
+        root,
+    )
     assert sim.returncode == 0, sim.stderr[-3000:]
     info = json.loads((root / "crop_sim" / "eval_info.json").read_text())
     assert info["run"]["crops"] == [CROP] and info["run"]["image_size"] == [24, 32]
     assert info["deployment"]["settings_source"].endswith("info.json")
-    wire = _run([python, "-m", "trossen_arm_mujoco.cli", "eval", "--backend", "wire",
-                 "--policy", str(ckpt), "--num_episodes", "1", "--episode_length", "8",
-                 "--left_ip", "127.0.0.151", "--right_ip", "127.0.0.152", "--camera_port",
-                 "47151", "--control_port", "47152", "--output_dir", str(root / "crop_wire")],
-                root, timeout=300)  # fmt: skip
+    wire = _run(
+        [
+            python,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "eval",
+            "--backend",
+            "wire",
+            "--policy",
+            str(ckpt),
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "8",
+            "--left_ip",
+            "127.0.0.151",
+            "--right_ip",
+            "127.0.0.152",
+            "--camera_port",
+            "47151",
+            "--control_port",
+            "47152",
+            "--output_dir",
+            str(root / "crop_wire"),
+        ],
+        root,
+        timeout=300,
+    )
     assert wire.returncode == 0, wire.stderr[-3000:]
     winfo = json.loads((root / "crop_wire" / "eval_info.json").read_text())
     assert winfo["run"]["crops"] == [CROP] and winfo["aggregated"]["n_episodes"] == 1
@@ -214,19 +359,41 @@ def test_trossens_plugin_rolls_out_a_prepared_checkpoint_on_the_served_kit(train
     python, root = _python(), trained["root"]
     probe = _run([python, "-c", "import lerobot_robot_trossen"], root)
     if probe.returncode != 0:
-        pytest.skip("Trossen's robot plugin package is not installed in that venv (install it "
-                    "from its GitHub repository: docs/rehearsal.md)")  # fmt: skip
+        pytest.skip(
+            "Trossen's robot plugin package is not installed in that venv (install it "
+            "from its GitHub repository: docs/rehearsal.md)"
+        )
     inputs = {
         "observation.state": {"type": "STATE", "shape": [14]},
         "observation.images.cam_high": {"type": "VISUAL", "shape": [3, 24, 32]},
     }
-    ckpt = _train(python, root / "ds_cropped", root / "train_deployable", root,
-                  ("--policy.input_features=" + json.dumps(inputs),))  # fmt: skip
+    ckpt = _train(
+        python,
+        root / "ds_cropped",
+        root / "train_deployable",
+        root,
+        ("--policy.input_features=" + json.dumps(inputs),),
+    )
     script = Path(__file__).parents[2] / "benchmarks" / "plugin_rollout.py"
     env_ports = [str(p) for p in (_free_port(), _free_port())]
-    proc = _run([sys.executable, str(script), "--policy", str(ckpt), "--episodes", "1",
-                 "--duration", "3", "--camera_port", env_ports[0], "--control_port",
-                 env_ports[1]], root, timeout=300)  # fmt: skip
+    proc = _run(
+        [
+            sys.executable,
+            str(script),
+            "--policy",
+            str(ckpt),
+            "--episodes",
+            "1",
+            "--duration",
+            "3",
+            "--camera_port",
+            env_ports[0],
+            "--control_port",
+            env_ports[1],
+        ],
+        root,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     row = json.loads(next(line for line in proc.stdout.splitlines() if line.startswith("{")))
     # its control loop ran on the streamed whole frames for the episode's seconds (a 3-step

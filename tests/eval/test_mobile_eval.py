@@ -104,8 +104,9 @@ def test_other_layouts_and_other_tasks_are_refused_in_one_line():
 
 
 def test_a_checkpoint_of_the_mobileai_export_is_accepted_when_its_features_match(tmp_path):
-    env = KitPolicyEnv(TASK, layout="mobileai", cam_names=["cam_high"], image_size="24x32",
-                       render_mode=None)  # fmt: skip
+    env = KitPolicyEnv(
+        TASK, layout="mobileai", cam_names=["cam_high"], image_size="24x32", render_mode=None
+    )
     try:
 
         def checkpoint(state: int, action: int):
@@ -132,16 +133,29 @@ def test_a_checkpoint_of_the_mobileai_export_is_accepted_when_its_features_match
 
 def test_wire_backend_refuses_the_mobile_task_in_one_line(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(runner.EpisodeRunner, "run", lambda self, i: pytest.fail("ran"))
-    rc, out, err = _eval(["--task_name", TASK, "--policy", "scripted", "--backend", "wire",
-                          "--output_dir", str(tmp_path / "e")], capsys)  # fmt: skip
+    rc, out, err = _eval(
+        [
+            "--task_name",
+            TASK,
+            "--policy",
+            "scripted",
+            "--backend",
+            "wire",
+            "--output_dir",
+            str(tmp_path / "e"),
+        ],
+        capsys,
+    )
     line = _one_line_error(rc, out, err)
     assert "--backend wire drives the served Stationary AI kit" in line
     assert "--backend sim" in line
 
 
 def test_eval_of_a_task_it_does_not_take_is_one_line(tmp_path, capsys):
-    rc, out, err = _eval(["--task_name", "reach", "--policy", "scripted",
-                          "--output_dir", str(tmp_path / "e")], capsys)  # fmt: skip
+    rc, out, err = _eval(
+        ["--task_name", "reach", "--policy", "scripted", "--output_dir", str(tmp_path / "e")],
+        capsys,
+    )
     assert "neither a Stationary AI kit nor a Mobile AI task" in _one_line_error(rc, out, err)
 
 
@@ -159,9 +173,21 @@ def test_a_function_policy_drives_the_mobile_task(tmp_path, capsys, monkeypatch)
     monkeypatch.syspath_prepend(str(tmp_path))
     sys.modules.pop("mobile_drive_policy", None)
     out_dir = tmp_path / "eval"
-    rc, _, err = _eval(["--task_name", TASK, "--policy", "mobile_drive_policy:act",
-                        "--num_episodes", "1", "--episode_length", "40",
-                        "--output_dir", str(out_dir)], capsys)  # fmt: skip
+    rc, _, err = _eval(
+        [
+            "--task_name",
+            TASK,
+            "--policy",
+            "mobile_drive_policy:act",
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "40",
+            "--output_dir",
+            str(out_dir),
+        ],
+        capsys,
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     assert info["run"]["layout"] == "mobileai"
@@ -174,8 +200,21 @@ def test_a_function_policy_drives_the_mobile_task(tmp_path, capsys, monkeypatch)
 
 def test_the_scripted_policy_places_the_cube_through_eval(tmp_path, capsys):
     out_dir = tmp_path / "eval"
-    rc, _, err = _eval(["--task_name", TASK, "--policy", "scripted", "--num_episodes", "1",
-                        "--seed", "7", "--output_dir", str(out_dir)], capsys)  # fmt: skip
+    rc, _, err = _eval(
+        [
+            "--task_name",
+            TASK,
+            "--policy",
+            "scripted",
+            "--num_episodes",
+            "1",
+            "--seed",
+            "7",
+            "--output_dir",
+            str(out_dir),
+        ],
+        capsys,
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text())
     episode = info["per_episode"][0]

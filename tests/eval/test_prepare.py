@@ -36,21 +36,31 @@ CROP = CameraCrop("cam_high", top=217, left=243, height=150, width=200)
 def _checkpoint(folder: Path, crops=(CROP,), size=(60, 80)) -> Path:
     """The files of a camera checkpoint that prepare touches (no weights)."""
     folder.mkdir(parents=True)
-    config = {"input_features": {"observation.state": {"type": "STATE", "shape": [14]},
-                                 "observation.images.cam_high": {"type": "VISUAL",
-                                                                 "shape": [3, *size]}},
-              "output_features": {"action": {"type": "ACTION", "shape": [14]}}}  # fmt: skip
+    config = {
+        "input_features": {
+            "observation.state": {"type": "STATE", "shape": [14]},
+            "observation.images.cam_high": {"type": "VISUAL", "shape": [3, *size]},
+        },
+        "output_features": {"action": {"type": "ACTION", "shape": [14]}},
+    }
     (folder / "config.json").write_text(json.dumps(config))
-    pre = {"name": "policy_preprocessor", "steps": [
-        {"registry_name": "to_batch_processor", "config": {}},
-        {"registry_name": "normalizer_processor", "config": {}}]}  # fmt: skip
-    post = {"name": "policy_postprocessor", "steps": [
-        {"registry_name": "unnormalizer_processor", "config": {}}]}  # fmt: skip
+    pre = {
+        "name": "policy_preprocessor",
+        "steps": [
+            {"registry_name": "to_batch_processor", "config": {}},
+            {"registry_name": "normalizer_processor", "config": {}},
+        ],
+    }
+    post = {
+        "name": "policy_postprocessor",
+        "steps": [{"registry_name": "unnormalizer_processor", "config": {}}],
+    }
     (folder / PREPROCESSOR_FILE).write_text(json.dumps(pre))
     (folder / POSTPROCESSOR_FILE).write_text(json.dumps(post))
     cams = CameraSettings(names=("cam_high",), size=size, crops=crops)
-    write_checkpoint_settings(folder, DatasetSettings(fps=30, layout="kit14", cameras=cams,
-                                                      task="sim_transfer_cube"))  # fmt: skip
+    write_checkpoint_settings(
+        folder, DatasetSettings(fps=30, layout="kit14", cameras=cams, task="sim_transfer_cube")
+    )
     return folder
 
 
@@ -68,8 +78,11 @@ def test_prepare_adds_the_image_and_limit_steps_once(tmp_path):
     changed = prepare_checkpoint(ckpt)
     assert changed == [IMAGE_STEP, controller_limits_step.REGISTRY_NAME]
     assert _names(ckpt / PREPROCESSOR_FILE) == [
-        "to_batch_processor", IMAGE_STEP, controller_limits_step.MEASURED_NAME,
-        "normalizer_processor"]  # fmt: skip
+        "to_batch_processor",
+        IMAGE_STEP,
+        controller_limits_step.MEASURED_NAME,
+        "normalizer_processor",
+    ]
     image = json.loads((ckpt / PREPROCESSOR_FILE).read_text())["steps"][1]["config"]
     assert image == {"cameras": {"cam_high": {"size": [60, 80], "crop": [217, 243, 150, 200]}}}
     assert carries_images(ckpt) and carries_images(ckpt.parent)  # or its parent folder
@@ -159,8 +172,12 @@ def test_the_checkpoints_own_preprocessor_turns_a_whole_frame_into_the_trained_i
     out = pre({"observation.images.cam_high": half, "observation.state": torch.zeros(1, 14)})
     assert tuple(out["observation.images.cam_high"].shape) == (1, 3, 60, 80)
     with pytest.raises(ValueError, match="whole 4:3 frame"):
-        pre({"observation.images.cam_high": torch.rand(1, 3, 100, 100),
-             "observation.state": torch.zeros(1, 14)})  # fmt: skip
+        pre(
+            {
+                "observation.images.cam_high": torch.rand(1, 3, 100, 100),
+                "observation.state": torch.zeros(1, 14),
+            }
+        )
 
 
 def test_two_policies_from_one_checkpoint_keep_their_own_measured_joints(tmp_path):

@@ -21,8 +21,12 @@ def _steps(*names):
 def test_a_step_goes_after_before_or_last_and_replaces_its_namesake():
     steps = _steps("rename", "normalizer_processor", "device")
     assert place_step(steps, "mine", {"registry_name": "mine"}, before="normalizer_processor")
-    assert [s["registry_name"] for s in steps] == ["rename", "mine", "normalizer_processor",
-                                                  "device"]  # fmt: skip
+    assert [s["registry_name"] for s in steps] == [
+        "rename",
+        "mine",
+        "normalizer_processor",
+        "device",
+    ]
     assert place_step(steps, "late", {"registry_name": "late"}, after="normalizer_processor")
     assert [s["registry_name"] for s in steps][3] == "late"
     assert place_step(steps, "end", {"registry_name": "end"}, before="absent")

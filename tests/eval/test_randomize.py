@@ -64,7 +64,7 @@ def test_a_randomization_file_replaces_the_tasks_kinds_and_is_checked(tmp_path):
                 "camera",
                 "joint_noise",
             )
-        )  # fmt: skip
+        )
         + "  lights: {enabled: true, direction_deg: 30.0}\n"
     )
     section = read_randomization(only_lights)
@@ -87,8 +87,15 @@ def test_a_randomization_file_replaces_the_tasks_kinds_and_is_checked(tmp_path):
 
 
 def test_the_runner_keeps_each_episodes_record(tmp_path):
-    settings = EvalSettings(policy="scripted", task=TASK, num_episodes=1, seed=3,
-                            episode_length=5, output_dir=str(tmp_path), randomize=True)  # fmt: skip
+    settings = EvalSettings(
+        policy="scripted",
+        task=TASK,
+        num_episodes=1,
+        seed=3,
+        episode_length=5,
+        output_dir=str(tmp_path),
+        randomize=True,
+    )
     runner = EpisodeRunner(settings)
     try:
         score, _ = runner.run(0)

@@ -108,9 +108,11 @@ def test_a_user_error_in_a_worker_is_one_user_error(tmp_path):
     """A policy that cannot be built in a worker process is the user's error, not a dead
     worker (and not a traceback)."""
     settings = EvalSettings(
-        policy="no_such_module_for_eval:act", num_episodes=2, episode_length=2,
+        policy="no_such_module_for_eval:act",
+        num_episodes=2,
+        episode_length=2,
         output_dir=str(tmp_path),
-    )  # fmt: skip
+    )
     for workers in (1, 2):
         with pytest.raises(UserError, match="cannot import it"):
             evaluate(settings, workers)
@@ -145,12 +147,30 @@ def test_ray_engine_gives_the_same_episodes_as_local(scripted_info, tmp_path):
     pytest.importorskip("ray")
     out = tmp_path / "ray"
     run = subprocess.run(
-        [sys.executable, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", "scripted",
-         "--task_name", SCRIPTED.task, "--num_episodes", str(SCRIPTED.num_episodes),
-         "--seed", str(SCRIPTED.seed), "--num_workers", "2", "--engine", "ray",
-         "--output_dir", str(out)],
-        capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "eval",
+            "--policy",
+            "scripted",
+            "--task_name",
+            SCRIPTED.task,
+            "--num_episodes",
+            str(SCRIPTED.num_episodes),
+            "--seed",
+            str(SCRIPTED.seed),
+            "--num_workers",
+            "2",
+            "--engine",
+            "ray",
+            "--output_dir",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert run.returncode == 0, run.stderr[-2000:]
     on_ray = json.loads((out / "eval_info.json").read_text())
     assert _rows(on_ray) == _rows(scripted_info)
@@ -214,8 +234,9 @@ def test_each_worker_gets_its_share_of_the_cores(tmp_path, monkeypatch):
     monkeypatch.setenv("PYTHONPATH", str(folder))
     monkeypatch.setenv("THREADS_LOG", str(log))
     monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
-    settings = EvalSettings(policy=f"{name}:act", num_episodes=2, episode_length=1,
-                            output_dir=str(tmp_path / "out"))  # fmt: skip
+    settings = EvalSettings(
+        policy=f"{name}:act", num_episodes=2, episode_length=1, output_dir=str(tmp_path / "out")
+    )
     evaluate(settings, 2)
     want = str(max(1, available_cpus() // 2))
     seen = [p.read_text().split() for p in log.iterdir()]

@@ -134,8 +134,15 @@ def test_eval_info_blocks():
     eps = _episodes("sim_insertion", [(300.0, 4.0), (120.0, 3.0)])
     run = {"policy": "scripted", "seed": 100}
     info = eval_info("sim_insertion", eps, 3.0, ["videos/eval_episode_0.mp4"], run)
-    assert set(info) == {"task", "per_episode", "aggregated", "overall", "video_paths", "run",
-                         "controller"}  # fmt: skip
+    assert set(info) == {
+        "task",
+        "per_episode",
+        "aggregated",
+        "overall",
+        "video_paths",
+        "run",
+        "controller",
+    }
     assert info["task"] == "sim_insertion" and info["run"] == run
     agg = info["aggregated"]
     for key in ("pc_success", "avg_sum_reward", "avg_max_reward", "pc_success_ci95", "stages"):
@@ -144,18 +151,43 @@ def test_eval_info_blocks():
     assert agg["avg_max_reward"] == 3.5
     assert agg["stages"] == {"grasped": 100.0, "contact": 100.0, "inserted": 50.0}
     assert info["per_episode"] == [
-        {"episode_ix": 0, "seed": 100, "sum_reward": 300.0, "max_reward": 4.0, "success": True,
-         "steps": 600, "stages": {"grasped": True, "contact": True, "inserted": True},
-         "fault": None},
-        {"episode_ix": 1, "seed": 101, "sum_reward": 120.0, "max_reward": 3.0, "success": False,
-         "steps": 600, "stages": {"grasped": True, "contact": True, "inserted": False},
-         "fault": None},
-    ]  # fmt: skip
-    assert info["controller"] == {"checks": True, "faulted_episodes": 0, "faults_by_joint": {},
-                                  "faults_by_reason": {}, "peak_speed_fraction": {}}  # fmt: skip
+        {
+            "episode_ix": 0,
+            "seed": 100,
+            "sum_reward": 300.0,
+            "max_reward": 4.0,
+            "success": True,
+            "steps": 600,
+            "stages": {"grasped": True, "contact": True, "inserted": True},
+            "fault": None,
+        },
+        {
+            "episode_ix": 1,
+            "seed": 101,
+            "sum_reward": 120.0,
+            "max_reward": 3.0,
+            "success": False,
+            "steps": 600,
+            "stages": {"grasped": True, "contact": True, "inserted": False},
+            "fault": None,
+        },
+    ]
+    assert info["controller"] == {
+        "checks": True,
+        "faulted_episodes": 0,
+        "faults_by_joint": {},
+        "faults_by_reason": {},
+        "peak_speed_fraction": {},
+    }
     overall = info["overall"]  # lerobot-eval's top-level names
-    for key in ("avg_sum_reward", "avg_max_reward", "pc_success", "n_episodes", "eval_s",
-                "eval_ep_s"):  # fmt: skip
+    for key in (
+        "avg_sum_reward",
+        "avg_max_reward",
+        "pc_success",
+        "n_episodes",
+        "eval_s",
+        "eval_ep_s",
+    ):
         assert overall[key] == agg[key], key
     assert overall["video_paths"] == info["video_paths"] == ["videos/eval_episode_0.mp4"]
     assert "run" not in eval_info("sim_insertion", eps, 3.0)
@@ -189,8 +221,16 @@ def test_the_rollout_analysis_stays_out_of_eval_info():
     b = EpisodeScore(**{**a.__dict__, "analysis": {"stage_steps": {"touched": 3}}})
     assert a == b
     row = eval_info("sim_transfer_cube", [b], 1.0)["per_episode"][0]
-    assert set(row) == {"episode_ix", "seed", "sum_reward", "max_reward", "success", "steps",
-                        "stages", "fault"}  # fmt: skip
+    assert set(row) == {
+        "episode_ix",
+        "seed",
+        "sum_reward",
+        "max_reward",
+        "success",
+        "steps",
+        "stages",
+        "fault",
+    }
 
 
 def test_the_controller_block_counts_faults_by_joint_and_reason():

@@ -102,11 +102,23 @@ def policies(tmp_path, monkeypatch):
 
 def run_eval(tmp_path: Path, left: str, right: str, *flags: str) -> tuple[int, dict | None]:
     out = tmp_path / f"out_{uuid.uuid4().hex[:6]}"
-    rc = eval_policy.cli([
-        "--backend", "wire", "--left_ip", left, "--right_ip", right,
-        "--camera_port", str(free_port()), "--control_port", str(free_port()),
-        "--output_dir", str(out), *flags,
-    ])  # fmt: skip
+    rc = eval_policy.cli(
+        [
+            "--backend",
+            "wire",
+            "--left_ip",
+            left,
+            "--right_ip",
+            right,
+            "--camera_port",
+            str(free_port()),
+            "--control_port",
+            str(free_port()),
+            "--output_dir",
+            str(out),
+            *flags,
+        ]
+    )
     info = out / "eval_info.json"
     return rc, json.loads(info.read_text()) if info.exists() else None
 
@@ -114,9 +126,21 @@ def run_eval(tmp_path: Path, left: str, right: str, *flags: str) -> tuple[int, d
 @pytest.mark.once  # about 100 s of wall-clock time; run on one interpreter
 @pytest.mark.long  # bash tools/run_tests.sh --long (and CI) run it: docs/testing.md
 def test_scripted_transfer_through_the_wire_scores_90_percent(tmp_path) -> None:
-    rc, info = run_eval(tmp_path, "127.0.0.131", "127.0.0.132", "--policy", "scripted",
-                        "--num_episodes", "10", "--episode_length", "450",
-                        "--cam_names", "cam_high", "--image_size", "48x64")  # fmt: skip
+    rc, info = run_eval(
+        tmp_path,
+        "127.0.0.131",
+        "127.0.0.132",
+        "--policy",
+        "scripted",
+        "--num_episodes",
+        "10",
+        "--episode_length",
+        "450",
+        "--cam_names",
+        "cam_high",
+        "--image_size",
+        "48x64",
+    )
     assert rc == 0 and info is not None
     assert info["aggregated"]["pc_success"] >= 90.0, info["per_episode"]
     assert [r["seed"] for r in info["per_episode"]] == list(range(10))  # eval's seeds
@@ -129,9 +153,19 @@ def test_scripted_transfer_through_the_wire_scores_90_percent(tmp_path) -> None:
 
 def test_a_policy_that_stalls_fails_its_episode_with_the_reason(tmp_path, policies) -> None:
     policies.STALL_S = 0.5
-    rc, info = run_eval(tmp_path, "127.0.0.133", "127.0.0.134", "--policy",
-                        f"{policies.__name__}:hold", "--num_episodes", "2",
-                        "--episode_length", "20", "--action_timeout", "0.3")  # fmt: skip
+    rc, info = run_eval(
+        tmp_path,
+        "127.0.0.133",
+        "127.0.0.134",
+        "--policy",
+        f"{policies.__name__}:hold",
+        "--num_episodes",
+        "2",
+        "--episode_length",
+        "20",
+        "--action_timeout",
+        "0.3",
+    )
     assert rc == 0 and info is not None
     first, second = info["per_episode"]
     assert not first["success"] and first["steps"] == 4
@@ -147,9 +181,19 @@ def test_a_policy_that_stalls_fails_its_episode_with_the_reason(tmp_path, polici
 
 def test_a_policy_that_never_answers_is_reported_not_hung(tmp_path, policies, capsys) -> None:
     policies.STALL_S = 0.0  # blocks forever at its 5th call
-    rc, info = run_eval(tmp_path, "127.0.0.133", "127.0.0.134", "--policy",
-                        f"{policies.__name__}:hold", "--num_episodes", "2",
-                        "--episode_length", "20", "--action_timeout", "0.3")  # fmt: skip
+    rc, info = run_eval(
+        tmp_path,
+        "127.0.0.133",
+        "127.0.0.134",
+        "--policy",
+        f"{policies.__name__}:hold",
+        "--num_episodes",
+        "2",
+        "--episode_length",
+        "20",
+        "--action_timeout",
+        "0.3",
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and info is None
     assert err[-1].startswith("error: ") and "has not answered for more than 0.3 s" in err[-1]
@@ -174,13 +218,33 @@ def test_a_camera_stream_that_stops_fails_the_episode(tmp_path, policies) -> Non
         stream.start()
         control.start()
         out = tmp_path / "out"
-        rc = eval_policy.cli([
-            "--backend", "wire", "--connect", "--left_ip", left, "--right_ip", right,
-            "--camera_port", str(cam_port), "--control_port", str(control_port),
-            "--policy", f"{policies.__name__}:stop_stream", "--cam_names", "cam_high",
-            "--image_size", "48x64", "--num_episodes", "1", "--episode_length", "200",
-            "--output_dir", str(out),
-        ])  # fmt: skip
+        rc = eval_policy.cli(
+            [
+                "--backend",
+                "wire",
+                "--connect",
+                "--left_ip",
+                left,
+                "--right_ip",
+                right,
+                "--camera_port",
+                str(cam_port),
+                "--control_port",
+                str(control_port),
+                "--policy",
+                f"{policies.__name__}:stop_stream",
+                "--cam_names",
+                "cam_high",
+                "--image_size",
+                "48x64",
+                "--num_episodes",
+                "1",
+                "--episode_length",
+                "200",
+                "--output_dir",
+                str(out),
+            ]
+        )
     finally:
         stream.stop()
         control.stop()
@@ -203,17 +267,43 @@ def test_a_camera_stream_that_stops_fails_the_episode(tmp_path, policies) -> Non
     ],
 )
 def test_mistakes_are_one_line_exit_2(flags, expected, tmp_path, capsys) -> None:
-    rc = eval_policy.cli(["--backend", "wire", "--policy", "scripted", "--num_episodes", "2",
-                          "--output_dir", str(tmp_path / "o"), *flags])  # fmt: skip
+    rc = eval_policy.cli(
+        [
+            "--backend",
+            "wire",
+            "--policy",
+            "scripted",
+            "--num_episodes",
+            "2",
+            "--output_dir",
+            str(tmp_path / "o"),
+            *flags,
+        ]
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and expected in err[0], err
 
 
 def test_a_kit_that_is_not_there_is_one_line(tmp_path, capsys) -> None:
-    rc = eval_policy.cli(["--backend", "wire", "--connect", "--policy", "scripted",
-                          "--left_ip", "127.0.0.137", "--right_ip", "127.0.0.138",
-                          "--control_port", str(free_port()), "--num_episodes", "1",
-                          "--output_dir", str(tmp_path / "o")])  # fmt: skip
+    rc = eval_policy.cli(
+        [
+            "--backend",
+            "wire",
+            "--connect",
+            "--policy",
+            "scripted",
+            "--left_ip",
+            "127.0.0.137",
+            "--right_ip",
+            "127.0.0.138",
+            "--control_port",
+            str(free_port()),
+            "--num_episodes",
+            "1",
+            "--output_dir",
+            str(tmp_path / "o"),
+        ]
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and err[-1].startswith("error: no episode control channel on 127.0.0.1")
 
@@ -250,11 +340,15 @@ def policy_error(argv: list[str], capsys) -> tuple[int, str, str]:
 
 @pytest.mark.parametrize(
     ("name", "expected"),
-    [("raises", r"raised ValueError at episode 0 step \d+: the policy broke$"),
-     ("text", "raised ValueError at episode 0 step 0: could not convert string to float: "
-              "'left'$"),
-     ("mapping", "raised TypeError at episode 0 step 0: float\\(\\) argument must be")],
-)  # fmt: skip
+    [
+        ("raises", r"raised ValueError at episode 0 step \d+: the policy broke$"),
+        (
+            "text",
+            "raised ValueError at episode 0 step 0: could not convert string to float: 'left'$",
+        ),
+        ("mapping", "raised TypeError at episode 0 step 0: float\\(\\) argument must be"),
+    ],
+)
 def test_a_policy_that_raises_ends_the_run_as_in_the_sim(
     name, expected, tmp_path, policies, kit_here, capsys
 ) -> None:
@@ -266,9 +360,23 @@ def test_a_policy_that_raises_ends_the_run_as_in_the_sim(
     spec = f"{policies.__name__}:{name}"
     common = ["--policy", spec, "--num_episodes", "2", "--episode_length", "10"]
     out = tmp_path / "wire"
-    rc, line, rest = policy_error(["--backend", "wire", "--connect", "--left_ip", left,
-                                   "--right_ip", right, "--control_port", str(port),
-                                   "--output_dir", str(out), *common], capsys)  # fmt: skip
+    rc, line, rest = policy_error(
+        [
+            "--backend",
+            "wire",
+            "--connect",
+            "--left_ip",
+            left,
+            "--right_ip",
+            right,
+            "--control_port",
+            str(port),
+            "--output_dir",
+            str(out),
+            *common,
+        ],
+        capsys,
+    )
     assert rc == 1 and line.startswith(f"error: the policy {spec} raised "), line
     assert re.search(expected, line), line
     assert "Traceback" in rest and "arm controller error" not in rest
@@ -316,8 +424,10 @@ def test_a_killed_eval_takes_its_kit_with_it(how) -> None:
     port = free_port()
     parent = subprocess.Popen(
         [sys.executable, "-c", PARENT, "127.0.0.137", "127.0.0.138", str(port), how],
-        stdout=subprocess.PIPE, text=True, env={**os.environ, "MUJOCO_GL": "egl"},
-    )  # fmt: skip
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "MUJOCO_GL": "egl"},
+    )
     child = None
     try:
         child = int(parent.stdout.readline())
@@ -343,8 +453,13 @@ def test_the_kit_stops_at_once_with_its_report_when_sigint_is_ignored() -> None:
 
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        kit = start_kit(KitLink("127.0.0.137", "127.0.0.138", control_port=free_port()),
-                        "sim_transfer_cube", (), (48, 64), 50.0)  # fmt: skip
+        kit = start_kit(
+            KitLink("127.0.0.137", "127.0.0.138", control_port=free_port()),
+            "sim_transfer_cube",
+            (),
+            (48, 64),
+            50.0,
+        )
     finally:
         signal.signal(signal.SIGINT, previous)
     started = time.monotonic()
@@ -363,12 +478,33 @@ def test_a_joint_jump_faults_through_the_wire_as_in_process(tmp_path, policies, 
     period of the step at which the in-process evaluation faults, named alike."""
     left, right, port = kit_here
     spec = f"{policies.__name__}:jump"
-    common = ["--policy", spec, "--num_episodes", "1", "--episode_length", "20",
-              "--cam_names", "none"]  # fmt: skip
+    common = [
+        "--policy",
+        spec,
+        "--num_episodes",
+        "1",
+        "--episode_length",
+        "20",
+        "--cam_names",
+        "none",
+    ]
     wire_out, sim_out = tmp_path / "wire", tmp_path / "sim"
-    rc = eval_policy.cli(["--backend", "wire", "--connect", "--left_ip", left, "--right_ip",
-                          right, "--control_port", str(port), "--output_dir", str(wire_out),
-                          *common])  # fmt: skip
+    rc = eval_policy.cli(
+        [
+            "--backend",
+            "wire",
+            "--connect",
+            "--left_ip",
+            left,
+            "--right_ip",
+            right,
+            "--control_port",
+            str(port),
+            "--output_dir",
+            str(wire_out),
+            *common,
+        ]
+    )
     assert rc == 0
     rc = eval_policy.cli([*common, "--output_dir", str(sim_out)])
     assert rc == 0

@@ -22,11 +22,22 @@ def recorded(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("recorded")
     rc = record_cli(
         [
-            "--data_dir", "eps", "--root_dir", str(root), "--num_episodes", "2",
-            "--episode_len", str(STEPS), "--cam_names", ",".join(CAMS),
-            "--image_size", f"{H}x{W}", "--compression", "gzip",
+            "--data_dir",
+            "eps",
+            "--root_dir",
+            str(root),
+            "--num_episodes",
+            "2",
+            "--episode_len",
+            str(STEPS),
+            "--cam_names",
+            ",".join(CAMS),
+            "--image_size",
+            f"{H}x{W}",
+            "--compression",
+            "gzip",
         ]
-    )  # fmt: skip
+    )
     assert rc in (0, 1)  # 20 steps are too few for the scripted policy: record exits 1
     return root / "eps"
 
@@ -46,9 +57,15 @@ def write_episode(
     h, w = size
     yy, xx = np.mgrid[0:h, 0:w]
     with EpisodeWriter(
-        path, steps, cams, h, w, compression=compression, env_state_dim=14,
+        path,
+        steps,
+        cams,
+        h,
+        w,
+        compression=compression,
+        env_state_dim=14,
         attrs={"task_name": task_name, "seed": seed},
-    ) as writer:  # fmt: skip
+    ) as writer:
         for t in range(steps):
             images = {}
             for c, cam in enumerate(cams):  # a gradient, and a red square moving 3 px a step
@@ -58,9 +75,13 @@ def write_episode(
                 image[y0 : y0 + 12, x0 : x0 + 12] = (230, 30, 30)
                 images[cam] = image
             writer.append(
-                rng.normal(size=16), rng.normal(size=16), rng.normal(size=16),
-                float(min(4, t // 2)), rng.normal(size=14), images,
-            )  # fmt: skip
+                rng.normal(size=16),
+                rng.normal(size=16),
+                rng.normal(size=16),
+                float(min(4, t // 2)),
+                rng.normal(size=14),
+                images,
+            )
         writer.set_attrs(success=True)
 
 

@@ -41,9 +41,11 @@ def test_the_plan_carries_rate_layout_cameras_size_crops_and_task(tmp_path, make
     eps = [_episode(tmp_path, make_episode, k, CROP) for k in range(2)]
     settings = plan_export(eps, None, fps=25).settings()
     assert settings == DatasetSettings(
-        fps=25, layout="kit14", cameras=CameraSettings(("cam_high",), (48, 64), parse_crops(CROP)),
+        fps=25,
+        layout="kit14",
+        cameras=CameraSettings(("cam_high",), (48, 64), parse_crops(CROP)),
         task="sim_transfer_cube",
-    )  # fmt: skip
+    )
     assert DatasetSettings.from_json(settings.to_json(), "here") == settings
 
 
@@ -80,8 +82,19 @@ def test_export_writes_the_settings_into_info_json(tmp_path, make_episode):
     for k in range(2):
         _episode(data, make_episode, k, CROP)
     out = tmp_path / "ds"
-    rc = cli.main(["export", "--data_dir", str(data), "--output", str(out), "--repo_id",
-                   "me/ds", "--fps", "25"])  # fmt: skip
+    rc = cli.main(
+        [
+            "export",
+            "--data_dir",
+            str(data),
+            "--output",
+            str(out),
+            "--repo_id",
+            "me/ds",
+            "--fps",
+            "25",
+        ]
+    )
     assert rc == 0
     info = json.loads((out / "meta" / "info.json").read_text())
     assert info[INFO_KEY]["crops"] == [CROP] and info[INFO_KEY]["fps"] == 25
@@ -128,19 +141,30 @@ def test_a_flag_that_repeats_is_accepted_one_that_contradicts_is_refused():
 def test_eval_takes_the_checkpoints_settings_and_refuses_a_contradiction(tmp_path, capsys):
     ckpt = tmp_path / "pretrained_model"
     ckpt.mkdir()
-    (ckpt / "config.json").write_text(json.dumps({
-        "type": "act",
-        "input_features": {
-            "observation.state": {"type": "STATE", "shape": [14]},
-            "observation.images.cam_high": {"type": "VISUAL", "shape": [3, 48, 64]},
-        },
-        "output_features": {"action": {"type": "ACTION", "shape": [14]}},
-    }))  # fmt: skip
-    write_checkpoint_settings(ckpt, DatasetSettings(
-        fps=30, layout="kit14", cameras=CameraSettings.from_cli("cam_high", "48x64", CROP),
-        task="sim_transfer_cube"))  # fmt: skip
-    rc = cli.main(["eval", "--policy", str(ckpt), "--fps", "50", "--output_dir",
-                   str(tmp_path / "e")])  # fmt: skip
+    (ckpt / "config.json").write_text(
+        json.dumps(
+            {
+                "type": "act",
+                "input_features": {
+                    "observation.state": {"type": "STATE", "shape": [14]},
+                    "observation.images.cam_high": {"type": "VISUAL", "shape": [3, 48, 64]},
+                },
+                "output_features": {"action": {"type": "ACTION", "shape": [14]}},
+            }
+        )
+    )
+    write_checkpoint_settings(
+        ckpt,
+        DatasetSettings(
+            fps=30,
+            layout="kit14",
+            cameras=CameraSettings.from_cli("cam_high", "48x64", CROP),
+            task="sim_transfer_cube",
+        ),
+    )
+    rc = cli.main(
+        ["eval", "--policy", str(ckpt), "--fps", "50", "--output_dir", str(tmp_path / "e")]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "Traceback" not in err
     assert "error: --fps 50 contradicts the checkpoint, trained with 30" in err
@@ -158,11 +182,24 @@ def test_the_files_of_before_the_camera_settings_object_read_the_same(tmp_path):
     size; cameras: a size and crops) reads into the same settings, and writes back the
     same keys."""
     old = [
-        {"fps": 50, "layout": "kit14", "cam_names": [], "image_size": None, "crops": [],
-         "task": "sim_transfer_cube"},
-        {"fps": 30, "layout": "kit14", "cam_names": ["cam_high"], "image_size": [60, 80],
-         "crops": [CROP], "task": "sim_transfer_cube", "state_extras": []},
-    ]  # fmt: skip
+        {
+            "fps": 50,
+            "layout": "kit14",
+            "cam_names": [],
+            "image_size": None,
+            "crops": [],
+            "task": "sim_transfer_cube",
+        },
+        {
+            "fps": 30,
+            "layout": "kit14",
+            "cam_names": ["cam_high"],
+            "image_size": [60, 80],
+            "crops": [CROP],
+            "task": "sim_transfer_cube",
+            "state_extras": [],
+        },
+    ]
     for k, data in enumerate(old):
         ckpt = tmp_path / f"ckpt_{k}"
         ckpt.mkdir()

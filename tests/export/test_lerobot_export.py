@@ -46,9 +46,11 @@ from trossen_arm_mujoco.tasks import registry  # noqa: E402
 #: Names, order and units of Trossen's LeRobot plugin for the kit (bi_widowxai_follower_robot):
 #: rad for the joints, m for the carriage (the gripper); written down as facts.
 KIT14_NAMES = [
-    *(f"left_joint_{i}.pos" for i in range(6)), "left_left_carriage_joint.pos",
-    *(f"right_joint_{i}.pos" for i in range(6)), "right_left_carriage_joint.pos",
-]  # fmt: skip
+    *(f"left_joint_{i}.pos" for i in range(6)),
+    "left_left_carriage_joint.pos",
+    *(f"right_joint_{i}.pos" for i in range(6)),
+    "right_left_carriage_joint.pos",
+]
 #: Where each of those comes from in the files' 16 values (the carriage: left_carriage_joint).
 KIT14_FROM_16 = [0, 1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 15]
 BOX_NAMES = ["box_x", "box_y", "box_z", "box_qw", "box_qx", "box_qy", "box_qz"]
@@ -109,17 +111,28 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
     assert info["splits"] == {"train": "0:2"}
     feats = info["features"]
     assert list(feats) == [
-        "observation.state", "observation.velocity", "action", "observation.environment_state",
-        "observation.images.cam_high", "observation.images.cam_left_wrist",
-        "next.reward", "next.success",
-        "timestamp", "frame_index", "episode_index", "index", "task_index",
-    ]  # fmt: skip
+        "observation.state",
+        "observation.velocity",
+        "action",
+        "observation.environment_state",
+        "observation.images.cam_high",
+        "observation.images.cam_left_wrist",
+        "next.reward",
+        "next.success",
+        "timestamp",
+        "frame_index",
+        "episode_index",
+        "index",
+        "task_index",
+    ]
     for key in ("observation.state", "observation.velocity", "action"):
         names = KIT14_NAMES if key != "observation.velocity" else KIT14_VEL_NAMES
         assert feats[key] == {"dtype": "float32", "shape": [14], "names": names}
     assert feats["observation.environment_state"] == {
-        "dtype": "float32", "shape": [7], "names": BOX_NAMES,
-    }  # fmt: skip
+        "dtype": "float32",
+        "shape": [7],
+        "names": BOX_NAMES,
+    }
     assert info["robot_type"] == fmt.ROBOT_TYPE
     cam_feat = feats["observation.images.cam_high"]
     assert cam_feat["dtype"] == "video" and cam_feat["shape"] == [H, W, 3]
@@ -368,9 +381,20 @@ def test_overwrite_replaces_a_dataset_only_when_the_new_one_is_complete(
 def test_trossen_mujoco_export_dispatch(tmp_path, capsys, make_episode):
     make_episode(tmp_path / "eps" / "episode_0.hdf5", 3, [], seed=0)
     rc = main_cli.main(
-        ["export", "--format", "lerobot", "--root_dir", str(tmp_path), "--data_dir", "eps",
-         "--output", str(tmp_path / "ds"), "--repo_id", "me/ds"]
-    )  # fmt: skip
+        [
+            "export",
+            "--format",
+            "lerobot",
+            "--root_dir",
+            str(tmp_path),
+            "--data_dir",
+            "eps",
+            "--output",
+            str(tmp_path / "ds"),
+            "--repo_id",
+            "me/ds",
+        ]
+    )
     assert rc == 0, capsys.readouterr().err
     info = json.loads((tmp_path / "ds/meta/info.json").read_text())
     assert info["video_path"] is None and info["total_frames"] == 3
@@ -384,8 +408,10 @@ def test_vendor16_layout_keeps_the_files_16_values(recorded, tmp_path, capsys):
     info = json.loads((out / "meta/info.json").read_text())
     for key in ("observation.state", "observation.velocity", "action"):
         assert info["features"][key] == {
-            "dtype": "float32", "shape": [16], "names": list(JOINT_NAMES),
-        }  # fmt: skip
+            "dtype": "float32",
+            "shape": [16],
+            "names": list(JOINT_NAMES),
+        }
     assert info["features"]["observation.environment_state"]["names"] == BOX_NAMES
     cols = pq.read_table(out / "data/chunk-000/file-000.parquet").to_pydict()
     episodes = [load_episode(p) for _, p in list_episodes(recorded)]
@@ -435,9 +461,15 @@ def write_synthetic(path: Path, steps: int = 10) -> None:
     frames with a square moving 3 px a step."""
     yy, xx = np.mgrid[0:H, 0:W]
     with EpisodeWriter(
-        path, steps, ["top"], H, W, compression="none", env_state_dim=14,
+        path,
+        steps,
+        ["top"],
+        H,
+        W,
+        compression="none",
+        env_state_dim=14,
         attrs={"task_name": "sim_insertion", "seed": 0, "object_names": ["peg", "socket"]},
-    ) as writer:  # fmt: skip
+    ) as writer:
         for t in range(steps):
             qpos = 0.3 * t / 50 + 0.01 * t**2 * np.arange(16) / 16
             qpos[0] = 0.3 * t / 50  # a ramp: 0.3 rad/s
@@ -449,14 +481,21 @@ def write_synthetic(path: Path, steps: int = 10) -> None:
             socket = np.concatenate([[0.2, 0.3, 0.0], _rotation(0, 0.05 * t)])
             image = np.stack([40 + (150 * (xx + yy) // (H + W)).astype(np.uint8)] * 3, -1)
             image[H // 3 : H // 3 + 12, 3 * t : 3 * t + 12] = (230, 30, 30)
-            writer.append(qpos, qvel, action, float(t), np.concatenate([peg, socket]),
-                          {"top": image.astype(np.uint8)})  # fmt: skip
+            writer.append(
+                qpos,
+                qvel,
+                action,
+                float(t),
+                np.concatenate([peg, socket]),
+                {"top": image.astype(np.uint8)},
+            )
         writer.set_attrs(success=True)
 
 
 def _hand(values: np.ndarray, pairs: list[tuple[int, float]]) -> np.ndarray:
-    return np.array([(1 - f) * values[j] + f * values[min(j + 1, len(values) - 1)]
-                     for j, f in pairs])  # fmt: skip
+    return np.array(
+        [(1 - f) * values[j] + f * values[min(j + 1, len(values) - 1)] for j, f in pairs]
+    )
 
 
 def test_fps_30_resampling_against_a_hand_computation(tmp_path, capsys):
@@ -464,9 +503,18 @@ def test_fps_30_resampling_against_a_hand_computation(tmp_path, capsys):
     write_synthetic(data / "episode_0.hdf5")
     ep = load_episode(data / "episode_0.hdf5", load_images=True)
     rc, stdout, err = run(
-        capsys, data, out, "--fps", "30", "--vcodec", "h264", "--pix_fmt", "yuv444p",
-        "--crf", "12",
-    )  # fmt: skip
+        capsys,
+        data,
+        out,
+        "--fps",
+        "30",
+        "--vcodec",
+        "h264",
+        "--pix_fmt",
+        "yuv444p",
+        "--crf",
+        "12",
+    )
     assert rc == 0, err
     assert "6 frames at 30 fps (resampled from 50 fps)" in stdout
     info = json.loads((out / "meta/info.json").read_text())
@@ -766,13 +814,26 @@ def test_signal_mid_write_leaves_no_temporary_folder(tmp_path, sig, status, name
         export_lerobot(first, out, "me/ds", progress=False, video=VideoSettings(codec="h264"))
         shutil.rmtree(first)
     cmd = [
-        sys.executable, "-m", "trossen_arm_mujoco.cli", "export", "--data_dir", str(data),
-        "--output", str(out), "--repo_id", "me/ds", *(["--overwrite"] if overwrite else []),
-    ]  # fmt: skip
+        sys.executable,
+        "-m",
+        "trossen_arm_mujoco.cli",
+        "export",
+        "--data_dir",
+        str(data),
+        "--output",
+        str(out),
+        "--repo_id",
+        "me/ds",
+        *(["--overwrite"] if overwrite else []),
+    ]
     proc = subprocess.Popen(
-        cmd, cwd=Path(__file__).parents[2], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        text=True, preexec_fn=_default_sigint,
-    )  # fmt: skip
+        cmd,
+        cwd=Path(__file__).parents[2],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_sigint,
+    )
     build = tmp_path / ".ds.tmp"
     deadline = time.time() + 120
     try:  # wait for the first episode's frames in the build folder
@@ -803,8 +864,11 @@ def test_the_action_grippers_are_what_the_controller_executes():
     """The recorder's fully open 0.044 m gripper is exported as the 0.04 m the arm
     controller clips it to; everything else is the file's."""
     action = np.zeros((3, 16))
-    action[:, [6, 7, 14, 15]] = [[0.044, 0.044, 0.03, 0.03], [0.02, 0.02, 0.044, 0.044],
-                                 [0.0, 0.0, 0.04, 0.04]]  # fmt: skip
+    action[:, [6, 7, 14, 15]] = [
+        [0.044, 0.044, 0.03, 0.03],
+        [0.02, 0.02, 0.044, 0.044],
+        [0.0, 0.0, 0.04, 0.04],
+    ]
     action[:, 0] = [0.1, 0.2, 0.3]
     out = controller_actions(action)
     assert out[:, [6, 7, 14, 15]].max() == 0.04

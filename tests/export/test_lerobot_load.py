@@ -47,9 +47,11 @@ BACKENDS = ("pyav", "torchcodec")
 HIGH_FIDELITY = VideoSettings(codec="h264", pix_fmt="yuv444p", crf=12)
 #: The values of Trossen's LeRobot plugin for the kit (bi_widowxai_follower_robot), in order.
 KIT14_NAMES = [
-    *(f"left_joint_{i}.pos" for i in range(6)), "left_left_carriage_joint.pos",
-    *(f"right_joint_{i}.pos" for i in range(6)), "right_left_carriage_joint.pos",
-]  # fmt: skip
+    *(f"left_joint_{i}.pos" for i in range(6)),
+    "left_left_carriage_joint.pos",
+    *(f"right_joint_{i}.pos" for i in range(6)),
+    "right_left_carriage_joint.pos",
+]
 #: Where each comes from in the HDF5 files' 16 values.
 KIT14_FROM_16 = [0, 1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12, 13, 15]
 
@@ -125,9 +127,13 @@ def loaded(request, make_episode, make_float32, tmp_path_factory) -> dict:
         mp.undo()
     expected = _expected(rolled, ["stack"] * 3, tmp / "rolled.npz")
     datasets.append(
-        {"name": "rolled", "root": str(tmp / "rolled"), "repo_id": "test/rolled",
-         "expected": str(expected)}
-    )  # fmt: skip
+        {
+            "name": "rolled",
+            "root": str(tmp / "rolled"),
+            "repo_id": "test/rolled",
+            "expected": str(expected),
+        }
+    )
 
     spec = tmp / "spec.json"
     spec.write_text(json.dumps({"datasets": datasets, "backends": list(BACKENDS)}))
@@ -171,9 +177,12 @@ def test_frames_and_arrays_match_the_episodes(loaded, backend):
         zero = {"state": 0.0, "velocity": 0.0, "action": 0.0, "env_state": 0.0, "reward": 0.0}
         assert got["max_abs"] == zero, name
         assert got["shapes"] == {
-            "state": [14], "velocity": [14], "action": [14], "env_state": [7 * len(objects)],
+            "state": [14],
+            "velocity": [14],
+            "action": [14],
+            "env_state": [7 * len(objects)],
             "reward": [],
-        }  # fmt: skip
+        }
         assert set(got["dtypes"].values()) == {"float32"}
         assert got["success_equal"] and got["task_equal"]
         assert got["order"] == [[e, t] for e, n in enumerate(_lengths(name)) for t in range(n)]

@@ -125,20 +125,33 @@ def test_lerobot_loads_the_export_with_both_flags(recording, tmp_path):
     out = tmp_path / "ds"
     proc = subprocess.run(
         [
-            sys.executable, "-m", "trossen_arm_mujoco.scripts.export_dataset",
-            "--data_dir", str(root), "--output", str(out), "--repo_id", "test/state",
-            "--include_velocity", "--include_effort",
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.scripts.export_dataset",
+            "--data_dir",
+            str(root),
+            "--output",
+            str(out),
+            "--repo_id",
+            "test/state",
+            "--include_velocity",
+            "--include_effort",
         ],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "the state with <joint>.vel, <joint>.eff" in proc.stdout
     env = {**os.environ, "HF_HUB_OFFLINE": "1", "HF_HOME": str(tmp_path / "hf_home")}
     check = Path(__file__).with_name("lerobot_state_check.py")
     proc = subprocess.run(
         [python, str(check), str(out), "test/state"],
-        capture_output=True, text=True, env=env, timeout=300,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     lines = [line for line in proc.stdout.splitlines() if line.startswith("RESULT ")]
     assert proc.returncode == 0 and lines, proc.stderr[-3000:]
     got = json.loads(lines[-1][len("RESULT ") :])

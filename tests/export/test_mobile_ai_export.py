@@ -28,10 +28,13 @@ from trossen_arm_mujoco.scripts.record_sim_episodes import cli as record_cli  # 
 #: the base's ``x.vel`` and ``theta.vel`` (``_base_ft``), then the cameras; action = the
 #: arms' features then ``x.vel``, ``theta.vel``.
 PLUGIN_VALUES = [
-    *(f"left_joint_{i}.pos" for i in range(6)), "left_left_carriage_joint.pos",
-    *(f"right_joint_{i}.pos" for i in range(6)), "right_left_carriage_joint.pos",
-    "x.vel", "theta.vel",
-]  # fmt: skip
+    *(f"left_joint_{i}.pos" for i in range(6)),
+    "left_left_carriage_joint.pos",
+    *(f"right_joint_{i}.pos" for i in range(6)),
+    "right_left_carriage_joint.pos",
+    "x.vel",
+    "theta.vel",
+]
 #: The Mobile AI's cameras (Trossen's Mobile AI: cam_high on the frame, one per wrist).
 CAMERAS = ["cam_high", "cam_left_wrist", "cam_right_wrist"]
 H, W, STEPS = 24, 32, 12
@@ -43,10 +46,20 @@ def recorded(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("mobile")
     rc = record_cli(
         [
-            "--task_name", "mobile_pick_place", "--data_dir", "eps", "--root_dir", str(root),
-            "--num_episodes", "1", "--episode_len", str(STEPS), "--image_size", f"{H}x{W}",
+            "--task_name",
+            "mobile_pick_place",
+            "--data_dir",
+            "eps",
+            "--root_dir",
+            str(root),
+            "--num_episodes",
+            "1",
+            "--episode_len",
+            str(STEPS),
+            "--image_size",
+            f"{H}x{W}",
         ]
-    )  # fmt: skip
+    )
     assert rc in (0, 1)  # 12 steps are too few to place the cube: record exits 1
     return root / "eps"
 
@@ -96,9 +109,17 @@ def test_export_has_the_plugins_mobileai_features(recorded, tmp_path, capsys):
 @pytest.mark.parametrize("layout", ["kit14", "vendor16"])
 def test_the_kits_layouts_are_refused_in_one_line(recorded, tmp_path, capsys, layout):
     rc = export_cli(
-        ["--data_dir", str(recorded), "--output", str(tmp_path / "x"), "--repo_id", "me/x",
-         "--layout", layout]
-    )  # fmt: skip
+        [
+            "--data_dir",
+            str(recorded),
+            "--output",
+            str(tmp_path / "x"),
+            "--repo_id",
+            "me/x",
+            "--layout",
+            layout,
+        ]
+    )
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1
     assert f"--layout {layout} does not fit" in err and "--layout mobileai" in err

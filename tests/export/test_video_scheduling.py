@@ -18,9 +18,17 @@ linux = pytest.mark.skipif(not hasattr(os, "sched_getscheduler"), reason="Linux 
 
 
 def _encode(root, codec: str) -> None:
-    video = CameraVideo(root, "observation.images.cam_high", VIDEO_PATH,
-                        VideoSettings(codec=codec), fps=30, height=32, width=32,
-                        max_file_mb=100, chunks_size=1000)  # fmt: skip
+    video = CameraVideo(
+        root,
+        "observation.images.cam_high",
+        VIDEO_PATH,
+        VideoSettings(codec=codec),
+        fps=30,
+        height=32,
+        width=32,
+        max_file_mb=100,
+        chunks_size=1000,
+    )
     video.begin_episode()
     video.write(np.zeros((4, 32, 32, 3), dtype=np.uint8))
     video.end_episode()

@@ -22,9 +22,12 @@ def test_registration_is_idempotent():
 
 @pytest.mark.parametrize(
     "env_id, steps",
-    [(REACH, 50), ("TrossenMujoco/WXAIPushGoal-v0", 100),
-     ("TrossenMujoco/StationaryAITransferCube-v0", 600)],
-)  # fmt: skip
+    [
+        (REACH, 50),
+        ("TrossenMujoco/WXAIPushGoal-v0", 100),
+        ("TrossenMujoco/StationaryAITransferCube-v0", 600),
+    ],
+)
 def test_max_episode_steps(env_id, steps):
     assert gym.spec(env_id).max_episode_steps == steps
 
@@ -42,13 +45,23 @@ def test_state_observation(make_env):
     # arm_qpos 6, arm_qvel 6, gripper 1, ee_pos 3, goal 3, goal_delta 3
     assert obs.shape == (22,) and obs.dtype == np.float32
     assert env.observation_space.contains(obs)
-    assert info == {"is_success": False, "goal_distance": info["goal_distance"],
-                    "safety_clipped": False, "safety_links": ""}  # fmt: skip
+    assert info == {
+        "is_success": False,
+        "goal_distance": info["goal_distance"],
+        "safety_clipped": False,
+        "safety_links": "",
+    }
 
 
 def test_pixels_and_render(make_env):
-    env = make_env(REACH, obs_type="pixels", render_mode="rgb_array", width=32, height=24,
-                   cameras=["overview", "cam"])  # fmt: skip
+    env = make_env(
+        REACH,
+        obs_type="pixels",
+        render_mode="rgb_array",
+        width=32,
+        height=24,
+        cameras=["overview", "cam"],
+    )
     obs, _ = env.reset(seed=0)
     assert obs.shape == (24, 64, 3) and obs.dtype == np.uint8 and obs.std() > 0
     frame = env.render()
@@ -99,8 +112,9 @@ def test_human_render_without_display_warns(make_env, monkeypatch):
 
 
 def test_config_override_through_make(make_env):
-    env = make_env(REACH, success_tolerance=0.2, target_low=[0.3, 0.0, 0.2],
-                   target_high=[0.3, 0.0, 0.2])  # fmt: skip
+    env = make_env(
+        REACH, success_tolerance=0.2, target_low=[0.3, 0.0, 0.2], target_high=[0.3, 0.0, 0.2]
+    )
     _, info = env.reset(seed=0)
     assert env.unwrapped.config["success_tolerance"] == 0.2
     np.testing.assert_allclose(env.unwrapped.task.desired_goal(), [0.3, 0.0, 0.2])
@@ -116,10 +130,14 @@ def test_unknown_kwarg_lists_options_and_config_keys(make_env):
 
 @pytest.mark.parametrize(
     "kwargs, match",
-    [({"obs_type": "rgb"}, "pixels_state"), ({"render_mode": "window"}, "rgb_array"),
-     ({"task": "stack"}, "pick_place"), ({"visual": "pretty"}, "menagerie, own"),
-     ({"shadows": "no"}, "True or False")],
-)  # fmt: skip
+    [
+        ({"obs_type": "rgb"}, "pixels_state"),
+        ({"render_mode": "window"}, "rgb_array"),
+        ({"task": "stack"}, "pick_place"),
+        ({"visual": "pretty"}, "menagerie, own"),
+        ({"shadows": "no"}, "True or False"),
+    ],
+)
 @pytest.mark.filterwarnings("ignore:.*render_mode")
 def test_bad_choices_are_user_errors(make_env, kwargs, match):
     with pytest.raises(UserError, match=match):
@@ -198,8 +216,11 @@ def test_human_viewer_closes_at_exit_under_xvfb(tmp_path):
     num = next((n for n in range(140, 160) if not Path(f"/tmp/.X{n}-lock").exists()), None)
     if num is None:
         pytest.skip("no free X display number")
-    xvfb = subprocess.Popen(["Xvfb", f":{num}", "-screen", "0", "640x480x24"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    xvfb = subprocess.Popen(
+        ["Xvfb", f":{num}", "-screen", "0", "640x480x24"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     code = (
         "import gymnasium as gym, trossen_arm_mujoco\n"
         f"env = gym.make('{REACH}', render_mode='human')\n"
@@ -210,8 +231,9 @@ def test_human_viewer_closes_at_exit_under_xvfb(tmp_path):
     try:
         time.sleep(1.5)
         env = {**os.environ, "DISPLAY": f":{num}", "MUJOCO_GL": "egl"}
-        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                              timeout=60, env=env)  # fmt: skip
+        proc = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env
+        )
     finally:
         xvfb.terminate()
         xvfb.wait(timeout=10)

@@ -32,32 +32,37 @@ def _refused(make_env, env_id: str, match: str, **kwargs) -> str:
 
 @pytest.mark.parametrize(
     "kwargs, match",
-    [({"table_height": math.nan}, r"table_height: expected a number in \[-1, 2\] m, got nan"),
-     ({"safety_margin": math.nan}, r"safety_margin: expected a number in \[0, 0.5\] m, got nan"),
-     ({"safety_margin": -0.02}, r"safety_margin: expected a number in \[0, 0.5\] m, got -0.02"),
-     ({"table_height": math.inf}, "table_height: expected .*got inf"),
-     ({"success_tolerance": -0.01}, r"success_tolerance: expected a number in \(0, 1\] m"),
-     ({"success_tolerance": math.nan}, "success_tolerance: expected .*got nan"),
-     ({"ee_delta_limit": 0.0}, r"ee_delta_limit: expected a number in \(0, 0.5\] m, got 0.0"),
-     ({"joint_rel_limit": -0.1}, r"joint_rel_limit: expected a number in \(0, 3.14159\] rad"),
-     ({"max_joint_velocity": math.nan}, "max_joint_velocity: expected"),
-     ({"workspace_low": [0.9, -0.8, -0.1]},
-      "workspace_low/workspace_high: expected workspace_low <= workspace_high on every "
-      "axis, got 0.9 > 0.8 on axis 0"),
-     ({"target_low": [0.3, 0.3, 0.3], "target_high": [0.2, 0.4, 0.4]},
-      "target_low/target_high: .*0.3 > 0.2 on axis 0"),
-     ({"target_low": [0.2, math.nan, 0.1]}, "target_low: expected a list of 3 numbers"),
-     ({"goal_reward_type": "shaped"}, "goal_reward_type: expected one of sparse, dense"),
-     ({"hold_orientation": "yes"}, "hold_orientation: expected true/false")],
-)  # fmt: skip
+    [
+        ({"table_height": math.nan}, r"table_height: expected a number in \[-1, 2\] m, got nan"),
+        ({"safety_margin": math.nan}, r"safety_margin: expected a number in \[0, 0.5\] m, got nan"),
+        ({"safety_margin": -0.02}, r"safety_margin: expected a number in \[0, 0.5\] m, got -0.02"),
+        ({"table_height": math.inf}, "table_height: expected .*got inf"),
+        ({"success_tolerance": -0.01}, r"success_tolerance: expected a number in \(0, 1\] m"),
+        ({"success_tolerance": math.nan}, "success_tolerance: expected .*got nan"),
+        ({"ee_delta_limit": 0.0}, r"ee_delta_limit: expected a number in \(0, 0.5\] m, got 0.0"),
+        ({"joint_rel_limit": -0.1}, r"joint_rel_limit: expected a number in \(0, 3.14159\] rad"),
+        ({"max_joint_velocity": math.nan}, "max_joint_velocity: expected"),
+        (
+            {"workspace_low": [0.9, -0.8, -0.1]},
+            "workspace_low/workspace_high: expected workspace_low <= workspace_high on every "
+            "axis, got 0.9 > 0.8 on axis 0",
+        ),
+        (
+            {"target_low": [0.3, 0.3, 0.3], "target_high": [0.2, 0.4, 0.4]},
+            "target_low/target_high: .*0.3 > 0.2 on axis 0",
+        ),
+        ({"target_low": [0.2, math.nan, 0.1]}, "target_low: expected a list of 3 numbers"),
+        ({"goal_reward_type": "shaped"}, "goal_reward_type: expected one of sparse, dense"),
+        ({"hold_orientation": "yes"}, "hold_orientation: expected true/false"),
+    ],
+)
 def test_bad_config_kwarg_is_one_line_naming_it_and_the_valid_range(make_env, kwargs, match):
     msg = _refused(make_env, REACH, match, **kwargs)
     assert msg.startswith(KWARG.format(task="reach"))
 
 
 def test_push_spawn_ranges_are_ordered(make_env):
-    _refused(make_env, PUSH, "cube_low/cube_high: .*0.4 > 0.38 on axis 0",
-             cube_low=[0.4, -0.12])  # fmt: skip
+    _refused(make_env, PUSH, "cube_low/cube_high: .*0.4 > 0.38 on axis 0", cube_low=[0.4, -0.12])
     _refused(make_env, PUSH, "goal_low/goal_high: ", goal_high=[0.42, -0.2])
 
 
@@ -69,16 +74,18 @@ def test_whole_number_steps_through_the_env_class():
 
 @pytest.mark.parametrize(
     "kwargs, match",
-    [({"width": 0}, r"width: expected a whole number in \[1, 16384\], got 0"),
-     ({"height": 24.5}, "height: expected a whole number"),
-     ({"width": math.nan}, "width: expected a whole number"),
-     ({"height": "64"}, "height: expected a whole number"),
-     ({"randomize": "yes"}, "randomize: expected true/false"),
-     ({"cameras": 3}, "cameras: expected a camera name or a list of them"),
-     ({"cameras": ["overview", None]}, "cameras: expected a camera name"),
-     ({"obs_type": ["state"]}, "unknown observation type"),
-     ({"shadows": "no"}, "shadows must be True or False")],
-)  # fmt: skip
+    [
+        ({"width": 0}, r"width: expected a whole number in \[1, 16384\], got 0"),
+        ({"height": 24.5}, "height: expected a whole number"),
+        ({"width": math.nan}, "width: expected a whole number"),
+        ({"height": "64"}, "height: expected a whole number"),
+        ({"randomize": "yes"}, "randomize: expected true/false"),
+        ({"cameras": 3}, "cameras: expected a camera name or a list of them"),
+        ({"cameras": ["overview", None]}, "cameras: expected a camera name"),
+        ({"obs_type": ["state"]}, "unknown observation type"),
+        ({"shadows": "no"}, "shadows must be True or False"),
+    ],
+)
 def test_bad_env_option_is_one_line(make_env, kwargs, match):
     _refused(make_env, REACH, match, **kwargs)
 
@@ -102,10 +109,12 @@ def test_nan_floor_is_refused_by_the_safety_floor_itself():
 
 @pytest.mark.parametrize(
     "key, value, match",
-    [("joint_rel_limit", math.nan, "joint_rel_limit: expected .*got nan"),
-     ("ee_delta_limit", -0.1, "ee_delta_limit: expected"),
-     ("joint_rel_limit", -0.1, "joint_rel_limit: expected")],
-)  # fmt: skip
+    [
+        ("joint_rel_limit", math.nan, "joint_rel_limit: expected .*got nan"),
+        ("ee_delta_limit", -0.1, "ee_delta_limit: expected"),
+        ("joint_rel_limit", -0.1, "joint_rel_limit: expected"),
+    ],
+)
 def test_action_mapper_refuses_a_bad_config(make_env, key, value, match):
     env = make_env(REACH).unwrapped
     arms = env.sampler.arms

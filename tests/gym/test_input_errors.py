@@ -17,17 +17,19 @@ SPACE = r"\(action space Box\(-1.0, 1.0, \(4,\), float32\)\)"
 
 @pytest.mark.parametrize(
     "action, match",
-    [("forward", SPACE + ", got str 'forward'"),
-     (None, SPACE + ", got NoneType"),
-     ({"arm": 1}, SPACE + ", got dict"),
-     ([[0.0, 0.1], [0.2]], SPACE + ", got list"),
-     (np.array(["a", "b", "c", "d"]), SPACE + ", got an array of dtype <U1"),
-     (np.zeros(4, dtype=bool), SPACE + ", got an array of dtype bool"),
-     (np.zeros(3, dtype=np.float32), r"shape \(4,\) " + SPACE + r", got shape \(3,\)"),
-     (np.zeros((2, 4)), r"got shape \(2, 4\)"),
-     (np.array([0.0, np.nan, 0.0, 0.0]), r"NaN or inf: .*finite values in \[-1, 1\]"),
-     ([0.0, 0.0, np.inf, 0.0], "NaN or inf")],
-)  # fmt: skip
+    [
+        ("forward", SPACE + ", got str 'forward'"),
+        (None, SPACE + ", got NoneType"),
+        ({"arm": 1}, SPACE + ", got dict"),
+        ([[0.0, 0.1], [0.2]], SPACE + ", got list"),
+        (np.array(["a", "b", "c", "d"]), SPACE + ", got an array of dtype <U1"),
+        (np.zeros(4, dtype=bool), SPACE + ", got an array of dtype bool"),
+        (np.zeros(3, dtype=np.float32), r"shape \(4,\) " + SPACE + r", got shape \(3,\)"),
+        (np.zeros((2, 4)), r"got shape \(2, 4\)"),
+        (np.array([0.0, np.nan, 0.0, 0.0]), r"NaN or inf: .*finite values in \[-1, 1\]"),
+        ([0.0, 0.0, np.inf, 0.0], "NaN or inf"),
+    ],
+)
 def test_a_malformed_action_names_the_action_space(make_env, action, match):
     env = make_env(REACH, action_mode="ee_delta")
     env.reset(seed=0)
@@ -39,9 +41,15 @@ def test_a_malformed_action_names_the_action_space(make_env, action, match):
 
 
 @pytest.mark.parametrize(
-    "action", [[0.0, 0.1, -0.2, 1.0], (0, 0, 0, 1), np.zeros(4, dtype=np.int64),
-               np.zeros((1, 4)), np.ones(4, dtype=np.float64) * 3]
-)  # fmt: skip
+    "action",
+    [
+        [0.0, 0.1, -0.2, 1.0],
+        (0, 0, 0, 1),
+        np.zeros(4, dtype=np.int64),
+        np.zeros((1, 4)),
+        np.ones(4, dtype=np.float64) * 3,
+    ],
+)
 def test_number_sequences_of_the_right_size_are_actions(make_env, action):
     env = make_env(REACH, action_mode="ee_delta")
     env.reset(seed=0)
@@ -50,16 +58,20 @@ def test_number_sequences_of_the_right_size_are_actions(make_env, action):
 
 @pytest.mark.parametrize(
     "options, match",
-    [({"seed": 3}, "unknown reset option 'seed'; accepted keys: object_poses"),
-     ({"object_pose": {}}, "unknown reset option 'object_pose'; accepted keys: object_poses"),
-     ([("object_poses", None)], "reset options must be a dict .*got list"),
-     ({"object_poses": [0.3, 0.0, 0.02, 1, 0, 0, 0]}, "object_poses must be a dict"),
-     ({"object_poses": {"mug": [0.3, 0, 0.02, 1, 0, 0, 0]}},
-      "unknown object of reset option object_poses 'mug'; valid .*: box"),
-     ({"object_poses": {"box": [0.3, 0.0, 0.02]}}, r"object_poses\['box'\] must be 7 finite"),
-     ({"object_poses": {"box": "here"}}, r"object_poses\['box'\] must be 7 finite"),
-     ({"object_poses": {"box": [0.3, 0, 0.02, 0, 0, 0, 0]}}, "non-zero quaternion")],
-)  # fmt: skip
+    [
+        ({"seed": 3}, "unknown reset option 'seed'; accepted keys: object_poses"),
+        ({"object_pose": {}}, "unknown reset option 'object_pose'; accepted keys: object_poses"),
+        ([("object_poses", None)], "reset options must be a dict .*got list"),
+        ({"object_poses": [0.3, 0.0, 0.02, 1, 0, 0, 0]}, "object_poses must be a dict"),
+        (
+            {"object_poses": {"mug": [0.3, 0, 0.02, 1, 0, 0, 0]}},
+            "unknown object of reset option object_poses 'mug'; valid .*: box",
+        ),
+        ({"object_poses": {"box": [0.3, 0.0, 0.02]}}, r"object_poses\['box'\] must be 7 finite"),
+        ({"object_poses": {"box": "here"}}, r"object_poses\['box'\] must be 7 finite"),
+        ({"object_poses": {"box": [0.3, 0, 0.02, 0, 0, 0, 0]}}, "non-zero quaternion"),
+    ],
+)
 def test_bad_reset_options_list_the_accepted_keys(make_env, options, match):
     env = make_env("TrossenMujoco/StationaryAITransferCube-v0")
     with pytest.raises(InvalidInput, match=match) as err:

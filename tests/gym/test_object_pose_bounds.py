@@ -16,14 +16,20 @@ CUBE = "TrossenMujoco/StationaryAITransferCube-v0"
 
 @pytest.mark.parametrize(
     ("pose", "match"),
-    [([1e30, 0.0, 0.05, 1, 0, 0, 0],
-      r"reset option object_poses\['box'\]: position \[1e\+30, 0.0, 0.05\] is outside the "
-      r"task's workspace \[-0.8, 0.8\] x \[-0.8, 0.8\] x \[-0.1, 0.9\] m"),
-     ([0.0, 0.1, -3.0, 1, 0, 0, 0], r"\[0.0, 0.1, -3.0\] is outside the task's workspace"),
-     ([0.0, 0.1, 0.05, 1e-12, 0, 0, 0],
-      r"object_poses\['box'\] needs a non-zero quaternion \(norm at least 1e-06\)"),
-     ([0.0, 0.1, 0.05, np.inf, 0, 0, 0], "must be 7 finite numbers")],
-)  # fmt: skip
+    [
+        (
+            [1e30, 0.0, 0.05, 1, 0, 0, 0],
+            r"reset option object_poses\['box'\]: position \[1e\+30, 0.0, 0.05\] is outside the "
+            r"task's workspace \[-0.8, 0.8\] x \[-0.8, 0.8\] x \[-0.1, 0.9\] m",
+        ),
+        ([0.0, 0.1, -3.0, 1, 0, 0, 0], r"\[0.0, 0.1, -3.0\] is outside the task's workspace"),
+        (
+            [0.0, 0.1, 0.05, 1e-12, 0, 0, 0],
+            r"object_poses\['box'\] needs a non-zero quaternion \(norm at least 1e-06\)",
+        ),
+        ([0.0, 0.1, 0.05, np.inf, 0, 0, 0], "must be 7 finite numbers"),
+    ],
+)
 def test_a_pose_out_of_bounds_is_one_line_naming_object_and_bound(make_env, pose, match):
     env = make_env(CUBE)
     with pytest.raises(InvalidInput, match=match) as err:

@@ -291,9 +291,10 @@ def test_dm_control_joint_env_and_gym_env_clip_alike(make_env):
     dm_env = make_sim_env(TransferCubeTask, cam_list=[], random=0)
     dm_env.reset()
     u = gym_env.unwrapped
-    worlds = [(u.scene.model, u.scene.data, u.task.robot),
-              (dm_env.physics.model.ptr, dm_env.physics.data.ptr,
-               dm_env.task.robot(dm_env.physics))]  # fmt: skip
+    worlds = [
+        (u.scene.model, u.scene.data, u.task.robot),
+        (dm_env.physics.model.ptr, dm_env.physics.data.ptr, dm_env.task.robot(dm_env.physics)),
+    ]
     groups = VENDOR16_LAYOUT.groups  # both arms and grippers
     start = {g: u.task.robot.view.get_move_group(g).get_qpos(u.scene.data) for g in groups}
     for model, data, robot in worlds:  # the same arms, at rest, holding
@@ -314,8 +315,9 @@ def test_dm_control_joint_env_and_gym_env_clip_alike(make_env):
     commands, _ = u.actions(u.scene.data, action)  # what the gym env asks of the robot
     # the same commands as a dm_control action: the 14 values of the real kit's layout (per
     # arm 6 joints, then the gripper), which the joint env takes as well as the 16
-    dm_action = np.concatenate([commands[g] for g in ("left_arm", "left_gripper",
-                                                      "right_arm", "right_gripper")])  # fmt: skip
+    dm_action = np.concatenate(
+        [commands[g] for g in ("left_arm", "left_gripper", "right_arm", "right_gripper")]
+    )
     held = []
     for _ in range(40):
         _, _, _, _, info = gym_env.step(action)

@@ -89,11 +89,24 @@ def test_unreachable_controller_is_one_line_and_no_crash_at_exit(tmp_path: Path)
     pytest.importorskip("trossen_arm")
     write_episode(tmp_path)
     left, right = UNREACHABLE
-    proc = run_command([REPLAY, "--data_dir", str(tmp_path), "--left_ip", left, "--right_ip",
-                        right, "--connect_timeout", "1", "--no_progress"])  # fmt: skip
+    proc = run_command(
+        [
+            REPLAY,
+            "--data_dir",
+            str(tmp_path),
+            "--left_ip",
+            left,
+            "--right_ip",
+            right,
+            "--connect_timeout",
+            "1",
+            "--no_progress",
+        ]
+    )
     line = assert_one_error_line(proc, 1)
-    assert line.startswith(f"error: replay stopped at step 0/5: left arm: configure ({left}) "
-                           f"failed: Failed to connect")  # fmt: skip
+    assert line.startswith(
+        f"error: replay stopped at step 0/5: left arm: configure ({left}) failed: Failed to connect"
+    )
     assert "no arm was configured, none moved" in proc.stdout
     summary = json.loads((tmp_path / "replay/episode_0_trossen_summary.json").read_text())
     assert summary["status"] == "failed" and summary["steps_done"] == 0
@@ -104,8 +117,20 @@ def test_wire_backend_replay_exits_without_a_crash(tmp_path: Path) -> None:
     pytest.importorskip("trossen_arm")
     write_episode(tmp_path, steps=3)
     left, right = SERVED
-    proc = run_command([REPLAY, "--data_dir", str(tmp_path), "--backend", "wire", "--left_ip",
-                        left, "--right_ip", right, "--no_progress"])  # fmt: skip
+    proc = run_command(
+        [
+            REPLAY,
+            "--data_dir",
+            str(tmp_path),
+            "--backend",
+            "wire",
+            "--left_ip",
+            left,
+            "--right_ip",
+            right,
+            "--no_progress",
+        ]
+    )
     assert proc.returncode not in CRASHED, f"crashed at exit:\n{proc.stderr}"
     assert proc.returncode == 0 and proc.stderr.strip() == "", proc.stderr
     assert "replay completed: 3 steps" in proc.stdout
@@ -113,8 +138,18 @@ def test_wire_backend_replay_exits_without_a_crash(tmp_path: Path) -> None:
 
 def test_malformed_address_is_one_line_before_the_driver_is_loaded(tmp_path: Path) -> None:
     write_episode(tmp_path)
-    proc = run_command([REPLAY, "--data_dir", str(tmp_path), "--left_ip", "127.0.0.1:notaport",
-                        "--right_ip", UNREACHABLE[1], "--no_progress"])  # fmt: skip
+    proc = run_command(
+        [
+            REPLAY,
+            "--data_dir",
+            str(tmp_path),
+            "--left_ip",
+            "127.0.0.1:notaport",
+            "--right_ip",
+            UNREACHABLE[1],
+            "--no_progress",
+        ]
+    )
     line = assert_one_error_line(proc, 2)
     assert line.startswith("error: --left_ip '127.0.0.1:notaport' is not an IPv4 address")
     assert not (tmp_path / "replay").exists()
@@ -133,17 +168,35 @@ def test_driver_left_connected_or_failed_in_a_script_exits_cleanly() -> None:
         "other = TrossenArmDriver()  # constructed, never configured, never cleaned up\n"
     )
     env = dict(os.environ, MUJOCO_GL="egl")
-    proc = subprocess.run([sys.executable, "-X", "faulthandler", "-c", code], cwd=REPO,
-                          env=env, capture_output=True, text=True, timeout=60)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-X", "faulthandler", "-c", code],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 0, f"exit status {proc.returncode}:\n{proc.stderr}"
     assert "configure failed" in proc.stdout and proc.stderr.strip() == ""
 
 
 def test_teleop_with_unreachable_leaders_exits_without_a_crash(tmp_path: Path) -> None:
     pytest.importorskip("trossen_arm")
-    proc = run_command(["trossen_arm_mujoco.scripts.teleop", "--leader_left_ip", LEADERS[0],
-                        "--leader_right_ip", LEADERS[1], "--data_dir", str(tmp_path / "d"),
-                        "--connect_timeout", "1", "--cam_names", "none"])  # fmt: skip
+    proc = run_command(
+        [
+            "trossen_arm_mujoco.scripts.teleop",
+            "--leader_left_ip",
+            LEADERS[0],
+            "--leader_right_ip",
+            LEADERS[1],
+            "--data_dir",
+            str(tmp_path / "d"),
+            "--connect_timeout",
+            "1",
+            "--cam_names",
+            "none",
+        ]
+    )
     line = assert_one_error_line(proc, 1)
     assert f"cannot connect to the left leader arm at {LEADERS[0]}" in line
 
@@ -175,9 +228,14 @@ def one_line_error(capsys: pytest.CaptureFixture[str]) -> str:
 )
 @pytest.mark.parametrize("dry_run", [False, True])
 def test_bad_address_is_one_line_naming_the_flag(
-    flag: str, value: str, why: str, dry_run: bool, tmp_path: Path,
-    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
-) -> None:  # fmt: skip
+    flag: str,
+    value: str,
+    why: str,
+    dry_run: bool,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     def no_driver(*args: Any, **kwargs: Any) -> None:
         raise AssertionError("a driver was made before the addresses were checked")
 
@@ -195,17 +253,18 @@ def test_same_address_for_both_arms_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     write_episode(tmp_path)
-    rc = run(["--data_dir", str(tmp_path), "--left_ip", "127.0.0.121", "--right_ip",
-              " 127.0.0.121"])  # fmt: skip
+    rc = run(
+        ["--data_dir", str(tmp_path), "--left_ip", "127.0.0.121", "--right_ip", " 127.0.0.121"]
+    )
     line = one_line_error(capsys)
     assert rc == 2 and "--left_ip and --right_ip are both 127.0.0.121" in line
 
 
 def test_check_ip_normalizes_and_accepts_any_unicast_ipv4() -> None:
     assert check_ip(" 192.168.1.5 ", "--left_ip") == "192.168.1.5"
-    assert check_arm_ips({"left": "10.0.0.1", "right": "10.0.0.2"},
-                         {"left": "-l", "right": "-r"}) == {"left": "10.0.0.1",
-                                                           "right": "10.0.0.2"}  # fmt: skip
+    assert check_arm_ips(
+        {"left": "10.0.0.1", "right": "10.0.0.2"}, {"left": "-l", "right": "-r"}
+    ) == {"left": "10.0.0.1", "right": "10.0.0.2"}
     with pytest.raises(Exception, match="--left_ip '::1' is not an IPv4 address"):
         check_ip("::1", "--left_ip")
 
@@ -301,8 +360,14 @@ def test_output_dir_under_a_regular_file_is_one_line_before_anything_moves(
     write_episode(tmp_path / "data")
     blocker = tmp_path / "notes.txt"
     blocker.write_text("a file, not a folder\n")
-    argv = ["--data_dir", str(tmp_path / "data"), "--backend", "sim",
-            "--output_dir", str(blocker / "replay")]  # fmt: skip
+    argv = [
+        "--data_dir",
+        str(tmp_path / "data"),
+        "--backend",
+        "sim",
+        "--output_dir",
+        str(blocker / "replay"),
+    ]
     rc = replay_episode_real.cli([*argv, "--no_progress"], driver_factory=NoDrivers())
     line = one_line_error(capsys)
     assert rc == 2 and line.startswith(f"error: cannot write to --output_dir {blocker / 'replay'}")
@@ -315,8 +380,10 @@ def test_default_output_folder_is_a_file_names_the_flag(
 ) -> None:
     write_episode(tmp_path)
     (tmp_path / "replay").write_text("in the way\n")
-    rc = replay_episode_real.cli(["--data_dir", str(tmp_path), "--backend", "sim",
-                                  "--no_progress"], driver_factory=NoDrivers())  # fmt: skip
+    rc = replay_episode_real.cli(
+        ["--data_dir", str(tmp_path), "--backend", "sim", "--no_progress"],
+        driver_factory=NoDrivers(),
+    )
     line = one_line_error(capsys)
     assert rc == 2 and "--output_dir" in line and "it is a file" in line
 
@@ -330,9 +397,18 @@ def test_read_only_output_folder_is_refused_before_anything_moves(
     out.mkdir()
     out.chmod(0o500)
     try:
-        rc = replay_episode_real.cli(["--data_dir", str(tmp_path), "--backend", "sim",
-                                      "--output_dir", str(out), "--no_progress"],
-                                     driver_factory=NoDrivers())  # fmt: skip
+        rc = replay_episode_real.cli(
+            [
+                "--data_dir",
+                str(tmp_path),
+                "--backend",
+                "sim",
+                "--output_dir",
+                str(out),
+                "--no_progress",
+            ],
+            driver_factory=NoDrivers(),
+        )
     finally:
         out.chmod(0o700)
     line = one_line_error(capsys)
@@ -344,8 +420,10 @@ def test_a_folder_where_a_result_file_goes_is_refused(
 ) -> None:
     write_episode(tmp_path)
     (tmp_path / "replay" / "episode_0_sim_summary.json").mkdir(parents=True)
-    rc = replay_episode_real.cli(["--data_dir", str(tmp_path), "--backend", "sim",
-                                  "--no_progress"], driver_factory=NoDrivers())  # fmt: skip
+    rc = replay_episode_real.cli(
+        ["--data_dir", str(tmp_path), "--backend", "sim", "--no_progress"],
+        driver_factory=NoDrivers(),
+    )
     line = one_line_error(capsys)
     assert rc == 2 and "episode_0_sim_summary.json there is a folder" in line
     assert "choose another --output_dir" in line
@@ -390,8 +468,10 @@ def test_hints_name_the_flag(
     extra: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     write_episode(tmp_path)
-    rc = replay_episode_real.cli(["--data_dir", str(tmp_path), "--backend", "sim",
-                                  "--no_progress", *extra], driver_factory=NoDrivers())  # fmt: skip
+    rc = replay_episode_real.cli(
+        ["--data_dir", str(tmp_path), "--backend", "sim", "--no_progress", *extra],
+        driver_factory=NoDrivers(),
+    )
     line = one_line_error(capsys)
     assert rc == 2 and expected in line, line
 

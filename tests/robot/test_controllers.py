@@ -550,9 +550,10 @@ def test_mocap_arm_target_is_kept_above_the_floor():
     assert not robot.floor_report.clipped
 
 
-@pytest.mark.parametrize("table, margin", [(0.0, float("nan")), (0.0, -0.01),
-                                           (float("nan"), 0.0), (0.0, float("inf")),
-                                           (0.0, "1cm")])  # fmt: skip
+@pytest.mark.parametrize(
+    "table, margin",
+    [(0.0, float("nan")), (0.0, -0.01), (float("nan"), 0.0), (0.0, float("inf")), (0.0, "1cm")],
+)
 def test_bad_floor_is_a_one_line_user_error(table, margin):
     robot = Robot(mujoco.MjModel.from_xml_path(str(WXAI)), wxai_config())
     with pytest.raises(UserError) as err:

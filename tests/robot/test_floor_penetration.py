@@ -47,11 +47,14 @@ class Probe:
         self.data = data
         self.table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table")
         bodies = set(int(b) for b in floor.arms[arm].bodies)
-        self.geoms = np.array([
-            g for g in range(model.ngeom)
-            if int(model.geom_bodyid[g]) in bodies
-            and (model.geom_contype[g] or model.geom_conaffinity[g])
-        ])  # fmt: skip
+        self.geoms = np.array(
+            [
+                g
+                for g in range(model.ngeom)
+                if int(model.geom_bodyid[g]) in bodies
+                and (model.geom_contype[g] or model.geom_conaffinity[g])
+            ]
+        )
         self.deepest = 0.0
         self._closing = False
 
@@ -102,8 +105,9 @@ def _dm_control(side: str, target: np.ndarray, close: bool) -> float:
         env.close()
 
 
-def _drive_kit_arm(step, probe, home: np.ndarray, side: str, target: np.ndarray,
-                   close: bool) -> float:  # fmt: skip
+def _drive_kit_arm(
+    step, probe, home: np.ndarray, side: str, target: np.ndarray, close: bool
+) -> float:
     """Step a kit env (16-value actions) with one arm driven toward ``target``, its gripper
     closed from ``CLOSE_AT`` when ``close``; the deepest penetration the probe saw (m)."""
     at = 0 if side == "left" else 8

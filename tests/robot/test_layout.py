@@ -93,9 +93,16 @@ def test_kit_joint_commands_equal_for_14_and_16_values():
     vendor[[6, 14]] = 123.0  # the coupled fingers are not commanded
     from_16 = kit_joint_commands(vendor)
     from_14 = kit_joint_commands(KIT14_LAYOUT.from_vendor(vendor))
-    assert list(from_16) == list(from_14) == [
-        "left_arm", "left_gripper", "right_arm", "right_gripper",
-    ]  # fmt: skip
+    assert (
+        list(from_16)
+        == list(from_14)
+        == [
+            "left_arm",
+            "left_gripper",
+            "right_arm",
+            "right_gripper",
+        ]
+    )
     for group in from_16:
         np.testing.assert_array_equal(from_14[group], from_16[group])
     np.testing.assert_array_equal(from_16["left_gripper"], vendor[[7]])

@@ -17,13 +17,15 @@ from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 @pytest.mark.parametrize(
     "table, margin, match",
-    [(0.0, math.nan, "safety margin must be a number >= 0"),
-     (0.0, -0.01, "safety margin must be a number >= 0"),
-     (0.0, math.inf, "safety margin must be a number >= 0"),
-     (math.nan, 0.0, "table height must be a finite number"),
-     (0.0, "1cm", "safety margin must be a number"),
-     (True, 0.0, "table height must be a number")],
-)  # fmt: skip
+    [
+        (0.0, math.nan, "safety margin must be a number >= 0"),
+        (0.0, -0.01, "safety margin must be a number >= 0"),
+        (0.0, math.inf, "safety margin must be a number >= 0"),
+        (math.nan, 0.0, "table height must be a finite number"),
+        (0.0, "1cm", "safety margin must be a number"),
+        (True, 0.0, "table height must be a number"),
+    ],
+)
 def test_floor_height_refuses_bad_values_in_one_line(table, margin, match):
     with pytest.raises(UserError, match=match) as err:
         floor_height(table, margin)
@@ -48,9 +50,15 @@ def test_nan_floor_is_refused():
 
 
 @pytest.mark.parametrize(
-    "name, flavour", [("sim_transfer_cube", "joint"), ("sim_transfer_cube", "ee"),
-                      ("sim_insertion", "joint"), ("reach", "joint"), ("push", "joint")],
-)  # fmt: skip
+    "name, flavour",
+    [
+        ("sim_transfer_cube", "joint"),
+        ("sim_transfer_cube", "ee"),
+        ("sim_insertion", "joint"),
+        ("reach", "joint"),
+        ("push", "joint"),
+    ],
+)
 def test_samplers_build_robots_with_a_floor_at_the_table_top(name, flavour):
     """Every front door builds its robots through a sampler: the floor is on by default, at
     the table top (``floor_margin=0``); ``floor_margin=None`` leaves it off."""
@@ -80,8 +88,12 @@ def test_dm_control_envs_hold_a_floor():
     from trossen_arm_mujoco.sim_env import TransferCubeTask, TrossenAIStationaryTask
     from trossen_arm_mujoco.utils import make_sim_env
 
-    for cls in (TransferCubeTask, TransferCubeEETask, TrossenAIStationaryTask,
-                TrossenAIStationaryEETask):  # fmt: skip
+    for cls in (
+        TransferCubeTask,
+        TransferCubeEETask,
+        TrossenAIStationaryTask,
+        TrossenAIStationaryEETask,
+    ):
         env = make_sim_env(cls, cam_list=[], random=0)
         robot = env.task.robot(env.physics)
         assert robot.safety_floor is not None and robot.safety_floor.floor_z == 0.02

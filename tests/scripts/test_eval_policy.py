@@ -42,10 +42,18 @@ def _one_error_line(err: str) -> str:
 def test_scripted_run_writes_eval_info(tmp_path, capsys):
     out_dir = tmp_path / "eval"
     rc, out, err = _eval(
-        ["--policy", "scripted", "--task_name", "sim_transfer_cube", "--num_episodes", "2",
-         "--output_dir", str(out_dir)],
+        [
+            "--policy",
+            "scripted",
+            "--task_name",
+            "sim_transfer_cube",
+            "--num_episodes",
+            "2",
+            "--output_dir",
+            str(out_dir),
+        ],
         capsys,
-    )  # fmt: skip
+    )
     assert rc == 0, err
     info = json.loads((out_dir / "eval_info.json").read_text(encoding="utf-8"))
     agg = info["aggregated"]
@@ -93,8 +101,9 @@ def test_bad_inputs_are_one_error_line(case, tmp_path, capsys):
 
 
 def test_missing_checkpoint_folder(tmp_path, capsys):
-    rc, _, err = _eval(["--policy", str(tmp_path / "nowhere"), "--output_dir",
-                        str(tmp_path / "eval")], capsys)  # fmt: skip
+    rc, _, err = _eval(
+        ["--policy", str(tmp_path / "nowhere"), "--output_dir", str(tmp_path / "eval")], capsys
+    )
     assert rc == 2
     assert "no such checkpoint folder" in _one_error_line(err)
 
@@ -127,10 +136,20 @@ def test_checkpoint_with_other_features(tmp_path, capsys):
     """Checked against the env before LeRobot is needed and before any progress bar."""
     ckpt = _fake_checkpoint(tmp_path)
     rc, out, err = _eval(
-        ["--policy", str(ckpt), "--image_size", "24x32", "--num_episodes", "2",
-         "--num_workers", "2", "--output_dir", str(tmp_path / "eval")],
+        [
+            "--policy",
+            str(ckpt),
+            "--image_size",
+            "24x32",
+            "--num_episodes",
+            "2",
+            "--num_workers",
+            "2",
+            "--output_dir",
+            str(tmp_path / "eval"),
+        ],
         capsys,
-    )  # fmt: skip
+    )
     assert rc == 2 and out == ""
     line = _one_error_line(err)
     assert err == line + "\n"
@@ -145,10 +164,16 @@ def test_checkpoint_that_fits_needs_lerobot(tmp_path, capsys, monkeypatch):
     where it is installed)."""
     monkeypatch.setitem(sys.modules, "lerobot", None)  # import lerobot -> ImportError
     rc, out, err = _eval(
-        ["--policy", str(_fake_checkpoint(tmp_path)), "--num_episodes", "1",
-         "--output_dir", str(tmp_path / "eval")],
+        [
+            "--policy",
+            str(_fake_checkpoint(tmp_path)),
+            "--num_episodes",
+            "1",
+            "--output_dir",
+            str(tmp_path / "eval"),
+        ],
         capsys,
-    )  # fmt: skip
+    )
     assert rc == 2 and out == ""
     line = _one_error_line(err)
     assert err == line + "\n"
@@ -160,13 +185,23 @@ def test_existing_eval_info_needs_overwrite(tmp_path, capsys):
     out_dir = tmp_path / "eval"
     out_dir.mkdir()
     (out_dir / "eval_info.json").write_text('{"kept": true}', encoding="utf-8")
-    args = ["--policy", "scripted", "--num_episodes", "1", "--episode_length", "3",
-            "--output_dir", str(out_dir)]  # fmt: skip
+    args = [
+        "--policy",
+        "scripted",
+        "--num_episodes",
+        "1",
+        "--episode_length",
+        "3",
+        "--output_dir",
+        str(out_dir),
+    ]
     rc, _, err = _eval(args, capsys)
     assert rc == 2
     line = _one_error_line(err)
-    assert line == (f"error: {out_dir / 'eval_info.json'} exists; choose another --output_dir "
-                    "or pass --overwrite")  # fmt: skip
+    assert line == (
+        f"error: {out_dir / 'eval_info.json'} exists; choose another --output_dir "
+        "or pass --overwrite"
+    )
     assert json.loads((out_dir / "eval_info.json").read_text()) == {"kept": True}
     rc, _, err = _eval([*args, "--overwrite"], capsys)
     assert rc == 0, err
@@ -185,10 +220,24 @@ def test_output_dir_that_is_a_file(tmp_path, capsys):
 def test_subprocess_exit_status_and_exact_stderr(tmp_path):
     env = {**os.environ, "MUJOCO_GL": "egl"}
     done = subprocess.run(
-        [sys.executable, "-m", "trossen_arm_mujoco.cli", "eval", "--policy", "scripted",
-         "--task_name", "reach", "--output_dir", str(tmp_path / "eval")],
-        capture_output=True, text=True, env=env, cwd=REPO, timeout=120,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "eval",
+            "--policy",
+            "scripted",
+            "--task_name",
+            "reach",
+            "--output_dir",
+            str(tmp_path / "eval"),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=REPO,
+        timeout=120,
+    )
     assert done.returncode == 2
     assert done.stdout == ""
     # the shipped ones and installed packages', then the Mobile AI's
@@ -215,8 +264,19 @@ def test_a_full_disk_writes_no_half_result_and_says_so_in_one_line(tmp_path, cap
 
     monkeypatch.setattr(Path, "write_text", full)
     out_dir = tmp_path / "eval"
-    rc, _, err = _eval(["--policy", "scripted", "--num_episodes", "1", "--episode_length",
-                        "5", "--output_dir", str(out_dir)], capsys)  # fmt: skip
+    rc, _, err = _eval(
+        [
+            "--policy",
+            "scripted",
+            "--num_episodes",
+            "1",
+            "--episode_length",
+            "5",
+            "--output_dir",
+            str(out_dir),
+        ],
+        capsys,
+    )
     line = _one_error_line(err)
     assert rc == 2 and "No space left on device" in line and "MB free" in line
     assert "nothing of this run's results was written" in line

@@ -50,13 +50,30 @@ def offline(monkeypatch: pytest.MonkeyPatch) -> None:
         return real_create(address, *args, **kwargs)
 
     monkeypatch.setattr(socket, "create_connection", create_connection)
-    monkeypatch.setattr(driver_module.TrossenArmDriver, "configure",
-                        lambda self, *a, **k: pytest.fail("an arm was configured"))  # fmt: skip
+    monkeypatch.setattr(
+        driver_module.TrossenArmDriver,
+        "configure",
+        lambda self, *a, **k: pytest.fail("an arm was configured"),
+    )
 
 
 def _record(root: Path, name: str, steps: int, *extra: str) -> Path:
-    rc = cli.main(["record", "--task_name", TASK, "--data_dir", name, "--root_dir", str(root),
-                   "--num_episodes", "1", "--episode_len", str(steps), *extra])  # fmt: skip
+    rc = cli.main(
+        [
+            "record",
+            "--task_name",
+            TASK,
+            "--data_dir",
+            name,
+            "--root_dir",
+            str(root),
+            "--num_episodes",
+            "1",
+            "--episode_len",
+            str(steps),
+            *extra,
+        ]
+    )
     assert rc in (0, 1)  # too few steps to place the cube: record exits 1
     return root / name
 
@@ -89,10 +106,14 @@ def test_visualize_plots_the_mobileai_values_under_their_names(recorded, tmp_pat
 
 @pytest.mark.parametrize(
     "flags",
-    [["--backend", "sim"], ["--backend", "sim", "--dry_run"], ["--dry_run"],
-     ["--backend", "trossen"]],
+    [
+        ["--backend", "sim"],
+        ["--backend", "sim", "--dry_run"],
+        ["--dry_run"],
+        ["--backend", "trossen"],
+    ],
     ids=["sim", "sim-dry", "trossen-dry", "trossen"],
-)  # fmt: skip
+)
 def test_replay_real_refuses_a_mobile_recording_in_one_line(recorded, flags, capsys):
     rc = cli.main(["replay-real", "--data_dir", str(recorded), "--no_progress", *flags])
     line = _one_line(rc, capsys)
@@ -102,12 +123,24 @@ def test_replay_real_refuses_a_mobile_recording_in_one_line(recorded, flags, cap
     assert "has no base driver" in line
 
 
-@pytest.mark.parametrize("flags", [["--include_velocity"], ["--include_effort"],
-                                   ["--include_velocity", "--include_effort"]])  # fmt: skip
+@pytest.mark.parametrize(
+    "flags",
+    [["--include_velocity"], ["--include_effort"], ["--include_velocity", "--include_effort"]],
+)
 def test_export_extras_refuse_a_mobile_recording_in_one_line(recorded, tmp_path, flags, capsys):
     pytest.importorskip("pyarrow")
-    rc = cli.main(["export", "--data_dir", str(recorded), "--output", str(tmp_path / "ds"),
-                   "--repo_id", "me/mobile", *flags])  # fmt: skip
+    rc = cli.main(
+        [
+            "export",
+            "--data_dir",
+            str(recorded),
+            "--output",
+            str(tmp_path / "ds"),
+            "--repo_id",
+            "me/mobile",
+            *flags,
+        ]
+    )
     line = _one_line(rc, capsys)
     assert "not supported for Mobile AI recordings (layout mobileai)" in line
     assert " and ".join(flags) in line
@@ -118,10 +151,13 @@ def test_record_inject_noise_jitters_the_grasp_and_place_points(tmp_path):
     """Same seed with and without --inject_noise: the same drive (the noise is in the arm's
     IK targets only), then other arm targets once the arm is planned (by step 270)."""
     steps = 300
-    plain = load_episode(_record(tmp_path, "plain", steps, "--cam_names", "none")
-                         / "episode_0.hdf5")  # fmt: skip
-    noisy = load_episode(_record(tmp_path, "noisy", steps, "--cam_names", "none",
-                                 "--inject_noise") / "episode_0.hdf5")  # fmt: skip
+    plain = load_episode(
+        _record(tmp_path, "plain", steps, "--cam_names", "none") / "episode_0.hdf5"
+    )
+    noisy = load_episode(
+        _record(tmp_path, "noisy", steps, "--cam_names", "none", "--inject_noise")
+        / "episode_0.hdf5"
+    )
     assert bool(noisy.attrs["inject_noise"]) and not bool(plain.attrs["inject_noise"])
     np.testing.assert_array_equal(plain.action[:, 14:], noisy.action[:, 14:])  # the drive
     differ = np.flatnonzero(np.abs(plain.action[:, :7] - noisy.action[:, :7]).max(axis=1) > 0)

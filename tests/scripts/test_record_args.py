@@ -21,8 +21,11 @@ def _args(*extra: str):
 
 def test_image_size():
     assert image_size("480x640") == (480, 640) and image_size("12X16") == (12, 16)
-    for bad, match in [("big", "must look like 480x640"), ("481x640", "within 1x1"),
-                       ("0x5", "within 1x1")]:  # fmt: skip
+    for bad, match in [
+        ("big", "must look like 480x640"),
+        ("481x640", "within 1x1"),
+        ("0x5", "within 1x1"),
+    ]:
         with pytest.raises(UserError, match=match):
             image_size(bad)
 
@@ -63,15 +66,17 @@ def test_options_from_the_task_config_and_the_flags():
 
 @pytest.mark.parametrize(
     ("extra", "match"),
-    [(["--task_name", "sim_stack"], "unknown task 'sim_stack'"),
-     (["--episode_len", str(MAX_EPISODE_LEN + 1)], "--episode_len must be in 1 .. "),
-     (["--num_episodes", "0"], "--num_episodes must be in 1 .. "),
-     (["--seed", "-1"], "--seed must be in 0 .. 2\\*\\*63-1"),
-     (["--num_workers", "0"], "--num_workers must be at least 1"),
-     (["--ray_address", "auto"], "--ray_address needs --engine ray"),
-     (["--onscreen_render", "--num_workers", "2"], "--onscreen_render needs --engine local"),
-     (["--image_size", "1x"], "--image_size")],
-)  # fmt: skip
+    [
+        (["--task_name", "sim_stack"], "unknown task 'sim_stack'"),
+        (["--episode_len", str(MAX_EPISODE_LEN + 1)], "--episode_len must be in 1 .. "),
+        (["--num_episodes", "0"], "--num_episodes must be in 1 .. "),
+        (["--seed", "-1"], "--seed must be in 0 .. 2\\*\\*63-1"),
+        (["--num_workers", "0"], "--num_workers must be at least 1"),
+        (["--ray_address", "auto"], "--ray_address needs --engine ray"),
+        (["--onscreen_render", "--num_workers", "2"], "--onscreen_render needs --engine local"),
+        (["--image_size", "1x"], "--image_size"),
+    ],
+)
 def test_each_mistake_is_one_line(extra, match):
     with pytest.raises(UserError, match=match) as err:
         record_options(_args(*extra))

@@ -168,13 +168,32 @@ def test_real_file_size_limit_with_two_workers(tmp_path):
 
     proc = subprocess.run(
         [
-            sys.executable, "-m", "trossen_arm_mujoco.scripts.record_sim_episodes",
-            "--data_dir", "d", "--root_dir", str(tmp_path), "--num_episodes", "2",
-            "--episode_len", "20", "--cam_names", "cam_high", "--image_size", "48x64",
-            "--compression", "none", "--num_workers", "2",
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.scripts.record_sim_episodes",
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            "--num_episodes",
+            "2",
+            "--episode_len",
+            "20",
+            "--cam_names",
+            "cam_high",
+            "--image_size",
+            "48x64",
+            "--compression",
+            "none",
+            "--num_workers",
+            "2",
         ],
-        capture_output=True, text=True, cwd=REPO, timeout=180, preexec_fn=limit,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=180,
+        preexec_fn=limit,
+    )
     assert proc.returncode == 2, proc.stderr[-2000:]
     line = _error_line(proc.stderr)
     assert "File too large (EFBIG)" in line and "complete episodes: none" in line

@@ -31,8 +31,7 @@ def _report(tmp_path, report: RunReport, plan: RunPlan | None = None) -> int:
 def test_say_plan_names_what_is_kept_missing_and_recorded_again(tmp_path, capsys):
     say_plan(RunPlan(indices=[0, 1], attempts=[0, 1], first_attempt=0), tmp_path, 2)
     assert capsys.readouterr().out == ""  # a fresh dataset: nothing to say
-    plan = RunPlan(indices=[1, 3], attempts=[5, 6], first_attempt=5, existing=[0, 2],
-                   failed=[3])  # fmt: skip
+    plan = RunPlan(indices=[1, 3], attempts=[5, 6], first_attempt=5, existing=[0, 2], failed=[3])
     say_plan(plan, tmp_path, 4)
     assert capsys.readouterr().out.strip() == (
         f"continuing the dataset in {tmp_path}: keeping episodes 0, 2; missing: episode 1; "
@@ -62,8 +61,9 @@ def test_an_io_error_is_one_error_line(tmp_path, capsys):
     ]
 
 
-@pytest.mark.parametrize(("terminated", "status"), [(False, EXIT_INTERRUPTED),
-                                                     (True, EXIT_TERMINATED)])  # fmt: skip
+@pytest.mark.parametrize(
+    ("terminated", "status"), [(False, EXIT_INTERRUPTED), (True, EXIT_TERMINATED)]
+)
 def test_an_interrupt_says_what_was_kept(tmp_path, capsys, terminated, status):
     report = RunReport(interrupted=True, terminated=terminated)
     assert _report(tmp_path, report) == status

@@ -62,10 +62,18 @@ def test_records_and_reports_success_line(tmp_path, capsys):
 
 def test_long_enough_episodes_succeed_without_warning(tmp_path, capsys):
     rc, out, err = _run_cli(
-        ["--data_dir", "d", "--root_dir", str(tmp_path), "--episode_len", "440",
-         "--cam_names", "none"],
+        [
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            "--episode_len",
+            "440",
+            "--cam_names",
+            "none",
+        ],
         capsys,
-    )  # fmt: skip
+    )
     assert rc == 0 and err == ""
     assert out.strip().splitlines()[-1] == "Success: 1 / 1"
 
@@ -128,8 +136,10 @@ def test_failures_exit_1_and_a_rerun_records_them_again(tmp_path, capsys):
     assert err.strip().splitlines()[-1].startswith("failed: episodes 0..1 kept with success=False")
     rc, out, err = _run_cli(args, capsys)
     assert rc == 1 and "nothing to record" not in out
-    assert f"continuing the dataset in {tmp_path / 'd'}: failed before, recording again: " \
-        "episodes 0..1" in out  # fmt: skip
+    assert (
+        f"continuing the dataset in {tmp_path / 'd'}: failed before, recording again: "
+        "episodes 0..1" in out
+    )
     attempts = [load_episode(p).attrs["attempt"] for _, p in list_episodes(tmp_path / "d")]
     assert attempts == [2, 3]
     assert sorted(os.listdir(tmp_path / "d")) == ["episode_0.hdf5", "episode_1.hdf5"]
@@ -191,10 +201,22 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys, extra, needle):
 def test_bad_input_in_a_real_process_is_one_line_exit_2(tmp_path):
     for extra in (["--seed", str(2**64)], ["--episode_len", "1e13"], ["--seed", "-1"]):
         proc = subprocess.run(
-            [sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--data_dir", "d",
-             "--root_dir", str(tmp_path), *extra],
-            capture_output=True, text=True, cwd=REPO, timeout=120,
-        )  # fmt: skip
+            [
+                sys.executable,
+                "-m",
+                "trossen_arm_mujoco.cli",
+                "record",
+                "--data_dir",
+                "d",
+                "--root_dir",
+                str(tmp_path),
+                *extra,
+            ],
+            capture_output=True,
+            text=True,
+            cwd=REPO,
+            timeout=120,
+        )
         assert proc.returncode == 2 and proc.stdout == ""
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("error: "), proc.stderr
@@ -203,8 +225,11 @@ def test_bad_input_in_a_real_process_is_one_line_exit_2(tmp_path):
 def test_help_names_the_subcommand():
     proc = subprocess.run(
         [sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--help"],
-        capture_output=True, text=True, cwd=REPO, timeout=120,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
+    )
     assert proc.returncode == 0
     assert proc.stdout.startswith("usage: trossen-mujoco record ")
     assert "--wait" in proc.stdout
@@ -237,8 +262,9 @@ def test_no_antialias_is_stored_and_a_rerun_without_it_is_refused(tmp_path, caps
     assert rc == 1, err  # 3 steps: a failed episode
     ep = load_episode(tmp_path / "d" / "episode_0.hdf5")
     assert ep.attrs["antialias"] == False and ep.attrs["shadows"] == True  # noqa: E712
-    rc, _, err = _run_cli([a for a in args if a != "--no_antialias"] + ["--num_episodes", "2"],
-                          capsys)  # fmt: skip
+    rc, _, err = _run_cli(
+        [a for a in args if a != "--no_antialias"] + ["--num_episodes", "2"], capsys
+    )
     assert rc == 2 and "--no_antialias set (this run: not set)" in err
     assert len(err.strip().splitlines()) == 1
 
@@ -310,16 +336,26 @@ def _default_sigint() -> None:
 
 def _record_cmd(tmp_path: Path, *extra: str) -> list[str]:
     return [
-        sys.executable, "trossen_arm_mujoco/scripts/record_sim_episodes.py", "--data_dir", "d",
-        "--root_dir", str(tmp_path), *SUCCEEDS, *extra,
-    ]  # fmt: skip
+        sys.executable,
+        "trossen_arm_mujoco/scripts/record_sim_episodes.py",
+        "--data_dir",
+        "d",
+        "--root_dir",
+        str(tmp_path),
+        *SUCCEEDS,
+        *extra,
+    ]
 
 
 def _start(cmd: list[str]) -> subprocess.Popen:
     return subprocess.Popen(
-        cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cmd,
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
         preexec_fn=_default_sigint,
-    )  # fmt: skip
+    )
 
 
 def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 240) -> None:
@@ -390,8 +426,11 @@ def test_a_second_run_on_the_folder_refuses_or_waits(tmp_path):
         time.sleep(0.02)
     second = subprocess.run(
         _record_cmd(tmp_path, "--num_episodes", "2"),
-        cwd=REPO, capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert second.returncode == 2 and second.stdout == ""
     assert second.stderr == (
         f"error: another record run (pid {first.pid}) is writing to {data}; wait for it to "
@@ -429,8 +468,11 @@ def test_a_rerun_cleans_what_a_killed_run_left(tmp_path):
     assert ".trossen.lock" in left and any(name.startswith(".episode_1.hdf5.") for name in left)
     done = subprocess.run(
         _record_cmd(tmp_path, "--num_episodes", "2"),
-        cwd=REPO, capture_output=True, text=True, timeout=240,
-    )  # fmt: skip
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     assert done.returncode == 0, done.stderr
     assert sorted(os.listdir(data)) == ["episode_0.hdf5", "episode_1.hdf5"]
 
@@ -441,12 +483,26 @@ def test_trossen_mujoco_record_dispatch_and_progress_off_a_terminal(tmp_path):
     start = time.monotonic()
     proc = subprocess.run(
         [
-            sys.executable, "-m", "trossen_arm_mujoco.cli", "record", "--data_dir", "d",
-            "--root_dir", str(tmp_path), "--num_episodes", "2", "--episode_len", "300",
-            "--cam_names", "none",
+            sys.executable,
+            "-m",
+            "trossen_arm_mujoco.cli",
+            "record",
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            "--num_episodes",
+            "2",
+            "--episode_len",
+            "300",
+            "--cam_names",
+            "none",
         ],
-        capture_output=True, text=True, cwd=REPO, timeout=120,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=120,
+    )
     wall = time.monotonic() - start
     assert proc.returncode == 1, proc.stderr  # 300 steps: both episodes fail
     assert proc.stdout.strip().splitlines()[-1].startswith("Success: 0 / 2; ")
@@ -496,11 +552,15 @@ def test_randomize_flag_stores_the_randomization(tmp_path, capsys):
     from trossen_arm_mujoco.tasks.randomization_record import record_from_json
 
     args = ["--root_dir", str(tmp_path), "--episode_len", "5", "--cam_names", "none"]
-    rc, out, _ = _run_cli(["--data_dir", "r", "--randomize", "--num_workers", "2",
-                           "--num_episodes", "2", *args], capsys)  # fmt: skip
+    rc, out, _ = _run_cli(
+        ["--data_dir", "r", "--randomize", "--num_workers", "2", "--num_episodes", "2", *args],
+        capsys,
+    )
     assert rc == 1 and "randomized" in out  # 5 steps: failed episodes, kept
-    records = [record_from_json(load_episode(tmp_path / "r" / f"episode_{k}.hdf5")
-                                .attrs["randomization"]) for k in (0, 1)]  # fmt: skip
+    records = [
+        record_from_json(load_episode(tmp_path / "r" / f"episode_{k}.hdf5").attrs["randomization"])
+        for k in (0, 1)
+    ]
     assert records[0]["version"] == 1 and records[0] != records[1]
     rc, out, _ = _run_cli(["--data_dir", "p", *args], capsys)
     assert rc == 1 and "randomized" not in out
@@ -534,13 +594,26 @@ def test_bad_crop_is_one_line_exit_2(tmp_path, capsys, crop):
 
 def test_a_crop_of_a_camera_not_recorded_is_one_line_exit_2(tmp_path, capsys):
     rc, out, err = _run_cli(
-        ["--data_dir", "d", "--root_dir", str(tmp_path), "--cam_names", "cam_high",
-         "--crop", "cam_low:0,0,100,100", "--episode_len", "20"], capsys,
-    )  # fmt: skip
+        [
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            "--cam_names",
+            "cam_high",
+            "--crop",
+            "cam_low:0,0,100,100",
+            "--episode_len",
+            "20",
+        ],
+        capsys,
+    )
     assert rc == 2 and out == "", err
     last = err.strip().splitlines()[-1]
-    assert last == ("error: --crop cam_low:0,0,100,100: camera cam_low is not recorded "
-                    "(cam_high); add it to --cam_names or leave the crop out")  # fmt: skip
+    assert last == (
+        "error: --crop cam_low:0,0,100,100: camera cam_low is not recorded "
+        "(cam_high); add it to --cam_names or leave the crop out"
+    )
     assert not (tmp_path / "d").exists()
 
 
@@ -548,8 +621,17 @@ def test_onscreen_render_without_a_display_says_so_once(tmp_path, capsys, monkey
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     rc, _, err = _run_cli(
-        ["--data_dir", "d", "--root_dir", str(tmp_path), "--num_episodes", "2",
-         "--onscreen_render", *FAST], capsys,
-    )  # fmt: skip
+        [
+            "--data_dir",
+            "d",
+            "--root_dir",
+            str(tmp_path),
+            "--num_episodes",
+            "2",
+            "--onscreen_render",
+            *FAST,
+        ],
+        capsys,
+    )
     assert rc == 1, err  # 20 steps: failed episodes, kept
     assert err.count("live view off: no DISPLAY; continuing headless") == 1, err

@@ -468,8 +468,11 @@ def test_fps_bound_through_the_subprocess_exits_2_with_one_line(tmp_path: Path) 
     argv = ["replay-real", "--data_dir", str(tmp_path), "--backend", "sim", "--fps", "1e-9"]
     proc = subprocess.run(
         [sys.executable, "-m", "trossen_arm_mujoco.cli", *argv],
-        capture_output=True, text=True, timeout=60, cwd=REPO,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
     assert proc.returncode == 2 and proc.stdout == ""
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: --fps must be in [0.5, 1000] Hz")
@@ -620,11 +623,21 @@ def test_real_sigint_and_sigterm_stop_a_slow_replay_mid_command(tmp_path: Path) 
         write_episode(folder, smooth_actions(10))
         argv = ["replay-real", "--data_dir", str(folder), "--backend", "sim", "--realtime"]
         proc = subprocess.Popen(
-            [sys.executable, "-m", "trossen_arm_mujoco.cli", *argv, "--fps", "0.5",
-             "--no_progress"],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
+            [
+                sys.executable,
+                "-m",
+                "trossen_arm_mujoco.cli",
+                *argv,
+                "--fps",
+                "0.5",
+                "--no_progress",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=REPO,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        )  # fmt: skip
+        )
         lines: list[tuple[float, str]] = []
         reader = threading.Thread(target=_read_lines, args=(proc.stdout, lines), daemon=True)
         reader.start()

@@ -135,8 +135,18 @@ def test_viewer_shows_the_kit_while_the_driver_moves_it(served, xscreen, tmp_pat
 def test_record_one_session_into_one_episode(served, tmp_path: Path) -> None:
     from trossen_arm_mujoco.data.reader import list_episodes, load_episode
 
-    s = served("--record", str(tmp_path / "data"), "--cam_names", "cam_high",
-               "--image_size", "48x64", "--fps", "50", "--seed", "5")  # fmt: skip
+    s = served(
+        "--record",
+        str(tmp_path / "data"),
+        "--cam_names",
+        "cam_high",
+        "--image_size",
+        "48x64",
+        "--fps",
+        "50",
+        "--seed",
+        "5",
+    )
     drive_both_arms(hold=0.2)
     time.sleep(0.5)  # the session's end reaches the recorder at the next frame
     rc, out, err = s.stop()

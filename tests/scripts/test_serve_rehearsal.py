@@ -41,17 +41,23 @@ def one_line_error(argv: list[str], capsys: pytest.CaptureFixture[str], tmp_path
     ("argv", "expected"),
     [
         (["--camera_port", "6000"], "--camera_port needs --cameras NAMES"),
-        (["--cameras", "cam_high", "--camera_host", "192.168.1.5"],
-         "--camera_host '192.168.1.5' is not an IPv4 loopback address"),
+        (
+            ["--cameras", "cam_high", "--camera_host", "192.168.1.5"],
+            "--camera_host '192.168.1.5' is not an IPv4 loopback address",
+        ),
         (["--cameras", "cam_high", "--camera_host", "0.0.0.0"], "not an IPv4 loopback address"),
-        (["--control_port", "6001", "--control_host", "10.1.2.3"],
-         "--control_host '10.1.2.3' is not an IPv4 loopback address"),
+        (
+            ["--control_port", "6001", "--control_host", "10.1.2.3"],
+            "--control_host '10.1.2.3' is not an IPv4 loopback address",
+        ),
         (["--cameras", "cam_nope"], "unknown camera 'cam_nope'; valid cameras:"),
         (["--cameras", "cam_high", "--image_size", "48"], "--image_size must look like"),
-        (["--role", "leader", "--replay", "x.hdf5", "--cameras", "cam_high"],
-         "--cameras and --control_port need --role follower"),
+        (
+            ["--role", "leader", "--replay", "x.hdf5", "--cameras", "cam_high"],
+            "--cameras and --control_port need --role follower",
+        ),
     ],
-)  # fmt: skip
+)
 def test_mistakes_are_one_line_exit_2(
     argv: list[str], expected: str, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
@@ -70,8 +76,11 @@ def test_ports_in_use_are_one_line_exit_2(
         taken.bind(("127.0.0.1", 0))
         taken.listen(1)
         port = str(taken.getsockname()[1])
-        line = one_line_error(["--cameras", "cam_high", "--image_size", "48x64",
-                               "--camera_port", port], capsys, tmp_path)  # fmt: skip
+        line = one_line_error(
+            ["--cameras", "cam_high", "--image_size", "48x64", "--camera_port", port],
+            capsys,
+            tmp_path,
+        )
         assert "choose another --camera_port" in line
         line = one_line_error(["--control_port", port], capsys, tmp_path)
         assert "choose another --control_port" in line
@@ -92,11 +101,25 @@ def test_record_keeps_one_episode_per_start_and_end(tmp_path: Path) -> None:
 
     port = free_port()
     proc = subprocess.Popen(
-        [sys.executable, str(SCRIPT), "--left_ip", LEFT, "--right_ip", RIGHT, "--record",
-         str(tmp_path / "data"), "--cam_names", "none", "--control_port", str(port)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            sys.executable,
+            str(SCRIPT),
+            "--left_ip",
+            LEFT,
+            "--right_ip",
+            RIGHT,
+            "--record",
+            str(tmp_path / "data"),
+            "--cam_names",
+            "none",
+            "--control_port",
+            str(port),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1", "MUJOCO_GL": "egl"},
-    )  # fmt: skip
+    )
     try:
         first = proc.stdout.readline()
         assert first.startswith("serving ") and f"episode control on 127.0.0.1:{port}" in first

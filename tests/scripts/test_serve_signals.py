@@ -33,11 +33,22 @@ class Serve:
 
     def __init__(self, *flags: str) -> None:
         self.proc = subprocess.Popen(
-            [sys.executable, "-X", "faulthandler", str(SCRIPT), "--left_ip", LEFT,
-             "--right_ip", RIGHT, *flags],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            [
+                sys.executable,
+                "-X",
+                "faulthandler",
+                str(SCRIPT),
+                "--left_ip",
+                LEFT,
+                "--right_ip",
+                RIGHT,
+                *flags,
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
             env={**os.environ, "PYTHONUNBUFFERED": "1", "MUJOCO_GL": "egl"},
-        )  # fmt: skip
+        )
         self.head: list[str] = []
         for line in self.proc.stdout:
             self.head.append(line)
@@ -71,8 +82,9 @@ class Clients:
         for ip in (LEFT, RIGHT):
             driver = ta.TrossenArmDriver()
             self.drivers.append(driver)
-            driver.configure(ta.Model.wxai_v0, ta.StandardEndEffector.wxai_v0_follower, ip,
-                             True, 5.0)  # fmt: skip
+            driver.configure(
+                ta.Model.wxai_v0, ta.StandardEndEffector.wxai_v0_follower, ip, True, 5.0
+            )
             driver.set_all_modes(ta.Mode.position)
         self.starts = [np.asarray(d.get_all_positions(), dtype=float) for d in self.drivers]
         self.sent = 0
@@ -257,11 +269,22 @@ def test_signals_while_waiting_for_the_dataset_lock_exit_0(tmp_path: Path) -> No
     folder.mkdir()
     with DatasetLock(folder):  # another run writes there: serve --wait waits
         proc = subprocess.Popen(
-            [sys.executable, str(SCRIPT), "--left_ip", LEFT, "--right_ip", RIGHT,
-             "--record", str(folder), "--wait"],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            [
+                sys.executable,
+                str(SCRIPT),
+                "--left_ip",
+                LEFT,
+                "--right_ip",
+                RIGHT,
+                "--record",
+                str(folder),
+                "--wait",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
             env={**os.environ, "PYTHONUNBUFFERED": "1", "MUJOCO_GL": "egl"},
-        )  # fmt: skip
+        )
         try:
             time.sleep(3.0)  # started and waiting
             assert proc.poll() is None, proc.communicate()

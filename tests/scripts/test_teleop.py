@@ -46,8 +46,18 @@ ARM = np.r_[0:6, 8:14]
 def source(tmp_path_factory) -> Path:
     """A scripted transfer episode (440 steps, 8.8 s, no images) recorded with --seed 7."""
     root = tmp_path_factory.mktemp("teleop_source")
-    args = ["--root_dir", str(root), "--data_dir", "src", "--episode_len", "440",
-            "--cam_names", "none", "--seed", str(SEED)]  # fmt: skip
+    args = [
+        "--root_dir",
+        str(root),
+        "--data_dir",
+        "src",
+        "--episode_len",
+        "440",
+        "--cam_names",
+        "none",
+        "--seed",
+        str(SEED),
+    ]
     assert record_cli(args) == 0
     return root / "src" / "episode_0.hdf5"
 
@@ -59,9 +69,23 @@ def leaders(path: Path, left: str, right: str, lead_in: float = 0.5) -> Iterator
 
 
 def teleop_args(root: Path, left: str, right: str, *extra: str) -> list[str]:
-    return [sys.executable, "-m", "trossen_arm_mujoco.cli", "teleop", "--leader_left_ip", left,
-            "--leader_right_ip", right, "--root_dir", str(root), "--data_dir", "tele",
-            "--cam_names", "none", *extra]  # fmt: skip
+    return [
+        sys.executable,
+        "-m",
+        "trossen_arm_mujoco.cli",
+        "teleop",
+        "--leader_left_ip",
+        left,
+        "--leader_right_ip",
+        right,
+        "--root_dir",
+        str(root),
+        "--data_dir",
+        "tele",
+        "--cam_names",
+        "none",
+        *extra,
+    ]
 
 
 def env() -> dict[str, str]:
@@ -76,11 +100,16 @@ def other_lines(stderr: str) -> list[str]:
 def test_teleop_follows_the_served_leaders_and_transfers_the_cube(source, tmp_path):
     with leaders(source, "127.0.0.71", "127.0.0.72") as pair:
         proc = subprocess.run(
-            teleop_args(tmp_path, "127.0.0.71", "127.0.0.72", "--seed", str(SEED),
-                        "--episode_len", "500"),  # fmt: skip
-            stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=150, cwd=REPO,
+            teleop_args(
+                tmp_path, "127.0.0.71", "127.0.0.72", "--seed", str(SEED), "--episode_len", "500"
+            ),
+            stdin=subprocess.DEVNULL,
+            capture_output=True,
+            text=True,
+            timeout=150,
+            cwd=REPO,
             env=env(),
-        )  # fmt: skip
+        )
         assert pair.finished.is_set()
     assert proc.returncode == 0, proc.stderr
     assert other_lines(proc.stderr) == []
@@ -104,14 +133,18 @@ def test_teleop_follows_the_served_leaders_and_transfers_the_cube(source, tmp_pa
     err = ep.qpos[ramp + 1 :, ARM] - ep.action[ramp:-1, ARM]
     rms = float(np.sqrt(np.mean(err**2)))
     assert rms < 0.05 and attrs["tracking_rms_rad"] < 0.05
-    lags = [np.sqrt(np.mean((ep.qpos[ramp + k :, ARM] - ep.action[ramp : ep.num_steps - k,
-                                                                   ARM]) ** 2))
-            for k in range(1, 6)]  # fmt: skip
+    lags = [
+        np.sqrt(np.mean((ep.qpos[ramp + k :, ARM] - ep.action[ramp : ep.num_steps - k, ARM]) ** 2))
+        for k in range(1, 6)
+    ]
     assert int(np.argmin(lags)) + 1 <= 4  # the followers reach a command within 60 ms
     # the commands are the leaders' poses: each lies on the source episode's path ...
-    path = np.concatenate([np.linspace(a, b, 4, endpoint=False)
-                           for a, b in zip(src.action[:-1, ARM], src.action[1:, ARM],
-                                           strict=True)])  # fmt: skip
+    path = np.concatenate(
+        [
+            np.linspace(a, b, 4, endpoint=False)
+            for a, b in zip(src.action[:-1, ARM], src.action[1:, ARM], strict=True)
+        ]
+    )
     off = np.array([np.min(np.linalg.norm(path - row, axis=1)) for row in ep.action[:, ARM]])
     assert float(np.sqrt(np.mean(off**2))) < 0.02, off.max()
     # ... and the leaders' whole replay was recorded, up to its last pose (held)
@@ -152,9 +185,13 @@ class Lines:
 def start_teleop(root: Path, *extra: str) -> tuple[subprocess.Popen, Lines]:
     proc = subprocess.Popen(
         teleop_args(root, "127.0.0.73", "127.0.0.74", *extra),
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        cwd=REPO, env=env(),
-    )  # fmt: skip
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        env=env(),
+    )
     return proc, Lines(proc.stdout)
 
 
@@ -275,8 +312,16 @@ def test_no_leader_there_is_one_line(tmp_path, capsys):
     ],
 )
 def test_bad_flags_are_one_line(args, match, tmp_path, capsys):
-    base = ["--leader_left_ip", "127.0.0.75", "--leader_right_ip", "127.0.0.76", "--root_dir",
-            str(tmp_path), "--data_dir", "d"]  # fmt: skip
+    base = [
+        "--leader_left_ip",
+        "127.0.0.75",
+        "--leader_right_ip",
+        "127.0.0.76",
+        "--root_dir",
+        str(tmp_path),
+        "--data_dir",
+        "d",
+    ]
     assert teleop_cli([*base, *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and match in err and err.count("\n") == 1
@@ -323,9 +368,23 @@ def test_viewer_is_opened_once_redrawn_every_step_and_closed(source, tmp_path, m
 
     monkeypatch.setattr(viewer_module.LiveViewer, "open", staticmethod(open_viewer))
     with leaders(source, "127.0.0.77", "127.0.0.78"):
-        rc = teleop_cli(["--leader_left_ip", "127.0.0.77", "--leader_right_ip", "127.0.0.78",
-                         "--root_dir", str(tmp_path), "--data_dir", "tele", "--cam_names",
-                         "none", "--episode_len", "40", "--viewer"])  # fmt: skip
+        rc = teleop_cli(
+            [
+                "--leader_left_ip",
+                "127.0.0.77",
+                "--leader_right_ip",
+                "127.0.0.78",
+                "--root_dir",
+                str(tmp_path),
+                "--data_dir",
+                "tele",
+                "--cam_names",
+                "none",
+                "--episode_len",
+                "40",
+                "--viewer",
+            ]
+        )
     assert rc == 0
     episode = load_episode(tmp_path / "tele" / "episode_0.hdf5")
     assert episode.num_steps == 40 and fake.updates == 40 and fake.closed

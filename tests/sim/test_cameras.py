@@ -179,9 +179,15 @@ def test_unclosed_dm_control_env_exits_cleanly():
 
 
 @pytest.mark.parametrize(
-    "size, expected", [((480, 640), 2048), ((240, 320), 1024), ((128, 128), 512),
-                       ((24, 32), 256), ((960, 1280), 2048)],
-)  # fmt: skip
+    "size, expected",
+    [
+        ((480, 640), 2048),
+        ((240, 320), 1024),
+        ((128, 128), 512),
+        ((24, 32), 256),
+        ((960, 1280), 2048),
+    ],
+)
 def test_shadow_map_follows_the_image_size(size, expected):
     from trossen_arm_mujoco.sim.cameras import shadow_map_size
 

@@ -48,7 +48,6 @@ def test_runs_at_interpreter_exit_before_atexit_callbacks():
         "closing.close_at_exit(t)\n"
         "atexit.register(lambda: print('atexit', flush=True))\n"
     )
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=60)  # fmt: skip
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["closed", "atexit"]

@@ -31,13 +31,20 @@ def geom_rows(model: mujoco.MjModel, colliding: bool) -> list[tuple]:
     for g in range(model.ngeom):
         collides = bool(model.geom_contype[g] or model.geom_conaffinity[g])
         if collides == colliding:
-            rows.append((
-                model.body(model.geom_bodyid[g]).name, model.geom(g).name,
-                int(model.geom_type[g]), *np.round(model.geom_size[g], 12),
-                *np.round(model.geom_pos[g], 12), *np.round(model.geom_quat[g], 12),
-                int(model.geom_contype[g]), int(model.geom_conaffinity[g]),
-                *model.geom_friction[g], int(model.geom_condim[g]),
-            ))  # fmt: skip
+            rows.append(
+                (
+                    model.body(model.geom_bodyid[g]).name,
+                    model.geom(g).name,
+                    int(model.geom_type[g]),
+                    *np.round(model.geom_size[g], 12),
+                    *np.round(model.geom_pos[g], 12),
+                    *np.round(model.geom_quat[g], 12),
+                    int(model.geom_contype[g]),
+                    int(model.geom_conaffinity[g]),
+                    *model.geom_friction[g],
+                    int(model.geom_condim[g]),
+                )
+            )
     return rows
 
 
@@ -84,8 +91,17 @@ def test_menagerie_swaps_only_what_is_drawn(xml, fake_menagerie):
     men = load_model(xml, MENAGERIE)
     # contacts, bodies, joints, inertia and actuators are the project's own either way
     assert geom_rows(men, colliding=True) == geom_rows(own, colliding=True)
-    for field in ("body_pos", "body_quat", "body_mass", "body_inertia", "body_ipos",
-                  "jnt_axis", "jnt_range", "actuator_gainprm", "actuator_biasprm"):  # fmt: skip
+    for field in (
+        "body_pos",
+        "body_quat",
+        "body_mass",
+        "body_inertia",
+        "body_ipos",
+        "jnt_axis",
+        "jnt_range",
+        "actuator_gainprm",
+        "actuator_biasprm",
+    ):
         np.testing.assert_array_equal(getattr(men, field), getattr(own, field), err_msg=field)
     # drawn: one Menagerie mesh per vendor link mesh, in every arm
     drawn = (men.geom_type == mujoco.mjtGeom.mjGEOM_MESH) & (men.geom_contype == 0)

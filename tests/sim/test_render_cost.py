@@ -37,9 +37,10 @@ def home(model: mujoco.MjModel) -> mujoco.MjData:
 
 
 @pytest.mark.parametrize(
-    "scene", sorted(p.relative_to(ASSETS).as_posix() for p in ASSETS.glob("*/scene*.xml"))
+    "scene",
+    sorted(p.relative_to(ASSETS).as_posix() for p in ASSETS.glob("*/scene*.xml"))
     + ["stationary_ai/trossen_ai.xml", "mobile_ai/mobile_ai.xml"],
-)  # fmt: skip
+)
 def test_every_floor_is_finite_and_the_extent_is_pinned(scene):
     model = mujoco.MjModel.from_xml_path(str(ASSETS / scene))
     floors = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE]
@@ -84,8 +85,14 @@ def _render_in_child(threads: str | None) -> dict:
     env["MUJOCO_GL"] = "egl"
     if threads is not None:
         env["LP_NUM_THREADS"] = threads
-    done = subprocess.run([sys.executable, "-c", _CHILD, str(KIT)], env=env,
-                          capture_output=True, text=True, timeout=120, check=True)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-c", _CHILD, str(KIT)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 

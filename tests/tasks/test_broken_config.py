@@ -38,15 +38,31 @@ sys.exit(main(sys.argv[2:]))
 #: (text in transfer_cube.yaml, its broken replacement, the key, the reason; {line}, {next}:
 #: the replaced text's line and the one after it)
 BREAKS = {
-    "duplicate": ("max_episode_steps: 600", "max_episode_steps: 600\nmax_episode_steps: 60",
-                  "max_episode_steps", "given twice (lines {line} and {next}); keep one"),
-    "steps": ("max_episode_steps: 600", "max_episode_steps: 50.5", "max_episode_steps",
-              "expected a whole number in [1, 10000000], got 50.5"),
-    "nan": ("safety_margin: 0.01", "safety_margin: .nan", "safety_margin",
-            "expected a number in [0, 0.5] m, got nan"),
-    "unknown": ("ctrl_dt: 0.02", "ctrl_dt: 0.02\nctrl_hz: 50", "ctrl_hz",
-                "unknown key (did you mean ctrl_dt?)"),
-}  # fmt: skip
+    "duplicate": (
+        "max_episode_steps: 600",
+        "max_episode_steps: 600\nmax_episode_steps: 60",
+        "max_episode_steps",
+        "given twice (lines {line} and {next}); keep one",
+    ),
+    "steps": (
+        "max_episode_steps: 600",
+        "max_episode_steps: 50.5",
+        "max_episode_steps",
+        "expected a whole number in [1, 10000000], got 50.5",
+    ),
+    "nan": (
+        "safety_margin: 0.01",
+        "safety_margin: .nan",
+        "safety_margin",
+        "expected a number in [0, 0.5] m, got nan",
+    ),
+    "unknown": (
+        "ctrl_dt: 0.02",
+        "ctrl_dt: 0.02\nctrl_hz: 50",
+        "ctrl_hz",
+        "unknown key (did you mean ctrl_dt?)",
+    ),
+}
 
 
 def _broken_copy(tmp_path, kind: str = "duplicate"):
@@ -75,8 +91,11 @@ def _cli(tmp_path, config_dir, *args: str) -> subprocess.CompletedProcess:
     runner.write_text(RUNNER)
     return subprocess.run(
         [sys.executable, str(runner), str(config_dir), *args],
-        capture_output=True, text=True, timeout=300, cwd=tmp_path,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+    )
 
 
 # --- the command line -----------------------------------------------------------------------
@@ -91,9 +110,21 @@ def test_help_works_with_a_broken_config(tmp_path, args):
 @pytest.mark.parametrize("kind", sorted(BREAKS))
 def test_using_the_broken_task_is_one_error_line_with_file_key_reason(tmp_path, kind):
     config_dir, path, key, reason = _broken_copy(tmp_path, kind)
-    done = _cli(tmp_path, config_dir, "record", "--task_name", "sim_transfer_cube",
-                "--num_episodes", "1", "--cam_names", "none", "--root_dir", str(tmp_path),
-                "--data_dir", "transfer")  # fmt: skip
+    done = _cli(
+        tmp_path,
+        config_dir,
+        "record",
+        "--task_name",
+        "sim_transfer_cube",
+        "--num_episodes",
+        "1",
+        "--cam_names",
+        "none",
+        "--root_dir",
+        str(tmp_path),
+        "--data_dir",
+        "transfer",
+    )
     assert done.returncode == 2, done.stderr
     assert done.stderr.startswith(f"error: config file {path}, key {key}: {reason}")
     assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
@@ -101,9 +132,23 @@ def test_using_the_broken_task_is_one_error_line_with_file_key_reason(tmp_path, 
 
 def test_another_task_still_records(tmp_path):
     config_dir, *_ = _broken_copy(tmp_path)
-    done = _cli(tmp_path, config_dir, "record", "--task_name", "sim_insertion",
-                "--num_episodes", "1", "--episode_len", "3", "--cam_names", "none",
-                "--root_dir", str(tmp_path), "--data_dir", "insertion")  # fmt: skip
+    done = _cli(
+        tmp_path,
+        config_dir,
+        "record",
+        "--task_name",
+        "sim_insertion",
+        "--num_episodes",
+        "1",
+        "--episode_len",
+        "3",
+        "--cam_names",
+        "none",
+        "--root_dir",
+        str(tmp_path),
+        "--data_dir",
+        "insertion",
+    )
     # a 3-step episode is recorded (and fails the task: exit status 1 at most), no error line
     assert done.returncode in (0, 1) and "error:" not in done.stderr, done.stderr
     assert "recorded 1 episode(s)" in done.stdout

@@ -12,14 +12,16 @@ from trossen_arm_mujoco.tasks.config_key import Key, Source
 
 @pytest.mark.parametrize(
     "key, text",
-    [(Key("number", 0.0, 1.0, True, unit="m"), "a number in (0, 1] m"),
-     (Key("number", 0.0), "a number >= 0"),
-     (Key("number"), "a finite number"),
-     (Key("int", 1, 100), "a whole number in [1, 100]"),
-     (Key("vector", -1.0, 1.0, lengths=(2, 3)), "a list of 2 or 3 numbers, each in [-1, 1]"),
-     (Key("choice", choices=("a", "b")), "one of a, b"),
-     (Key("bool"), "true/false")],
-)  # fmt: skip
+    [
+        (Key("number", 0.0, 1.0, True, unit="m"), "a number in (0, 1] m"),
+        (Key("number", 0.0), "a number >= 0"),
+        (Key("number"), "a finite number"),
+        (Key("int", 1, 100), "a whole number in [1, 100]"),
+        (Key("vector", -1.0, 1.0, lengths=(2, 3)), "a list of 2 or 3 numbers, each in [-1, 1]"),
+        (Key("choice", choices=("a", "b")), "one of a, b"),
+        (Key("bool"), "true/false"),
+    ],
+)
 def test_key_describes_what_is_valid(key, text):
     assert key.describe() == text
 

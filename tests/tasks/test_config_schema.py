@@ -71,17 +71,28 @@ def test_the_schema_lists_only_keys_every_task_shares():
     its facts in one place): the keys of one task, or of one family of tasks, are not in KEYS."""
     from trossen_arm_mujoco.tasks import registry
 
-    entries = [registry.load(n) for n in registry.names() if registry.load(n).package
-               == "trossen_arm_mujoco"]  # fmt: skip
-    for key in ("target_low", "cube_low", "goal_low", "lift_height", "air_goal_probability",
-                "init_arm_qpos", "success_tolerance"):  # fmt: skip
+    entries = [
+        registry.load(n)
+        for n in registry.names()
+        if registry.load(n).package == "trossen_arm_mujoco"
+    ]
+    for key in (
+        "target_low",
+        "cube_low",
+        "goal_low",
+        "lift_height",
+        "air_goal_probability",
+        "init_arm_qpos",
+        "success_tolerance",
+    ):
         assert key not in KEYS
         assert any(key in e.keys for e in entries), key
 
 
 def test_range_pairs_are_found_by_name():
     assert range_pairs(["cube_low", "cube_high", "goal_low", "workspace_high", "x"]) == [
-        ("cube_low", "cube_high")]  # fmt: skip
+        ("cube_low", "cube_high")
+    ]
 
 
 def test_yaml_values_are_converted_to_their_kind():
@@ -109,29 +120,44 @@ TOL_OK = r"success_tolerance: expected a number in \(0, 1\] m"
         (TOL, "success_tolerance: [0.1]", "success_tolerance: expected a number .*got \\[0.1\\]"),
         (TOL, "success_tolerance: true", "success_tolerance: expected a number .*got True"),
         (TOL, "success_tolerance:", "success_tolerance: expected a number .*got None"),
-        ("max_episode_steps: 50", "max_episode_steps: 50.5",
-         r"max_episode_steps: expected a whole number in \[1, 10000000\], got 50.5"),
+        (
+            "max_episode_steps: 50",
+            "max_episode_steps: 50.5",
+            r"max_episode_steps: expected a whole number in \[1, 10000000\], got 50.5",
+        ),
         ("max_episode_steps: 50", "max_episode_steps: 0", "max_episode_steps: expected a whole"),
         ("max_episode_steps: 50", "max_episode_steps: '50'", "max_episode_steps: .*got '50'"),
-        ("target_low: [0.18, -0.22, 0.06]", "target_low: [0.5, -0.22, 0.06]",
-         "target_low/target_high: expected target_low <= target_high on every axis, "
-         "got 0.5 > 0.42 on axis 0"),
-        ("workspace_high: [0.8, 0.8, 0.9]", "workspace_high: [0.8, 0.8, -0.5]",
-         "workspace_low/workspace_high: .*-0.1 > -0.5 on axis 2"),
-        ("target_low: [0.18, -0.22, 0.06]", "target_low: [0.18, -0.22]",
-         r"target_low: expected a list of 3 numbers, each in \[-10, 10\] m"),
+        (
+            "target_low: [0.18, -0.22, 0.06]",
+            "target_low: [0.5, -0.22, 0.06]",
+            "target_low/target_high: expected target_low <= target_high on every axis, "
+            "got 0.5 > 0.42 on axis 0",
+        ),
+        (
+            "workspace_high: [0.8, 0.8, 0.9]",
+            "workspace_high: [0.8, 0.8, -0.5]",
+            "workspace_low/workspace_high: .*-0.1 > -0.5 on axis 2",
+        ),
+        (
+            "target_low: [0.18, -0.22, 0.06]",
+            "target_low: [0.18, -0.22]",
+            r"target_low: expected a list of 3 numbers, each in \[-10, 10\] m",
+        ),
         ("target_low: [0.18, -0.22, 0.06]", "target_low: [0.1, .nan, 0.1]", "target_low: expected"),
         ("target_low: [0.18, -0.22, 0.06]", "target_low: 0.18", "target_low: expected a list"),
         ("hold_orientation: false", "hold_orientation: 0", "hold_orientation: expected true/false"),
-        ("goal_reward_type: sparse", "goal_reward_type: sparce",
-         "goal_reward_type: expected one of sparse, dense, got 'sparce'"),
+        (
+            "goal_reward_type: sparse",
+            "goal_reward_type: sparce",
+            "goal_reward_type: expected one of sparse, dense, got 'sparce'",
+        ),
         ("safety_margin: 0.02", "safety_margin: .nan", r"safety_margin: .* \[0, 0.5\] m, got nan"),
         ("table_height: 0.0", "table_height: .nan", r"table_height: .* in \[-1, 2\] m, got nan"),
         ("scene: wxai/scene_reach.xml", "scene: ''", "scene: expected a non-empty string"),
         ("safety_margin: 0.02", "safety_margin: {a: 1}", "safety_margin: expected a number"),
         ("direction_deg: 15.0", "direction_deg: .nan", "randomization.lights.direction_deg: exp"),
     ],
-)  # fmt: skip
+)
 def test_bad_value_in_a_file_names_file_and_key(broken_reach, old, new, match):
     path = broken_reach(old, new)
     with pytest.raises(UserError, match=match) as err:
@@ -152,11 +178,21 @@ def test_unknown_key_in_a_file_is_refused(broken_reach):
 
 @pytest.mark.parametrize(
     "old, new, key, again",
-    [("distance_coef: 1.0", "distance_coef: 1.0\ndistance_coef: 2.0", "distance_coef",
-      "distance_coef: 2.0"),
-     ("    enabled: true\n", "    enabled: true\n    enabled: false\n",
-      "randomization.lights.enabled", "    enabled: false")],
-)  # fmt: skip
+    [
+        (
+            "distance_coef: 1.0",
+            "distance_coef: 1.0\ndistance_coef: 2.0",
+            "distance_coef",
+            "distance_coef: 2.0",
+        ),
+        (
+            "    enabled: true\n",
+            "    enabled: true\n    enabled: false\n",
+            "randomization.lights.enabled",
+            "    enabled: false",
+        ),
+    ],
+)
 def test_duplicate_key_in_a_file_is_refused(broken_reach, old, new, key, again):
     """PyYAML alone would keep the last value silently."""
     path = broken_reach(old, new)
@@ -177,11 +213,16 @@ def test_missing_key_is_named(broken_reach):
 
 @pytest.mark.parametrize(
     "old, new, match",
-    [("scene: wxai/scene_reach.xml", "scene: [wxai/scene_reach.xml",
-      "cannot parse YAML at line 4: expected ',' or ']'"),
-     ("policy_dt: 0.02", "policy_dt: 0.02\n  bad indent: 1", "cannot parse YAML at line"),
-     ("policy_dt: 0.02", "policy_dt: !!python/object:os.system x", "cannot parse YAML")],
-)  # fmt: skip
+    [
+        (
+            "scene: wxai/scene_reach.xml",
+            "scene: [wxai/scene_reach.xml",
+            "cannot parse YAML at line 4: expected ',' or ']'",
+        ),
+        ("policy_dt: 0.02", "policy_dt: 0.02\n  bad indent: 1", "cannot parse YAML at line"),
+        ("policy_dt: 0.02", "policy_dt: !!python/object:os.system x", "cannot parse YAML"),
+    ],
+)
 def test_malformed_yaml_is_one_line(broken_reach, old, new, match):
     path = broken_reach(old, new)
     with pytest.raises(UserError, match=match) as err:
@@ -212,29 +253,38 @@ def test_a_broken_file_breaks_only_its_task(broken_reach):
 # --- keyword overrides (make_sampler, gym kwargs) -------------------------------------------
 @pytest.mark.parametrize(
     "overrides, match",
-    [({"success_tolerance": math.nan}, TOL_OK + ", got nan"),
-     ({"success_tolerance": -0.01}, r"success_tolerance: expected a number in \(0, 1\] m"),
-     ({"success_tolerance": math.inf}, "success_tolerance: .*got inf"),
-     ({"table_height": math.nan}, r"table_height: expected a number in \[-1, 2\] m, got nan"),
-     ({"safety_margin": math.nan}, r"safety_margin: expected a number in \[0, 0.5\] m, got nan"),
-     ({"safety_margin": -0.01}, r"safety_margin: expected a number in \[0, 0.5\] m"),
-     ({"ee_delta_limit": -0.1}, r"ee_delta_limit: expected a number in \(0, 0.5\] m"),
-     ({"joint_rel_limit": math.inf}, "joint_rel_limit: expected"),
-     ({"init_joint_noise": -0.1}, r"init_joint_noise: expected a number in \[0, 1\] rad"),
-     ({"distance_coef": math.nan}, "distance_coef: expected a number >= 0"),
-     ({"max_episode_steps": 50.5}, r"max_episode_steps: expected a whole number in \[1, 1000"),
-     ({"max_episode_steps": True}, "max_episode_steps: expected a whole number"),
-     ({"max_episode_steps": "50"}, "max_episode_steps: expected a whole number"),
-     ({"workspace_low": [1.0, 1.0, 1.0]},
-      "workspace_low/workspace_high: expected workspace_low <= workspace_high on every axis"),
-     ({"target_low": [0.3, 0.0, 0.2], "target_high": [0.2, 0.1, 0.3]},
-      "target_low/target_high: .*0.3 > 0.2 on axis 0"),
-     ({"target_low": [0.1, 0.2]}, r"target_low: expected a list of 3 numbers \(as in the task's"),
-     ({"target_low": [0.1, math.nan, 0.2]}, "target_low: expected a list of 3 numbers"),
-     ({"target_low": "0.1 0.2 0.3"}, "target_low: expected a list"),
-     ({"hold_orientation": 1}, "hold_orientation: expected true/false, got 1"),
-     ({"goal_reward_type": "Sparse"}, "goal_reward_type: expected one of sparse, dense")],
-)  # fmt: skip
+    [
+        ({"success_tolerance": math.nan}, TOL_OK + ", got nan"),
+        ({"success_tolerance": -0.01}, r"success_tolerance: expected a number in \(0, 1\] m"),
+        ({"success_tolerance": math.inf}, "success_tolerance: .*got inf"),
+        ({"table_height": math.nan}, r"table_height: expected a number in \[-1, 2\] m, got nan"),
+        ({"safety_margin": math.nan}, r"safety_margin: expected a number in \[0, 0.5\] m, got nan"),
+        ({"safety_margin": -0.01}, r"safety_margin: expected a number in \[0, 0.5\] m"),
+        ({"ee_delta_limit": -0.1}, r"ee_delta_limit: expected a number in \(0, 0.5\] m"),
+        ({"joint_rel_limit": math.inf}, "joint_rel_limit: expected"),
+        ({"init_joint_noise": -0.1}, r"init_joint_noise: expected a number in \[0, 1\] rad"),
+        ({"distance_coef": math.nan}, "distance_coef: expected a number >= 0"),
+        ({"max_episode_steps": 50.5}, r"max_episode_steps: expected a whole number in \[1, 1000"),
+        ({"max_episode_steps": True}, "max_episode_steps: expected a whole number"),
+        ({"max_episode_steps": "50"}, "max_episode_steps: expected a whole number"),
+        (
+            {"workspace_low": [1.0, 1.0, 1.0]},
+            "workspace_low/workspace_high: expected workspace_low <= workspace_high on every axis",
+        ),
+        (
+            {"target_low": [0.3, 0.0, 0.2], "target_high": [0.2, 0.1, 0.3]},
+            "target_low/target_high: .*0.3 > 0.2 on axis 0",
+        ),
+        (
+            {"target_low": [0.1, 0.2]},
+            r"target_low: expected a list of 3 numbers \(as in the task's",
+        ),
+        ({"target_low": [0.1, math.nan, 0.2]}, "target_low: expected a list of 3 numbers"),
+        ({"target_low": "0.1 0.2 0.3"}, "target_low: expected a list"),
+        ({"hold_orientation": 1}, "hold_orientation: expected true/false, got 1"),
+        ({"goal_reward_type": "Sparse"}, "goal_reward_type: expected one of sparse, dense"),
+    ],
+)
 def test_bad_override_names_the_keyword_argument_and_valid_range(overrides, match):
     msg = _one_line_error(match, **overrides)
     assert msg.startswith("task config 'reach', keyword argument ")

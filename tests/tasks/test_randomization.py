@@ -145,8 +145,13 @@ def _within(value, low, high, tol: float = 1e-6) -> None:
 
 def test_ranges_are_respected():
     section = {
-        "lights": {"direction_deg": 10.0, "diffuse_scale": [1.1, 1.3],
-                   "specular_scale": [0.7, 0.8], "ambient": [0.05, 0.1], "colour_jitter": 0.05},
+        "lights": {
+            "direction_deg": 10.0,
+            "diffuse_scale": [1.1, 1.3],
+            "specular_scale": [0.7, 0.8],
+            "ambient": [0.05, 0.1],
+            "colour_jitter": 0.05,
+        },
         "table": {"materials": ["groundplane", "table_leg"], "rgb_jitter": 0.1},
         "objects": {"rgb_jitter": 0.1},
         "friction": {"scale": [1.5, 1.6]},
@@ -154,7 +159,7 @@ def test_ranges_are_respected():
         "joint_damping": {"range": [0.2, 0.3]},
         "camera": {"position": 0.01, "orientation_deg": 3.0},
         "joint_noise": {"range": 0.05},
-    }  # fmt: skip
+    }
     sampler = registry.make_sampler("push", SamplerSettings(randomize=True), randomization=section)
     model, r = sampler.env.model, sampler.randomizer
     nom = r.nominal

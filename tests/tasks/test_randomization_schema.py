@@ -38,21 +38,26 @@ def test_missing_randomization_settings_take_the_defaults():
 
 @pytest.mark.parametrize(
     "section, match",
-    [({"light": {}}, "unknown randomization kind 'light'.*lights"),
-     ({"lights": {"brightness": 1}}, "setting 'brightness'.*diffuse_scale"),
-     ({"lights": {"diffuse_scale": [1.4, 0.6]}}, r"lights.diffuse_scale: expected \[low, high\]"),
-     ({"lights": {"diffuse_scale": [0.5]}}, "lights.diffuse_scale"),
-     ({"lights": {"ambient": [0.0, 2.0]}}, r"<= 1"),
-     ({"friction": {"scale": [0.0, 1.0]}}, "friction.scale"),
-     ({"joint_damping": {"range": [-0.1, 0.1]}}, "joint_damping.range"),
-     ({"camera": {"position": 0.5}}, r"camera.position: expected a number in \[0, 0.1\]"),
-     ({"camera": {"orientation_deg": float("nan")}}, "camera.orientation_deg"),
-     ({"joint_noise": {"range": "small"}}, "joint_noise.range"),
-     ({"joint_noise": {"enabled": "yes"}}, "joint_noise.enabled: expected true/false"),
-     ({"table": {"materials": "maple"}}, "table.materials: expected a list of names"),
-     ({"objects": 0.2}, "objects: expected a mapping"),
-     ([1, 2], "expected a mapping of kinds")],
-)  # fmt: skip
+    [
+        ({"light": {}}, "unknown randomization kind 'light'.*lights"),
+        ({"lights": {"brightness": 1}}, "setting 'brightness'.*diffuse_scale"),
+        (
+            {"lights": {"diffuse_scale": [1.4, 0.6]}},
+            r"lights.diffuse_scale: expected \[low, high\]",
+        ),
+        ({"lights": {"diffuse_scale": [0.5]}}, "lights.diffuse_scale"),
+        ({"lights": {"ambient": [0.0, 2.0]}}, r"<= 1"),
+        ({"friction": {"scale": [0.0, 1.0]}}, "friction.scale"),
+        ({"joint_damping": {"range": [-0.1, 0.1]}}, "joint_damping.range"),
+        ({"camera": {"position": 0.5}}, r"camera.position: expected a number in \[0, 0.1\]"),
+        ({"camera": {"orientation_deg": float("nan")}}, "camera.orientation_deg"),
+        ({"joint_noise": {"range": "small"}}, "joint_noise.range"),
+        ({"joint_noise": {"enabled": "yes"}}, "joint_noise.enabled: expected true/false"),
+        ({"table": {"materials": "maple"}}, "table.materials: expected a list of names"),
+        ({"objects": 0.2}, "objects: expected a mapping"),
+        ([1, 2], "expected a mapping of kinds"),
+    ],
+)
 def test_bad_randomization_is_a_one_line_error(section, match):
     with pytest.raises(UserError, match=match) as err:
         load_task_config("reach", randomization=section)

@@ -10,9 +10,18 @@ from trossen_arm_mujoco.tasks.config import CONFIG_DIR, config_names
 from trossen_arm_mujoco.tasks.registry import load as load_task
 
 COMMON_KEYS = {
-    "scene", "policy_dt", "ctrl_dt", "max_episode_steps", "table_height", "safety_margin",
-    "ee_delta_limit", "joint_rel_limit", "hold_orientation", "workspace_low", "workspace_high",
-}  # fmt: skip
+    "scene",
+    "policy_dt",
+    "ctrl_dt",
+    "max_episode_steps",
+    "table_height",
+    "safety_margin",
+    "ee_delta_limit",
+    "joint_rel_limit",
+    "hold_orientation",
+    "workspace_low",
+    "workspace_high",
+}
 
 
 def load_task_config(name: str, **overrides):
@@ -55,9 +64,13 @@ def test_unknown_key_lists_valid_keys():
 
 @pytest.mark.parametrize(
     "key, value",
-    [("success_tolerance", "big"), ("target_low", [0.1, 0.2]), ("max_episode_steps", 10.5),
-     ("hold_orientation", 1)],
-)  # fmt: skip
+    [
+        ("success_tolerance", "big"),
+        ("target_low", [0.1, 0.2]),
+        ("max_episode_steps", 10.5),
+        ("hold_orientation", 1),
+    ],
+)
 def test_wrong_kind_of_value_is_rejected(key, value):
     with pytest.raises(UserError, match=key):
         load_task_config("reach", **{key: value})

@@ -109,7 +109,8 @@ def installed_package(tmp_path_factory):
     root = tmp_path_factory.mktemp("pkg")
     (root / MODULE).mkdir()
     (root / MODULE / "__init__.py").write_text(TASK_MODULE)
-    (root / "pyproject.toml").write_text(textwrap.dedent(f"""\
+    (root / "pyproject.toml").write_text(
+        textwrap.dedent(f"""\
         [build-system]
         requires = ["setuptools>=64"]
         build-backend = "setuptools.build_meta"
@@ -120,7 +121,8 @@ def installed_package(tmp_path_factory):
 
         [project.entry-points."trossen_arm_mujoco.tasks"]
         tmp_touch_ball = "{MODULE}:TASK"
-        """))  # fmt: skip
+        """)
+    )
     _pip("install", "--no-deps", "--no-build-isolation", "-e", str(root), cwd=root)
     try:
         yield root
@@ -133,17 +135,41 @@ def test_an_installed_package_task_records_evaluates_and_makes_its_gym_env(
     installed_package, tmp_path
 ):
     cli = ("-m", "trossen_arm_mujoco.cli")
-    proc = _run(*cli, "record", "--task_name", "tmp_touch_ball", "--data_dir", "eps",
-                "--root_dir", str(tmp_path), "--num_episodes", "2", "--cam_names", "none",
-                cwd=tmp_path)  # fmt: skip
+    proc = _run(
+        *cli,
+        "record",
+        "--task_name",
+        "tmp_touch_ball",
+        "--data_dir",
+        "eps",
+        "--root_dir",
+        str(tmp_path),
+        "--num_episodes",
+        "2",
+        "--cam_names",
+        "none",
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0 and "Success: 2 / 2" in proc.stdout, proc.stdout + proc.stderr
     assert sorted(p.name for p in (tmp_path / "eps").glob("*.hdf5")) == [
         "episode_0.hdf5",
         "episode_1.hdf5",
     ]
-    proc = _run(*cli, "eval", "--policy", "scripted", "--task_name", "tmp_touch_ball",
-                "--num_episodes", "2", "--cam_names", "none", "--output_dir",
-                str(tmp_path / "ev"), cwd=tmp_path)  # fmt: skip
+    proc = _run(
+        *cli,
+        "eval",
+        "--policy",
+        "scripted",
+        "--task_name",
+        "tmp_touch_ball",
+        "--num_episodes",
+        "2",
+        "--cam_names",
+        "none",
+        "--output_dir",
+        str(tmp_path / "ev"),
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     info = json.loads((tmp_path / "ev" / "eval_info.json").read_text())
     assert info["aggregated"]["n_episodes"] == 2
@@ -159,8 +185,17 @@ def test_an_installed_package_task_records_evaluates_and_makes_its_gym_env(
     proc = _run("-c", code, cwd=tmp_path)
     assert proc.returncode == 0 and "gym ok" in proc.stdout, proc.stdout + proc.stderr
     # an unknown name lists the installed tasks, the package's among them
-    proc = _run(*cli, "record", "--task_name", "no_such_task", "--data_dir", "x",
-                "--root_dir", str(tmp_path), cwd=tmp_path)  # fmt: skip
+    proc = _run(
+        *cli,
+        "record",
+        "--task_name",
+        "no_such_task",
+        "--data_dir",
+        "x",
+        "--root_dir",
+        str(tmp_path),
+        cwd=tmp_path,
+    )
     assert proc.returncode != 0 and "Traceback" not in proc.stderr
     assert proc.stderr.count("\n") == 1 and "tmp_touch_ball" in proc.stderr, proc.stderr
 
@@ -184,18 +219,39 @@ GOOD = (
 
 
 def test_packages_that_cannot_be_used_are_left_out_each_with_one_line(tmp_path, monkeypatch):
-    _bare_package(tmp_path, "bad-import-pkg", "bad_import_mod",
-                  "import no_such_module_here\n", "bad_task = bad_import_mod:TASK")  # fmt: skip
-    _bare_package(tmp_path, "dup-one-pkg", "dup_one_mod", GOOD.format(name="dup_task"),
-                  "dup_task = dup_one_mod:TASK")  # fmt: skip
-    _bare_package(tmp_path, "dup-two-pkg", "dup_two_mod", GOOD.format(name="dup_task"),
-                  "dup_task = dup_two_mod:TASK")  # fmt: skip
-    _bare_package(tmp_path, "no-sampler-pkg", "no_sampler_mod",
-                  "from trossen_arm_mujoco.tasks.task_entry import TaskEntry\n"
-                  "TASK = TaskEntry('half_task', 'trossen_arm_mujoco.tasks.reach:ReachTask',"
-                  " None, 'reach')\n", "half_task = no_sampler_mod:TASK")  # fmt: skip
-    _bare_package(tmp_path, "shadow-pkg", "shadow_mod", GOOD.format(name="reach"),
-                  "reach = shadow_mod:TASK")  # fmt: skip
+    _bare_package(
+        tmp_path,
+        "bad-import-pkg",
+        "bad_import_mod",
+        "import no_such_module_here\n",
+        "bad_task = bad_import_mod:TASK",
+    )
+    _bare_package(
+        tmp_path,
+        "dup-one-pkg",
+        "dup_one_mod",
+        GOOD.format(name="dup_task"),
+        "dup_task = dup_one_mod:TASK",
+    )
+    _bare_package(
+        tmp_path,
+        "dup-two-pkg",
+        "dup_two_mod",
+        GOOD.format(name="dup_task"),
+        "dup_task = dup_two_mod:TASK",
+    )
+    _bare_package(
+        tmp_path,
+        "no-sampler-pkg",
+        "no_sampler_mod",
+        "from trossen_arm_mujoco.tasks.task_entry import TaskEntry\n"
+        "TASK = TaskEntry('half_task', 'trossen_arm_mujoco.tasks.reach:ReachTask',"
+        " None, 'reach')\n",
+        "half_task = no_sampler_mod:TASK",
+    )
+    _bare_package(
+        tmp_path, "shadow-pkg", "shadow_mod", GOOD.format(name="reach"), "reach = shadow_mod:TASK"
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     entries, problems = registry._gather()
     names = {e.name for e in entries}
@@ -213,17 +269,37 @@ def test_packages_that_cannot_be_used_are_left_out_each_with_one_line(tmp_path, 
 
 
 def test_using_a_broken_package_task_by_name_is_one_line_naming_it(tmp_path):
-    _bare_package(tmp_path, "bad-import-pkg", "bad_import_mod",
-                  "raise RuntimeError('boom')\n", "bad_task = bad_import_mod:TASK")  # fmt: skip
+    _bare_package(
+        tmp_path,
+        "bad-import-pkg",
+        "bad_import_mod",
+        "raise RuntimeError('boom')\n",
+        "bad_task = bad_import_mod:TASK",
+    )
     env = {**__import__("os").environ, "PYTHONPATH": str(tmp_path)}
-    proc = _run("-m", "trossen_arm_mujoco.cli", "record", "--task_name", "bad_task",
-                "--data_dir", "x", "--root_dir", str(tmp_path), cwd=tmp_path, env=env)  # fmt: skip
+    proc = _run(
+        "-m",
+        "trossen_arm_mujoco.cli",
+        "record",
+        "--task_name",
+        "bad_task",
+        "--data_dir",
+        "x",
+        "--root_dir",
+        str(tmp_path),
+        cwd=tmp_path,
+        env=env,
+    )
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1, proc.stderr
     assert "bad-import-pkg" in proc.stderr and "RuntimeError: boom" in proc.stderr
     # the shipped tasks are still there
-    proc = _run("-c", "from trossen_arm_mujoco.tasks import registry; print(registry.names())",
-                cwd=tmp_path, env=env)  # fmt: skip
+    proc = _run(
+        "-c",
+        "from trossen_arm_mujoco.tasks import registry; print(registry.names())",
+        cwd=tmp_path,
+        env=env,
+    )
     assert proc.returncode == 0 and "sim_transfer_cube" in proc.stdout, proc.stderr
 
 
@@ -232,8 +308,9 @@ def test_the_camera_facts_of_a_declaration_are_checked():
 
     def entry(**facts):
         reach = "trossen_arm_mujoco.tasks.reach"
-        return TaskEntry("crop_task", f"{reach}:ReachTask", f"{reach}:ReachSampler", "reach",
-                         **facts)  # fmt: skip
+        return TaskEntry(
+            "crop_task", f"{reach}:ReachTask", f"{reach}:ReachSampler", "reach", **facts
+        )
 
     assert entry(camera_crop="cam_high:170,211,180,240", pose_static_frames=10).problems() == []
     (bad_crop,) = entry(camera_crop="cam_high:1,2").problems()

@@ -36,13 +36,15 @@ def _dataset(root):
     (root / "meta" / "info.json").write_text(json.dumps(info))
     stats = {k: {"mean": [0.0]} for k in info["features"]}
     (root / "meta" / "stats.json").write_text(json.dumps(stats))
-    table = pa.table({
-        "episode_index": [0, 1],
-        f"videos/{CAM}/chunk_index": [0, 0],
-        f"videos/{CAM}/from_timestamp": [0.0, 1.0],
-        f"stats/{CAM}/mean": [[0.5], [0.4]],
-        "stats/observation.state/mean": [[0.1], [0.2]],
-    })  # fmt: skip
+    table = pa.table(
+        {
+            "episode_index": [0, 1],
+            f"videos/{CAM}/chunk_index": [0, 0],
+            f"videos/{CAM}/from_timestamp": [0.0, 1.0],
+            f"stats/{CAM}/mean": [[0.5], [0.4]],
+            "stats/observation.state/mean": [[0.1], [0.2]],
+        }
+    )
     pq.write_table(table, root / "meta" / "episodes" / "chunk-000" / "file-000.parquet")
 
 

@@ -40,8 +40,9 @@ def _frames(n_eps: int = 12, per_ep: int = 20, seed: int = 0):
 @pytest.fixture(scope="module")
 def trained():
     images, poses, eps, idx = _frames()
-    net, report = train_encoder(images, poses, eps, idx, seed=3, epochs=15, threads=1,
-                                progress=lambda line: None)  # fmt: skip
+    net, report = train_encoder(
+        images, poses, eps, idx, seed=3, epochs=15, threads=1, progress=lambda line: None
+    )
     return net, report, images, poses, eps
 
 
@@ -58,8 +59,12 @@ def test_it_finds_the_square_on_held_out_episodes(trained, monkeypatch):
 def test_same_seed_same_encoder_and_a_save_keeps_it(trained, tmp_path):
     net, _, images, poses, eps = trained
     idx = np.tile(np.arange(20), 12)
-    first, again = (train_encoder(images, poses, eps, idx, seed=5, epochs=1, threads=1,
-                                  progress=lambda line: None)[0] for _ in range(2))  # fmt: skip
+    first, again = (
+        train_encoder(
+            images, poses, eps, idx, seed=5, epochs=1, threads=1, progress=lambda line: None
+        )[0]
+        for _ in range(2)
+    )
     np.testing.assert_array_equal(predict(first, images[:5]), predict(again, images[:5]))
     save_encoder(net, tmp_path / "enc.safetensors")
     loaded = load_encoder(tmp_path / "enc.safetensors")
@@ -73,11 +78,13 @@ def test_early_frames_weigh_more():
 
 @pytest.mark.parametrize(
     ("images", "poses", "expected"),
-    [(np.zeros((4, 8, 8), np.uint8), np.zeros((4, 7)), "(N, H, W, 3) uint8 frames"),
-     (np.zeros((4, 8, 8, 3), np.float32), np.zeros((4, 7)), "(N, H, W, 3) uint8 frames"),
-     (np.zeros((4, 8, 8, 3), np.uint8), np.zeros((3, 7)), "one pose row per frame"),
-     (np.zeros((4, 8, 8, 3), np.uint8), np.full((4, 7), np.nan), "NaN")],
-)  # fmt: skip
+    [
+        (np.zeros((4, 8, 8), np.uint8), np.zeros((4, 7)), "(N, H, W, 3) uint8 frames"),
+        (np.zeros((4, 8, 8, 3), np.float32), np.zeros((4, 7)), "(N, H, W, 3) uint8 frames"),
+        (np.zeros((4, 8, 8, 3), np.uint8), np.zeros((3, 7)), "one pose row per frame"),
+        (np.zeros((4, 8, 8, 3), np.uint8), np.full((4, 7), np.nan), "NaN"),
+    ],
+)
 def test_bad_frames_or_poses_are_one_line(images, poses, expected):
     with pytest.raises(UserError, match=expected.replace("(", r"\(").replace(")", r"\)")):
         train_encoder(images, poses, np.zeros(len(images)), np.zeros(len(images)), epochs=1)
@@ -104,10 +111,12 @@ def test_each_object_gets_its_own_errors():
     pred[1, 8] = 0.010  # object 2: 10 mm off in y at a later frame only
     pred[3, 9] = 0.003  # and 3 mm in z there
     errors = object_errors(pred, targets, np.array([0, 1, 0, 1]))
-    assert errors[0] == pytest.approx({"start_xy_mm": 1.0, "start_xy_max_mm": 2.0,
-                                       "mean_xyz_mm": 2 / 3})  # fmt: skip
-    assert errors[1] == pytest.approx({"start_xy_mm": 0.0, "start_xy_max_mm": 0.0,
-                                       "mean_xyz_mm": 13 / 12})  # fmt: skip
+    assert errors[0] == pytest.approx(
+        {"start_xy_mm": 1.0, "start_xy_max_mm": 2.0, "mean_xyz_mm": 2 / 3}
+    )
+    assert errors[1] == pytest.approx(
+        {"start_xy_mm": 0.0, "start_xy_max_mm": 0.0, "mean_xyz_mm": 13 / 12}
+    )
     assert list(held_out(np.repeat(np.arange(20), 3))) == [18, 19]
     assert len(held_out(np.zeros(5, int))) == 0
 
@@ -115,13 +124,27 @@ def test_each_object_gets_its_own_errors():
 def test_static_frames_train_with_the_early_ones_and_are_never_held_out():
     images, poses, eps, idx = _frames(n_eps=10, per_ep=4)
     extra_images, extra_poses, _, _ = _frames(n_eps=6, per_ep=1, seed=9)
-    _, report = train_encoder(images, poses, eps, idx, seed=3, epochs=1, threads=1,
-                              static=(extra_images, extra_poses),
-                              progress=lambda line: None)  # fmt: skip
+    _, report = train_encoder(
+        images,
+        poses,
+        eps,
+        idx,
+        seed=3,
+        epochs=1,
+        threads=1,
+        static=(extra_images, extra_poses),
+        progress=lambda line: None,
+    )
     assert report.static_frames == 6 and report.held_out_episodes == 1
     assert report.train_frames == 9 * 4 + 6
     assert pose_encoder.static_repeat(36, 6) == 3 and pose_encoder.static_repeat(4, 6) == 1
     assert pose_encoder.static_repeat(36, 0) == 0
     with pytest.raises(UserError, match="one pose row per frame"):
-        train_encoder(images, poses, eps, idx, static=(extra_images, extra_poses[:2]),
-                      progress=lambda line: None)  # fmt: skip
+        train_encoder(
+            images,
+            poses,
+            eps,
+            idx,
+            static=(extra_images, extra_poses[:2]),
+            progress=lambda line: None,
+        )

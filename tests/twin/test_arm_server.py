@@ -61,8 +61,10 @@ def test_both_arms_follow_position_moves(served_kit, arm_driver) -> None:
     while kit.connected and time.monotonic() < end:  # the servers see the clients leave
         time.sleep(0.05)
     assert kit.connected == []
-    assert lines[:2] == [f"left arm ({LEFT}): client connected",
-                         f"right arm ({RIGHT}): client connected"]  # fmt: skip
+    assert lines[:2] == [
+        f"left arm ({LEFT}): client connected",
+        f"right arm ({RIGHT}): client connected",
+    ]
     assert kit.world.realtime_factor > 0.2  # paced; far below 1 only on a starved machine
 
 

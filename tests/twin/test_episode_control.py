@@ -104,18 +104,23 @@ def test_start_with_object_poses_and_reward_levels(channel) -> None:
         ('{"cmd": "start", "seed": 1.5}', "seed must be an int"),
         ('{"cmd": "start", "object_poses": {"ball": [0,0,0,1,0,0,0]}}', "unknown object 'ball'"),
         ('{"cmd": "start", "object_poses": {"box": [0, 0]}}', "7 finite numbers"),
-        ('{"cmd": "start", "object_poses": {"box": [1e30, 0, 0.05, 1, 0, 0, 0]}}',
-         "start: the pose of 'box': position [1e+30, 0.0, 0.05] is outside the task's "
-         "workspace [-0.8, 0.8] x [-0.8, 0.8] x [-0.1, 0.9] m"),
-        ('{"cmd": "start", "object_poses": {"box": [0, 0.1, -5, 1, 0, 0, 0]}}',
-         "outside the task's workspace"),
-        ('{"cmd": "start", "object_poses": {"box": [0, 0.1, 0.05, 0, 0, 0, 1e-9]}}',
-         "start: the pose of 'box' needs a non-zero quaternion"),
+        (
+            '{"cmd": "start", "object_poses": {"box": [1e30, 0, 0.05, 1, 0, 0, 0]}}',
+            "start: the pose of 'box': position [1e+30, 0.0, 0.05] is outside the task's "
+            "workspace [-0.8, 0.8] x [-0.8, 0.8] x [-0.1, 0.9] m",
+        ),
+        (
+            '{"cmd": "start", "object_poses": {"box": [0, 0.1, -5, 1, 0, 0, 0]}}',
+            "outside the task's workspace",
+        ),
+        (
+            '{"cmd": "start", "object_poses": {"box": [0, 0.1, 0.05, 0, 0, 0, 1e-9]}}',
+            "start: the pose of 'box' needs a non-zero quaternion",
+        ),
         ("[" * 5000, "request nested deeper than 16 levels: refused"),
-        ('{"cmd": "start", "seed": 1, "x": ' + "[" * 17 + "]" * 17 + "}",
-         "nested deeper than 16"),
+        ('{"cmd": "start", "seed": 1, "x": ' + "[" * 17 + "]" * 17 + "}", "nested deeper than 16"),
     ],
-)  # fmt: skip
+)
 def test_bad_requests_are_answered_not_fatal(channel, line: str, error: str) -> None:
     world, control, client = channel
     reply = client.send(line)
@@ -138,8 +143,10 @@ def test_an_over_long_line_is_refused_before_it_ends_and_then_dropped(channel) -
     world, control, client = channel
     client.sock.sendall(b"x" * (MAX_LINE + 10_000))  # no newline yet
     reply = json.loads(client.file.readline())
-    assert reply == {"ok": False, "error": f"request line longer than {MAX_LINE} bytes: "
-                     "refused (one JSON object per line)"}  # fmt: skip
+    assert reply == {
+        "ok": False,
+        "error": f"request line longer than {MAX_LINE} bytes: refused (one JSON object per line)",
+    }
     client.sock.sendall(b"y" * (3 * MAX_LINE) + b"\n")  # the rest of that line
     assert client.ask(cmd="status")["ok"]
 

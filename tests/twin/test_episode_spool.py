@@ -22,8 +22,14 @@ from trossen_arm_mujoco.twin.episode_spool import (
 )
 
 H, W = 6, 8
-ATTRS = {"task_name": "sim_transfer_cube", "seed": 7, "dt": 0.02, "source": "serve",
-         "initial_env_state": np.arange(7.0), "object_names": ["box"]}  # fmt: skip
+ATTRS = {
+    "task_name": "sim_transfer_cube",
+    "seed": 7,
+    "dt": 0.02,
+    "source": "serve",
+    "initial_env_state": np.arange(7.0),
+    "object_names": ["box"],
+}
 
 
 def dead_pid() -> int:
@@ -43,14 +49,24 @@ def as_dead(spool_path: Path) -> Path:
 def fill(spool: EpisodeSpool, steps: int, cams: tuple[str, ...] = ("cam_high",)) -> None:
     for t in range(steps):
         images = {c: np.full((H, W, 3), (t * 10 + i) % 256, np.uint8) for i, c in enumerate(cams)}
-        spool.append_step(np.full(16, 0.01 * t), np.zeros(16), np.full(16, -0.01 * t),
-                          float(t >= steps - 1) * 4.0, np.arange(7.0) + t, images)  # fmt: skip
+        spool.append_step(
+            np.full(16, 0.01 * t),
+            np.zeros(16),
+            np.full(16, -0.01 * t),
+            float(t >= steps - 1) * 4.0,
+            np.arange(7.0) + t,
+            images,
+        )
 
 
 def left_spool(folder: Path, steps: int, index: int = 0, **attrs) -> Path:
     """A spool of ``steps`` steps as a killed serve leaves it (never closed, a dead pid)."""
-    meta = {"index": index, "attrs": {**ATTRS, **attrs}, "compression": "lzf",
-            "task_max_reward": 4.0}  # fmt: skip
+    meta = {
+        "index": index,
+        "attrs": {**ATTRS, **attrs},
+        "compression": "lzf",
+        "task_max_reward": 4.0,
+    }
     spool = EpisodeSpool(folder, ["cam_high"], H, W, meta=meta)
     fill(spool, steps)
     spool.close()  # what the kernel does for a killed process: the file stays as written
@@ -85,8 +101,9 @@ def test_a_left_spool_is_published_as_the_next_episode(tmp_path: Path) -> None:
     [result] = recover_spools(tmp_path, lambda: 1, lines.append)
     assert result.episode == tmp_path / "episode_1.hdf5" and result.steps == 5
     assert not path.exists()
-    assert lines == [f"episode_1.hdf5: recovered 5 steps (0.10 s) that a stopped serve left in "
-                     f"{path.name}"]  # fmt: skip
+    assert lines == [
+        f"episode_1.hdf5: recovered 5 steps (0.10 s) that a stopped serve left in {path.name}"
+    ]
     episode = load_episode(result.episode, load_images=True)
     assert episode.num_steps == 5 and episode.attrs["seed"] == 7
     assert episode.attrs["success"] and episode.attrs["final_reward"] == 4.0
@@ -101,8 +118,9 @@ def test_a_spool_whose_episode_was_published_is_removed(tmp_path: Path) -> None:
     fill(spool, 2)
     copy = tmp_path / ".copy"
     copy.write_bytes(spool.path.read_bytes())
-    spool.publish(tmp_path / "episode_0.hdf5", {**ATTRS, RECORDING_ID_ATTR: "r1",
-                                                "success": False}, "lzf")  # fmt: skip
+    spool.publish(
+        tmp_path / "episode_0.hdf5", {**ATTRS, RECORDING_ID_ATTR: "r1", "success": False}, "lzf"
+    )
     left = as_dead(copy)  # as if killed between the publish and the unlink
     assert recover_spools(tmp_path, next_index(tmp_path), print)[0].episode is None
     assert not left.exists() and [i for i, _ in list_episodes(tmp_path)] == [0]

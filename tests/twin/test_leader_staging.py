@@ -53,8 +53,9 @@ def test_staged_leaders_rest_there_then_approach_the_episode(tmp_path):
     speed_limit = ArmLimits.from_mjcf().velocity
     stop, pairs = threading.Event(), []
     kwargs = {"lead_in": 0.3, "say": None, "on_ready": pairs.append}
-    thread = threading.Thread(target=serve_leaders, args=(str(path), LEFT, RIGHT, stop),
-                              kwargs=kwargs)  # fmt: skip
+    thread = threading.Thread(
+        target=serve_leaders, args=(str(path), LEFT, RIGHT, stop), kwargs=kwargs
+    )
     thread.start()
     drivers = {}
     try:
@@ -76,8 +77,10 @@ def test_staged_leaders_rest_there_then_approach_the_episode(tmp_path):
         assert pair.clock.triggered.wait(2.0)
         # both arms approach together, as long as the slower needs: here the right gripper
         # (0 -> 0.044 m at half of 0.0875 m/s, its peak 1.5x the mean speed: 1.5 s)
-        need = max(float(np.max(1.5 * np.abs(first[s] - STAGED) / speed_limit))
-                   for s in first) / APPROACH_SPEED_FRACTION  # fmt: skip
+        need = (
+            max(float(np.max(1.5 * np.abs(first[s] - STAGED) / speed_limit)) for s in first)
+            / APPROACH_SPEED_FRACTION
+        )
         assert pair.clock.approach_s == pytest.approx(need, rel=1e-6)
         # commands after the trigger move nothing: position mode again, another pose
         drivers["left"].set_all_modes(ta.Mode.position)
@@ -85,8 +88,13 @@ def test_staged_leaders_rest_there_then_approach_the_episode(tmp_path):
         samples = []  # (time, positions, velocities) of both arms until the episode is over
         while not pair.finished.is_set() and time.monotonic() < deadline:
             outs = [drivers[side].get_robot_output().joint.all for side in ("left", "right")]
-            samples.append((time.monotonic(), [list(o.positions) for o in outs],
-                            [list(o.velocities) for o in outs]))  # fmt: skip
+            samples.append(
+                (
+                    time.monotonic(),
+                    [list(o.positions) for o in outs],
+                    [list(o.velocities) for o in outs],
+                )
+            )
             time.sleep(0.005)
         assert pair.finished.is_set()
         t = np.array([s[0] for s in samples])

@@ -38,8 +38,9 @@ def make_episode(path: Path, steps: int = STEPS) -> np.ndarray:
     actions[:, 9] = np.pi / 12 + 0.4 * ramp  # right joint_1
     actions[:, 6] = actions[:, 7] = 0.01 + 0.02 * ramp  # left gripper 0.01 -> 0.03 m
     qpos = actions - 0.01  # a follower a little behind
-    with EpisodeWriter(path, episode_len=steps, attrs={"task_name": "t", "seed": 0,
-                                                       "success": True}) as writer:  # fmt: skip
+    with EpisodeWriter(
+        path, episode_len=steps, attrs={"task_name": "t", "seed": 0, "success": True}
+    ) as writer:
         for t in range(steps):
             writer.append(qpos[t], np.zeros(16), actions[t], 0.0, np.zeros(7))
     return actions.astype(np.float32).astype(float)

@@ -26,8 +26,9 @@ def test_replay_clock_waits_for_both_arms_then_the_lead_in():
 
 def test_clock_phases_with_an_approach():
     now = [10.0]
-    clock = ReplayClock(duration=2.0, speed=2.0, lead_in=0.5, now=lambda: now[0],
-                        approach=lambda: 1.0)  # fmt: skip
+    clock = ReplayClock(
+        duration=2.0, speed=2.0, lead_in=0.5, now=lambda: now[0], approach=lambda: 1.0
+    )
     assert clock.phase() == ("rest", 0.0)
     clock.trigger()
     assert clock.approach_s == 1.0 and clock.phase() == ("rest", 0.0)  # lead-in

@@ -36,8 +36,15 @@ from trossen_arm_mujoco.eval.processor_files import (
 )
 from trossen_arm_mujoco.fileio import atomic_path
 
-__all__ = ["REGISTRY_NAME", "STATE_FILE", "add_pose", "add_to_checkpoint", "camera_of",
-           "copy_encoder", "register"]  # fmt: skip
+__all__ = [
+    "REGISTRY_NAME",
+    "STATE_FILE",
+    "add_pose",
+    "add_to_checkpoint",
+    "camera_of",
+    "copy_encoder",
+    "register",
+]
 
 #: Name of the step in LeRobot's processor registry (and in ``policy_preprocessor.json``).
 REGISTRY_NAME = step_names.POSE
@@ -70,8 +77,10 @@ def copy_encoder(folder: str | Path, encoder: str | Path) -> bool:
     False when that very file is there already."""
     folder, encoder = Path(folder), Path(encoder)
     if not encoder.is_file():
-        raise UserError(f"{encoder}: no pose encoder there; derive the dataset first "
-                        "(python -m trossen_arm_mujoco.train.pose_dataset)")  # fmt: skip
+        raise UserError(
+            f"{encoder}: no pose encoder there; derive the dataset first "
+            "(python -m trossen_arm_mujoco.train.pose_dataset)"
+        )
     state = folder / STATE_FILE
     if state.is_file() and filecmp.cmp(encoder, state, shallow=False):
         return False
@@ -79,8 +88,9 @@ def copy_encoder(folder: str | Path, encoder: str | Path) -> bool:
         with atomic_path(state) as tmp:
             shutil.copyfile(encoder, tmp)
     except OSError as exc:
-        raise UserError(f"{state}: cannot write it ({exc.strerror or exc}); make the "
-                        "checkpoint folder writable") from None  # fmt: skip
+        raise UserError(
+            f"{state}: cannot write it ({exc.strerror or exc}); make the checkpoint folder writable"
+        ) from None
     return True
 
 
@@ -104,8 +114,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """``python -m trossen_arm_mujoco.eval.camera_pose_step CHECKPOINT ENCODER CAMERA``."""
     args = list(sys.argv[1:] if argv is None else argv)
     if len(args) != 3:
-        print("usage: python -m trossen_arm_mujoco.eval.camera_pose_step CHECKPOINT "
-              "ENCODER.safetensors CAMERA", file=sys.stderr)  # fmt: skip
+        print(
+            "usage: python -m trossen_arm_mujoco.eval.camera_pose_step CHECKPOINT "
+            "ENCODER.safetensors CAMERA",
+            file=sys.stderr,
+        )
         return 2
     try:
         add_to_checkpoint(*args)

@@ -70,10 +70,21 @@ from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
 from trossen_arm_mujoco.robot.configs import MOBILE_AI_BASE_LIMITS
 from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY
 
-__all__ = ["MEASURED_NAME", "POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "REGISTRY_NAME",
-           "GRIPPER_RATE_MARGIN", "SPEED_MARGIN", "action_size", "add_limits",
-           "add_to_checkpoint", "controller_bounds", "gripper_rates", "joint_steps",
-           "register"]  # fmt: skip
+__all__ = [
+    "MEASURED_NAME",
+    "POSTPROCESSOR_FILE",
+    "PREPROCESSOR_FILE",
+    "REGISTRY_NAME",
+    "GRIPPER_RATE_MARGIN",
+    "SPEED_MARGIN",
+    "action_size",
+    "add_limits",
+    "add_to_checkpoint",
+    "controller_bounds",
+    "gripper_rates",
+    "joint_steps",
+    "register",
+]
 
 #: Name of the postprocessor step in LeRobot's processor registry (and in
 #: ``policy_postprocessor.json``).
@@ -150,11 +161,15 @@ def action_size(folder: str | Path) -> int:
     try:
         size = read_json(path)["output_features"][ACTION_KEY]["shape"][0]
     except FileNotFoundError:
-        raise UserError(f"{Path(folder)}: no config.json there; give a LeRobot checkpoint "
-                        "folder (.../checkpoints/last/pretrained_model)") from None  # fmt: skip
+        raise UserError(
+            f"{Path(folder)}: no config.json there; give a LeRobot checkpoint "
+            "folder (.../checkpoints/last/pretrained_model)"
+        ) from None
     except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
-        raise UserError(f"{path}: no action shape in it ({type(exc).__name__}: {exc}); "
-                        "not a LeRobot checkpoint's config") from None  # fmt: skip
+        raise UserError(
+            f"{path}: no action shape in it ({type(exc).__name__}: {exc}); "
+            "not a LeRobot checkpoint's config"
+        ) from None
     if isinstance(size, bool) or not isinstance(size, int) or size <= 0:
         raise UserError(f"{path}: the action shape {size!r} is not a positive whole number")
     return size
@@ -173,8 +188,9 @@ def add_limits(procs: SavedProcessors, size: int, fps: float | None, layout: str
     ``size`` action values of ``layout``; with ``fps``, the joint steps and gripper rates
     at that rate and the measured-joints step sharing the limits step's ``link``."""
     if fps is not None and not (isinstance(fps, int | float) and math.isfinite(fps) and fps > 0):
-        raise UserError(f"the checkpoint's rate must be a positive number of frames per "
-                        f"second, got {fps!r}")  # fmt: skip
+        raise UserError(
+            f"the checkpoint's rate must be a positive number of frames per second, got {fps!r}"
+        )
     pre_steps, post_steps = procs.pre["steps"], procs.post["steps"]
     low, high = controller_bounds(size, layout)
     config: dict[str, Any] = {"low": low, "high": high}
@@ -183,8 +199,11 @@ def add_limits(procs: SavedProcessors, size: int, fps: float | None, layout: str
     # runs preparing one checkpoint at once write the same one into both files
     link = (old or {}).get("config", {}).get("link") or _link_of(procs.folder)
     if fps is not None:
-        config.update(max_step=joint_steps(size, fps, layout),
-                      max_rate=gripper_rates(size, fps, layout), link=link)  # fmt: skip
+        config.update(
+            max_step=joint_steps(size, fps, layout),
+            max_rate=gripper_rates(size, fps, layout),
+            link=link,
+        )
         measured = {"registry_name": MEASURED_NAME, "config": {"link": link}}
         place_step(pre_steps, MEASURED_NAME, measured, before="normalizer_processor")
     step = {"registry_name": REGISTRY_NAME, "config": config}
@@ -217,14 +236,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     """``python -m trossen_arm_mujoco.eval.controller_limits_step FOLDER ...``."""
     folders = list(sys.argv[1:] if argv is None else argv)
     if not folders:
-        print("usage: python -m trossen_arm_mujoco.eval.controller_limits_step CHECKPOINT ...",
-              file=sys.stderr)  # fmt: skip
+        print(
+            "usage: python -m trossen_arm_mujoco.eval.controller_limits_step CHECKPOINT ...",
+            file=sys.stderr,
+        )
         return 2
     try:
         for folder in folders:
             added = add_to_checkpoint(folder)
-            print(f"{folder}: {'added' if added else 'already has'} the steps {REGISTRY_NAME} "
-                  f"and {MEASURED_NAME}")  # fmt: skip
+            print(
+                f"{folder}: {'added' if added else 'already has'} the steps {REGISTRY_NAME} "
+                f"and {MEASURED_NAME}"
+            )
     except UserError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

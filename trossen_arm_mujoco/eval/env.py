@@ -187,11 +187,14 @@ def _cameras(
     if cameras is None:
         return CameraSettings.from_cli(*loose)
     if not isinstance(cameras, CameraSettings):
-        raise UserError(f"cameras must be a CameraSettings (sim.camera_settings), got "
-                        f"{type(cameras).__name__}")  # fmt: skip
+        raise UserError(
+            f"cameras must be a CameraSettings (sim.camera_settings), got {type(cameras).__name__}"
+        )
     if any(v is not None for v in loose):
-        raise UserError("give the cameras either as cameras=CameraSettings(...) or as "
-                        "cam_names / image_size / crops, not both")  # fmt: skip
+        raise UserError(
+            "give the cameras either as cameras=CameraSettings(...) or as "
+            "cam_names / image_size / crops, not both"
+        )
     return cameras
 
 
@@ -251,8 +254,10 @@ class KitPolicyEnv(gymnasium.Env):
         entry = registry.load(task)
         valid = task_layouts(entry.name)
         if layout not in valid:
-            raise UserError(f"task '{entry.name}' takes the layouts {', '.join(valid)}, not "
-                            f"{layout!r} (--layout)")  # fmt: skip
+            raise UserError(
+                f"task '{entry.name}' takes the layouts {', '.join(valid)}, not "
+                f"{layout!r} (--layout)"
+            )
         self.layout = _layout(layout)
         self.layout_name = layout
         if render_mode not in (None, "rgb_array"):
@@ -276,9 +281,12 @@ class KitPolicyEnv(gymnasium.Env):
         self.task = entry.name
         cams = self.cameras
         settings = SamplerSettings(
-            camera_names=cams.names, height=cams.size[0], width=cams.size[1],
-            looks=cams.scene_looks(), randomize=self.randomize,
-        )  # fmt: skip
+            camera_names=cams.names,
+            height=cams.size[0],
+            width=cams.size[1],
+            looks=cams.scene_looks(),
+            randomize=self.randomize,
+        )
         self.sampler = registry.make_sampler(entry.name, settings, **overrides)
         self.scene = self.sampler.env
         probe = self.sampler.make_task()
@@ -303,9 +311,10 @@ class KitPolicyEnv(gymnasium.Env):
         else:
             self.action_low, self.action_high = low16.copy(), high16.copy()
         self.action_space = gymnasium.spaces.Box(
-            self.action_low.astype(np.float32), self.action_high.astype(np.float32),
+            self.action_low.astype(np.float32),
+            self.action_high.astype(np.float32),
             dtype=np.float32,
-        )  # fmt: skip
+        )
         self.observation_space = self._observation_space(probe)
         self._vector_bounds = {
             key: (self.observation_space[key].low, self.observation_space[key].high)
@@ -343,8 +352,9 @@ class KitPolicyEnv(gymnasium.Env):
             low, high = (self._to_layout(b) for b in bounds[key])
             if base is not None:  # the measured base velocities after the arms' 14
                 low, high = np.concatenate([low, base[0]]), np.concatenate([high, base[1]])
-            return gymnasium.spaces.Box(low.astype(np.float32), high.astype(np.float32),
-                                        shape=(size,), dtype=np.float32)  # fmt: skip
+            return gymnasium.spaces.Box(
+                low.astype(np.float32), high.astype(np.float32), shape=(size,), dtype=np.float32
+            )
 
         spaces: dict[str, gymnasium.spaces.Space] = {
             "agent_pos": box("qpos"),
@@ -355,10 +365,12 @@ class KitPolicyEnv(gymnasium.Env):
         }
         if self.cam_names:
             h, w = self.image_size
-            spaces["pixels"] = gymnasium.spaces.Dict({
-                cam: gymnasium.spaces.Box(0, 255, (h, w, 3), dtype=np.uint8)
-                for cam in self.cam_names
-            })  # fmt: skip
+            spaces["pixels"] = gymnasium.spaces.Dict(
+                {
+                    cam: gymnasium.spaces.Box(0, 255, (h, w, 3), dtype=np.uint8)
+                    for cam in self.cam_names
+                }
+            )
         return gymnasium.spaces.Dict(spaces)
 
     def _to_layout(self, values16: np.ndarray) -> np.ndarray:
@@ -388,8 +400,11 @@ class KitPolicyEnv(gymnasium.Env):
         self.n_steps = 0
         self._reached = False
         obs = self._observe()
-        measured = obs["agent_pos"][:14] if self.layout is not VENDOR16_LAYOUT else (
-            KIT14_LAYOUT.from_vendor(obs["agent_pos"]))  # fmt: skip
+        measured = (
+            obs["agent_pos"][:14]
+            if self.layout is not VENDOR16_LAYOUT
+            else (KIT14_LAYOUT.from_vendor(obs["agent_pos"]))
+        )
         self.controller.reset(measured.astype(np.float64))
         if self.base is not None:
             self.base.reset()
@@ -406,8 +421,11 @@ class KitPolicyEnv(gymnasium.Env):
             )
         if not self.controller_checks and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        goal = a if self.layout is KIT14_LAYOUT else (
-            a[:14] if self.base is not None else KIT14_LAYOUT.from_vendor(a))  # fmt: skip
+        goal = (
+            a
+            if self.layout is KIT14_LAYOUT
+            else (a[:14] if self.base is not None else KIT14_LAYOUT.from_vendor(a))
+        )
         ctl, task, scene = self.controller, self.episode, self.scene
         base, base_fault = ({}, None) if self.base is None else self.base.command(a, self.n_steps)
         ctl.command(goal, self._goal_time)

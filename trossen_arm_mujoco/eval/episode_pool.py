@@ -149,9 +149,13 @@ def run_episodes(
 
 
 def _next_result(
-    runner: EpisodeSource, counter: Any, results: Any, children: list[Any],
-    done: dict[int, Any], n: int,
-) -> None:  # fmt: skip
+    runner: EpisodeSource,
+    counter: Any,
+    results: Any,
+    children: list[Any],
+    done: dict[int, Any],
+    n: int,
+) -> None:
     """One step of the caller: take every result that arrived (and return); else run the
     next unclaimed episode here, or, when none is left, wait for the children's."""
     took = False

@@ -66,11 +66,15 @@ def checkpoint_dir(path: str | Path) -> Path:
         if (candidate / "config.json").is_file():
             return candidate
     if not p.exists():
-        raise UserError(f"--policy {path}: no such checkpoint folder; give the "
-                        "pretrained_model folder lerobot-train saved, 'scripted' or "
-                        "module:function")  # fmt: skip
-    raise UserError(f"--policy {path} holds no LeRobot checkpoint (no config.json in it or in "
-                    "its pretrained_model folder)")  # fmt: skip
+        raise UserError(
+            f"--policy {path}: no such checkpoint folder; give the "
+            "pretrained_model folder lerobot-train saved, 'scripted' or "
+            "module:function"
+        )
+    raise UserError(
+        f"--policy {path} holds no LeRobot checkpoint (no config.json in it or in "
+        "its pretrained_model folder)"
+    )
 
 
 def checkpoint_features(path: str | Path) -> dict[str, Any]:
@@ -128,8 +132,10 @@ def _raise_on_mismatch(
 ) -> None:
     problems = feature_mismatch(inputs, env)
     if action is not None and tuple(action) != (env.layout.size,):
-        problems.append(f"action {list(action)} (the env takes {env.layout.size} values, "
-                        f"layout {env.layout_name})")  # fmt: skip
+        problems.append(
+            f"action {list(action)} (the env takes {env.layout.size} values, "
+            f"layout {env.layout_name})"
+        )
     if problems:
         raise UserError(
             f"--policy {path} was trained on other features than this env offers: "
@@ -142,8 +148,9 @@ def feature_mismatch(policy_inputs: dict[str, tuple[int, ...]], env: KitPolicyEn
     """Differences between a policy's input features (LeRobot key -> shape; images (C,H,W))
     and what ``env`` observes; empty when the policy can run on it."""
     offered: dict[str, tuple[int, ...]] = {}
-    for key, kind, shape in feature_spec(env.task, env.cam_names, env.image_size,
-                                         env.layout_name).values():  # fmt: skip
+    for key, kind, shape in feature_spec(
+        env.task, env.cam_names, env.image_size, env.layout_name
+    ).values():
         if kind == "VISUAL":
             shape = (shape[2], shape[0], shape[1])
         if kind != "ACTION":

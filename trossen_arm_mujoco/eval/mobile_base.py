@@ -83,8 +83,15 @@ class MobileBase:
         if not self.checks:
             raise UserError(f"action's base {BASE_VALUES[bad]} is {values[bad]}: not a number")
         reason = f"base {BASE_VALUES[bad]} command {values[bad]} is not a finite number"
-        fault = {"state": None, "reason": reason, "joint": BASE_VALUES[bad],
-                 "kind": "non-finite", "asked": None, "limit": None, "step": step}  # fmt: skip
+        fault = {
+            "state": None,
+            "reason": reason,
+            "joint": BASE_VALUES[bad],
+            "kind": "non-finite",
+            "asked": None,
+            "limit": None,
+            "step": step,
+        }
         return {}, fault
 
     def measured(self, data: Any) -> np.ndarray:

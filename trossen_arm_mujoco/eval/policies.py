@@ -110,9 +110,9 @@ class ScriptedPolicy:
             from trossen_arm_mujoco.export.lerobot_plan import frame_map
 
             actions = frame_map(len(actions), source_fps, round(env.fps)).actions(actions)
-        self._plan = actions if env.layout.size == actions.shape[1] else (
-            env.layout.from_vendor(actions)
-        )  # fmt: skip
+        self._plan = (
+            actions if env.layout.size == actions.shape[1] else (env.layout.from_vendor(actions))
+        )
         self._t = 0
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:

@@ -34,8 +34,14 @@ from trossen_arm_mujoco.export.dataset_settings import DatasetSettings, checkpoi
 from trossen_arm_mujoco.sim.camera_crop import FRAME
 from trossen_arm_mujoco.train.pose_dataset import ENCODER_FILE
 
-__all__ = ["ENCODER_FILE", "IMAGE_STEP", "carries_images", "dataset_encoder", "image_step",
-           "prepare_checkpoint"]  # fmt: skip
+__all__ = [
+    "ENCODER_FILE",
+    "IMAGE_STEP",
+    "carries_images",
+    "dataset_encoder",
+    "image_step",
+    "prepare_checkpoint",
+]
 
 #: Registry name of the image step (``eval.steps.camera_image``).
 IMAGE_STEP = step_names.IMAGE
@@ -111,14 +117,19 @@ def prepare_checkpoint(
     copied = False
     encoder = Path(encoder) if encoder is not None else dataset_encoder(folder)
     if encoder is not None:
-        pose_steps = [st for st in procs.pre["steps"]
-                      if st.get("registry_name") == camera_pose_step.REGISTRY_NAME]  # fmt: skip
+        pose_steps = [
+            st
+            for st in procs.pre["steps"]
+            if st.get("registry_name") == camera_pose_step.REGISTRY_NAME
+        ]
         name = camera or (pose_steps[0].get("config", {}).get("camera") if pose_steps else None)
         if name is None and settings is not None and settings.cameras.names:
             name = settings.cameras.names[0]
         if name is None:
-            raise UserError(f"{folder}: which camera does the pose encoder read? its settings "
-                            "name none; give --camera")  # fmt: skip
+            raise UserError(
+                f"{folder}: which camera does the pose encoder read? its settings "
+                "name none; give --camera"
+            )
         copied = camera_pose_step.copy_encoder(folder, encoder)
         camera_pose_step.add_pose(procs, name)
     step = image_step(settings)
@@ -133,13 +144,15 @@ def prepare_checkpoint(
     )
     procs.save()
     after = _steps_by_name(procs)
-    changed = [n for n in (camera_pose_step.REGISTRY_NAME, IMAGE_STEP,
-                           controller_limits_step.REGISTRY_NAME)
-               if after.get(n) != before.get(n)]  # fmt: skip
+    changed = [
+        n
+        for n in (camera_pose_step.REGISTRY_NAME, IMAGE_STEP, controller_limits_step.REGISTRY_NAME)
+        if after.get(n) != before.get(n)
+    ]
     if copied and camera_pose_step.REGISTRY_NAME not in changed:
         changed.insert(0, camera_pose_step.REGISTRY_NAME)
-    if (controller_limits_step.REGISTRY_NAME not in changed
-            and after.get(controller_limits_step.MEASURED_NAME)
-            != before.get(controller_limits_step.MEASURED_NAME)):  # fmt: skip
+    if controller_limits_step.REGISTRY_NAME not in changed and after.get(
+        controller_limits_step.MEASURED_NAME
+    ) != before.get(controller_limits_step.MEASURED_NAME):
         changed.append(controller_limits_step.REGISTRY_NAME)
     return changed

@@ -16,8 +16,7 @@ from typing import Any
 
 from trossen_arm_mujoco.errors import UserError
 
-__all__ = ["POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "SavedProcessors", "place_step",
-           "read_json"]  # fmt: skip
+__all__ = ["POSTPROCESSOR_FILE", "PREPROCESSOR_FILE", "SavedProcessors", "place_step", "read_json"]
 
 #: The saved postprocessor and preprocessor of a LeRobot checkpoint.
 POSTPROCESSOR_FILE = "policy_postprocessor.json"
@@ -134,8 +133,14 @@ class SavedProcessors:
         return True
 
 
-def place_step(steps: list[dict[str, Any]], name: str, step: dict[str, Any], *,
-               after: str = "", before: str = "") -> bool:  # fmt: skip
+def place_step(
+    steps: list[dict[str, Any]],
+    name: str,
+    step: dict[str, Any],
+    *,
+    after: str = "",
+    before: str = "",
+) -> bool:
     """Put ``step`` (a saved processor step, ``registry_name`` ``name``) in ``steps``: in
     place of the step of that name when there is one, else right after the step named
     ``after``, else right before the one named ``before``, else last. True when ``steps``

@@ -126,13 +126,17 @@ class RolloutRecorder:
         }
         if LIFT_STAGE in steps:
             k = self.release_step(steps[LIFT_STAGE])
-            out["release"] = None if k is None else {
-                "step": k,
-                "time_s": self._time(k),
-                "left_gap_m": round(self.gaps[k][0], 6),
-                "right_gap_m": round(self.gaps[k][1], 6),
-                "left_touching": self.left_touch[k],
-            }  # fmt: skip
+            out["release"] = (
+                None
+                if k is None
+                else {
+                    "step": k,
+                    "time_s": self._time(k),
+                    "left_gap_m": round(self.gaps[k][0], 6),
+                    "right_gap_m": round(self.gaps[k][1], 6),
+                    "left_touching": self.left_touch[k],
+                }
+            )
         else:
             left, right = self.gaps[-1] if self.gaps else (None, None)
             out["end"] = {

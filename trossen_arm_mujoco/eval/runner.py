@@ -62,8 +62,13 @@ __all__ = [
 #: Where the rollout videos go, in the output folder.
 VIDEO_DIR = "videos"
 #: Environment variables sizing the thread pools of numpy's BLAS, OpenMP (torch) and MKL.
-THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
-               "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS")  # fmt: skip
+THREAD_VARS = (
+    "OMP_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+)
 
 
 class PolicyCallError(RuntimeError):

@@ -161,8 +161,17 @@ def eval_info(
 ) -> dict[str, Any]:
     """The content of ``eval_info.json`` (see the module docstring)."""
     agg = aggregate(task, episodes, seconds)
-    overall = {k: agg[k] for k in ("avg_sum_reward", "avg_max_reward", "pc_success",
-                                   "n_episodes", "eval_s", "eval_ep_s")}  # fmt: skip
+    overall = {
+        k: agg[k]
+        for k in (
+            "avg_sum_reward",
+            "avg_max_reward",
+            "pc_success",
+            "n_episodes",
+            "eval_s",
+            "eval_ep_s",
+        )
+    }
     per_episode = []
     for e in episodes:
         row = asdict(e)
@@ -216,9 +225,11 @@ def write_results(files: dict[Path, dict[str, Any]]) -> list[Path]:
         except OSError:
             free = ""
         why = os.strerror(exc.errno) if exc.errno else str(exc)
-        raise UserError(f"cannot write {where} ({why}{free}); nothing of this run's results "
-                        "was written: free some space or choose another --output_dir, then "
-                        "run it again") from None  # fmt: skip
+        raise UserError(
+            f"cannot write {where} ({why}{free}); nothing of this run's results "
+            "was written: free some space or choose another --output_dir, then "
+            "run it again"
+        ) from None
     return [path for _, path in staged]
 
 

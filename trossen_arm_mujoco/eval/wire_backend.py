@@ -114,11 +114,13 @@ class _Timing:
         def q(values: list[float], p: float) -> float | None:
             return round(float(np.quantile(values, p)) * 1e3, 3) if values else None
 
-        return {"obs_age_ms": {"median": q(self.obs_age, 0.5), "p95": q(self.obs_age, 0.95)},
-                "action_latency_ms": {"median": q(self.latency, 0.5),
-                                      "p95": q(self.latency, 0.95)},
-                "missed_periods": self.missed, "actions": len(self.latency),
-                "shortened_goals": self.shortened}  # fmt: skip
+        return {
+            "obs_age_ms": {"median": q(self.obs_age, 0.5), "p95": q(self.obs_age, 0.95)},
+            "action_latency_ms": {"median": q(self.latency, 0.5), "p95": q(self.latency, 0.95)},
+            "missed_periods": self.missed,
+            "actions": len(self.latency),
+            "shortened_goals": self.shortened,
+        }
 
 
 class WireEpisodeRunner:
@@ -148,8 +150,9 @@ class WireEpisodeRunner:
         self.kit_lines: list[str] = []
         try:
             if not link.connect:
-                self.kit = start_kit(link, self.env.task, self.env.cam_names,
-                                     self.stream_size, self.env.fps)  # fmt: skip
+                self.kit = start_kit(
+                    link, self.env.task, self.env.cam_names, self.stream_size, self.env.fps
+                )
             self.control = ControlClient(link.host, link.control_port)
             if self.env.cam_names:
                 self.cameras = CameraReader(link.host, link.camera_port)
@@ -169,9 +172,10 @@ class WireEpisodeRunner:
         self._measured = np.asarray(pos, dtype=np.float64)
         stamp = time.time()
         obs: dict[str, Any] = {
-            "agent_pos": self.env.to_layout(pos), "velocity": self.env.to_layout(vel),
+            "agent_pos": self.env.to_layout(pos),
+            "velocity": self.env.to_layout(vel),
             "environment_state": np.asarray(status["env_state"], dtype=np.float32),
-        }  # fmt: skip
+        }
         if self.cameras is None:
             return obs, stamp, None
         frames, pixels = self.cameras.frames(), {}
@@ -183,9 +187,11 @@ class WireEpisodeRunner:
                 why = f"camera stream stopped ({cam}: newest image {stamp - t:.1f} s old)"
                 return obs, stamp, why
             if img.shape[:2] != tuple(self.stream_size):
-                raise UserError(f"the stream's {cam} images are {img.shape[0]}x{img.shape[1]}, "
-                                f"the policy needs {self.stream_size[0]}x"
-                                f"{self.stream_size[1]}: serve --image_size")  # fmt: skip
+                raise UserError(
+                    f"the stream's {cam} images are {img.shape[0]}x{img.shape[1]}, "
+                    f"the policy needs {self.stream_size[0]}x"
+                    f"{self.stream_size[1]}: serve --image_size"
+                )
             pixels[cam] = (
                 img
                 if self.whole_frames
@@ -215,8 +221,10 @@ class WireEpisodeRunner:
         if self.cameras is not None and not self.cameras.wait_newer(
             self.env.cam_names, began, FIRST_IMAGE_S
         ):
-            raise UserError(f"no image of the new scene on the camera stream within "
-                            f"{FIRST_IMAGE_S:g} s (is serve --cameras running?)")  # fmt: skip
+            raise UserError(
+                f"no image of the new scene on the camera stream within "
+                f"{FIRST_IMAGE_S:g} s (is serve --cameras running?)"
+            )
         timing, rewards, failure, fault = _Timing([], []), [], None, None
         # the speeds asked, as the driver's trajectory makes them (nothing refused here: the
         # served kit is the controller)
@@ -280,14 +288,18 @@ class WireEpisodeRunner:
         except TimeoutError:
             if when != "reset":
                 raise
-            raise UserError(f"the policy {self.settings.policy} did not reset within "
-                            f"{timeout:g} s (episode {index})") from None  # fmt: skip
+            raise UserError(
+                f"the policy {self.settings.policy} did not reset within "
+                f"{timeout:g} s (episode {index})"
+            ) from None
         if ok:
             return value
         if isinstance(value, UserError):
             raise value
-        raise PolicyCallError(f"the policy {self.settings.policy} raised {type(value).__name__} "
-                              f"at episode {index} {when}: {value}") from value  # fmt: skip
+        raise PolicyCallError(
+            f"the policy {self.settings.policy} raised {type(value).__name__} "
+            f"at episode {index} {when}: {value}"
+        ) from value
 
     def _score(self, index, seed, end, rewards, timing, failure, fault=None) -> EpisodeScore:
         task = self.env.task
@@ -305,10 +317,16 @@ class WireEpisodeRunner:
             analysis["failure"] = failure
         best = float(end["max_reward"])
         return EpisodeScore(
-            episode_ix=index, seed=seed, sum_reward=float(sum(rewards)), max_reward=best,
-            success=success, steps=len(timing.latency), stages=stages_reached(task, best),
-            fault=fault, analysis=analysis,
-        )  # fmt: skip
+            episode_ix=index,
+            seed=seed,
+            sum_reward=float(sum(rewards)),
+            max_reward=best,
+            success=success,
+            steps=len(timing.latency),
+            stages=stages_reached(task, best),
+            fault=fault,
+            analysis=analysis,
+        )
 
     def close(self) -> None:
         """Close the policy, the driver connections, the camera reader and the control
@@ -364,8 +382,14 @@ def evaluate_wire(
     finally:
         runner.close()
     run = settings.run_block()
-    run.update(num_workers=1, engine="local", backend="wire", kit=asdict(link),
-               action_timeout=action_timeout, speed_fraction=speed_fraction)  # fmt: skip
+    run.update(
+        num_workers=1,
+        engine="local",
+        backend="wire",
+        kit=asdict(link),
+        action_timeout=action_timeout,
+        speed_fraction=speed_fraction,
+    )
     info = eval_info(settings.task, scores, time.perf_counter() - start, (), run)
     per = [s.analysis["timing"] for s in scores]
     info["timing"] = {
@@ -376,12 +400,13 @@ def evaluate_wire(
         "action_latency_ms_median_of_episodes": _median(
             [p["action_latency_ms"]["median"] for p in per]
         ),
-        "failures": {s.episode_ix: s.analysis.get("failure") for s in scores
-                     if s.analysis.get("failure")},
+        "failures": {
+            s.episode_ix: s.analysis.get("failure") for s in scores if s.analysis.get("failure")
+        },
         # the kit's own report when it was started here: camera rate and frame age, its
         # real-time factor
         "kit": [line for line in runner.kit_lines if line.startswith(("cameras:", "stopped"))],
-    }  # fmt: skip
+    }
     return info
 
 

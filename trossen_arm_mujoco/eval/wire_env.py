@@ -22,8 +22,9 @@ __all__ = ["WireEnv", "start_fields"]
 def start_fields(scenes) -> dict:
     """The served kit's ``start`` fields that show the scene ``scenes`` (a ``KitPolicyEnv``
     just reset) drew: its object poses and, when randomizing, its randomization record."""
-    fields: dict = {"object_poses": {k: np.asarray(v).tolist()
-                                     for k, v in scenes.object_poses().items()}}  # fmt: skip
+    fields: dict = {
+        "object_poses": {k: np.asarray(v).tolist() for k, v in scenes.object_poses().items()}
+    }
     if scenes.randomization is not None:
         fields["randomization"] = scenes.randomization
     return fields
@@ -70,8 +71,10 @@ class WireEnv:
         """An action in the env's layout -> 14 driver values, clipped to the joint limits."""
         a = np.array(action, dtype=np.float64).reshape(-1)
         if a.shape != (self.layout.size,) or not np.isfinite(a).all():
-            raise UserError(f"the policy's action must be {self.layout.size} finite values "
-                            f"(layout {self.layout_name}), got {np.shape(action)}")  # fmt: skip
+            raise UserError(
+                f"the policy's action must be {self.layout.size} finite values "
+                f"(layout {self.layout_name}), got {np.shape(action)}"
+            )
         np.clip(a, self.action_low, self.action_high, out=a)
         return a if self.layout is KIT14_LAYOUT else KIT14_LAYOUT.from_vendor(a)
 

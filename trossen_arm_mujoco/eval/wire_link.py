@@ -65,13 +65,18 @@ class KitLink:
     def checked(self) -> KitLink:
         """This link, after checking every address is loopback, the arms' addresses differ
         and the ports are in 1-65535 (UserError naming the flag otherwise)."""
-        for flag, ip in (("--left_ip", self.left_ip), ("--right_ip", self.right_ip),
-                         ("--kit_host", self.host)):  # fmt: skip
+        for flag, ip in (
+            ("--left_ip", self.left_ip),
+            ("--right_ip", self.right_ip),
+            ("--kit_host", self.host),
+        ):
             check_loopback(ip, flag)
         if self.left_ip == self.right_ip:
             raise UserError("--left_ip and --right_ip must differ")
-        for flag, port in (("--camera_port", self.camera_port),
-                           ("--control_port", self.control_port)):  # fmt: skip
+        for flag, port in (
+            ("--camera_port", self.camera_port),
+            ("--control_port", self.control_port),
+        ):
             if not 1 <= port <= 65535:
                 raise UserError(f"{flag} must be in 1..65535, got {port}")
         return self
@@ -84,16 +89,42 @@ def start_kit(
     returns once it serves. A child that exits first is a ``UserError`` with its last line.
     The child ends with this process (see the module doc); on Linux with the thread that
     called this one, so call it from the thread that will :func:`stop_kit` it."""
-    cmd = [sys.executable, "-m", "trossen_arm_mujoco.scripts.serve", "--task_name", task,
-           "--left_ip", link.left_ip, "--right_ip", link.right_ip,
-           "--control_port", str(link.control_port), "--control_host", link.host]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "trossen_arm_mujoco.scripts.serve",
+        "--task_name",
+        task,
+        "--left_ip",
+        link.left_ip,
+        "--right_ip",
+        link.right_ip,
+        "--control_port",
+        str(link.control_port),
+        "--control_host",
+        link.host,
+    ]
     if cams:
-        cmd += ["--cameras", ",".join(cams), "--image_size", f"{size[0]}x{size[1]}",
-                "--camera_fps", f"{fps:g}", "--camera_port", str(link.camera_port),
-                "--camera_host", link.host]  # fmt: skip
+        cmd += [
+            "--cameras",
+            ",".join(cams),
+            "--image_size",
+            f"{size[0]}x{size[1]}",
+            "--camera_fps",
+            f"{fps:g}",
+            "--camera_port",
+            str(link.camera_port),
+            "--camera_host",
+            link.host,
+        ]
     cmd += ["--parent_pid", str(os.getpid())]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_child_setup(os.getpid()))  # fmt: skip
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_child_setup(os.getpid()),
+    )
     lines: list[str] = []
     errors: list[str] = []
     for stream, into in ((proc.stdout, lines), (proc.stderr, errors)):  # drained: never full
@@ -165,8 +196,10 @@ class ControlClient:
         try:
             self.sock = socket.create_connection((host, port), timeout=timeout)
         except OSError as exc:
-            raise UserError(f"no episode control channel on {host}:{port} ({exc}); start the "
-                            "kit with serve --control_port PORT") from None  # fmt: skip
+            raise UserError(
+                f"no episode control channel on {host}:{port} ({exc}); start the "
+                "kit with serve --control_port PORT"
+            ) from None
         self.file = self.sock.makefile("rwb")
 
     def request(self, cmd: str, **fields: Any) -> dict[str, Any]:
@@ -201,8 +234,9 @@ class CameraReader:
         try:
             import zmq
         except ImportError:
-            raise UserError("--backend wire with cameras needs pyzmq: pip install "
-                            "'trossen-arm-mujoco[cameras]'") from None  # fmt: skip
+            raise UserError(
+                "--backend wire with cameras needs pyzmq: pip install 'trossen-arm-mujoco[cameras]'"
+            ) from None
         self._zmq = zmq
         self._ctx = zmq.Context()
         self._sock = self._ctx.socket(zmq.SUB)
@@ -300,8 +334,9 @@ class ArmPair:
                 driver.set_all_modes(self._ta.Mode.position)
         except Exception as exc:
             self.close()
-            raise UserError(f"cannot drive the served kit's arms ({' '.join(str(exc).split())})"
-                            ) from None  # fmt: skip
+            raise UserError(
+                f"cannot drive the served kit's arms ({' '.join(str(exc).split())})"
+            ) from None
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """Positions and velocities, 14 values each. An arm's error names its side

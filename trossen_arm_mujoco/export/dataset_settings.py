@@ -90,8 +90,10 @@ class DatasetSettings:
                 state_extras=tuple(str(e) for e in data.get("state_extras") or ()),
             )
         except (KeyError, TypeError, ValueError, IndexError, OverflowError, UserError) as exc:
-            raise UserError(f"{where}: unreadable dataset settings ({exc}); export the "
-                            "dataset again with trossen-mujoco export") from None  # fmt: skip
+            raise UserError(
+                f"{where}: unreadable dataset settings ({exc}); export the "
+                "dataset again with trossen-mujoco export"
+            ) from None
         if settings.fps <= 0:
             raise UserError(f"{where}: dataset settings with fps {settings.fps}")
         return settings

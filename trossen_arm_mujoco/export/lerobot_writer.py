@@ -97,11 +97,18 @@ def write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress: 
     data = DataFiles(root, schema)
     videos = {
         cam: CameraVideo(
-            root, fmt.video_key(cam), fmt.VIDEO_PATH, video, plan.fps, h, w,
-            fmt.VIDEO_FILES_SIZE_MB, fmt.CHUNKS_SIZE,
+            root,
+            fmt.video_key(cam),
+            fmt.VIDEO_PATH,
+            video,
+            plan.fps,
+            h,
+            w,
+            fmt.VIDEO_FILES_SIZE_MB,
+            fmt.CHUNKS_SIZE,
         )
         for cam, (h, w, _) in plan.image_shapes.items()
-    }  # fmt: skip
+    }
     rows: list[dict[str, Any]] = []
     stats: dict[str, list[st.Stats]] = {key: [] for key in features}
     total = 0

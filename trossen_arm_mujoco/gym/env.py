@@ -69,8 +69,20 @@ from trossen_arm_mujoco.tasks.task import Task
 __all__ = ["ENV_OPTIONS", "RENDER_MODES", "TrossenMujocoEnv", "has_display"]
 
 RENDER_MODES = ("rgb_array", "human")
-ENV_OPTIONS = ("task", "obs_type", "action_mode", "render_mode", "stepping", "width",
-               "height", "cameras", "randomize", "shadows", "antialias", "visual")  # fmt: skip
+ENV_OPTIONS = (
+    "task",
+    "obs_type",
+    "action_mode",
+    "render_mode",
+    "stepping",
+    "width",
+    "height",
+    "cameras",
+    "randomize",
+    "shadows",
+    "antialias",
+    "visual",
+)
 
 
 #: Image sizes (pixels); the model's offscreen buffer bounds them further when rendering.
@@ -131,8 +143,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         defaults = entry.load_config()  # the YAML file, checked
         for key in config:
             if key not in defaults:
-                raise unknown_name_error("env option or config key", key,
-                                         [*ENV_OPTIONS, *defaults])  # fmt: skip
+                raise unknown_name_error("env option or config key", key, [*ENV_OPTIONS, *defaults])
         _check_choice("observation type", obs_type, OBS_TYPES)
         _check_choice("action mode", action_mode, ACTION_MODES)
         _check_choice("stepping mode", stepping, STEPPING_MODES)

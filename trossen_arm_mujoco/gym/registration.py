@@ -33,8 +33,11 @@ def _env_ids() -> dict[str, tuple[str, str, dict[str, Any]]]:
     from trossen_arm_mujoco.tasks import registry
     from trossen_arm_mujoco.tasks.task_entry import GYM_KINDS
 
-    return {env_id: (GYM_KINDS[kind], entry.name, {})
-            for entry in registry.ENTRIES for env_id, kind in entry.gym_ids.items()}  # fmt: skip
+    return {
+        env_id: (GYM_KINDS[kind], entry.name, {})
+        for entry in registry.ENTRIES
+        for env_id, kind in entry.gym_ids.items()
+    }
 
 
 #: env id -> (entry point, task name, extra kwargs), from the tasks' declarations.

@@ -79,8 +79,9 @@ class KitController:
         # controller_target as bounds, computed once (tick runs every physics step)
         n = len(lims)
         self._low = np.array([lim.position_min for lim in lims] * 2)
-        self._high = np.array([controller_target(lim.position_max, j % n, lim)
-                               for j, lim in enumerate(lims * 2)])  # fmt: skip
+        self._high = np.array(
+            [controller_target(lim.position_max, j % n, lim) for j, lim in enumerate(lims * 2)]
+        )
         self._modes = [POSITION] * len(lims)
         self._trajectory = GoalTrajectory.hold(np.zeros(2 * len(lims)))
         self._t = 0.0
@@ -116,8 +117,7 @@ class KitController:
         fault = self._check(pos, vel) if self.checks else None
         if fault is not None and self.fault is None:
             self.fault, self.fault_tick = fault, self._ticks
-        target = np.clip(np.nan_to_num(pos, nan=0.0, posinf=0.0, neginf=0.0), self._low,
-                         self._high)  # fmt: skip
+        target = np.clip(np.nan_to_num(pos, nan=0.0, posinf=0.0, neginf=0.0), self._low, self._high)
         return target, fault
 
     def peak_fractions(self) -> dict[str, float]:

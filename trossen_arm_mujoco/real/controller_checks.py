@@ -212,16 +212,33 @@ class InputChecker:
 
 #: The reasons :class:`InputChecker` writes, as they reach a client in the controller's log.
 _REASONS = (
-    (re.compile(r"(joint_\d|gripper): (?:feedforward velocity|velocity command) ([-\d.e+]+) \S+ "
-                r"exceeds the velocity limit ([-\d.e+]+)"), "speed"),
-    (re.compile(r"(joint_\d|gripper): position command ([-\d.e+]+) \S+ is outside the joint "
-                r"limits \[([-\d.e+]+), ([-\d.e+]+)\]"), "position"),
+    (
+        re.compile(
+            r"(joint_\d|gripper): (?:feedforward velocity|velocity command) ([-\d.e+]+) \S+ "
+            r"exceeds the velocity limit ([-\d.e+]+)"
+        ),
+        "speed",
+    ),
+    (
+        re.compile(
+            r"(joint_\d|gripper): position command ([-\d.e+]+) \S+ is outside the joint "
+            r"limits \[([-\d.e+]+), ([-\d.e+]+)\]"
+        ),
+        "position",
+    ),
     (re.compile(r"(joint_\d|gripper): robot input with a non-finite value"), "non-finite"),
-    (re.compile(r"(joint_\d|gripper): effort command ([-\d.e+]+) \S+ exceeds the limit "
-                r"([-\d.e+]+)"), "effort"),
-    (re.compile(r"(joint_\d|gripper): the target runs ([-\d.e+]+) \S+ ahead of the setpoint"),
-     "lag"),
-)  # fmt: skip
+    (
+        re.compile(
+            r"(joint_\d|gripper): effort command ([-\d.e+]+) \S+ exceeds the limit "
+            r"([-\d.e+]+)"
+        ),
+        "effort",
+    ),
+    (
+        re.compile(r"(joint_\d|gripper): the target runs ([-\d.e+]+) \S+ ahead of the setpoint"),
+        "lag",
+    ),
+)
 
 
 def fault_from_message(message: str, side: str = "") -> dict[str, Any]:
@@ -230,8 +247,13 @@ def fault_from_message(message: str, side: str = "") -> dict[str, Any]:
     wrote); ``joint`` is ``<side>_<joint>`` when ``side`` is given. A message of another
     kind gives ``kind`` ``"other"`` and the message as its reason."""
     text = " ".join("".join(c for c in str(message) if c.isprintable() or c.isspace()).split())
-    out: dict[str, Any] = {"reason": text, "joint": "", "kind": "other", "asked": None,
-                           "limit": None}  # fmt: skip
+    out: dict[str, Any] = {
+        "reason": text,
+        "joint": "",
+        "kind": "other",
+        "asked": None,
+        "limit": None,
+    }
     for pattern, kind in _REASONS:
         m = pattern.search(text)
         if not m:

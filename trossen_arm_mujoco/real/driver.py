@@ -79,9 +79,14 @@ SLEEP_POSE: tuple[float, ...] = (0.0,) * NUM_ARM_VALUES
 #: recover` may clear the state so that the arm can be taken home. Names of
 #: ``trossen_arm.ErrorState`` members.
 COMMAND_ERRORS: frozenset[str] = frozenset(
-    {"joint_limit_exceeded", "robot_input_infinite", "robot_input_mode_mismatch",
-     "invalid_mode", "invalid_robot_command"}
-)  # fmt: skip
+    {
+        "joint_limit_exceeded",
+        "robot_input_infinite",
+        "robot_input_mode_mismatch",
+        "invalid_mode",
+        "invalid_robot_command",
+    }
+)
 
 #: Robot model and end-effector preset names understood by :meth:`ArmDriver.configure`.
 DEFAULT_MODEL: str = "wxai_v0"

@@ -236,8 +236,14 @@ def _move_to_start(
     current = [read_positions(s, drivers[s]) for s in ARMS]
     goal_time = max(safe_move_time(c, g, minimum, limits) for c, g in zip(current, goals))
     for side, goal in zip(ARMS, goals, strict=True):
-        call(side, "set_all_positions (start)", drivers[side].set_all_positions, goal,
-             goal_time, False)  # fmt: skip
+        call(
+            side,
+            "set_all_positions (start)",
+            drivers[side].set_all_positions,
+            goal,
+            goal_time,
+            False,
+        )
     return goal_time
 
 
@@ -267,9 +273,13 @@ def _stream(
     wait(clock, config.settle_time, flag)
     period, goal_time = 1.0 / config.fps, config.goal_time
     bar = tqdm(
-        total=len(commands), desc="replay", unit="step", file=sys.stderr,
-        disable=not config.progress, leave=False,
-    )  # fmt: skip
+        total=len(commands),
+        desc="replay",
+        unit="step",
+        file=sys.stderr,
+        disable=not config.progress,
+        leave=False,
+    )
     with bar:
         t0 = clock.now()
         for k, cmd in enumerate(commands):
@@ -304,8 +314,11 @@ def _recover(
         try:
             done = call(side, "recover", recover)
         except (DriverError, KeyboardInterrupt) as exc:
-            errors.append(one_line(exc) if isinstance(exc, DriverError) else f"{side} arm: "
-                          f"recover failed: {one_line(exc)}")  # fmt: skip
+            errors.append(
+                one_line(exc)
+                if isinstance(exc, DriverError)
+                else f"{side} arm: recover failed: {one_line(exc)}"
+            )
             continue
         if done:
             line = f"{side} arm: {done}"
@@ -358,9 +371,14 @@ def replay(
                 )
             recover_errors = _recover(drivers, states, result)
             result.final_positions, shutdown_errors = shutdown(
-                drivers, states, clock, config.home_time, config.sleep_time,
-                config.settle_time, limits,
-            )  # fmt: skip
+                drivers,
+                states,
+                clock,
+                config.home_time,
+                config.sleep_time,
+                config.settle_time,
+                limits,
+            )
             shutdown_errors = recover_errors + shutdown_errors
     result.configured, result.shutdown_errors = list(states.configured), shutdown_errors
     result.late_signals = list(flag.late)

@@ -176,8 +176,9 @@ def shutdown(
                 ok, start = _attempt(errors, side, "get_all_positions", read_positions, side, drv)
                 goal_time = move_time(start if ok else None, goal, minimum, limits)
                 what = f"set_all_positions ({name})"
-                sent, _ = _attempt(errors, side, what, drv.set_all_positions, goal.copy(),
-                                   goal_time, False)  # fmt: skip
+                sent, _ = _attempt(
+                    errors, side, what, drv.set_all_positions, goal.copy(), goal_time, False
+                )
                 if sent:
                     goal_times.append(goal_time)
                 elif name == "home":

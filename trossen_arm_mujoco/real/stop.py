@@ -30,9 +30,10 @@ __all__ = ["STOP_SIGNALS", "WAIT_SLICE", "Interrupted", "StopFlag", "stop_on_sig
 
 #: Signals that stop a replay cleanly (where the platform has them).
 STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
-    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")
+    getattr(signal, name)
+    for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")
     if hasattr(signal, name)
-)  # fmt: skip
+)
 
 #: Longest single wait (s) between two checks of the stop flag.
 WAIT_SLICE: float = 0.05

@@ -213,8 +213,16 @@ def _forgets_vector(name: str):
     return wrapper
 
 
-for _name in ("__setitem__", "__delitem__", "__ior__", "update", "pop", "popitem",
-              "setdefault", "clear"):  # fmt: skip
+for _name in (
+    "__setitem__",
+    "__delitem__",
+    "__ior__",
+    "update",
+    "pop",
+    "popitem",
+    "setdefault",
+    "clear",
+):
     setattr(JointTargets, _name, _forgets_vector(_name))
 
 

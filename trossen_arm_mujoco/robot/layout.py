@@ -311,6 +311,20 @@ EE_LAYOUT = EELayout()
 
 #: Arm pose at episode start, 16 values in the ``vendor16`` layout.
 START_ARM_POSE: list[float] = [
-    0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
-    0.0, np.pi / 12, np.pi / 12, 0.0, 0.0, 0.0, GRIPPER_OPEN, GRIPPER_OPEN,
-]  # fmt: skip
+    0.0,
+    np.pi / 12,
+    np.pi / 12,
+    0.0,
+    0.0,
+    0.0,
+    GRIPPER_OPEN,
+    GRIPPER_OPEN,
+    0.0,
+    np.pi / 12,
+    np.pi / 12,
+    0.0,
+    0.0,
+    0.0,
+    GRIPPER_OPEN,
+    GRIPPER_OPEN,
+]

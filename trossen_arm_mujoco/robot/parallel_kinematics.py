@@ -78,9 +78,13 @@ class ParallelKinematics:
             try:
                 cols = columns if name == move_group_id else None
                 self._chains[name] = KinematicChain(
-                    kinematics.model, group.leaf_frame_type, group.leaf_frame_id,
-                    _robot_body(group), cols, len(self._posadr),
-                )  # fmt: skip
+                    kinematics.model,
+                    group.leaf_frame_type,
+                    group.leaf_frame_id,
+                    _robot_body(group),
+                    cols,
+                    len(self._posadr),
+                )
             except UserError as exc:
                 if name == move_group_id:
                     raise UserError(f"parallel kinematics of '{name}': {exc}") from None

@@ -193,17 +193,27 @@ def add_randomize(p: _Parser, where: str) -> None:
     (``randomization_of`` reads them); ``where``: where each episode's record goes."""
     from trossen_arm_mujoco.tasks.randomization_levels import LEVELS
 
-    p.add_argument("--randomize", nargs="?", const="train", default=None, choices=LEVELS,
-                   metavar="LEVEL",
-                   help="randomize each episode's scene from the episode's seed: 'train' (the "
-                   "flag alone: the task's randomization section: lights, table, colours, "
-                   "friction, masses, damping, camera poses, the arms' start), 'hard' (every "
-                   "range widened past training's) or 'nominal' (none, the default); the "
-                   f"record goes to {where}")  # fmt: skip
-    p.add_argument("--randomization", default=None, metavar="FILE",
-                   help="YAML file of randomization kinds and ranges (its 'randomization' "
-                   "section, or kinds at the top level) replacing the task's, kind by kind; "
-                   "implies --randomize")  # fmt: skip
+    p.add_argument(
+        "--randomize",
+        nargs="?",
+        const="train",
+        default=None,
+        choices=LEVELS,
+        metavar="LEVEL",
+        help="randomize each episode's scene from the episode's seed: 'train' (the "
+        "flag alone: the task's randomization section: lights, table, colours, "
+        "friction, masses, damping, camera poses, the arms' start), 'hard' (every "
+        "range widened past training's) or 'nominal' (none, the default); the "
+        f"record goes to {where}",
+    )
+    p.add_argument(
+        "--randomization",
+        default=None,
+        metavar="FILE",
+        help="YAML file of randomization kinds and ranges (its 'randomization' "
+        "section, or kinds at the top level) replacing the task's, kind by kind; "
+        "implies --randomize",
+    )
 
 
 def randomization_of(args: argparse.Namespace, task: str) -> tuple[bool, dict[str, Any] | None]:

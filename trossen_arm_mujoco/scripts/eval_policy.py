@@ -83,61 +83,113 @@ def build_parser() -> argparse.ArgumentParser:
         description="Score a policy (LeRobot checkpoint, scripted, module:function) over "
         "evaluation seeds in the sim; writes eval_info.json and rollout videos.",
     )
-    p.add_argument("--policy", required=True,
-                   help="'scripted', module:function, or a LeRobot checkpoint folder "
-                   "(.../checkpoints/last/pretrained_model)")  # fmt: skip
-    p.add_argument("--task_name", default=None,
-                   help="registered kit task (default: the checkpoint's dataset's, else "
-                   f"{DEFAULT_TASK})")  # fmt: skip
+    p.add_argument(
+        "--policy",
+        required=True,
+        help="'scripted', module:function, or a LeRobot checkpoint folder "
+        "(.../checkpoints/last/pretrained_model)",
+    )
+    p.add_argument(
+        "--task_name",
+        default=None,
+        help=f"registered kit task (default: the checkpoint's dataset's, else {DEFAULT_TASK})",
+    )
     add_num_episodes(p, "episodes", 10)
-    p.add_argument("--num_workers", type=int, default=1,
-                   help="worker processes (default 1; at most the CPU count)")  # fmt: skip
+    p.add_argument(
+        "--num_workers",
+        type=int,
+        default=1,
+        help="worker processes (default 1; at most the CPU count)",
+    )
     add_seed(p, "base seed: episode i is env.reset(seed=seed + i)")
     add_cameras(p, "observed cameras", "the checkpoint's, else none")
-    add_image_size(p, "observed image size", default=None,
-                   default_text="the checkpoint's, else 480x640")  # fmt: skip
+    add_image_size(
+        p, "observed image size", default=None, default_text="the checkpoint's, else 480x640"
+    )
     add_crop(p)
     add_fps(p, "policy rate; 30 for data exported with --fps 30", "the task's, 50")
-    p.add_argument("--episode_length", type=int, default=None,
-                   help="steps per episode (default: the task's recording length, 12 s for "
-                   "the transfer)")  # fmt: skip
-    p.add_argument("--layout", default=None, choices=sorted(LAYOUTS),
-                   help="joint layout of observations and actions (default: the checkpoint's, "
-                   "else kit14)")  # fmt: skip
-    p.add_argument("--output_dir", default="eval_out",
-                   help="where eval_info.json and videos/ go (default eval_out)")  # fmt: skip
+    p.add_argument(
+        "--episode_length",
+        type=int,
+        default=None,
+        help="steps per episode (default: the task's recording length, 12 s for the transfer)",
+    )
+    p.add_argument(
+        "--layout",
+        default=None,
+        choices=sorted(LAYOUTS),
+        help="joint layout of observations and actions (default: the checkpoint's, else kit14)",
+    )
+    p.add_argument(
+        "--output_dir",
+        default="eval_out",
+        help="where eval_info.json and videos/ go (default eval_out)",
+    )
     p.add_argument("--videos", type=int, default=0, help="mp4 of the first K rollouts")
     add_engine(p, "where episodes run: local worker processes, or Ray")
     p.add_argument("--device", default="cpu", help="torch device of a checkpoint (default cpu)")
-    p.add_argument("--backend", default="sim", choices=("sim", "wire"),
-                   help="sim: in-process (default); wire: through the served kit in wall-clock "
-                   "time (trossen_arm driver + ZMQ cameras; docs/rehearsal.md)")  # fmt: skip
-    p.add_argument("--connect", action="store_true",
-                   help="with --backend wire: use a serve already running (with --cameras and "
-                   "--control_port) instead of starting one")  # fmt: skip
-    p.add_argument("--left_ip", default="127.0.0.2",
-                   help="with --backend wire: left arm address (default 127.0.0.2)")  # fmt: skip
-    p.add_argument("--right_ip", default="127.0.0.3",
-                   help="with --backend wire: right arm address (default 127.0.0.3)")  # fmt: skip
-    p.add_argument("--camera_port", type=int, default=5555,
-                   help="with --backend wire: camera stream port (default 5555)")  # fmt: skip
-    p.add_argument("--control_port", type=int, default=5556,
-                   help="with --backend wire: episode control port (default 5556)")  # fmt: skip
-    p.add_argument("--action_timeout", type=float, default=2.0,
-                   help="with --backend wire: seconds without an action before the episode "
-                   "fails (default 2)")  # fmt: skip
-    p.add_argument("--speed_limit_fraction", type=float, default=None, metavar="F",
-                   help="with --backend wire: shorten each goal so that no joint is asked for "
-                   "more than F (0-1] of the real speed limits (default: send the policy's "
-                   "actions as they are; a jump faults the arm, as on the real kit)")  # fmt: skip
-    p.add_argument("--controller_checks", default="on", choices=("on", "off", "both"),
-                   help="on (default): every action goes to the arms as the real kit takes "
-                   "it (the driver's trajectory toward the goal over 3/fps s) and the arm "
-                   "controller's checks (joint range, speed limit, finite) apply: a fault ends "
-                   "the episode as failed, counted by joint and reason; off: the same motion, "
-                   "nothing refused (the unconstrained score); both: on, then off, the two "
-                   "scores side by side (twice the time). --backend wire: always on, the "
-                   "served kit is the controller")  # fmt: skip
+    p.add_argument(
+        "--backend",
+        default="sim",
+        choices=("sim", "wire"),
+        help="sim: in-process (default); wire: through the served kit in wall-clock "
+        "time (trossen_arm driver + ZMQ cameras; docs/rehearsal.md)",
+    )
+    p.add_argument(
+        "--connect",
+        action="store_true",
+        help="with --backend wire: use a serve already running (with --cameras and "
+        "--control_port) instead of starting one",
+    )
+    p.add_argument(
+        "--left_ip",
+        default="127.0.0.2",
+        help="with --backend wire: left arm address (default 127.0.0.2)",
+    )
+    p.add_argument(
+        "--right_ip",
+        default="127.0.0.3",
+        help="with --backend wire: right arm address (default 127.0.0.3)",
+    )
+    p.add_argument(
+        "--camera_port",
+        type=int,
+        default=5555,
+        help="with --backend wire: camera stream port (default 5555)",
+    )
+    p.add_argument(
+        "--control_port",
+        type=int,
+        default=5556,
+        help="with --backend wire: episode control port (default 5556)",
+    )
+    p.add_argument(
+        "--action_timeout",
+        type=float,
+        default=2.0,
+        help="with --backend wire: seconds without an action before the episode fails (default 2)",
+    )
+    p.add_argument(
+        "--speed_limit_fraction",
+        type=float,
+        default=None,
+        metavar="F",
+        help="with --backend wire: shorten each goal so that no joint is asked for "
+        "more than F (0-1] of the real speed limits (default: send the policy's "
+        "actions as they are; a jump faults the arm, as on the real kit)",
+    )
+    p.add_argument(
+        "--controller_checks",
+        default="on",
+        choices=("on", "off", "both"),
+        help="on (default): every action goes to the arms as the real kit takes "
+        "it (the driver's trajectory toward the goal over 3/fps s) and the arm "
+        "controller's checks (joint range, speed limit, finite) apply: a fault ends "
+        "the episode as failed, counted by joint and reason; off: the same motion, "
+        "nothing refused (the unconstrained score); both: on, then off, the two "
+        "scores side by side (twice the time). --backend wire: always on, the "
+        "served kit is the controller",
+    )
     add_randomize(p, "rollouts.json")
     add_overwrite(p, "replace an eval_info.json already in --output_dir")
     return p
@@ -186,19 +238,21 @@ def _settings(args: argparse.Namespace):
         inferred["settings_source"] = source if carried is not None else None
     task = flags["task"] or DEFAULT_TASK
     cameras = CameraSettings(  # a flag, else the checkpoint's (settings, then config.json)
-        names=flags["cam_names"] if flags["cam_names"] is not None else (
-            inferred.get("cam_names", ())),
+        names=flags["cam_names"]
+        if flags["cam_names"] is not None
+        else (inferred.get("cam_names", ())),
         size=flags["image_size"] or inferred.get("image_size", DEFAULT_SIZE),
         crops=flags["crops"] or (),
-    )  # fmt: skip
+    )
     if args.videos and not _has_av():
         raise UserError("--videos needs PyAV: pip install 'trossen-arm-mujoco[video]'")
     out = Path(args.output_dir).expanduser()
     if out.exists() and not out.is_dir():
         raise UserError(f"--output_dir {out} is a file; give a folder")
     if (out / "eval_info.json").exists() and not args.overwrite:
-        raise UserError(f"{out / 'eval_info.json'} exists; choose another --output_dir or pass "
-                        "--overwrite")  # fmt: skip
+        raise UserError(
+            f"{out / 'eval_info.json'} exists; choose another --output_dir or pass --overwrite"
+        )
     check_writable_dir(out, "--output_dir")  # before any episode, not after the last one
     randomize, randomization = randomization_of(args, task)
     randomize, randomization = randomization_of(args, task)
@@ -221,7 +275,7 @@ def _settings(args: argparse.Namespace):
             "settings_source": inferred.get("settings_source"),
             "sim_only": inferred.get("sim_only", False),
             "pose_camera": inferred.get("pose_camera"),
-        },  # fmt: skip
+        },
     )
     return settings, workers
 
@@ -259,8 +313,15 @@ def _kit_link(args: argparse.Namespace, workers: int):
 
     if args.backend != "wire":
         defaults = build_parser().parse_args(["--policy", "x"])
-        for flag in ("connect", "left_ip", "right_ip", "camera_port", "control_port",
-                     "action_timeout", "speed_limit_fraction"):  # fmt: skip
+        for flag in (
+            "connect",
+            "left_ip",
+            "right_ip",
+            "camera_port",
+            "control_port",
+            "action_timeout",
+            "speed_limit_fraction",
+        ):
             if getattr(args, flag) != getattr(defaults, flag):
                 raise UserError(f"--{flag} needs --backend wire")
         return None
@@ -270,16 +331,25 @@ def _kit_link(args: argparse.Namespace, workers: int):
             "through the wire the served kit is the controller and always checks"
         )
     if workers > 1 or args.engine != "local" or args.videos:
-        raise UserError("--backend wire runs one episode at a time on one kit: leave out "
-                        "--num_workers, --engine and --videos")  # fmt: skip
+        raise UserError(
+            "--backend wire runs one episode at a time on one kit: leave out "
+            "--num_workers, --engine and --videos"
+        )
     if not 0.05 <= args.action_timeout <= 600:
         raise UserError(f"--action_timeout must be in [0.05, 600] s, got {args.action_timeout}")
     f = args.speed_limit_fraction
     if f is not None and not 0.0 < f <= 1.0:
-        raise UserError(f"--speed_limit_fraction must be in (0, 1], got {f} (0.9: 90 % of the "
-                        "real arm's limits)")  # fmt: skip
-    link = KitLink(args.left_ip, args.right_ip, camera_port=args.camera_port,
-                   control_port=args.control_port, connect=args.connect)  # fmt: skip
+        raise UserError(
+            f"--speed_limit_fraction must be in (0, 1], got {f} (0.9: 90 % of the "
+            "real arm's limits)"
+        )
+    link = KitLink(
+        args.left_ip,
+        args.right_ip,
+        camera_port=args.camera_port,
+        control_port=args.control_port,
+        connect=args.connect,
+    )
     return link.checked()
 
 
@@ -361,10 +431,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         info["unconstrained"] = _unconstrained(settings, workers, args.engine)
     info["deployment"] = deployment(settings, args.backend)
     report = rollouts_report(settings.task, scores, env.fps)
-    path, rollouts = write_results({  # both or neither (a full disk: one line, nothing)
-        Path(settings.output_dir) / "eval_info.json": info,
-        Path(settings.output_dir) / ROLLOUTS_FILE: report,
-    })  # fmt: skip
+    path, rollouts = write_results(
+        {  # both or neither (a full disk: one line, nothing)
+            Path(settings.output_dir) / "eval_info.json": info,
+            Path(settings.output_dir) / ROLLOUTS_FILE: report,
+        }
+    )
     agg = info["aggregated"]
     lo, hi = agg["pc_success_ci95"]
     stages = ", ".join(f"{k} {v:.0f}%" for k, v in agg["stages"].items())
@@ -379,10 +451,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if "unconstrained" in info:
         free = info["unconstrained"]["aggregated"]
         flo, fhi = free["pc_success_ci95"]
-        print(f"without the controller's checks: {free['pc_success']:.1f}% (95% CI "
-              f"{flo:.1f}-{fhi:.1f}) on the same seeds")  # fmt: skip
-    print(f"wrote {path}" + (f" and {len(info['video_paths'])} video(s)" if info["video_paths"]
-                             else ""))  # fmt: skip
+        print(
+            f"without the controller's checks: {free['pc_success']:.1f}% (95% CI "
+            f"{flo:.1f}-{fhi:.1f}) on the same seeds"
+        )
+    print(
+        f"wrote {path}"
+        + (f" and {len(info['video_paths'])} video(s)" if info["video_paths"] else "")
+    )
     print(f"{failure_line(report)}; wrote {rollouts}")
     return 0
 
@@ -429,8 +505,11 @@ def deployment(settings, backend: str) -> dict:
         sim_only, why = False, "the checkpoint observes only what the real kit gives"
     if sim_only and backend == "wire":
         why += "; so this run through the wire is not a deployment rehearsal"
-    return {"sim_only": sim_only, "why": why,
-            "settings_source": settings.extra.get("settings_source")}  # fmt: skip
+    return {
+        "sim_only": sim_only,
+        "why": why,
+        "settings_source": settings.extra.get("settings_source"),
+    }
 
 
 def _unconstrained(settings, workers: int, engine: str) -> dict:
@@ -441,8 +520,9 @@ def _unconstrained(settings, workers: int, engine: str) -> dict:
     from trossen_arm_mujoco.eval.runner import evaluate
 
     free_settings = dataclasses.replace(settings, controller_checks=False, videos=0)
-    bar = tqdm(total=settings.num_episodes, desc="eval, checks off", unit="episode",
-               file=sys.stderr)  # fmt: skip
+    bar = tqdm(
+        total=settings.num_episodes, desc="eval, checks off", unit="episode", file=sys.stderr
+    )
     try:
         free = evaluate(free_settings, workers, engine, on_episode=lambda _: bar.update(1))
     finally:

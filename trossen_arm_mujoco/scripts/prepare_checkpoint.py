@@ -34,13 +34,21 @@ def build_parser() -> argparse.ArgumentParser:
         description="Add to LeRobot checkpoints the steps any runner needs: images cut and "
         "scaled as trained, the pose encoder, the arm controller's limits.",
     )
-    p.add_argument("checkpoints", nargs="+", metavar="CHECKPOINT",
-                   help="checkpoint folder (.../checkpoints/last/pretrained_model)")  # fmt: skip
-    p.add_argument("--encoder", default=None,
-                   help="pose encoder to put in (default: the training dataset's "
-                   "meta/pose_encoder.safetensors, if it has one)")  # fmt: skip
-    p.add_argument("--camera", default=None,
-                   help="camera the pose encoder reads (default: the checkpoint's)")  # fmt: skip
+    p.add_argument(
+        "checkpoints",
+        nargs="+",
+        metavar="CHECKPOINT",
+        help="checkpoint folder (.../checkpoints/last/pretrained_model)",
+    )
+    p.add_argument(
+        "--encoder",
+        default=None,
+        help="pose encoder to put in (default: the training dataset's "
+        "meta/pose_encoder.safetensors, if it has one)",
+    )
+    p.add_argument(
+        "--camera", default=None, help="camera the pose encoder reads (default: the checkpoint's)"
+    )
     return p
 
 

@@ -129,10 +129,14 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"command rate in Hz, in [{MIN_FPS:g}, {MAX_FPS:g}]: one command lasts at most "
         f"{1 / MIN_FPS:g} s, the goal time trossen_arm gives a whole move (default 10)",
     )
-    p.add_argument("--left_ip", default=None,
-                   help="left arm (default 192.168.1.5; --backend wire: 127.0.0.2)")  # fmt: skip
-    p.add_argument("--right_ip", default=None,
-                   help="right arm (default 192.168.1.4; --backend wire: 127.0.0.3)")  # fmt: skip
+    p.add_argument(
+        "--left_ip", default=None, help="left arm (default 192.168.1.5; --backend wire: 127.0.0.2)"
+    )
+    p.add_argument(
+        "--right_ip",
+        default=None,
+        help="right arm (default 192.168.1.4; --backend wire: 127.0.0.3)",
+    )
     p.add_argument(
         "--backend",
         choices=BACKENDS,
@@ -218,8 +222,11 @@ def _ips(args: argparse.Namespace) -> dict[str, str]:
     """The arms' addresses: the flags, else the backend's defaults; checked before anything
     connects (IPv4, one per arm; loopback for wire), a one-line error naming the flag."""
     wire = args.backend == "wire"
-    default = {"left": "127.0.0.2", "right": "127.0.0.3"} if wire else {
-        "left": "192.168.1.5", "right": "192.168.1.4"}  # fmt: skip
+    default = (
+        {"left": "127.0.0.2", "right": "127.0.0.3"}
+        if wire
+        else {"left": "192.168.1.5", "right": "192.168.1.4"}
+    )
     given = {"left": args.left_ip, "right": args.right_ip}
     ips = {side: default[side] if given[side] is None else given[side] for side in given}
     if not wire:
@@ -408,8 +415,11 @@ def _start_kit(episode: Episode, ips: dict[str, str], on_served: Callable[[Any],
     kit = kit_for_episode(episode.attrs, ips, say=_say_line)
     try:
         kit.start()
-        print(f"serving the simulated kit ({kit.world.task_name}) on {ips['left']} (left) and "
-              f"{ips['right']} (right) for the real trossen_arm driver", flush=True)  # fmt: skip
+        print(
+            f"serving the simulated kit ({kit.world.task_name}) on {ips['left']} (left) and "
+            f"{ips['right']} (right) for the real trossen_arm driver",
+            flush=True,
+        )
         if on_served is not None:
             on_served(kit)
     except BaseException:
@@ -484,8 +494,9 @@ def cli(
         try:
             return main(args, driver_factory=driver_factory, clock=clock, on_served=on_served)
         except Interrupted as exc:
-            return report_error(f"{exc} before any arm was configured; nothing moved",
-                                exc.exit_code)  # fmt: skip
+            return report_error(
+                f"{exc} before any arm was configured; nothing moved", exc.exit_code
+            )
 
     try:
         return run_cli(guarded, argv)

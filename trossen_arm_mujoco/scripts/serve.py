@@ -92,31 +92,46 @@ def build_parser() -> argparse.ArgumentParser:
         "kit; optionally record what they do.",
     )
     add_task_name(p, "kit task whose objects and reward the world holds")
-    p.add_argument("--left_ip", default=None,
-                   help="left arm's address in 127.0.0.0/8 (default 127.0.0.2; leaders "
-                   "127.0.0.4)")  # fmt: skip
-    p.add_argument("--right_ip", default=None,
-                   help="right arm's address in 127.0.0.0/8 (default 127.0.0.3; leaders "
-                   "127.0.0.5)")  # fmt: skip
+    p.add_argument(
+        "--left_ip",
+        default=None,
+        help="left arm's address in 127.0.0.0/8 (default 127.0.0.2; leaders 127.0.0.4)",
+    )
+    p.add_argument(
+        "--right_ip",
+        default=None,
+        help="right arm's address in 127.0.0.0/8 (default 127.0.0.3; leaders 127.0.0.5)",
+    )
     add_seed(p, "run seed: the scene of episode k is record --seed S's episode k")
     add_viewer(p, "show a live viewer (needs a display)")
-    p.add_argument("--record", default=None, metavar="DIR",
-                   help="record the clients' sessions into this dataset folder (relative to "
-                   "--root_dir unless absolute); episodes continue after its last one")  # fmt: skip
+    p.add_argument(
+        "--record",
+        default=None,
+        metavar="DIR",
+        help="record the clients' sessions into this dataset folder (relative to "
+        "--root_dir unless absolute); episodes continue after its last one",
+    )
     add_root_dir(p)
     add_cameras(p, "cameras to record (with --record)", "the task's 4")
     add_image_size(p, "camera image size (with --record, --cameras)")
-    add_fps(p, "recording rate in frames per simulated second; 500/n, e.g. 50 or 25",
-            "the task's, 50")  # fmt: skip
-    add_episode_len(p, "with --record: at most this many frames per episode; a longer "
-                    "session is split", "one episode per session")  # fmt: skip
+    add_fps(
+        p, "recording rate in frames per simulated second; 500/n, e.g. 50 or 25", "the task's, 50"
+    )
+    add_episode_len(
+        p,
+        "with --record: at most this many frames per episode; a longer session is split",
+        "one episode per session",
+    )
     add_compression(p)
     add_looks(p, visual=False)
     add_randomize(p, "the control channel's start reply ('randomization')")
     add_wait(p, "with --record: wait for another run writing to DIR instead of refusing")
-    p.add_argument("--role", default="follower", choices=("follower", "leader"),
-                   help="follower: the kit world (default); leader: two leader arms "
-                   "replaying --replay")  # fmt: skip
+    p.add_argument(
+        "--role",
+        default="follower",
+        choices=("follower", "leader"),
+        help="follower: the kit world (default); leader: two leader arms replaying --replay",
+    )
     p.add_argument(
         "--replay",
         default=None,
@@ -137,9 +152,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_rehearsal_flags(p)
     p.add_argument("--verbose", action="store_true", help="log every protocol request")
-    p.add_argument("--parent_pid", type=int, default=None, metavar="PID",
-                   help="stop serving (as on SIGTERM) once process PID is no longer serve's "
-                   "parent, e.g. killed; eval --backend wire passes its own")  # fmt: skip
+    p.add_argument(
+        "--parent_pid",
+        type=int,
+        default=None,
+        metavar="PID",
+        help="stop serving (as on SIGTERM) once process PID is no longer serve's "
+        "parent, e.g. killed; eval --backend wire passes its own",
+    )
     return p
 
 
@@ -294,11 +314,15 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
             stop_rehearsal(stream, control, _say)
             stats = kit.stop(lambda: _report_repeats(stops, recorder))
         rtf = world.realtime_factor
-        line = (f"stopped ({how}) after {time.monotonic() - started:.1f} s at real-time "
-                f"factor {rtf:.2f}")  # fmt: skip
+        line = (
+            f"stopped ({how}) after {time.monotonic() - started:.1f} s at real-time "
+            f"factor {rtf:.2f}"
+        )
         if stats is not None:
-            line += (f"; {len(stats.written)} episode(s) written to {record[0]}, "
-                     f"{stats.successes} successful")  # fmt: skip
+            line += (
+                f"; {len(stats.written)} episode(s) written to {record[0]}, "
+                f"{stats.successes} successful"
+            )
             if stats.frames and record[1]:
                 line += f"; frames rendered at {stats.frames_per_s:.1f} per s"
         _say(line)
@@ -384,8 +408,14 @@ def _serve_leaders(args: argparse.Namespace, stops: StopSignals) -> int:
 
     def run() -> None:
         try:
-            serve_leaders(args.replay, ips["left"], ips["right"], stop, speed=args.speed,
-                          lead_in=LEAD_IN_S if args.lead_in is None else args.lead_in)  # fmt: skip
+            serve_leaders(
+                args.replay,
+                ips["left"],
+                ips["right"],
+                stop,
+                speed=args.speed,
+                lead_in=LEAD_IN_S if args.lead_in is None else args.lead_in,
+            )
         except BaseException as exc:  # reported below, in the main thread
             failure.append(exc)
 

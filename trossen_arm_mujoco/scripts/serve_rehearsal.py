@@ -13,28 +13,52 @@ from trossen_arm_mujoco.errors import UserError
 __all__ = ["add_rehearsal_flags", "build_rehearsal", "check_rehearsal_flags", "stop_rehearsal"]
 
 #: Defaults of the flags that only mean something with ``--cameras``.
-CAMERA_DEFAULTS: dict[str, Any] = {"camera_fps": 30.0, "camera_port": 5555,
-                                   "camera_host": "127.0.0.1"}  # fmt: skip
+CAMERA_DEFAULTS: dict[str, Any] = {
+    "camera_fps": 30.0,
+    "camera_port": 5555,
+    "camera_host": "127.0.0.1",
+}
 
 
 def add_rehearsal_flags(p: argparse.ArgumentParser) -> None:
     """``--cameras``, ``--camera_fps``, ``--camera_port``, ``--camera_host``,
     ``--control_port``, ``--control_host``."""
-    p.add_argument("--cameras", default=None, metavar="NAMES",
-                   help="publish these cameras (comma list) over ZeroMQ in LeRobot's ZMQ "
-                   "camera protocol, at --image_size (docs/rehearsal.md)")  # fmt: skip
-    p.add_argument("--camera_fps", type=float, default=CAMERA_DEFAULTS["camera_fps"],
-                   help="with --cameras: frames published per second (default 30)")  # fmt: skip
-    p.add_argument("--camera_port", type=int, default=CAMERA_DEFAULTS["camera_port"],
-                   help="with --cameras: TCP port of the stream (default 5555)")  # fmt: skip
-    p.add_argument("--camera_host", default=CAMERA_DEFAULTS["camera_host"],
-                   help="with --cameras: loopback address of the stream (default "
-                   "127.0.0.1)")  # fmt: skip
-    p.add_argument("--control_port", type=int, default=None,
-                   help="serve the episode control channel (start / end / status, JSON lines) "
-                   "on this TCP port; with --record, one episode per start .. end")  # fmt: skip
-    p.add_argument("--control_host", default="127.0.0.1",
-                   help="with --control_port: loopback address (default 127.0.0.1)")  # fmt: skip
+    p.add_argument(
+        "--cameras",
+        default=None,
+        metavar="NAMES",
+        help="publish these cameras (comma list) over ZeroMQ in LeRobot's ZMQ "
+        "camera protocol, at --image_size (docs/rehearsal.md)",
+    )
+    p.add_argument(
+        "--camera_fps",
+        type=float,
+        default=CAMERA_DEFAULTS["camera_fps"],
+        help="with --cameras: frames published per second (default 30)",
+    )
+    p.add_argument(
+        "--camera_port",
+        type=int,
+        default=CAMERA_DEFAULTS["camera_port"],
+        help="with --cameras: TCP port of the stream (default 5555)",
+    )
+    p.add_argument(
+        "--camera_host",
+        default=CAMERA_DEFAULTS["camera_host"],
+        help="with --cameras: loopback address of the stream (default 127.0.0.1)",
+    )
+    p.add_argument(
+        "--control_port",
+        type=int,
+        default=None,
+        help="serve the episode control channel (start / end / status, JSON lines) "
+        "on this TCP port; with --record, one episode per start .. end",
+    )
+    p.add_argument(
+        "--control_host",
+        default="127.0.0.1",
+        help="with --control_port: loopback address (default 127.0.0.1)",
+    )
 
 
 def check_rehearsal_flags(args: argparse.Namespace) -> None:
@@ -69,8 +93,9 @@ def build_rehearsal(
 
         names = [c.strip() for c in args.cameras.split(",") if c.strip()]
         h, w = image_size(args.image_size)
-        stream = CameraStream(world, names, h, w, args.camera_fps, args.camera_port,
-                              args.camera_host)  # fmt: skip
+        stream = CameraStream(
+            world, names, h, w, args.camera_fps, args.camera_port, args.camera_host
+        )
     if args.control_port is not None:
         from trossen_arm_mujoco.twin.episode_control import EpisodeControl
 

@@ -103,18 +103,23 @@ def build_parser() -> argparse.ArgumentParser:
     add_fps(p, "recording and control rate in Hz", "the task's, 50")
     add_seed(p, "run seed: episode k's object poses are those of 'record --seed' episode k")
     p.add_argument(
-        "--object_poses_from", default=None, metavar="EPISODE.hdf5",
+        "--object_poses_from",
+        default=None,
+        metavar="EPISODE.hdf5",
         help="place the objects as at the start of this recorded episode, in every episode",
-    )  # fmt: skip
+    )
     add_viewer(p)
     p.add_argument(
-        "--end_effector", default="wxai_v0_leader", help="trossen_arm StandardEndEffector "
-        "preset of the leader arms (default: wxai_v0_leader)",
-    )  # fmt: skip
+        "--end_effector",
+        default="wxai_v0_leader",
+        help="trossen_arm StandardEndEffector preset of the leader arms (default: wxai_v0_leader)",
+    )
     p.add_argument(
-        "--connect_timeout", type=float, default=10.0, help="seconds to wait for each leader "
-        "arm's controller (default: 10)",
-    )  # fmt: skip
+        "--connect_timeout",
+        type=float,
+        default=10.0,
+        help="seconds to wait for each leader arm's controller (default: 10)",
+    )
     add_compression(p)
     add_looks(p, visual=False)
     p.add_argument(

@@ -161,8 +161,9 @@ def _mtime(path: Path) -> int | None:
         return None
 
 
-def _write_all(episodes, out_dir: Path, fps: float, written: list, no_images: list,
-               current: list) -> None:  # fmt: skip
+def _write_all(
+    episodes, out_dir: Path, fps: float, written: list, no_images: list, current: list
+) -> None:
     """Write every episode's video and plot, appending each finished file to ``written``;
     ``current`` holds the file being written and its modification time before (a signal
     can land after its rename and before the append)."""
@@ -190,8 +191,9 @@ def _write_all(episodes, out_dir: Path, fps: float, written: list, no_images: li
 def _kept(written: list[Path], out_dir: Path, current: list | tuple = ()) -> str:
     """What a stopped run kept: the finished files (the one in progress is removed). A file
     of ``current`` whose modification time changed was published just before the stop."""
-    written = list(written) + [p for p, before in current
-                               if (now := _mtime(p)) is not None and now != before]  # fmt: skip
+    written = list(written) + [
+        p for p, before in current if (now := _mtime(p)) is not None and now != before
+    ]
     if not written:
         return f"no file was finished in {out_dir}"
     videos = sum(path.suffix == ".mp4" for path in written)

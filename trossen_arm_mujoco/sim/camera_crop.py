@@ -30,8 +30,16 @@ from PIL import Image
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 
-__all__ = ["FRAME", "CameraCrop", "apply_crops", "check_observed", "crop_frame", "crop_texts",
-           "parse_crop", "parse_crops"]  # fmt: skip
+__all__ = [
+    "FRAME",
+    "CameraCrop",
+    "apply_crops",
+    "check_observed",
+    "crop_frame",
+    "crop_texts",
+    "parse_crop",
+    "parse_crops",
+]
 
 #: (height, width) of the full frame a crop is given in, pixels (the cameras' 4:3 image).
 FRAME: tuple[int, int] = (480, 640)
@@ -133,8 +141,10 @@ def crop_frame(image: np.ndarray, crop: CameraCrop | None, size: Sequence[int]) 
     if crop is not None:
         sy, sx = image.shape[0] / FRAME[0], image.shape[1] / FRAME[1]
         top, left = round(crop.top * sy), round(crop.left * sx)
-        image = image[top : top + max(1, round(crop.height * sy)),
-                      left : left + max(1, round(crop.width * sx))]  # fmt: skip
+        image = image[
+            top : top + max(1, round(crop.height * sy)),
+            left : left + max(1, round(crop.width * sx)),
+        ]
         if image.shape[:2] == (h, w):
             return np.ascontiguousarray(image)
     resized = Image.fromarray(np.ascontiguousarray(image)).resize((w, h), Image.Resampling.BOX)
@@ -147,8 +157,10 @@ def check_observed(crops: Sequence[CameraCrop], cameras: Sequence[str], what: st
     for crop in crops:
         if crop.camera not in cameras:
             shown = ", ".join(cameras) or "none"
-            raise UserError(f"--crop {crop.text()}: camera {crop.camera} is not {what} "
-                            f"({shown}); add it to --cam_names or leave the crop out")  # fmt: skip
+            raise UserError(
+                f"--crop {crop.text()}: camera {crop.camera} is not {what} "
+                f"({shown}); add it to --cam_names or leave the crop out"
+            )
 
 
 def crop_texts(crops: str | Sequence[str | CameraCrop] | None) -> str:

@@ -55,8 +55,9 @@ def parse_image_size(text: str | Sequence[int]) -> tuple[int, int]:
         except (TypeError, ValueError):
             size = ()
     if len(size) != 2 or min(size) <= 0:
-        raise UserError(f"image size must look like HxW with positive numbers (e.g. 480x640), "
-                        f"got {text!r}")  # fmt: skip
+        raise UserError(
+            f"image size must look like HxW with positive numbers (e.g. 480x640), got {text!r}"
+        )
     return size  # type: ignore[return-value]
 
 
@@ -91,8 +92,10 @@ class CameraSettings:
     def __post_init__(self) -> None:
         names = self.names
         if isinstance(names, str) or not isinstance(names, Sequence):
-            raise UserError(f"camera names must be a list of names, got {names!r:.60} "
-                            "(e.g. ('cam_high', 'cam_low'))")  # fmt: skip
+            raise UserError(
+                f"camera names must be a list of names, got {names!r:.60} "
+                "(e.g. ('cam_high', 'cam_low'))"
+            )
         if not all(isinstance(c, str) and c.strip() for c in names):
             raise UserError(f"camera names must be non-empty strings, got {list(names)!r:.60}")
         twice = sorted({c for c in names if list(names).count(c) > 1})

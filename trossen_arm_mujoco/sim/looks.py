@@ -177,8 +177,11 @@ def menagerie_meshes(folder: Path | None = None) -> dict[str, Path]:
     """Mesh file stem -> path of every Menagerie mesh the arms use (``folder``: the
     trossen_wxai/ folder, default ``menagerie_folder()``); a UserError when one is missing."""
     folder = folder or menagerie_folder()
-    return {stem: menagerie_mesh(folder, stem)
-            for parts in MENAGERIE_MESHES.values() for stem, _ in parts}  # fmt: skip
+    return {
+        stem: menagerie_mesh(folder, stem)
+        for parts in MENAGERIE_MESHES.values()
+        for stem, _ in parts
+    }
 
 
 def use_menagerie_visuals(spec: mujoco.MjSpec, folder: Path) -> int:
@@ -188,8 +191,9 @@ def use_menagerie_visuals(spec: mujoco.MjSpec, folder: Path) -> int:
     texture = folder / MENAGERIE_TEXTURE
     material = spec.add_material(name="menagerie_trossen", rgba=[0.25, 0.25, 0.26, 1])
     if texture.is_file():
-        spec.add_texture(name="menagerie_trossen", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                         file=str(texture))  # fmt: skip
+        spec.add_texture(
+            name="menagerie_trossen", type=mujoco.mjtTexture.mjTEXTURE_2D, file=str(texture)
+        )
         material.rgba = [1, 1, 1, 1]
         material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "menagerie_trossen"
     for stem, path in files.items():

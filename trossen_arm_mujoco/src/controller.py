@@ -38,8 +38,14 @@ from trossen_arm_mujoco.src.robot_types import (
     to_project_name,
 )
 
-__all__ = ["DEFAULT_IK_DAMPING", "DEFAULT_IK_SCALE", "GRIPPER_CLOSED_POSITION",
-           "GRIPPER_OPEN_POSITION", "Controller", "RobotType"]  # fmt: skip
+__all__ = [
+    "DEFAULT_IK_DAMPING",
+    "DEFAULT_IK_SCALE",
+    "GRIPPER_CLOSED_POSITION",
+    "GRIPPER_OPEN_POSITION",
+    "Controller",
+    "RobotType",
+]
 
 #: The vendor's defaults (its README states ik_scale 1.0; its code, which this follows, 0.5).
 DEFAULT_IK_SCALE = 0.5

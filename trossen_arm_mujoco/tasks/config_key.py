@@ -19,8 +19,18 @@ import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
 
-__all__ = ["INF", "Key", "Source", "fmt_number", "is_real", "number", "positive", "region",
-           "show", "vector"]  # fmt: skip
+__all__ = [
+    "INF",
+    "Key",
+    "Source",
+    "fmt_number",
+    "is_real",
+    "number",
+    "positive",
+    "region",
+    "show",
+    "vector",
+]
 
 INF = math.inf
 
@@ -187,8 +197,9 @@ def vector(*lengths: int, low: float = -10.0, high: float = 10.0, unit: str = "m
     return Key("vector", low, high, lengths=lengths, unit=unit)
 
 
-def region(name: str, *lengths: int, low: float = -10.0, high: float = 10.0,
-           unit: str = "m") -> dict[str, Key]:  # fmt: skip
+def region(
+    name: str, *lengths: int, low: float = -10.0, high: float = 10.0, unit: str = "m"
+) -> dict[str, Key]:
     """``{name}_low`` and ``{name}_high``: the corners of a box (checked low <= high on every
     axis, ``config_schema.check_ranges``)."""
     key = vector(*lengths, low=low, high=high, unit=unit)

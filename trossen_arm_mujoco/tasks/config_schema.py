@@ -78,16 +78,28 @@ KEYS: dict[str, Key] = {
 #: Keys every task config must have (every task reads them unconditionally); a task's own
 #: required keys are its ``TaskEntry.required``.
 REQUIRED: tuple[str, ...] = (
-    "scene", "policy_dt", "ctrl_dt", "max_episode_steps", "ee_delta_limit", "joint_rel_limit",
-    "table_height", "safety_margin", "workspace_low", "workspace_high", "max_joint_velocity",
-)  # fmt: skip
+    "scene",
+    "policy_dt",
+    "ctrl_dt",
+    "max_episode_steps",
+    "ee_delta_limit",
+    "joint_rel_limit",
+    "table_height",
+    "safety_margin",
+    "workspace_low",
+    "workspace_high",
+    "max_joint_velocity",
+)
 
 
 def range_pairs(keys: Any) -> list[tuple[str, str]]:
     """The ``(X_low, X_high)`` pairs among ``keys``: low <= high on every axis."""
     keys = set(keys)
-    return [(k, k[: -len("_low")] + "_high") for k in sorted(keys)
-            if k.endswith("_low") and k[: -len("_low")] + "_high" in keys]  # fmt: skip
+    return [
+        (k, k[: -len("_low")] + "_high")
+        for k in sorted(keys)
+        if k.endswith("_low") and k[: -len("_low")] + "_high" in keys
+    ]
 
 
 # -- whole configs ----------------------------------------------------------------------------

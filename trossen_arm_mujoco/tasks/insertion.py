@@ -196,7 +196,10 @@ class InsertionSampler(BimanualSampler):
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.
 TASKS = (
     TaskEntry(
-        "sim_insertion", InsertionTask, InsertionSampler, "insertion",
+        "sim_insertion",
+        InsertionTask,
+        InsertionSampler,
+        "insertion",
         "Stationary AI: insert a peg (right arm) into a socket (left arm) above the table",
         policy="trossen_arm_mujoco.policies.insertion:InsertionPolicy",
         aliases=("insertion",),
@@ -213,4 +216,4 @@ TASKS = (
         pose_static_frames=1000,
         required=("ee_scene", "max_object_velocity"),
     ),
-)  # fmt: skip
+)

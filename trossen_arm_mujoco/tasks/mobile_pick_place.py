@@ -104,12 +104,16 @@ class MobilePickPlaceTask(Task):
         return [
             Part("qpos", indexed(data.qpos, self.layout), self.qpos_low, self.qpos_high),
             Part("qvel", indexed(data.qvel, self.layout_dofs), np.full(n, -v), np.full(n, v)),
-            Part("base_pose", indexed(data.qpos, self.base_qpos),
-                 [-r, -r, 0.0, -1, -1, -1, -1], [r, r, 1.0, 1, 1, 1, 1]),
+            Part(
+                "base_pose",
+                indexed(data.qpos, self.base_qpos),
+                [-r, -r, 0.0, -1, -1, -1, -1],
+                [r, r, 1.0, 1, 1, 1, 1],
+            ),
             Part("base_vel", indexed(data.qvel, self.base_qvel), np.full(6, -s), np.full(6, s)),
             Part("env_state", self.cube.pose_view(data), pose_low, pose_high),
             Part("target", self.target, self.ws_low, self.ws_high),
-        ]  # fmt: skip
+        ]
 
     def recorded_state(self) -> tuple[np.ndarray, np.ndarray]:
         """(state, velocity) as recorded, (16,) each in the ``mobileai`` layout
@@ -203,18 +207,30 @@ class MobilePickPlaceSampler(TaskSampler):
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.
 TASKS = (
     TaskEntry(
-        "mobile_pick_place", MobilePickPlaceTask, MobilePickPlaceSampler, "mobile_pick_place",
+        "mobile_pick_place",
+        MobilePickPlaceTask,
+        MobilePickPlaceSampler,
+        "mobile_pick_place",
         "Mobile AI: drive to the table, pick a cube with the left arm and place it",
         policy="trossen_arm_mujoco.policies.mobile_pick_place:MobilePickPlacePolicy",
         record=record_defaults(750, MOBILE_AI_CAMERAS),
         stages=STAGES,
         gym_ids={"TrossenMujoco/MobileAIPickPlace-v0": "env"},
-        keys={**region("base_start", 3, low=-3.0, high=3.0, unit="m, m, rad"),
-              **region("cube", 2),
-              "success_tolerance": positive(1.0, "m"),
-              "lift_height": number(0.0, 1.0, "m"),
-              "reach_distance": Key("number", 0.0, 2.0, True, unit="m")},
-        required=("base_start_low", "base_start_high", "cube_low", "cube_high",
-                  "success_tolerance", "lift_height", "reach_distance"),
+        keys={
+            **region("base_start", 3, low=-3.0, high=3.0, unit="m, m, rad"),
+            **region("cube", 2),
+            "success_tolerance": positive(1.0, "m"),
+            "lift_height": number(0.0, 1.0, "m"),
+            "reach_distance": Key("number", 0.0, 2.0, True, unit="m"),
+        },
+        required=(
+            "base_start_low",
+            "base_start_high",
+            "cube_low",
+            "cube_high",
+            "success_tolerance",
+            "lift_height",
+            "reach_distance",
+        ),
     ),
-)  # fmt: skip
+)

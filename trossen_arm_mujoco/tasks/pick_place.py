@@ -79,12 +79,21 @@ class PickPlaceSampler(PushSampler):
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.
 TASKS = (
     TaskEntry(
-        "pick_place", PickPlaceTask, PickPlaceSampler, "pick_place",
+        "pick_place",
+        PickPlaceTask,
+        PickPlaceSampler,
+        "pick_place",
         "wxai: bring a cube to a goal on the table or in the air",
-        gym_ids={"TrossenMujoco/WXAIPickPlace-v0": "env",
-                 "TrossenMujoco/WXAIPickPlaceGoal-v0": "goal"},
-        keys={**PUSH_KEYS, "air_goal_probability": number(0.0, 1.0),
-              "lift_bonus": number(0.0, unit=""), "lift_height": number(0.0, 1.0, "m")},
+        gym_ids={
+            "TrossenMujoco/WXAIPickPlace-v0": "env",
+            "TrossenMujoco/WXAIPickPlaceGoal-v0": "goal",
+        },
+        keys={
+            **PUSH_KEYS,
+            "air_goal_probability": number(0.0, 1.0),
+            "lift_bonus": number(0.0, unit=""),
+            "lift_height": number(0.0, 1.0, "m"),
+        },
         required=(*PUSH_REQUIRED, "air_goal_probability", "lift_bonus", "lift_height"),
     ),
-)  # fmt: skip
+)

@@ -134,16 +134,26 @@ PUSH_KEYS: dict[str, Key] = {
     "min_goal_distance": number(0.0, 10.0, "m"),
 }
 PUSH_REQUIRED: tuple[str, ...] = (
-    *SINGLE_ARM_REQUIRED, "cube_low", "cube_high", "goal_low", "goal_high", "min_goal_distance",
-    "reach_coef", "max_object_velocity",
-)  # fmt: skip
+    *SINGLE_ARM_REQUIRED,
+    "cube_low",
+    "cube_high",
+    "goal_low",
+    "goal_high",
+    "min_goal_distance",
+    "reach_coef",
+    "max_object_velocity",
+)
 
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.
 TASKS = (
     TaskEntry(
-        "push", PushTask, PushSampler, "push", "wxai: push a cube onto a goal on the table",
+        "push",
+        PushTask,
+        PushSampler,
+        "push",
+        "wxai: push a cube onto a goal on the table",
         gym_ids={"TrossenMujoco/WXAIPush-v0": "env", "TrossenMujoco/WXAIPushGoal-v0": "goal"},
         keys=PUSH_KEYS,
         required=PUSH_REQUIRED,
     ),
-)  # fmt: skip
+)

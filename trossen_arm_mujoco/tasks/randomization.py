@@ -33,9 +33,20 @@ from trossen_arm_mujoco.tasks.randomization_record import (
 __all__ = ["FIELDS", "SceneRandomizer", "episode_generator"]
 
 #: Model fields a randomization may write (saved at construction, restored every episode).
-FIELDS = ("light_dir", "light_diffuse", "light_specular", "light_ambient", "geom_rgba",
-          "geom_matid", "geom_friction", "body_mass", "body_inertia", "dof_damping",
-          "cam_pos", "cam_quat")  # fmt: skip
+FIELDS = (
+    "light_dir",
+    "light_diffuse",
+    "light_specular",
+    "light_ambient",
+    "geom_rgba",
+    "geom_matid",
+    "geom_friction",
+    "body_mass",
+    "body_inertia",
+    "dof_damping",
+    "cam_pos",
+    "cam_quat",
+)
 _DEFAULT_RGBA = np.array([0.5, 0.5, 0.5, 1.0], dtype=np.float32)
 
 
@@ -156,8 +167,15 @@ class SceneRandomizer:
         diffuse = self._f32(nom["light_diffuse"][ids] * k_diffuse * tints)
         specular = self._f32(nom["light_specular"][ids] * k_specular * tints)
         ambient = self._f32((nom["light_ambient"][ids] + ambient_add) * tints)
-        return {name: {"dir": directions[k], "diffuse": diffuse[k], "specular": specular[k],
-                       "ambient": ambient[k]} for k, name in enumerate(names)}  # fmt: skip
+        return {
+            name: {
+                "dir": directions[k],
+                "diffuse": diffuse[k],
+                "specular": specular[k],
+                "ambient": ambient[k],
+            }
+            for k, name in enumerate(names)
+        }
 
     def _rgba(self, geom: int, material: int | None = None) -> np.ndarray:
         """Colour a geom shows (its material's when its own rgba is the default)."""
@@ -182,8 +200,10 @@ class SceneRandomizer:
                 choice = int(g.integers(len(self.table_materials)))
                 material, mat_name = self.table_materials[choice]
             jitter = g.uniform(-j, j, 3)
-            out[name] = {"material": mat_name or "",
-                         "rgba": self._jittered(self._rgba(geom, material), jitter)}  # fmt: skip
+            out[name] = {
+                "material": mat_name or "",
+                "rgba": self._jittered(self._rgba(geom, material), jitter),
+            }
         return out
 
     def _sample_objects(self, g, s, data):

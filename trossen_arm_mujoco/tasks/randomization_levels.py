@@ -77,8 +77,9 @@ def level_section(
         raise unknown_name_error("randomization level", str(level), LEVELS)
     if level == "nominal":
         if replacement is not None:
-            raise UserError("--randomization FILE randomizes the scene: leave out "
-                            "--randomize nominal")  # fmt: skip
+            raise UserError(
+                "--randomization FILE randomizes the scene: leave out --randomize nominal"
+            )
         return False, None
     if level == "train":
         return True, None if replacement is None else dict(replacement)

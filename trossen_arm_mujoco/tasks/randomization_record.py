@@ -55,8 +55,11 @@ def seed_record(rng: np.random.Generator) -> dict[str, Any]:
     seq = rng.bit_generator.seed_seq
     entropy = seq.entropy
     entropy = int(entropy) if np.ndim(entropy) == 0 else [int(v) for v in entropy]
-    return {"entropy": entropy, "spawn_key": [int(k) for k in seq.spawn_key],
-            "bit_generator": type(rng.bit_generator).__name__}  # fmt: skip
+    return {
+        "entropy": entropy,
+        "spawn_key": [int(k) for k in seq.spawn_key],
+        "bit_generator": type(rng.bit_generator).__name__,
+    }
 
 
 def generator_from_seed(seed: Mapping[str, Any]) -> np.random.Generator:
@@ -140,8 +143,12 @@ def _get(where: str, v: Any, key: str) -> Any:
 
 def _apply_light(model, data, ids, name, v, where):
     i = ids("light", name)
-    for key, field in (("dir", "light_dir"), ("diffuse", "light_diffuse"),
-                       ("specular", "light_specular"), ("ambient", "light_ambient")):  # fmt: skip
+    for key, field in (
+        ("dir", "light_dir"),
+        ("diffuse", "light_diffuse"),
+        ("specular", "light_specular"),
+        ("ambient", "light_ambient"),
+    ):
         getattr(model, field)[i] = _values(f"{where}.{key}", _get(where, v, key), 3)
 
 
@@ -184,10 +191,16 @@ def _apply_joint_noise(model, data, ids, name, v, where):
         data.qpos[model.jnt_qposadr[j]] = q
 
 
-_APPLY = {"lights": _apply_light, "table": _apply_table, "objects": _apply_object_colour,
-          "friction": _apply_friction, "object_mass": _apply_mass,
-          "joint_damping": _apply_damping, "camera": _apply_camera,
-          "joint_noise": _apply_joint_noise}  # fmt: skip
+_APPLY = {
+    "lights": _apply_light,
+    "table": _apply_table,
+    "objects": _apply_object_colour,
+    "friction": _apply_friction,
+    "object_mass": _apply_mass,
+    "joint_damping": _apply_damping,
+    "camera": _apply_camera,
+    "joint_noise": _apply_joint_noise,
+}
 
 
 def record_to_json(record: Mapping[str, Any]) -> str:

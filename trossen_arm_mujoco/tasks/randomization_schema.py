@@ -127,15 +127,17 @@ def check_randomization(source: Source, base: Mapping[str, Any], section: Any) -
     out = {kind: dict(params) for kind, params in base.items()}
     for kind, params in section.items():
         if kind not in RANDOMIZATION_SCHEMA:
-            raise unknown_name_error("randomization kind", str(kind), RANDOMIZATION_SCHEMA,
-                                     hint=source.origin)  # fmt: skip
+            raise unknown_name_error(
+                "randomization kind", str(kind), RANDOMIZATION_SCHEMA, hint=source.origin
+            )
         if not isinstance(params, Mapping):
             raise UserError(f"{where}.{kind}: expected a mapping of settings, got {show(params)}")
         schema = RANDOMIZATION_SCHEMA[kind]
         for key, value in params.items():
             if key not in schema:
-                raise unknown_name_error(f"{kind} randomization setting", str(key), schema,
-                                         hint=source.origin)  # fmt: skip
+                raise unknown_name_error(
+                    f"{kind} randomization setting", str(key), schema, hint=source.origin
+                )
             _, form, lo, hi = schema[key]
             out[kind][key] = _check_param(f"{where}.{kind}.{key}", form, lo, hi, value)
     return out

@@ -55,9 +55,13 @@ class ReachSampler(SingleArmSampler):
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.
 TASKS = (
     TaskEntry(
-        "reach", ReachTask, ReachSampler, "reach", "wxai: move the tool frame to a target",
+        "reach",
+        ReachTask,
+        ReachSampler,
+        "reach",
+        "wxai: move the tool frame to a target",
         gym_ids={"TrossenMujoco/WXAIReach-v0": "env", "TrossenMujoco/WXAIReachGoal-v0": "goal"},
         keys={**SINGLE_ARM_KEYS, **region("target", 3)},
         required=(*SINGLE_ARM_REQUIRED, "target_low", "target_high"),
     ),
-)  # fmt: skip
+)

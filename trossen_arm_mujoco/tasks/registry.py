@@ -186,8 +186,7 @@ def canonical(name: str) -> str:
     if name not in TASKS:
         if name in _BROKEN:
             raise UserError(_BROKEN[name])
-        raise unknown_name_error("task", name, sorted([*TASKS, *ALIASES]),
-                                 hint=_install_hint())  # fmt: skip
+        raise unknown_name_error("task", name, sorted([*TASKS, *ALIASES]), hint=_install_hint())
     return name
 
 

@@ -24,8 +24,14 @@ from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import TaskSampler, uniform
 from trossen_arm_mujoco.tasks.task import Task
 
-__all__ = ["GOAL_REWARD_TYPES", "SINGLE_ARM_KEYS", "SINGLE_ARM_REQUIRED", "SingleArmSampler",
-           "SingleArmTask", "goal_distance"]  # fmt: skip
+__all__ = [
+    "GOAL_REWARD_TYPES",
+    "SINGLE_ARM_KEYS",
+    "SINGLE_ARM_REQUIRED",
+    "SingleArmSampler",
+    "SingleArmTask",
+    "goal_distance",
+]
 
 GOAL_REWARD_TYPES = ("sparse", "dense")
 

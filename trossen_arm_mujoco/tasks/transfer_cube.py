@@ -125,7 +125,10 @@ class TransferCubeSampler(BimanualSampler):
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.
 TASKS = (
     TaskEntry(
-        "sim_transfer_cube", TransferCube, TransferCubeSampler, "transfer_cube",
+        "sim_transfer_cube",
+        TransferCube,
+        TransferCubeSampler,
+        "transfer_cube",
         "Stationary AI: hand a cube from the right arm to the left",
         policy="trossen_arm_mujoco.policies.transfer_cube:PickAndTransferPolicy",
         aliases=("transfer_cube",),
@@ -138,4 +141,4 @@ TASKS = (
         camera_crop="cam_high:217,243,150,200",
         required=("ee_scene", "max_object_velocity"),
     ),
-)  # fmt: skip
+)

@@ -50,8 +50,9 @@ def _info(dataset: Path) -> dict[str, Any]:
     try:
         return json.loads((dataset / "meta" / "info.json").read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
-        raise UserError(f"{dataset}: not a LeRobot dataset ({exc}); give the folder "
-                        "trossen-mujoco export wrote") from None  # fmt: skip
+        raise UserError(
+            f"{dataset}: not a LeRobot dataset ({exc}); give the folder trossen-mujoco export wrote"
+        ) from None
 
 
 def _camera(info: dict[str, Any], camera: str | None, dataset: Path) -> str:
@@ -59,8 +60,10 @@ def _camera(info: dict[str, Any], camera: str | None, dataset: Path) -> str:
     if camera is None and len(cams) == 1:
         return cams[0]
     if camera not in cams:
-        raise UserError(f"--camera {camera}: {dataset} has cameras {cams or 'none'}; "
-                        "choose one (export with --cam_names to add one)")  # fmt: skip
+        raise UserError(
+            f"--camera {camera}: {dataset} has cameras {cams or 'none'}; "
+            "choose one (export with --cam_names to add one)"
+        )
     return camera
 
 
@@ -79,52 +82,65 @@ def _read_rows(dataset: Path) -> tuple[list[Path], np.ndarray, np.ndarray, np.nd
     return files, np.concatenate(eps), np.concatenate(frames), np.concatenate(env)
 
 
-def _frames(episodes: Path, camera: str, fps: int, episode: np.ndarray,
-            env: np.ndarray) -> np.ndarray:  # fmt: skip
+def _frames(
+    episodes: Path, camera: str, fps: int, episode: np.ndarray, env: np.ndarray
+) -> np.ndarray:
     """Each dataset row's camera frame, from the episode files (dataset episode i is the
     i-th file, as export numbers them; checked against the first pose of each)."""
     files = list_episodes(episodes)
     n_eps = int(episode.max()) + 1
     if len(files) < n_eps:
-        raise UserError(f"{episodes} holds {len(files)} episode files, the dataset "
-                        f"{n_eps}: give the folder it was exported from")  # fmt: skip
+        raise UserError(
+            f"{episodes} holds {len(files)} episode files, the dataset "
+            f"{n_eps}: give the folder it was exported from"
+        )
     out = []
     for i in range(n_eps):
         rows = np.nonzero(episode == i)[0]
         ep = load_episode(files[i][1], load_images=True)
         if ep.images is None or camera not in ep.images:
-            raise UserError(f"{files[i][1]} has no {camera} frames: record with --cam_names "
-                            f"{camera}")  # fmt: skip
+            raise UserError(
+                f"{files[i][1]} has no {camera} frames: record with --cam_names {camera}"
+            )
         fm = frame_map(ep.num_steps, int(round(1.0 / ep.dt)), fps)
         if (
             fm.length != len(rows)
             or ep.env_state is None
             or not np.allclose(ep.env_state[0], env[rows[0]], atol=1e-4)
         ):
-            raise UserError(f"{files[i][1]} is not the dataset's episode {i}: give the "
-                            "episodes folder the dataset was exported from")  # fmt: skip
+            raise UserError(
+                f"{files[i][1]} is not the dataset's episode {i}: give the "
+                "episodes folder the dataset was exported from"
+            )
         out.append(ep.images[camera][fm.image_index])
     return np.concatenate(out)
 
 
-def _static_frames(folder: Path, camera: str, shape: tuple[int, ...]
-                   ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _static_frames(
+    folder: Path, camera: str, shape: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray]:
     """The first frame of ``camera`` and the object poses of each episode in ``folder`` (the
     scene at its start), checked against the dataset's image ``shape``."""
     files = list_episodes(folder)
     if not files:
-        raise UserError(f"{folder}: no episode files; record them with trossen-mujoco record "
-                        "--episode_len 3 and the dataset's camera settings")  # fmt: skip
+        raise UserError(
+            f"{folder}: no episode files; record them with trossen-mujoco record "
+            "--episode_len 3 and the dataset's camera settings"
+        )
     images, poses = [], []
     for _, path in files:
         ep = load_episode(path, load_images=True)
         if ep.images is None or camera not in ep.images or ep.env_state is None:
-            raise UserError(f"{path} has no {camera} frames or no object poses: record with "
-                            f"--cam_names {camera}")  # fmt: skip
+            raise UserError(
+                f"{path} has no {camera} frames or no object poses: record with "
+                f"--cam_names {camera}"
+            )
         frame = ep.images[camera][0]
         if frame.shape != shape:
-            raise UserError(f"{path}: {camera} frames are {frame.shape}, the dataset's "
-                            f"{shape}: record with its --image_size and --crop")  # fmt: skip
+            raise UserError(
+                f"{path}: {camera} frames are {frame.shape}, the dataset's "
+                f"{shape}: record with its --image_size and --crop"
+            )
         images.append(frame)
         poses.append(ep.env_state[0])
     return np.stack(images), np.asarray(poses, np.float32)
@@ -140,8 +156,9 @@ def _write_rows(files: list[Path], out: Path, dataset: Path, pred: np.ndarray) -
         t = pq.read_table(f)
         n = t.num_rows
         col = t.schema.field(ENV_STATE_KEY)
-        values = pa.array([row for row in pred[start : start + n].astype(np.float32)],
-                          type=col.type)  # fmt: skip
+        values = pa.array(
+            [row for row in pred[start : start + n].astype(np.float32)], type=col.type
+        )
         t = t.set_column(t.schema.get_field_index(ENV_STATE_KEY), col, values)
         pq.write_table(t, target)
         start += n
@@ -157,15 +174,17 @@ def _write_stats(out: Path, episode: np.ndarray, pred: np.ndarray) -> None:
     stats_path.write_text(json.dumps(stats, indent=4), encoding="utf-8")
     for f in sorted((out / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
         t = pq.read_table(f)
-        per_ep = {int(i): to_lists(array_stats(pred[episode == i]))
-                  for i in t["episode_index"].to_numpy()}  # fmt: skip
+        per_ep = {
+            int(i): to_lists(array_stats(pred[episode == i])) for i in t["episode_index"].to_numpy()
+        }
         for name in per_ep[next(iter(per_ep))]:
             key = f"stats/{ENV_STATE_KEY}/{name}"
             if key not in t.column_names:
                 continue
             col = t.schema.field(key)
-            values = pa.array([per_ep[int(i)][name] for i in t["episode_index"].to_numpy()],
-                              type=col.type)  # fmt: skip
+            values = pa.array(
+                [per_ep[int(i)][name] for i in t["episode_index"].to_numpy()], type=col.type
+            )
             t = t.set_column(t.schema.get_field_index(key), col, values)
         pq.write_table(t, f)
 
@@ -187,8 +206,9 @@ def _drop_images(out: Path) -> list[str]:
     info_path.write_text(json.dumps(info, indent=4), encoding="utf-8")
     stats_path = out / "meta" / "stats.json"
     stats = json.loads(stats_path.read_text(encoding="utf-8"))
-    stats_path.write_text(json.dumps({k: v for k, v in stats.items() if k not in keys},
-                                     indent=4), encoding="utf-8")  # fmt: skip
+    stats_path.write_text(
+        json.dumps({k: v for k, v in stats.items() if k not in keys}, indent=4), encoding="utf-8"
+    )
     prefixes = tuple(f"{part}/{k}/" for k in keys for part in ("videos", "stats"))
     for f in sorted((out / "meta" / "episodes").glob("chunk-*/file-*.parquet")):
         t = pq.read_table(f)
@@ -221,8 +241,9 @@ def derive_dataset(
     dataset, episodes = Path(dataset).expanduser(), Path(episodes).expanduser()
     info = _info(dataset)
     if ENV_STATE_KEY not in info.get("features", {}):
-        raise UserError(f"{dataset} has no {ENV_STATE_KEY}: export it from episodes of a task "
-                        "with objects")  # fmt: skip
+        raise UserError(
+            f"{dataset} has no {ENV_STATE_KEY}: export it from episodes of a task with objects"
+        )
     cam = _camera(info, camera, dataset)
     out = check_output(output, overwrite)
     files, episode, frame_index, env = _read_rows(dataset)
@@ -232,11 +253,22 @@ def derive_dataset(
     if static_episodes is not None:
         static = _static_frames(Path(static_episodes).expanduser(), cam, images.shape[1:])
         if static[1].shape[1] != env.shape[1]:
-            raise UserError(f"{static_episodes}: {static[1].shape[1]} object pose values, the "
-                            f"dataset {env.shape[1]}: record the dataset's task")  # fmt: skip
+            raise UserError(
+                f"{static_episodes}: {static[1].shape[1]} object pose values, the "
+                f"dataset {env.shape[1]}: record the dataset's task"
+            )
         progress(f"pose encoder: {len(static[0])} static frames from {static_episodes}")
-    net, report = train_encoder(images, env, episode, frame_index, seed=seed, epochs=epochs,
-                                threads=threads, static=static, progress=progress)  # fmt: skip
+    net, report = train_encoder(
+        images,
+        env,
+        episode,
+        frame_index,
+        seed=seed,
+        epochs=epochs,
+        threads=threads,
+        static=static,
+        progress=progress,
+    )
     from trossen_arm_mujoco.train.pose_encoder import predict
 
     pred = predict(net, images)
@@ -265,18 +297,31 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--epochs", type=int, default=EPOCHS)
     p.add_argument("--threads", type=int, default=None)
     p.add_argument("--overwrite", action="store_true")
-    p.add_argument("--static_episodes", default=None,
-                   help="a folder of short episodes (record --episode_len 3) whose first "
-                   "frames, the scene at its start, the encoder also trains on")  # fmt: skip
-    p.add_argument("--keep_images", action="store_true",
-                   help="keep the camera videos in the copy (a policy trained on the "
-                   "estimates does not need them)")  # fmt: skip
+    p.add_argument(
+        "--static_episodes",
+        default=None,
+        help="a folder of short episodes (record --episode_len 3) whose first "
+        "frames, the scene at its start, the encoder also trains on",
+    )
+    p.add_argument(
+        "--keep_images",
+        action="store_true",
+        help="keep the camera videos in the copy (a policy trained on the "
+        "estimates does not need them)",
+    )
     args = p.parse_args(argv)
-    report = derive_dataset(args.dataset, args.episodes, args.output, camera=args.camera,
-                            seed=args.seed, epochs=args.epochs, threads=args.threads,
-                            overwrite=args.overwrite,
-                            keep_images=args.keep_images,
-                            static_episodes=args.static_episodes)  # fmt: skip
+    report = derive_dataset(
+        args.dataset,
+        args.episodes,
+        args.output,
+        camera=args.camera,
+        seed=args.seed,
+        epochs=args.epochs,
+        threads=args.threads,
+        overwrite=args.overwrite,
+        keep_images=args.keep_images,
+        static_episodes=args.static_episodes,
+    )
     print(
         f"pose encoder on held-out episodes: start x/y error {report['start_xy_mm']:.1f} mm "
         f"(max {report['start_xy_max_mm']:.1f}), xyz over all frames "

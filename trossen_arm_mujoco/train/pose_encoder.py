@@ -101,15 +101,19 @@ def _module(out_dim: int, keypoints: int = KEYPOINTS) -> Any:
         def __init__(self) -> None:
             super().__init__()
             self.conv = nn.Sequential(
-                nn.Conv2d(3, 16, 5, padding=2), nn.ReLU(),
-                nn.Conv2d(16, 32, 3, stride=2, padding=1), nn.ReLU(),
-                nn.Conv2d(32, 32, 3, padding=1), nn.ReLU(),
+                nn.Conv2d(3, 16, 5, padding=2),
+                nn.ReLU(),
+                nn.Conv2d(16, 32, 3, stride=2, padding=1),
+                nn.ReLU(),
+                nn.Conv2d(32, 32, 3, padding=1),
+                nn.ReLU(),
                 nn.Conv2d(32, keypoints, 1),
-            )  # fmt: skip
+            )
             # a sharp soft-argmax from the start (softmax over ~1,000 cells is flat otherwise)
             self.log_temperature = nn.Parameter(torch.tensor(2.3))
-            self.head = nn.Sequential(nn.Linear(3 * keypoints, 128), nn.ReLU(),
-                                      nn.Linear(128, out_dim))  # fmt: skip
+            self.head = nn.Sequential(
+                nn.Linear(3 * keypoints, 128), nn.ReLU(), nn.Linear(128, out_dim)
+            )
             self.register_buffer("target_mean", torch.zeros(out_dim))
             self.register_buffer("target_std", torch.ones(out_dim))
 
@@ -131,11 +135,13 @@ def _module(out_dim: int, keypoints: int = KEYPOINTS) -> Any:
 
 def _check(images: np.ndarray, targets: np.ndarray | None = None) -> None:
     if images.ndim != 4 or images.shape[-1] != 3 or images.dtype != np.uint8:
-        raise UserError(f"the encoder takes (N, H, W, 3) uint8 frames, got {images.shape} "
-                        f"{images.dtype}")  # fmt: skip
+        raise UserError(
+            f"the encoder takes (N, H, W, 3) uint8 frames, got {images.shape} {images.dtype}"
+        )
     if targets is not None and (targets.ndim != 2 or len(targets) != len(images)):
-        raise UserError(f"one pose row per frame is needed: {images.shape[0]} frames, targets "
-                        f"{targets.shape}")  # fmt: skip
+        raise UserError(
+            f"one pose row per frame is needed: {images.shape[0]} frames, targets {targets.shape}"
+        )
     if targets is not None and not np.isfinite(targets).all():
         raise UserError("the object poses hold NaN or inf: re-record the episodes")
 
@@ -160,8 +166,9 @@ def predict(encoder: Any, images: np.ndarray, batch: int = 512) -> np.ndarray:
     return torch.cat(out).numpy().astype(np.float32)
 
 
-def _epoch_rows(train_rows: np.ndarray, early_rows: np.ndarray, early_only: bool = False
-                ) -> np.ndarray:  # fmt: skip
+def _epoch_rows(
+    train_rows: np.ndarray, early_rows: np.ndarray, early_only: bool = False
+) -> np.ndarray:
     if early_only:
         return early_rows
     return np.concatenate([train_rows[::FRAME_STRIDE]] + [early_rows] * EARLY_REPEAT)
@@ -175,8 +182,9 @@ def held_out(episode: np.ndarray) -> np.ndarray:
     return episodes[len(episodes) - n_hold :] if n_hold else episodes[:0]
 
 
-def object_errors(pred: np.ndarray, targets: np.ndarray, frame_index: np.ndarray
-                  ) -> list[dict[str, float]]:  # fmt: skip
+def object_errors(
+    pred: np.ndarray, targets: np.ndarray, frame_index: np.ndarray
+) -> list[dict[str, float]]:
     """Per object (each 7 columns of the poses (N, D), xyz first, m): the mean and the largest
     |error| of x and y at the episodes' first frames (``frame_index`` at its minimum), and
     the mean |error| of xyz over all frames; mm."""
@@ -185,8 +193,13 @@ def object_errors(pred: np.ndarray, targets: np.ndarray, frame_index: np.ndarray
     for k in range(0, targets.shape[1] - 2, 7):
         err = np.abs(pred[:, k : k + 3] - targets[:, k : k + 3]) * 1000.0
         start = err[first, :2]
-        out.append({"start_xy_mm": float(start.mean()), "start_xy_max_mm": float(start.max()),
-                    "mean_xyz_mm": float(err.mean())})  # fmt: skip
+        out.append(
+            {
+                "start_xy_mm": float(start.mean()),
+                "start_xy_max_mm": float(start.max()),
+                "mean_xyz_mm": float(err.mean()),
+            }
+        )
     return out
 
 
@@ -245,8 +258,9 @@ def train_encoder(
     net.target_std.copy_(torch.from_numpy(std))
     x_all, y_all = _tensor(images), torch.from_numpy((targets - mean) / std)
     first = int(round(epochs * EARLY_ONLY_FRACTION))
-    sizes = [max(1, len(_epoch_rows(train_rows, early_rows, e < first)) // BATCH)
-             for e in range(epochs)]  # fmt: skip
+    sizes = [
+        max(1, len(_epoch_rows(train_rows, early_rows, e < first)) // BATCH) for e in range(epochs)
+    ]
     opt = torch.optim.AdamW(net.parameters(), lr=PEAK_LR / 25)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, PEAK_LR, total_steps=sum(sizes))
     cpu0, wall0 = time.process_time(), time.perf_counter()
@@ -264,8 +278,10 @@ def train_encoder(
             opt.step()
             sched.step()
             total += loss.item()
-        progress(f"pose encoder: epoch {epoch + 1}/{epochs}, loss {total / per_epoch:.4f}, "
-                 f"{time.perf_counter() - wall0:.0f} s")  # fmt: skip
+        progress(
+            f"pose encoder: epoch {epoch + 1}/{epochs}, loss {total / per_epoch:.4f}, "
+            f"{time.perf_counter() - wall0:.0f} s"
+        )
     cpu_s, wall_s = time.process_time() - cpu0, time.perf_counter() - wall0
     held_rows = np.nonzero(~is_train)[0]
     images, targets = images[:n_rows], targets[:n_rows]
@@ -274,10 +290,15 @@ def train_encoder(
         pred = predict(net, images[held_rows])
         objects = object_errors(pred, targets[held_rows], frame_index[held_rows])
     report = EncoderReport(
-        **objects[0], train_frames=int(len(train_rows)), held_out_episodes=int(n_hold),
-        epochs=int(epochs), cpu_s=round(cpu_s, 1), wall_s=round(wall_s, 1),
-        objects=tuple(objects), static_frames=int(len(static_rows)),
-    )  # fmt: skip
+        **objects[0],
+        train_frames=int(len(train_rows)),
+        held_out_episodes=int(n_hold),
+        epochs=int(epochs),
+        cpu_s=round(cpu_s, 1),
+        wall_s=round(wall_s, 1),
+        objects=tuple(objects),
+        static_frames=int(len(static_rows)),
+    )
     return net, report
 
 
@@ -313,6 +334,7 @@ def load_encoder(path: str | Path) -> Any:
     try:
         state = load_file(str(path))
     except (OSError, ValueError) as exc:
-        raise UserError(f"{path}: cannot read the pose encoder ({exc}); run the recipe's "
-                        "encode phase again") from None  # fmt: skip
+        raise UserError(
+            f"{path}: cannot read the pose encoder ({exc}); run the recipe's encode phase again"
+        ) from None
     return encoder_from_state(state)

@@ -161,9 +161,10 @@ class ArmServer(LoopbackArmServer):
             return
         size = JOINT_INPUT_STRUCT.size
         if len(datagram) != 1 + self.num_joints * size:
-            self.fault(ErrorState.INVALID_ROBOT_COMMAND,
-                       f"robot input of {len(datagram)} bytes, expected "
-                       f"{1 + self.num_joints * size}")  # fmt: skip
+            self.fault(
+                ErrorState.INVALID_ROBOT_COMMAND,
+                f"robot input of {len(datagram)} bytes, expected {1 + self.num_joints * size}",
+            )
             return
         if self.error_state != ErrorState.NONE:
             return  # joints idle until the error is cleared
@@ -187,6 +188,9 @@ class ArmServer(LoopbackArmServer):
 def _values(mode: int, a: float, b: float) -> tuple[float, float, float]:
     """``(position, velocity, effort)`` of one joint input, its fields read per mode as
     ``JointInput.parse`` does (position mode: position, feedforward velocity)."""
-    return {Mode.POSITION: (a, b, 0.0), Mode.VELOCITY: (0.0, a, 0.0),
-            Mode.EXTERNAL_EFFORT: (0.0, 0.0, a), Mode.EFFORT: (0.0, 0.0, a)}.get(
-        mode, (0.0, 0.0, 0.0))  # fmt: skip
+    return {
+        Mode.POSITION: (a, b, 0.0),
+        Mode.VELOCITY: (0.0, a, 0.0),
+        Mode.EXTERNAL_EFFORT: (0.0, 0.0, a),
+        Mode.EFFORT: (0.0, 0.0, a),
+    }.get(mode, (0.0, 0.0, 0.0))

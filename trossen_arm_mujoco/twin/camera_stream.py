@@ -92,10 +92,12 @@ def decode_image(text: str) -> np.ndarray:
 def encode_message(images: dict[str, np.ndarray], stamp: float) -> str:
     """One message of the protocol: every image of ``images`` (RGB) with the timestamp
     ``stamp`` (wall-clock s)."""
-    return json.dumps({
-        "timestamps": {name: stamp for name in images},
-        "images": {name: encode_image(img) for name, img in images.items()},
-    })  # fmt: skip
+    return json.dumps(
+        {
+            "timestamps": {name: stamp for name in images},
+            "images": {name: encode_image(img) for name, img in images.items()},
+        }
+    )
 
 
 @dataclass

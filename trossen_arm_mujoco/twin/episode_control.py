@@ -122,16 +122,22 @@ class EpisodeTracker:
         w = self.world
         poses = w.object_poses()
         return {
-            "task": w.task_name, "episode": w.episode_index, "seed": w.base_seed,
-            "running": self.running, "frames": self.frames,
+            "task": w.task_name,
+            "episode": w.episode_index,
+            "seed": w.base_seed,
+            "running": self.running,
+            "frames": self.frames,
             "sim_time": round(float(w.data.time) - self.start_time, 6),
-            "reward": self.reward, "max_reward": self.max_reward, "sum_reward": self.sum_reward,
+            "reward": self.reward,
+            "max_reward": self.max_reward,
+            "sum_reward": self.sum_reward,
             "task_max_reward": float(getattr(w.task, "max_reward", 1.0)),
-            "success": self.success, "stages": dict(self.stages),
-            "object_names": list(poses), "env_state": w.env_state().tolist(),
-            **({} if w.scene_randomization is None
-               else {"randomization": w.scene_randomization}),
-        }  # fmt: skip
+            "success": self.success,
+            "stages": dict(self.stages),
+            "object_names": list(poses),
+            "env_state": w.env_state().tolist(),
+            **({} if w.scene_randomization is None else {"randomization": w.scene_randomization}),
+        }
 
 
 class EpisodeControl:
@@ -202,16 +208,20 @@ class EpisodeControl:
             seed, episode, poses = _start_args(request, self.world)
             record = request.get("randomization")
             if record is not None and not isinstance(record, dict):
-                raise UserError("start: randomization must be a record (an object) as the "
-                                "start reply's 'randomization' gives it")  # fmt: skip
+                raise UserError(
+                    "start: randomization must be a record (an object) as the "
+                    "start reply's 'randomization' gives it"
+                )
             self.world.base_seed = seed
             self.world.reset(episode, object_poses=poses, randomization=record)
             self.tracker.begin()
             if self.recorder is not None:
                 self.recorder.session_started()
             if self.say is not None:
-                self.say(f"episode started: seed {seed}, episode {episode}"
-                         + (" (objects placed by the client)" if poses else ""))  # fmt: skip
+                self.say(
+                    f"episode started: seed {seed}, episode {episode}"
+                    + (" (objects placed by the client)" if poses else "")
+                )
         elif cmd == "end":
             if not self.tracker.running:
                 raise UserError("no episode is running: send start first")
@@ -220,8 +230,10 @@ class EpisodeControl:
                 self.recorder.session_ended()
             if self.say is not None:
                 t = self.tracker
-                self.say(f"episode ended: max reward {t.max_reward:g}, "
-                         f"{'success' if t.success else 'no success'}")  # fmt: skip
+                self.say(
+                    f"episode ended: max reward {t.max_reward:g}, "
+                    f"{'success' if t.success else 'no success'}"
+                )
         return {"ok": True, **self.tracker.report()}
 
     # -- server threads -------------------------------------------------------------------
@@ -232,8 +244,9 @@ class EpisodeControl:
             except OSError:
                 return
             self._clients.append(conn)
-            t = threading.Thread(target=self._serve, args=(conn,), name="kit-control-client",
-                                 daemon=True)  # fmt: skip
+            t = threading.Thread(
+                target=self._serve, args=(conn,), name="kit-control-client", daemon=True
+            )
             t.start()
             self._threads.append(t)
 
@@ -243,8 +256,11 @@ class EpisodeControl:
             while (got := read_request(reader)) is not None:
                 line, too_long = got
                 if too_long:  # refused at once; the rest of the line is then dropped
-                    reply = {"ok": False, "error": f"request line longer than {MAX_LINE} bytes: "
-                             "refused (one JSON object per line)"}  # fmt: skip
+                    reply = {
+                        "ok": False,
+                        "error": f"request line longer than {MAX_LINE} bytes: "
+                        "refused (one JSON object per line)",
+                    }
                 else:
                     reply = self.handle(line)
                 conn.sendall((json.dumps(reply) + "\n").encode())
@@ -261,8 +277,7 @@ class EpisodeControl:
         by the stepping thread between two frames)."""
         raw = line.encode() if isinstance(line, str) else line
         if nesting_depth(raw, MAX_DEPTH) > MAX_DEPTH:
-            return {"ok": False, "error": f"request nested deeper than {MAX_DEPTH} levels: "
-                    "refused"}  # fmt: skip
+            return {"ok": False, "error": f"request nested deeper than {MAX_DEPTH} levels: refused"}
         try:
             request = json.loads(raw)
         except (ValueError, RecursionError) as exc:

@@ -91,8 +91,11 @@ def _alive(pid: int) -> bool:
 def stale_spools(folder: Path) -> list[Path]:
     """Serve spools in ``folder`` whose process no longer runs, oldest first."""
     try:
-        paths = [p for p in Path(folder).glob(".serve_spool.*.tmp")
-                 if (pid := spool_pid(p)) is not None and not _alive(pid)]  # fmt: skip
+        paths = [
+            p
+            for p in Path(folder).glob(".serve_spool.*.tmp")
+            if (pid := spool_pid(p)) is not None and not _alive(pid)
+        ]
         return sorted(paths, key=lambda p: (p.stat().st_mtime, p.name))
     except OSError:  # folder gone or unreadable: nothing to recover here
         return []
@@ -153,22 +156,31 @@ class EpisodeSpool:
 
     def append(self, frame: Frame, images: Mapping[str, np.ndarray]) -> None:
         """One step: the frame's state, action and reward, and its camera images."""
-        self.append_step(frame.qpos, frame.qvel, frame.action, frame.reward, frame.env_state,
-                         images)  # fmt: skip
+        self.append_step(
+            frame.qpos, frame.qvel, frame.action, frame.reward, frame.env_state, images
+        )
 
-    def append_step(self, qpos: np.ndarray, qvel: np.ndarray, action: np.ndarray,
-                    reward: float, env_state: np.ndarray,
-                    images: Mapping[str, np.ndarray]) -> None:  # fmt: skip
+    def append_step(
+        self,
+        qpos: np.ndarray,
+        qvel: np.ndarray,
+        action: np.ndarray,
+        reward: float,
+        env_state: np.ndarray,
+        images: Mapping[str, np.ndarray],
+    ) -> None:
         """One step: observation (``qpos``, ``qvel``, ``env_state``) before the action,
         the action, the reward after it, and the camera images (all copied, on disk when
         this returns)."""
         if not self._open:
             raise ValueError("the spool was already published or discarded")
-        values = {"qpos": np.array(qpos, dtype=np.float64).reshape(-1),
-                  "qvel": np.array(qvel, dtype=np.float64).reshape(-1),
-                  "action": np.array(action, dtype=np.float64).reshape(-1),
-                  "reward": np.array([reward], dtype=np.float64),
-                  "env_state": np.array(env_state, dtype=np.float64).reshape(-1)}  # fmt: skip
+        values = {
+            "qpos": np.array(qpos, dtype=np.float64).reshape(-1),
+            "qvel": np.array(qvel, dtype=np.float64).reshape(-1),
+            "action": np.array(action, dtype=np.float64).reshape(-1),
+            "reward": np.array([reward], dtype=np.float64),
+            "env_state": np.array(env_state, dtype=np.float64).reshape(-1),
+        }
         if self._layout is None:
             widths = {k: int(v.size) for k, v in values.items()}
             self._layout = _Layout(widths, self.camera_names, self.height, self.width)
@@ -178,14 +190,17 @@ class EpisodeSpool:
         layout = self._layout
         numbers = np.concatenate([values[k] for k in NUMERIC])
         if numbers.size != layout.numbers:
-            raise ValueError(f"step {len(self)} has {numbers.size} values, the first had "
-                             f"{layout.numbers}")  # fmt: skip
+            raise ValueError(
+                f"step {len(self)} has {numbers.size} values, the first had {layout.numbers}"
+            )
         frames = []
         for cam in self.camera_names:
             image = np.ascontiguousarray(images[cam], dtype=np.uint8)
             if image.shape != (self.height, self.width, 3):
-                raise ValueError(f"step {len(self)}: image '{cam}' is {image.shape}, expected "
-                                 f"{(self.height, self.width, 3)}")  # fmt: skip
+                raise ValueError(
+                    f"step {len(self)}: image '{cam}' is {image.shape}, expected "
+                    f"{(self.height, self.width, 3)}"
+                )
             frames.append(image)
         self._write(numbers.tobytes())
         for image in frames:
@@ -212,8 +227,16 @@ class EpisodeSpool:
         if not self._open:
             raise ValueError("the spool was already published or discarded")
         try:
-            out = _write_episode(path, self.rows, self._images, self.camera_names,
-                                 self.height, self.width, attrs, compression)  # fmt: skip
+            out = _write_episode(
+                path,
+                self.rows,
+                self._images,
+                self.camera_names,
+                self.height,
+                self.width,
+                attrs,
+                compression,
+            )
         except BaseException:
             if self.path is None:
                 self.discard()
@@ -283,10 +306,15 @@ def _jsonable(value: Any) -> Any:
 
 
 def _header(layout: _Layout, meta: Mapping[str, Any]) -> bytes:
-    body = json.dumps({
-        "widths": dict(layout.widths), "camera_names": list(layout.camera_names),
-        "height": layout.height, "width": layout.width, "meta": _jsonable(meta),
-    }).encode()  # fmt: skip
+    body = json.dumps(
+        {
+            "widths": dict(layout.widths),
+            "camera_names": list(layout.camera_names),
+            "height": layout.height,
+            "width": layout.width,
+            "meta": _jsonable(meta),
+        }
+    ).encode()
     return MAGIC + _LENGTH.pack(len(body)) + body
 
 
@@ -302,22 +330,38 @@ def _read_images(fd: int, layout: _Layout, t: int, offset: int) -> dict[str, np.
     return out
 
 
-def _write_episode(path: Path, rows: Mapping[str, Sequence[Any]],
-                   images: Callable[[int], dict[str, np.ndarray]],
-                   camera_names: Sequence[str], height: int, width: int,
-                   attrs: Mapping[str, Any], compression: str) -> Path:  # fmt: skip
+def _write_episode(
+    path: Path,
+    rows: Mapping[str, Sequence[Any]],
+    images: Callable[[int], dict[str, np.ndarray]],
+    camera_names: Sequence[str],
+    height: int,
+    width: int,
+    attrs: Mapping[str, Any],
+    compression: str,
+) -> Path:
     n = len(rows["reward"])
     env_dim = len(rows["env_state"][0]) if n else 7
     with EpisodeWriter(
-        path, episode_len=n, camera_names=camera_names, height=height, width=width,
-        compression=compression, attrs=attrs, env_state_dim=env_dim, create_folder=False,
-    ) as writer:  # fmt: skip
+        path,
+        episode_len=n,
+        camera_names=camera_names,
+        height=height,
+        width=width,
+        compression=compression,
+        attrs=attrs,
+        env_state_dim=env_dim,
+        create_folder=False,
+    ) as writer:
         for t in range(n):
             writer.append(
-                qpos=rows["qpos"][t], qvel=rows["qvel"][t], action=rows["action"][t],
-                reward=rows["reward"][t], env_state=rows["env_state"][t],
+                qpos=rows["qpos"][t],
+                qvel=rows["qvel"][t],
+                action=rows["action"][t],
+                reward=rows["reward"][t],
+                env_state=rows["env_state"][t],
                 images=images(t) if camera_names else {},
-            )  # fmt: skip
+            )
     return writer.path
 
 
@@ -371,9 +415,12 @@ def read_spool(path: Path) -> SpoolContents:
             return SpoolContents(Path(path), {}, rows, None, 0, len(raw))
         try:
             header = json.loads(raw)
-            layout = _Layout({k: int(header["widths"][k]) for k in NUMERIC},
-                             [str(c) for c in header["camera_names"]], int(header["height"]),
-                             int(header["width"]))  # fmt: skip
+            layout = _Layout(
+                {k: int(header["widths"][k]) for k in NUMERIC},
+                [str(c) for c in header["camera_names"]],
+                int(header["height"]),
+                int(header["width"]),
+            )
         except (ValueError, KeyError, TypeError) as exc:
             raise SpoolFormatError(f"damaged header ({exc})") from None
         offset = len(head) + length
@@ -401,8 +448,9 @@ class Recovery:
     problem: str = ""  # why it was kept (empty: published, or held nothing)
 
 
-def recover_spools(folder: Path, next_index: Callable[[], int],
-                   say: Callable[[str], None] = print) -> list[Recovery]:  # fmt: skip
+def recover_spools(
+    folder: Path, next_index: Callable[[], int], say: Callable[[str], None] = print
+) -> list[Recovery]:
     """Publish the episodes that spools of dead processes in ``folder`` hold (call it holding
     the folder's lock): each as the folder's next episode (``next_index()``), through the
     writer (validated); the spool is deleted only then. A spool that holds no step, or
@@ -430,18 +478,24 @@ def recover_spools(folder: Path, next_index: Callable[[], int],
             if isinstance(exc, SpoolFormatError):
                 todo = "it cannot become an episode; move it out of the folder to give it up"
             else:
-                todo = ("fix that and run serve --record into this folder again to recover "
-                        "it (or move it out of the folder to give it up)")  # fmt: skip
-            say(f"warning: {path} was left by a serve that stopped before writing its "
-                f"episode and is kept, not recovered: {result.problem}; {todo}")  # fmt: skip
+                todo = (
+                    "fix that and run serve --record into this folder again to recover "
+                    "it (or move it out of the folder to give it up)"
+                )
+            say(
+                f"warning: {path} was left by a serve that stopped before writing its "
+                f"episode and is kept, not recovered: {result.problem}; {todo}"
+            )
             continue
         try:
             path.unlink(missing_ok=True)
         except OSError:
             pass
-        say(f"{result.episode.name}: recovered {contents.steps} steps "
+        say(
+            f"{result.episode.name}: recovered {contents.steps} steps "
             f"({contents.steps * float(contents.meta.get('attrs', {}).get('dt', 0.02)):.2f} s) "
-            f"that a stopped serve left in {path.name}")  # fmt: skip
+            f"that a stopped serve left in {path.name}"
+        )
     return done
 
 
@@ -476,18 +530,27 @@ def _publish_contents(contents: SpoolContents, path: Path) -> Path:
     rewards = np.asarray(contents.rows["reward"], dtype=np.float64)
     top = float(meta.get("task_max_reward", 1.0))
     final, best = float(rewards[-1]), float(rewards.max())
-    attrs.update(success=bool(final >= top), final_reward=final, max_reward=best,
-                 end_reason="recovered: serve stopped before writing it",
-                 recovered_from=contents.path.name)  # fmt: skip
+    attrs.update(
+        success=bool(final >= top),
+        final_reward=final,
+        max_reward=best,
+        end_reason="recovered: serve stopped before writing it",
+        recovered_from=contents.path.name,
+    )
     attrs.setdefault("task_name", "unknown")
     attrs.setdefault("seed", 0)
     compression = str(meta.get("compression", "gzip"))
     fd = os.open(contents.path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
     try:
         return _write_episode(
-            path, contents.rows,
+            path,
+            contents.rows,
             lambda t: _read_images(fd, layout, t, contents.offset),
-            layout.camera_names, layout.height, layout.width, attrs, compression,
-        )  # fmt: skip
+            layout.camera_names,
+            layout.height,
+            layout.width,
+            attrs,
+            compression,
+        )
     finally:
         os.close(fd)

@@ -140,8 +140,9 @@ class KitWorld:
         self.dadr = {s: m.jnt_dofadr[jid[s]].copy() for s in SIDES}
         twin = {s: lookup_id(m, "joint", f"{s}/{COUPLED_FINGER}") for s in SIDES}
         self.twin_dadr = {s: int(m.jnt_dofadr[twin[s]]) for s in SIDES}
-        names = [f"{s}/{j}" for s in SIDES for j in (*ARM_JOINTS, COUPLED_FINGER,
-                                                     "left_carriage_joint")]  # fmt: skip
+        names = [
+            f"{s}/{j}" for s in SIDES for j in (*ARM_JOINTS, COUPLED_FINGER, "left_carriage_joint")
+        ]
         ids = [lookup_id(m, "joint", n) for n in names]  # the 16-value kit layout
         self.layout_qadr, self.layout_dadr = m.jnt_qposadr[ids].copy(), m.jnt_dofadr[ids].copy()
         acts = {s: [*(f"{s}/{j}" for j in ARM_JOINTS), f"{s}/gripper"] for s in SIDES}
@@ -167,8 +168,11 @@ class KitWorld:
             saved = None
             if keep_arms:
                 d = self.data
-                saved = (d.qpos[self.layout_qadr].copy(), d.qvel[self.layout_dadr].copy(),
-                         d.ctrl.copy())  # fmt: skip
+                saved = (
+                    d.qpos[self.layout_qadr].copy(),
+                    d.qvel[self.layout_dadr].copy(),
+                    d.ctrl.copy(),
+                )
             seed = episode_seed(self.base_seed, episode_index)
             self.task = self.sampler.next_task(
                 seed, object_poses=object_poses, randomization=randomization
@@ -251,11 +255,15 @@ class KitWorld:
                 self.before_frame()
             d = self.data
             frame = Frame(
-                time=float(d.time), qpos_full=d.qpos.copy(), mocap_pos=d.mocap_pos.copy(),
-                mocap_quat=d.mocap_quat.copy(), qpos=d.qpos[self.layout_qadr].copy(),
-                qvel=d.qvel[self.layout_dadr].copy(), env_state=self.env_state(),
+                time=float(d.time),
+                qpos_full=d.qpos.copy(),
+                mocap_pos=d.mocap_pos.copy(),
+                mocap_quat=d.mocap_quat.copy(),
+                qpos=d.qpos[self.layout_qadr].copy(),
+                qvel=d.qvel[self.layout_dadr].copy(),
+                env_state=self.env_state(),
                 action=self.action(),
-            )  # fmt: skip
+            )
         for _ in range(self.ticks_per_frame):
             with self.lock:
                 self._tick()

@@ -150,10 +150,20 @@ class LeaderArms:
                     "trossen-mujoco serve --role leader --replay EPISODE.hdf5)"
                 ) from None
             self.drivers[side] = driver
-            self._call(side, "set_all_modes(external_effort)", driver.set_all_modes,
-                       ta.Mode.external_effort)  # fmt: skip
-            self._call(side, "set_all_external_efforts", driver.set_all_external_efforts,
-                       [0.0] * NUM_ARM_VALUES, 0.0, False)  # fmt: skip
+            self._call(
+                side,
+                "set_all_modes(external_effort)",
+                driver.set_all_modes,
+                ta.Mode.external_effort,
+            )
+            self._call(
+                side,
+                "set_all_external_efforts",
+                driver.set_all_external_efforts,
+                [0.0] * NUM_ARM_VALUES,
+                0.0,
+                False,
+            )
 
     def read(self) -> np.ndarray:
         """Both arms now: float64 ``(14,)`` in the kit's layout (left 7, right 7)."""

@@ -81,7 +81,9 @@ def load_leader_trajectory(
     episode = load_episode(path)
     values = KIT14_LAYOUT.from_vendor(episode.action if source == "action" else episode.qpos)
     limits = ArmLimits.from_mjcf()
-    arms = np.stack([values[:, KIT14_LAYOUT.arm(s).start : KIT14_LAYOUT.arm(s).start + 7]
-                     for s in SIDES], axis=1)  # fmt: skip
+    arms = np.stack(
+        [values[:, KIT14_LAYOUT.arm(s).start : KIT14_LAYOUT.arm(s).start + 7] for s in SIDES],
+        axis=1,
+    )
     arms = np.clip(arms, limits.driver_lower, limits.driver_upper)
     return LeaderTrajectory(arms, float(episode.dt), Path(path), source)

@@ -95,7 +95,7 @@ class ServedKit:
         self.servers = {
             side: ArmServer(
                 self.adapters[side], self.ips[side], f"{side} arm", on_event=self._hook(side)
-            )  # fmt: skip
+            )
             for side in SIDES
         }
         world.on_fault = self._motion_fault

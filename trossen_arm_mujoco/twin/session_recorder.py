@@ -171,12 +171,17 @@ class SessionRecorder:
         w = self.world
         poses = w.object_poses()
         attrs: dict[str, Any] = {
-            "task_name": w.task_name, "seed": int(w.seed), "base_seed": w.base_seed,
-            "attempt": self.index, "dt": w.frame_dt, "source": "serve",
-            "initial_env_state": w.env_state(), "object_names": list(poses),
+            "task_name": w.task_name,
+            "seed": int(w.seed),
+            "base_seed": w.base_seed,
+            "attempt": self.index,
+            "dt": w.frame_dt,
+            "source": "serve",
+            "initial_env_state": w.env_state(),
+            "object_names": list(poses),
             **({"box_pose": poses["box"]} if "box" in poses else {}),
             RECORDING_ID_ATTR: secrets.token_hex(8),
-        }  # fmt: skip
+        }
         self._episode = _Episode(self.index, int(w.seed), attrs)
         self._steps = 0
         self._queue.put(("begin", self._episode))
@@ -197,9 +202,11 @@ class SessionRecorder:
         backlog = self._queue.qsize() * self.world.frame_dt
         if backlog > BACKLOG_WARN_S and not self._warned:
             self._warned = True
-            self.say(f"warning: rendering lags {backlog:.0f} s behind the arms; frames are "
-                     "queued and all written (smaller --image_size or fewer --cam_names keep "
-                     "up)")  # fmt: skip
+            self.say(
+                f"warning: rendering lags {backlog:.0f} s behind the arms; frames are "
+                "queued and all written (smaller --image_size or fewer --cam_names keep "
+                "up)"
+            )
         if self.options.episode_len is not None and self._steps >= self.options.episode_len:
             self._end(f"{self._steps} steps (--episode_len)")
             self.world.reset(self.index, keep_arms=True)  # next objects, arms untouched
@@ -245,8 +252,12 @@ class SessionRecorder:
     def _spool(self, episode: _Episode) -> EpisodeSpool:
         """A named spool holding what a later run needs to publish it (:mod:`.episode_spool`)."""
         o = self.options
-        meta = {"index": episode.index, "attrs": episode.attrs, "compression": o.compression,
-                "task_max_reward": self._top}  # fmt: skip
+        meta = {
+            "index": episode.index,
+            "attrs": episode.attrs,
+            "compression": o.compression,
+            "task_max_reward": self._top,
+        }
         return EpisodeSpool(o.folder, o.camera_names, o.height, o.width, meta=meta)
 
     @property
@@ -272,10 +283,17 @@ class SessionRecorder:
         final, best = float(rewards[-1]), float(rewards.max())
         top = self._top
         success = final >= top
-        attrs = {**episode.attrs, **episode.end_attrs, "success": success, "final_reward": final,
-                 "max_reward": best, "end_reason": episode.reason}  # fmt: skip
-        path = spool.publish(episode_path(self.options.folder, episode.index), attrs,
-                             self.options.compression)  # fmt: skip
+        attrs = {
+            **episode.attrs,
+            **episode.end_attrs,
+            "success": success,
+            "final_reward": final,
+            "max_reward": best,
+            "end_reason": episode.reason,
+        }
+        path = spool.publish(
+            episode_path(self.options.folder, episode.index), attrs, self.options.compression
+        )
         self.stats.written.append(path)
         self.stats.successes += int(success)
         dt = self.world.frame_dt
@@ -302,8 +320,10 @@ class SessionRecorder:
         if spool is not None and len(spool) and spool.path is not None:
             spool.close()
             self.stats.kept.append(spool.path)
-            line += (f"; its {len(spool)} steps are kept in {spool.path}: the next serve "
-                     "--record into this folder publishes them")  # fmt: skip
+            line += (
+                f"; its {len(spool)} steps are kept in {spool.path}: the next serve "
+                "--record into this folder publishes them"
+            )
         elif spool is not None:
             spool.discard()
         episode.spool = None

@@ -111,9 +111,7 @@ class TeleopSettings:
             camera_names=self.cam_names,
             height=self.height,
             width=self.width,
-            looks=SceneLooks(
-                shadows=self.shadows, antialias=self.antialias, visual=self.visual
-            ),
+            looks=SceneLooks(shadows=self.shadows, antialias=self.antialias, visual=self.visual),
         )
 
 
@@ -166,9 +164,11 @@ class TeleopRecorder:
         self.entry = registry.load(settings.task_name)
         if settings.task_name not in registry.kit_names():
             raise unknown_name_error(
-                "kit task", settings.task_name, registry.kit_names(),
+                "kit task",
+                settings.task_name,
+                registry.kit_names(),
                 "teleop drives the Stationary AI kit's two arms",
-            )  # fmt: skip
+            )
         self.settings = settings
         self.step_hook = step_hook
         self.sampler = registry.make_sampler(
@@ -297,8 +297,9 @@ class TeleopRecorder:
             return False, float("nan")
         return True, float(np.max(trajectory.peak_speed / self.arm_limits.velocity))
 
-    def _write(self, index, seed, path: Path, spool: EpisodeSpool, poses, run, leaders,
-               extra_attrs):  # fmt: skip
+    def _write(
+        self, index, seed, path: Path, spool: EpisodeSpool, poses, run, leaders, extra_attrs
+    ):
         n = len(spool)
         rewards = spool.rewards
         speed_ok, peak = self.check_real_replay(spool.actions)

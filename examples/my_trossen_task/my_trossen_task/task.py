@@ -122,7 +122,9 @@ TASK = TaskEntry(
     record=record_defaults(250),
     stages=STAGES,
     gym_ids={"MyTrossen/LiftPuck-v0": "env"},
-    keys={"puck_low": Key("vector", -0.5, 0.5, lengths=(2,), unit="m"),
-          "puck_high": Key("vector", -0.5, 0.5, lengths=(2,), unit="m")},
+    keys={
+        "puck_low": Key("vector", -0.5, 0.5, lengths=(2,), unit="m"),
+        "puck_high": Key("vector", -0.5, 0.5, lengths=(2,), unit="m"),
+    },
     required=("puck_low", "puck_high"),
-)  # fmt: skip
+)

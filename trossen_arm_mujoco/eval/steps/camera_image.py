@@ -63,9 +63,15 @@ class CameraImageStep(ObservationProcessorStep):
         return out
 
     def get_config(self) -> dict[str, Any]:
-        return {"cameras": {c: {"size": [int(v) for v in s["size"]],
-                                "crop": [int(v) for v in s.get("crop") or []]}
-                            for c, s in self.cameras.items()}}  # fmt: skip
+        return {
+            "cameras": {
+                c: {
+                    "size": [int(v) for v in s["size"]],
+                    "crop": [int(v) for v in s.get("crop") or []],
+                }
+                for c, s in self.cameras.items()
+            }
+        }
 
     def transform_features(self, features):
         return features
@@ -78,8 +84,10 @@ def _as_trained(key: str, image: Any, camera: str, spec: dict[str, list[int]]) -
     if [h, w] == size:
         return None
     if abs(w * FRAME[0] / (h * FRAME[1]) - 1.0) > _ASPECT_TOLERANCE:
-        raise ValueError(f"{key} is {h}x{w}; the checkpoint takes the camera's whole 4:3 "
-                         f"frame (480x640) or its trained {size[0]}x{size[1]} images")  # fmt: skip
+        raise ValueError(
+            f"{key} is {h}x{w}; the checkpoint takes the camera's whole 4:3 "
+            f"frame (480x640) or its trained {size[0]}x{size[1]} images"
+        )
     crop = CameraCrop(camera, *map(int, spec["crop"])) if spec.get("crop") else None
     batch = image.reshape(-1, *image.shape[-3:])
     pixels = (batch.detach().float().clamp(0, 1) * 255).round().to(torch.uint8)

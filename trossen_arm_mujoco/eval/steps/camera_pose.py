@@ -39,8 +39,10 @@ class CameraPoseStep(ObservationProcessorStep):
         key = image_key(self.camera)
         image = observation.get(key)
         if image is None:
-            raise ValueError(f"the checkpoint's pose encoder reads {key}, which this "
-                             f"observation lacks: serve the camera {self.camera}")  # fmt: skip
+            raise ValueError(
+                f"the checkpoint's pose encoder reads {key}, which this "
+                f"observation lacks: serve the camera {self.camera}"
+            )
         if self._net is None:
             raise ValueError("the pose step has no encoder weights (its state file)")
         image = torch.as_tensor(image)
