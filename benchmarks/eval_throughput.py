@@ -249,7 +249,8 @@ def fresh_rates(args, workers: int) -> tuple[float, float]:
 
 
 def policy_table(args, counts: list[int]) -> None:
-    from trossen_arm_mujoco.eval.runner import available_cpus, threads_per_worker
+    from trossen_arm_mujoco.eval.runner import threads_per_worker
+    from trossen_arm_mujoco.processes import available_cpus
 
     cpus = available_cpus()
     where = "each count in a new process" if args.fresh else "the counts in one process"

@@ -90,7 +90,7 @@ def action_time(env_id: str, mode: str, args, clock) -> str:
     robot = u.task.robot
 
     def tick(i: int) -> None:
-        robot.update_control(u.actions(data, acts[i])[0])
+        robot.update_control(u.actions(data, acts[i]))
         robot.apply_control(data)
 
     t = best(tick, args.steps, args.repeats, clock)

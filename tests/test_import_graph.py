@@ -40,7 +40,7 @@ PACKAGE_DIR = Path(__file__).resolve().parent.parent / PACKAGE
 LAYERS: tuple[tuple[str, ...], ...] = (
     # helpers that know nothing of robots, worlds or tasks
     ("errors",),
-    ("names", "clip", "fileio", "quaternion", "assets", "viewer"),
+    ("names", "clip", "fileio", "quaternion", "assets", "viewer", "processes"),
     ("images",),
     # what a robot is: move groups -> robot view -> robot (+ controllers, kinematics, layouts)
     ("robot",),

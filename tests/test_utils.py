@@ -1,4 +1,4 @@
-"""utils: sample_box_pose, resolve_asset, make_sim_env (the documented helpers)."""
+"""utils: sample_box_pose, make_sim_env (the documented helpers); assets.asset_path."""
 
 from __future__ import annotations
 
@@ -10,12 +10,13 @@ import pytest
 from dm_control.rl import control
 
 from trossen_arm_mujoco import utils
+from trossen_arm_mujoco.assets import asset_path
 from trossen_arm_mujoco.constants import ASSETS_DIR, DT
 from trossen_arm_mujoco.ee_sim_env import TransferCubeEETask
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.quaternion import Quaternion
 from trossen_arm_mujoco.sim_env import TransferCubeTask
-from trossen_arm_mujoco.utils import make_sim_env, resolve_asset, sample_box_pose
+from trossen_arm_mujoco.utils import make_sim_env, sample_box_pose
 
 
 def test_public_names():
@@ -42,12 +43,12 @@ def test_sample_box_pose_seeds_and_generators():
     assert not np.array_equal(sample_box_pose(rng), sample_box_pose(rng))  # the stream advances
 
 
-def test_resolve_asset():
-    assert resolve_asset("wxai/wxai_follower.xml") == os.path.join(
+def test_asset_path():
+    assert str(asset_path("wxai/wxai_follower.xml")) == os.path.join(
         ASSETS_DIR, "wxai/wxai_follower.xml"
     )
     absolute = str(Path("/tmp/some/scene.xml"))
-    assert resolve_asset(absolute) == absolute
+    assert str(asset_path(absolute)) == absolute
 
 
 def test_make_sim_env_returns_a_dm_control_environment():

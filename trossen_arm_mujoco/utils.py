@@ -32,11 +32,6 @@ def sample_box_pose(rng: np.random.Generator | int | None = None) -> np.ndarray:
     return sample_cube_pose(rng)
 
 
-def resolve_asset(xml_file: str) -> str:
-    """Absolute path of a model: as given when absolute, else relative to ASSETS_DIR."""
-    return str(asset_path(xml_file))
-
-
 def make_sim_env(
     task_class: type,
     xml_file: str | None = None,
@@ -87,7 +82,7 @@ def make_sim_env(
                 f"{task_class.__name__} does not randomize"
             )
         task_kwargs["randomize"] = True
-    xml = resolve_asset(xml_file or task_class.DEFAULT_XML)
+    xml = str(asset_path(xml_file or task_class.DEFAULT_XML))
     edit = None  # a registered task's own scene objects (TaskSampler.scene_objects)
     if issubclass(task_class, RegisteredTaskMixin) and task_class.task_name:
         edit = registry.load(task_class.task_name).sampler_class().scene_edit()

@@ -127,7 +127,7 @@ from trossen_arm_mujoco.collect import local_pool
 from trossen_arm_mujoco.collect.local_pool import WorkerPool
 
 if __name__ == "__mp_main__" and os.environ.get("NO_PDEATHSIG"):
-    local_pool._parent_death_signal = lambda: False  # as where the kernel cannot signal it
+    local_pool.parent_death_signal = lambda signum: None  # as where the kernel cannot signal it
 
 
 def late_sigterm():

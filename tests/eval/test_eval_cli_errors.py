@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-from trossen_arm_mujoco import cli
+from trossen_arm_mujoco import cli, processes
 from trossen_arm_mujoco.eval import runner
 from trossen_arm_mujoco.fileio import PROBE_PREFIX
 
@@ -98,7 +98,7 @@ def test_a_raising_policy_names_the_call_then_shows_its_traceback(workers, tmp_p
 
 
 def test_too_many_workers_is_one_plain_note(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(runner, "available_cpus", lambda: 1)
+    monkeypatch.setattr(processes, "available_cpus", lambda: 1)
     out_dir = tmp_path / "eval"
     rc, out, err = _eval(
         [

@@ -199,7 +199,8 @@ def act(observation):
 
 
 def test_threads_per_worker_shares_the_cores():
-    from trossen_arm_mujoco.eval.runner import available_cpus, threads_per_worker
+    from trossen_arm_mujoco.eval.runner import threads_per_worker
+    from trossen_arm_mujoco.processes import available_cpus
 
     assert threads_per_worker(1, 16) == 16
     assert threads_per_worker(2, 16) == 8
@@ -223,7 +224,7 @@ def test_each_worker_gets_its_share_of_the_cores(tmp_path, monkeypatch):
     """Two workers: each worker's OpenMP variable and torch use max(1, C // 2) threads (not
     torch's default of every core)."""
     pytest.importorskip("torch")
-    from trossen_arm_mujoco.eval.runner import available_cpus
+    from trossen_arm_mujoco.processes import available_cpus
 
     name = f"threads_{uuid.uuid4().hex[:8]}"
     folder, log = tmp_path / "policies", tmp_path / "log"

@@ -120,7 +120,7 @@ def test_joint_position_actions_as_one_vector_equal_arm_by_arm(make_env, env_id)
     clipped = 0
     for _ in range(120):
         action = rng.uniform(-1, 1, batched.action_space.shape)
-        commands, _ = batched.unwrapped.actions(batched.unwrapped.scene.data, action)
+        commands = batched.unwrapped.actions(batched.unwrapped.scene.data, action)
         assert type(commands).__name__ == "JointTargets"
         _, r1, _, _, info1 = batched.step(action)
         _, r2, _, _, info2 = by_arm.step(action)
@@ -147,9 +147,9 @@ def test_gripper_action_maps_to_finger_travel(make_env):
     env = make_env(REACH, action_mode="ee_delta")
     env.reset(seed=0)
     u = env.unwrapped
-    commands, _ = u.actions(u.scene.data, np.array([0, 0, 0, -1.0]))
+    commands = u.actions(u.scene.data, np.array([0, 0, 0, -1.0]))
     assert commands["gripper"][0] == pytest.approx(0.0)
-    commands, _ = u.actions(u.scene.data, np.array([0, 0, 0, 1.0]))
+    commands = u.actions(u.scene.data, np.array([0, 0, 0, 1.0]))
     assert commands["gripper"][0] == pytest.approx(0.044)
 
 
@@ -157,8 +157,8 @@ def test_out_of_range_actions_are_clipped(make_env):
     env = make_env(REACH, action_mode="ee_delta")
     env.reset(seed=0)
     u = env.unwrapped
-    big, _ = u.actions(u.scene.data, np.array([5.0, 0, 0, 0]))
-    one, _ = u.actions(u.scene.data, np.array([1.0, 0, 0, 0]))
+    big = u.actions(u.scene.data, np.array([5.0, 0, 0, 0]))
+    one = u.actions(u.scene.data, np.array([1.0, 0, 0, 0]))
     np.testing.assert_array_equal(big["arm"], one["arm"])
 
 

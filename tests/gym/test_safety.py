@@ -312,7 +312,7 @@ def test_dm_control_joint_env_and_gym_env_clip_alike(make_env):
     action = np.zeros(14)
     action[7:13] = 2 * (target - low) / (high - low) - 1
     action[[6, 13]] = 1.0
-    commands, _ = u.actions(u.scene.data, action)  # what the gym env asks of the robot
+    commands = u.actions(u.scene.data, action)  # what the gym env asks of the robot
     # the same commands as a dm_control action: the 14 values of the real kit's layout (per
     # arm 6 joints, then the gripper), which the joint env takes as well as the 16
     dm_action = np.concatenate(

@@ -13,6 +13,7 @@ import h5py
 import pytest
 
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
+from trossen_arm_mujoco.processes import available_cpus
 from trossen_arm_mujoco.scripts.record_sim_episodes import cli
 
 REPO = Path(__file__).resolve().parents[2]
@@ -236,7 +237,7 @@ def test_help_names_the_subcommand():
 
 
 def test_too_many_workers_are_capped_at_the_cpus(tmp_path, capsys):
-    cpus = len(os.sched_getaffinity(0))
+    cpus = available_cpus()
     args = ["--data_dir", "d", "--root_dir", str(tmp_path), *SUCCEEDS, "--num_workers", "100000"]
     rc, _, err = _run_cli(args, capsys)
     assert rc == 0

@@ -42,12 +42,12 @@ from multiprocessing.connection import Connection, wait
 from typing import Any
 
 from trossen_arm_mujoco.errors import UserError, redeliver_if_in_finalizer, show_warning_as_note
+from trossen_arm_mujoco.processes import parent_death_signal
 
 __all__ = [
     "MAX_TRIES",
     "PARENT_POLL_S",
     "POLL_S",
-    "PR_SET_PDEATHSIG",
     "STOP_WAIT_S",
     "RemoteTraceback",
     "WorkerPool",
@@ -65,10 +65,6 @@ STOP_WAIT_S = 15.0
 
 #: Seconds between two looks at the parent, where its death cannot be signalled (not Linux).
 PARENT_POLL_S = 0.5
-
-#: ``prctl`` option: the signal this process gets when its parent dies (linux/prctl.h).
-PR_SET_PDEATHSIG = 1
-
 
 #: Set in a worker once SIGTERM raised ``KeyboardInterrupt`` in it: it is stopping, and
 #: cleaning up (discarding its partial file); more SIGTERMs must not interrupt that.
@@ -101,19 +97,6 @@ def _raise_interrupt(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
-def _parent_death_signal() -> bool:
-    """Ask the kernel for SIGTERM when the parent dies (Linux); whether it was granted."""
-    if not sys.platform.startswith("linux"):
-        return False
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        return libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0) == 0
-    except (OSError, AttributeError, TypeError):
-        return False
-
-
 def _watch_parent(parent: int, interval: float = PARENT_POLL_S) -> threading.Thread:
     """Send this process SIGTERM once its parent ``parent`` is gone (a daemon thread polling
     ``os.getppid()``, which changes when the process is re-parented)."""
@@ -135,7 +118,8 @@ def _die_with_parent(parent: int) -> None:
     Raises:
         KeyboardInterrupt: the parent is gone already.
     """
-    if not _parent_death_signal():
+    request = parent_death_signal(signal.SIGTERM)
+    if request is None or not request():
         _watch_parent(parent)
     if os.getppid() != parent:  # the parent died before the kernel was asked
         raise KeyboardInterrupt

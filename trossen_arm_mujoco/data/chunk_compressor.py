@@ -21,13 +21,14 @@ shrink is stored raw with the filter skipped, as the filter itself does).
 
 from __future__ import annotations
 
-import os
 import zlib
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 
 import h5py
 import numpy as np
+
+from trossen_arm_mujoco.processes import available_cpus
 
 __all__ = ["ChunkCompressor", "default_workers", "deflate_function", "write_chunk"]
 
@@ -36,8 +37,9 @@ _SKIP_DEFLATE = 0x1
 
 
 def default_workers() -> int:
-    """Compression threads: one per CPU, at most 4 (zlib level 1 keeps up with that)."""
-    return max(1, min(4, os.cpu_count() or 1))
+    """Compression threads: one per CPU this process may use, at most 4 (zlib level 1 keeps up
+    with that)."""
+    return min(4, available_cpus())
 
 
 try:

@@ -15,12 +15,12 @@ free, so one slow to start (importing torch and LeRobot: about 5 s of CPU) runs 
 episodes instead of idling the others at the end. Which process runs an episode does not
 change its score.
 
-Threads: with N local workers on C usable cores (``available_cpus``), each worker's torch and
-its OpenMP / MKL / OpenBLAS pools get ``max(1, C // N)`` threads (``threads_per_worker``):
-the variables are in a spawned worker's environment before it imports numpy or torch, and
-``torch.set_num_threads`` runs before the policy is built (in this process too, whose torch
-thread count is put back afterwards). Without the limit every worker's torch would use every
-core, and two workers ran slower than one.
+Threads: with N local workers on C usable cores (``processes.available_cpus``), each
+worker's torch and its OpenMP / MKL / OpenBLAS pools get ``max(1, C // N)`` threads
+(``threads_per_worker``): the variables are in a spawned worker's environment before it
+imports numpy or torch, and ``torch.set_num_threads`` runs before the policy is built (in
+this process too, whose torch thread count is put back afterwards). Without the limit every
+worker's torch would use every core, and two workers ran slower than one.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ from trossen_arm_mujoco.eval.env import KitPolicyEnv
 from trossen_arm_mujoco.eval.episode_pool import run_episodes
 from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
 from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
+from trossen_arm_mujoco.processes import available_cpus
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 from trossen_arm_mujoco.tasks.registry import DEFAULT_TASK
 
@@ -52,7 +53,6 @@ __all__ = [
     "EpisodeRunner",
     "EvalSettings",
     "PolicyCallError",
-    "available_cpus",
     "evaluate",
     "limit_threads",
     "thread_env",
@@ -74,14 +74,6 @@ THREAD_VARS = (
 class PolicyCallError(RuntimeError):
     """The policy itself raised (not a user error of the command line): the message says
     which policy, episode and step; the policy's own exception is the cause."""
-
-
-def available_cpus() -> int:
-    """Cores this process may run on (its CPU affinity where the OS tells, else the count)."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
 
 
 def threads_per_worker(workers: int, cpus: int | None = None) -> int:

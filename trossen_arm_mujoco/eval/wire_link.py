@@ -19,8 +19,6 @@ from __future__ import annotations
 
 import base64
 import contextlib
-import ctypes
-import ctypes.util
 import io
 import json
 import os
@@ -37,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.processes import parent_death_signal
 from trossen_arm_mujoco.real.arm_controller import SIDES
 from trossen_arm_mujoco.real.preflight import check_loopback
 
@@ -46,8 +45,6 @@ __all__ = ["ArmPair", "CameraReader", "ControlClient", "KitLink", "check_loopbac
 START_TIMEOUT_S = 120.0
 #: Seconds a stopped ``serve`` may take to exit (and print its report) before it is killed.
 STOP_TIMEOUT_S = 30.0
-#: ``prctl`` option: the signal a process gets when its parent ends (linux/prctl.h).
-PR_SET_PDEATHSIG = 1
 
 
 @dataclass(frozen=True)
@@ -151,20 +148,15 @@ def _child_setup(parent: int) -> Callable[[], None] | None:
     Everything it needs is looked up here, before the fork."""
     if os.name != "posix":  # no fork: nothing runs in between (and no preexec_fn)
         return None
-    prctl = None
-    if sys.platform.startswith("linux"):
-        try:
-            prctl = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True).prctl
-        except (OSError, AttributeError):
-            prctl = None
+    request = parent_death_signal(signal.SIGTERM)
 
     def setup() -> None:
         try:
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
         except ValueError:  # not Python's main thread: the inherited disposition stays
             pass
-        if prctl is not None:
-            prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+        if request is not None:
+            request()
         if os.getppid() != parent:  # the parent ended before the request took effect
             os._exit(1)
 

@@ -146,16 +146,12 @@ class ActionMapper:
         """Remember each tool orientation (held by ``hold_orientation``)."""
         self.ref_quat = {arm.name: arm.get_frame_pose(data)[3:] for arm, _ in self.arms}
 
-    def __call__(
-        self, data: mujoco.MjData, action: np.ndarray
-    ) -> tuple[dict[str, np.ndarray], bool]:
-        """(commands by move group, False), for ``action`` (dim,) in [-1, 1] (clipped into
-        it). A value that is not ``dim`` finite numbers is an ``InvalidInput`` (a UserError
-        and a ValueError) naming the action space (``gym.inputs``).
-
-        The second value is kept for callers of the earlier mapper, which held arms above
-        the safety floor here: the floor now acts in the robot, tick by tick; what it held up
-        is ``robot.floor_report`` after the step (``gym.safety.safety_info``)."""
+    def __call__(self, data: mujoco.MjData, action: np.ndarray) -> dict[str, np.ndarray]:
+        """Commands by move group for ``action`` (dim,) in [-1, 1] (clipped into it). A value
+        that is not ``dim`` finite numbers is an ``InvalidInput`` (a UserError and a
+        ValueError) naming the action space (``gym.inputs``). The safety floor acts in the
+        robot, tick by tick: what it held up is ``robot.floor_report`` after the step
+        (``gym.safety.safety_info``)."""
         # fast path: a float ndarray of the action's shape (what agents and samples give);
         # anything else is read and checked in ``gym.inputs`` (errors naming the space)
         if (
@@ -180,7 +176,7 @@ class ActionMapper:
             if batch is None or self.robot.kept_batch(self._batch_names) is not batch:
                 batch = self._batch = self.robot.joint_target_batch(self._batch_names)
             if batch is not None and batch.size == self.dim:
-                return JointTargets(batch, scaled), False  # finite and of its size already
+                return JointTargets(batch, scaled)  # finite and of its size already
         commands: dict[str, np.ndarray] = {}
         for part in self._parts:
             if self.mode == "ee_delta":
@@ -193,7 +189,7 @@ class ActionMapper:
             commands[part.gripper.name] = scaled[part.grip_value]
         for name, values in self._bases:
             commands[name] = scaled[values]
-        return commands, False
+        return commands
 
     def _twist(self, data, part: _ArmPart, scaled) -> np.ndarray:
         """``ee_delta``: the tool-frame delta (m), with the rotation back to the reset

@@ -216,7 +216,7 @@ class TrossenMujocoEnv(gymnasium.Env):
         self.task = self.sampler.next_task(self.np_random, object_poses=poses)
         self.actions.reset(self.scene.data)
         obs = self._observe()
-        info = self._with_safety(self.task.get_info(), False)
+        info = self._with_safety(self.task.get_info())
         if self.sampler.randomization is not None:
             info["randomization"] = self.sampler.randomization
         self.stepper.start(self.task)
@@ -228,11 +228,11 @@ class TrossenMujocoEnv(gymnasium.Env):
         if self.task is None:  # never reset, or closed: nothing more on the hot path
             raise UserError(_CLOSED if self._closed else "call reset() before step()")
         with self.stepper.lock:
-            commands, clipped = self.actions(self.scene.data, action)
+            commands = self.actions(self.scene.data, action)
         self.stepper.step(self.task, commands)
         with self.stepper.lock:
             obs = self._observe()
-            reward, terminated, info = self._evaluate(obs, clipped)
+            reward, terminated, info = self._evaluate(obs)
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
@@ -266,15 +266,15 @@ class TrossenMujocoEnv(gymnasium.Env):
         images = self.scene.render_images() if self.observations.needs_images else None
         return self.observations.build(self.task, images)
 
-    def _with_safety(self, info: dict[str, Any], clipped: bool) -> dict[str, Any]:
+    def _with_safety(self, info: dict[str, Any]) -> dict[str, Any]:
         """The task's ``info`` with the safety floor's report of this step (the robot's:
-        ``gym.safety``; ``clipped`` is unused)."""
+        ``gym.safety``)."""
         return safety_info(info, self.actions.robot.floor_report)
 
-    def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
+    def _evaluate(self, obs: Any) -> tuple[float, bool, dict[str, Any]]:
         """(reward, terminated, info) of the state just observed: the task's ``score``."""
         reward, info = self.task.score()
-        return reward, bool(self.task.is_terminal()), self._with_safety(info, clipped)
+        return reward, bool(self.task.is_terminal()), self._with_safety(info)
 
     def _sync_viewer(self) -> None:
         if self._headless:

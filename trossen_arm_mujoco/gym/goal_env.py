@@ -55,10 +55,10 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
         shape = np.shape(achieved_goal)[:-1]
         return False if shape == () else np.zeros(shape, dtype=bool)
 
-    def _evaluate(self, obs: Any, clipped: bool) -> tuple[float, bool, dict[str, Any]]:
+    def _evaluate(self, obs: Any) -> tuple[float, bool, dict[str, Any]]:
         """Reward and success of the goals just observed, as ``compute_reward`` and
         ``compute_terminated`` give them for the same goals."""
-        info = self._with_safety(self.task.get_info(), clipped)
+        info = self._with_safety(self.task.get_info())
         achieved, desired = obs["achieved_goal"], obs["desired_goal"]
         success = info["is_success"] = bool(self.probe.goal_success(achieved, desired))
         reward = float(self.compute_reward(achieved, desired, info))

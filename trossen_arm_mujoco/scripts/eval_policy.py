@@ -197,8 +197,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _settings(args: argparse.Namespace):
     from trossen_arm_mujoco.eval.policies import is_function_spec
-    from trossen_arm_mujoco.eval.runner import EvalSettings, available_cpus
+    from trossen_arm_mujoco.eval.runner import EvalSettings
     from trossen_arm_mujoco.fileio import check_writable_dir
+    from trossen_arm_mujoco.processes import available_cpus
     from trossen_arm_mujoco.sim.camera_settings import DEFAULT_SIZE, CameraSettings, camera_flags
     from trossen_arm_mujoco.tasks import registry
 

@@ -10,7 +10,6 @@ engine) and turns them into the run's ``RecordSettings``; unset flags come from
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -18,6 +17,7 @@ from typing import TYPE_CHECKING
 from trossen_arm_mujoco.constants import SIM_TASK_CONFIGS
 from trossen_arm_mujoco.data.schema import GZIP_LEVEL
 from trossen_arm_mujoco.errors import ArgumentParser, UserError
+from trossen_arm_mujoco.processes import available_cpus
 from trossen_arm_mujoco.scripts.common_options import (
     MAX_EPISODE_LEN,
     MAX_EPISODES,
@@ -46,7 +46,6 @@ __all__ = [
     "RecordOptions",
     "build_parser",
     "check_numbers",
-    "cpus",
     "num_workers",
     "record_options",
 ]
@@ -125,21 +124,13 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def cpus() -> int:
-    """CPUs this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0)) or 1
-    except (AttributeError, OSError):  # not Linux
-        return os.cpu_count() or 1
-
-
 def num_workers(args: argparse.Namespace) -> int | None:
     """``--num_workers``, at most the CPUs of this machine (with a warning) unless the
     episodes run on a Ray cluster elsewhere."""
     n = args.num_workers
     if n is None or (args.engine == "ray" and args.ray_address is not None):
         return n
-    most = cpus()
+    most = available_cpus()
     if n > most:
         print(
             f"warning: --num_workers {n} is more than the {most} CPUs of this machine; "
