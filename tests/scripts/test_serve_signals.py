@@ -155,7 +155,7 @@ def streaming(connect: Any, seconds: float = 1.0) -> Clients:
 def wait_for_spooled_steps(folder: Path, steps: int, timeout: float = 30.0) -> int:
     """Wait until the one spool in ``folder`` holds at least ``steps`` steps; returns how
     many it holds."""
-    from trossen_arm_mujoco.twin.episode_spool import read_spool
+    from trossen_arm_mujoco.twin.spool_recovery import read_spool
 
     end = time.monotonic() + timeout
     held = 0
@@ -233,7 +233,7 @@ def test_idle_recording_serve_exits_0_after_many_signals(serve, tmp_path: Path) 
 
 def test_a_killed_serve_leaves_its_episode_to_the_next_start(serve, clients, tmp_path) -> None:
     from trossen_arm_mujoco.data.reader import load_episode
-    from trossen_arm_mujoco.twin.episode_spool import read_spool
+    from trossen_arm_mujoco.twin.spool_recovery import read_spool
 
     folder = tmp_path / "data"
     s = serve("--record", str(folder), *RECORD_FLAGS)

@@ -13,13 +13,8 @@ import numpy as np
 import pytest
 
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
-from trossen_arm_mujoco.twin.episode_spool import (
-    RECORDING_ID_ATTR,
-    EpisodeSpool,
-    read_spool,
-    recover_spools,
-    stale_spools,
-)
+from trossen_arm_mujoco.twin.episode_spool import RECORDING_ID_ATTR, EpisodeSpool
+from trossen_arm_mujoco.twin.spool_recovery import read_spool, recover_spools, stale_spools
 
 H, W = 6, 8
 ATTRS = {

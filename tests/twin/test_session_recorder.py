@@ -13,9 +13,9 @@ import pytest
 from trossen_arm_mujoco.collect.pipeline import episode_seed
 from trossen_arm_mujoco.data.reader import list_episodes, load_episode
 from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
-from trossen_arm_mujoco.twin.episode_spool import recover_spools
 from trossen_arm_mujoco.twin.kit_world import KitWorld
 from trossen_arm_mujoco.twin.session_recorder import RecordOptions, SessionRecorder
+from trossen_arm_mujoco.twin.spool_recovery import recover_spools
 
 
 def session(world: KitWorld, recorder: SessionRecorder, seconds: float, move: float = 0.0):

@@ -356,7 +356,7 @@ def _first_index(folder: Path) -> int:
     saying how to recover them)."""
     from trossen_arm_mujoco.data.reader import list_episodes
     from trossen_arm_mujoco.data.temp_files import remove_stale_temp_files
-    from trossen_arm_mujoco.twin.episode_spool import recover_spools
+    from trossen_arm_mujoco.twin.spool_recovery import recover_spools
 
     def next_index() -> int:
         found = list_episodes(folder, missing_ok=True)

@@ -20,8 +20,8 @@ The served kit (``trossen-mujoco serve``, ``replay-real --backend wire``):
 - :mod:`.frame`: one frame of the served world, as a recorder stores it;
 - :mod:`.session_recorder`: client sessions recorded as episodes;
 - :mod:`.episode_spool`: an episode's steps kept on disk until it ends, then published as
-  an episode file (served sessions and teleoperation); a dead process's spool is
-  published by the next run;
+  an episode file (served sessions and teleoperation);
+- :mod:`.spool_recovery`: a dead process's spool, published by the next run;
 - :mod:`.stop_signals`: stop signals as requests, so that any number of them end serving
   cleanly;
 - :mod:`.camera_stream`: the kit's cameras over ZeroMQ in LeRobot's ZMQ camera protocol

@@ -14,10 +14,10 @@ stays flat whatever the length, and a process that dies keeps its episode:
   :meth:`EpisodeSpool.append_step` returns, so a process killed at any instant (SIGKILL,
   a crash) leaves every whole step readable; a torn last record is ignored.
 - A serve spool is named ``.serve_spool.<pid>-<random>.tmp``. A spool whose process no
-  longer runs is an episode that was never published: :func:`recover_spools` (called by the
-  next ``serve --record`` into that folder, under the dataset lock) publishes it as the
-  folder's next episode, validated by the writer, and only then deletes it. With
-  ``anonymous=True`` (teleop) the file has no name at all (gone when the process ends).
+  longer runs is an episode that was never published: :mod:`.spool_recovery` (the next
+  ``serve --record`` into that folder, under the dataset lock) publishes it as the folder's
+  next episode, validated by the writer, and only then deletes it. With ``anonymous=True``
+  (teleop) the file has no name at all (gone when the process ends).
 
 :meth:`EpisodeSpool.publish` streams every step through an ``EpisodeWriter`` and deletes
 the spool once the episode file exists; when the write fails, a named spool is kept (its
@@ -41,26 +41,24 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.data.writer import EpisodeWriter
-from trossen_arm_mujoco.errors import describe_os_error
 from trossen_arm_mujoco.twin.frame import Frame
 
 __all__ = [
+    "HEADER_LENGTH",
     "MAGIC",
     "NUMERIC",
     "RECORDING_ID_ATTR",
     "EpisodeSpool",
-    "Recovery",
-    "SpoolContents",
-    "SpoolFormatError",
-    "read_spool",
-    "recover_spools",
+    "SpoolLayout",
+    "read_step_images",
     "spool_pid",
-    "stale_spools",
+    "write_episode",
 ]
 
 #: First bytes of a spool file (format version 1), then the header's length (uint64 LE).
 MAGIC = b"TAMSPOOL1\n"
-_LENGTH = struct.Struct("<Q")
+#: The header's length after ``MAGIC``.
+HEADER_LENGTH = struct.Struct("<Q")
 #: Numeric parts of a step, in record order.
 NUMERIC = ("qpos", "qvel", "action", "reward", "env_state")
 #: Attribute of a published episode naming the spool it came from (recovery skips a spool
@@ -74,31 +72,6 @@ def spool_pid(path: Path) -> int | None:
     """The pid in a serve spool's name (None: not a spool's name)."""
     match = _SPOOL_RE.match(path.name)
     return int(match["pid"]) if match else None
-
-
-def _alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # exists, another user's
-        return True
-    return True
-
-
-def stale_spools(folder: Path) -> list[Path]:
-    """Serve spools in ``folder`` whose process no longer runs, oldest first."""
-    try:
-        paths = [
-            p
-            for p in Path(folder).glob(".serve_spool.*.tmp")
-            if (pid := spool_pid(p)) is not None and not _alive(pid)
-        ]
-        return sorted(paths, key=lambda p: (p.stat().st_mtime, p.name))
-    except OSError:  # folder gone or unreadable: nothing to recover here
-        return []
 
 
 class EpisodeSpool:
@@ -129,7 +102,7 @@ class EpisodeSpool:
         self.path: Path | None = None
         self._fd: int | None = None  # None: no file (anonymous, no cameras) or closed
         self._unnamed: Any = None  # the unnamed temporary file behind ``_fd``
-        self._layout: _Layout | None = None  # set by the first step
+        self._layout: SpoolLayout | None = None  # set by the first step
         self._offset = 0  # where the records begin
         self._open = True
         if anonymous and self.camera_names:
@@ -183,7 +156,7 @@ class EpisodeSpool:
         }
         if self._layout is None:
             widths = {k: int(v.size) for k, v in values.items()}
-            self._layout = _Layout(widths, self.camera_names, self.height, self.width)
+            self._layout = SpoolLayout(widths, self.camera_names, self.height, self.width)
             header = _header(self._layout, self.meta)
             self._write(header)
             self._offset = len(header)
@@ -217,17 +190,17 @@ class EpisodeSpool:
 
     def _images(self, t: int) -> dict[str, np.ndarray]:
         assert self._layout is not None and self._fd is not None
-        return _read_images(self._fd, self._layout, t, self._offset)
+        return read_step_images(self._fd, self._layout, t, self._offset)
 
     def publish(self, path: Path, attrs: Mapping[str, Any], compression: str) -> Path:
         """Write the episode to ``path`` through ``EpisodeWriter`` (never overwriting; the
         file appears only complete and read back), then delete the spool. Raises what the
         writer raises: then a named spool is kept (closed; :attr:`path` holds the steps for
-        :func:`recover_spools`), an anonymous one deleted."""
+        ``spool_recovery.recover_spools``), an anonymous one deleted."""
         if not self._open:
             raise ValueError("the spool was already published or discarded")
         try:
-            out = _write_episode(
+            out = write_episode(
                 path,
                 self.rows,
                 self._images,
@@ -247,7 +220,7 @@ class EpisodeSpool:
         return out
 
     def close(self) -> None:
-        """Close the file and keep it (a named spool stays for :func:`recover_spools`);
+        """Close the file and keep it (a named spool stays for ``spool_recovery``);
         idempotent, never raises."""
         fd, self._fd, self._open = self._fd, None, False
         if self._unnamed is not None:
@@ -274,8 +247,9 @@ class EpisodeSpool:
 
 
 @dataclass(frozen=True)
-class _Layout:
-    """What one record holds: numeric widths, then each camera's frame."""
+class SpoolLayout:
+    """What one record holds: numeric widths (by part of ``NUMERIC``), then each camera's
+    frame."""
 
     widths: Mapping[str, int]
     camera_names: Sequence[str]
@@ -284,14 +258,17 @@ class _Layout:
 
     @property
     def numbers(self) -> int:
+        """float64 values of one record."""
         return sum(self.widths[k] for k in NUMERIC)
 
     @property
     def frame_bytes(self) -> int:
+        """Bytes of one camera's frame."""
         return self.height * self.width * 3
 
     @property
     def record_bytes(self) -> int:
+        """Bytes of one record (one step)."""
         return 8 * self.numbers + len(self.camera_names) * self.frame_bytes
 
 
@@ -305,7 +282,7 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def _header(layout: _Layout, meta: Mapping[str, Any]) -> bytes:
+def _header(layout: SpoolLayout, meta: Mapping[str, Any]) -> bytes:
     body = json.dumps(
         {
             "widths": dict(layout.widths),
@@ -315,10 +292,10 @@ def _header(layout: _Layout, meta: Mapping[str, Any]) -> bytes:
             "meta": _jsonable(meta),
         }
     ).encode()
-    return MAGIC + _LENGTH.pack(len(body)) + body
+    return MAGIC + HEADER_LENGTH.pack(len(body)) + body
 
 
-def _read_images(fd: int, layout: _Layout, t: int, offset: int) -> dict[str, np.ndarray]:
+def read_step_images(fd: int, layout: SpoolLayout, t: int, offset: int) -> dict[str, np.ndarray]:
     """Camera frames of step ``t`` (the records start at ``offset``)."""
     start = offset + t * layout.record_bytes + 8 * layout.numbers
     out = {}
@@ -330,7 +307,7 @@ def _read_images(fd: int, layout: _Layout, t: int, offset: int) -> dict[str, np.
     return out
 
 
-def _write_episode(
+def write_episode(
     path: Path,
     rows: Mapping[str, Sequence[Any]],
     images: Callable[[int], dict[str, np.ndarray]],
@@ -340,6 +317,9 @@ def _write_episode(
     attrs: Mapping[str, Any],
     compression: str,
 ) -> Path:
+    """Publish spooled steps as the episode file ``path`` through ``EpisodeWriter``:
+    ``rows`` by part of ``NUMERIC``, ``images(t)`` the frames of step ``t``. Returns the
+    file's path."""
     n = len(rows["reward"])
     env_dim = len(rows["env_state"][0]) if n else 7
     with EpisodeWriter(
@@ -363,194 +343,3 @@ def _write_episode(
                 images=images(t) if camera_names else {},
             )
     return writer.path
-
-
-# -- recovery ----------------------------------------------------------------------------
-
-
-@dataclass
-class SpoolContents:
-    """What a spool left by a dead process holds (:func:`read_spool`)."""
-
-    path: Path
-    meta: dict[str, Any]
-    rows: dict[str, list[np.ndarray | float]]
-    layout: _Layout | None
-    offset: int
-    torn_bytes: int  # bytes of an unfinished last record, ignored
-
-    @property
-    def steps(self) -> int:
-        """Number of steps in the spool."""
-        return len(self.rows["reward"])
-
-
-class SpoolFormatError(ValueError):
-    """A file named like a spool that is not one of this version, or whose header is
-    damaged: no episode can be made of it."""
-
-
-def read_spool(path: Path) -> SpoolContents:
-    """The whole steps of a spool file (numbers; frames are read when published).
-
-    Raises:
-        SpoolFormatError: not a spool of this format (or its header is damaged).
-        OSError: unreadable.
-    """
-    rows: dict[str, list[Any]] = {k: [] for k in NUMERIC}
-    with open(path, "rb") as f:
-        head = f.read(len(MAGIC) + _LENGTH.size)
-        if not head:  # created, no step yet
-            return SpoolContents(Path(path), {}, rows, None, 0, 0)
-        if head.startswith(b"\x89HDF"):
-            raise SpoolFormatError(
-                "a spool of an older version, holding camera frames only (the states and "
-                "actions were in its process's memory)"
-            )
-        if len(head) < len(MAGIC) + _LENGTH.size or not head.startswith(MAGIC):
-            raise SpoolFormatError("not a spool file of this version (unknown header)")
-        length = _LENGTH.unpack(head[len(MAGIC) :])[0]
-        raw = f.read(length)
-        if len(raw) < length:  # killed while writing the header: no step was written
-            return SpoolContents(Path(path), {}, rows, None, 0, len(raw))
-        try:
-            header = json.loads(raw)
-            layout = _Layout(
-                {k: int(header["widths"][k]) for k in NUMERIC},
-                [str(c) for c in header["camera_names"]],
-                int(header["height"]),
-                int(header["width"]),
-            )
-        except (ValueError, KeyError, TypeError) as exc:
-            raise SpoolFormatError(f"damaged header ({exc})") from None
-        offset = len(head) + length
-        size = os.fstat(f.fileno()).st_size
-        whole, torn = divmod(max(0, size - offset), layout.record_bytes)
-        for t in range(whole):
-            f.seek(offset + t * layout.record_bytes)
-            values = np.frombuffer(f.read(8 * layout.numbers), dtype=np.float64)
-            start = 0
-            for k in NUMERIC:
-                part = values[start : start + layout.widths[k]].copy()
-                start += layout.widths[k]
-                rows[k].append(float(part[0]) if k == "reward" else part)
-    meta = header.get("meta") if isinstance(header.get("meta"), dict) else {}
-    return SpoolContents(Path(path), meta, rows, layout, offset, torn)
-
-
-@dataclass
-class Recovery:
-    """What :func:`recover_spools` did with one spool."""
-
-    spool: Path
-    episode: Path | None = None  # the episode file it became
-    steps: int = 0
-    problem: str = ""  # why it was kept (empty: published, or held nothing)
-
-
-def recover_spools(
-    folder: Path, next_index: Callable[[], int], say: Callable[[str], None] = print
-) -> list[Recovery]:
-    """Publish the episodes that spools of dead processes in ``folder`` hold (call it holding
-    the folder's lock): each as the folder's next episode (``next_index()``), through the
-    writer (validated); the spool is deleted only then. A spool that holds no step, or
-    whose episode was already published (same ``recording_id``), is deleted; one that
-    cannot be published is kept, with one line through ``say`` saying why and how to
-    recover it. Returns one :class:`Recovery` per spool found."""
-    from trossen_arm_mujoco.data.reader import episode_path
-
-    done = []
-    for path in stale_spools(folder):
-        result = Recovery(path)
-        done.append(result)
-        try:
-            contents = read_spool(path)
-            result.steps = contents.steps
-            if contents.steps == 0 or _already_published(folder, contents.meta):
-                path.unlink(missing_ok=True)
-                continue
-            index = next_index()
-            result.episode = _publish_contents(contents, episode_path(folder, index))
-        except Exception as exc:  # kept: say where its data is and what to do
-            result.episode = None
-            text = describe_os_error(exc) if isinstance(exc, OSError) else str(exc)
-            result.problem = " ".join(text.split())
-            if isinstance(exc, SpoolFormatError):
-                todo = "it cannot become an episode; move it out of the folder to give it up"
-            else:
-                todo = (
-                    "fix that and run serve --record into this folder again to recover "
-                    "it (or move it out of the folder to give it up)"
-                )
-            say(
-                f"warning: {path} was left by a serve that stopped before writing its "
-                f"episode and is kept, not recovered: {result.problem}; {todo}"
-            )
-            continue
-        try:
-            path.unlink(missing_ok=True)
-        except OSError:
-            pass
-        say(
-            f"{result.episode.name}: recovered {contents.steps} steps "
-            f"({contents.steps * float(contents.meta.get('attrs', {}).get('dt', 0.02)):.2f} s) "
-            f"that a stopped serve left in {path.name}"
-        )
-    return done
-
-
-def _already_published(folder: Path, meta: Mapping[str, Any]) -> bool:
-    """Whether an episode of ``folder`` carries the spool's ``recording_id``."""
-    from trossen_arm_mujoco.data.reader import episode_path
-
-    attrs = meta.get("attrs") if isinstance(meta.get("attrs"), dict) else {}
-    rid, index = attrs.get(RECORDING_ID_ATTR), meta.get("index")
-    if not rid or not isinstance(index, int):
-        return False
-    candidate = episode_path(folder, index)
-    if not candidate.is_file():
-        return False
-    try:
-        import h5py
-
-        with h5py.File(candidate, "r") as f:
-            found = f.attrs.get(RECORDING_ID_ATTR)
-    except (OSError, ValueError):
-        return False
-    if isinstance(found, bytes):
-        found = found.decode()
-    return found == rid
-
-
-def _publish_contents(contents: SpoolContents, path: Path) -> Path:
-    layout = contents.layout
-    assert layout is not None
-    meta = contents.meta
-    attrs: dict[str, Any] = dict(meta.get("attrs") or {})
-    rewards = np.asarray(contents.rows["reward"], dtype=np.float64)
-    top = float(meta.get("task_max_reward", 1.0))
-    final, best = float(rewards[-1]), float(rewards.max())
-    attrs.update(
-        success=bool(final >= top),
-        final_reward=final,
-        max_reward=best,
-        end_reason="recovered: serve stopped before writing it",
-        recovered_from=contents.path.name,
-    )
-    attrs.setdefault("task_name", "unknown")
-    attrs.setdefault("seed", 0)
-    compression = str(meta.get("compression", "gzip"))
-    fd = os.open(contents.path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
-    try:
-        return _write_episode(
-            path,
-            contents.rows,
-            lambda t: _read_images(fd, layout, t, contents.offset),
-            layout.camera_names,
-            layout.height,
-            layout.width,
-            attrs,
-            compression,
-        )
-    finally:
-        os.close(fd)

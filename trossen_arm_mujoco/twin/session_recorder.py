@@ -21,7 +21,7 @@ Nothing recorded is lost to a failure or a stop: every step is on disk in the ep
 spool as soon as the worker has it, and a spool that could not be published (a failed
 write, a worker that ended early, a process that was killed) is kept, with a line saying
 where; the next ``serve --record`` into the folder publishes it
-(:func:`~.episode_spool.recover_spools`).
+(:func:`~.spool_recovery.recover_spools`).
 """
 
 from __future__ import annotations
