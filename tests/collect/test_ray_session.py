@@ -18,7 +18,10 @@ def test_missing_ray_is_a_one_line_install_hint(monkeypatch):
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
     with pytest.raises(UserError) as info:
         ray_session.import_ray()
-    assert str(info.value) == 'the Ray engine needs Ray: pip install "trossen_arm_mujoco[ray]"'
+    assert (
+        str(info.value)
+        == 'the Ray engine needs Ray: pip install ".[ray]" in the trossen_arm_mujoco checkout'
+    )
 
 
 @pytest.mark.parametrize("address", ["nonsense", "ray://", "host:port", ":6379"])

@@ -43,21 +43,36 @@ def test_home_page_opens_as_the_readme():
     first = 'pip install ".[video]" && trossen-mujoco record'
     assert section(home, "```bash\n", "```\n\n") == section(readme, "```bash\n", "```\n\n")
     assert first in section(home, "```bash\n", "```\n\n")
-    tests_part = section(readme, "**Run the tests**", "The demo dataset lands")
-    assert tests_part == section(home, "**Run the tests**", "The demo dataset lands")
+    tests_part = section(readme, "**Run the tests**", "```bash")
+    assert tests_part == section(home, "**Run the tests**", "```")
+    assert "(testing.md)" in tests_part
+    # the Testing page describes the command in full: what it installs, the site it builds,
+    # the legs it runs
+    testing = (REPO / "docs" / "testing.md").read_text(encoding="utf-8")
     script = (REPO / "tools" / "run_tests.sh").read_text(encoding="utf-8")
-    tests_part = " ".join(tests_part.split())  # however the paragraph is wrapped
+    described = " ".join(testing.split())  # however the paragraphs are wrapped
     assert (
-        "mkdocs build --strict" in script and "builds the documentation site strictly" in tests_part
+        "mkdocs build --strict" in script and "builds the documentation site strictly" in described
     )
-    assert "chromium" in script and "Chromium" in tests_part
-    assert '-e ".[dev,cameras,docs]"' in script and "`[dev,cameras,docs]`" in tests_part
-    assert "--ignore=tests/docs" in script and "less the documentation tests" in tests_part
+    assert "chromium" in script and "Chromium" in described
+    assert '-e ".[dev,cameras,docs]"' in script and "`[dev,cameras,docs]`" in described
+    assert "--ignore=tests/docs" in script and "less the documentation tests" in described
+    assert "ruff format --check" in script and "ruff format --check" in described
     # "python -m pytest -q ... spread over the cores": pytest's own defaults say so
     pyproject = (REPO / "pyproject.toml").read_text(encoding="utf-8")
     addopts = next(line for line in pyproject.splitlines() if line.startswith("addopts"))
-    assert "-n auto" in addopts and "`MUJOCO_GL=egl python -m pytest -q` reruns" in tests_part
-    assert "spread over the cores" in tests_part and "-n 0 -m serial" in tests_part
+    assert "-n auto" in addopts and "`MUJOCO_GL=egl python -m pytest -q` reruns" in described
+    assert "spread over the cores" in described and "-n 0 -m serial" in described
+
+
+def test_readme_first_screen_says_what_it_is_before_the_commands():
+    """What the project is, how it relates to Trossen's package of the same name, and the
+    cameras come before the first command; the test runner's legs are not on it."""
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    first_command = readme.index("```bash")
+    assert readme.index("not Trossen's package of the same name") < first_command
+    assert readme.index("| cam_high | cam_low |") < first_command
+    assert "leg 1" not in readme and "Python 3.12 next to LeRobot" not in readme
 
 
 def test_why_this_project_quotes_the_measured_figures():

@@ -257,3 +257,116 @@ def test_no_code_block_of_the_site_is_cut_off_at_1280_px(site: Path, browser: st
         if cut_off(block)
     ]
     assert not hidden, f"{len(hidden)} of {counted} code blocks cut off at 1280 px: {hidden[:5]}"
+
+
+# Per table of a page: the article column's right edge, the table's box, its scroll
+# container's overflow style, scrollbar width style and widths, and the first-column names
+# (code) laid out on more than one line.
+_TABLES_JS = r"""
+function measureTables(doc) {
+  var art = doc.querySelector("article");
+  if (!art) return [];
+  var column = art.getBoundingClientRect().right, view = doc.defaultView;
+  return Array.prototype.map.call(doc.querySelectorAll("article table"), function (t) {
+    var wrap = t.closest(".md-typeset__scrollwrap") || t.parentNode;
+    var style = view.getComputedStyle(wrap);
+    var broken = Array.prototype.filter.call(
+      t.querySelectorAll("tbody td:first-child code"), function (c) {
+        var r = doc.createRange(), tops = {};
+        r.selectNodeContents(c);
+        Array.prototype.forEach.call(r.getClientRects(), function (x) {
+          if (x.width > 0) tops[Math.round(x.top)] = 1;
+        });
+        return Object.keys(tops).length > 1;
+      }).map(function (c) { return c.textContent; });
+    return {right: t.getBoundingClientRect().right, column: column,
+            wrap_right: wrap.getBoundingClientRect().right, overflow: style.overflowX,
+            scrollbar: style.scrollbarWidth,
+            names: t.querySelectorAll("tbody td:first-child code").length,
+            broken: broken};
+  });
+}
+"""
+_TABLES_PROBE = (
+    "<script>"
+    + _TABLES_JS
+    + """function report(result) {
+  var out = document.createElement("script");
+  out.type = "application/json";
+  out.id = "fit-probe";
+  out.textContent = JSON.stringify(result);
+  document.body.appendChild(out);
+}
+window.addEventListener("load", function () {
+  setTimeout(function () {
+    report(Array.prototype.map.call(document.querySelectorAll("iframe"), function (f) {
+      return {page: f.getAttribute("src"), tables: measureTables(f.contentDocument)};
+    }));
+  }, 200);
+});</script>"""
+)
+
+
+def _measure_tables(site: Path, browser: str, folder: Path, *, unstyled: bool = False) -> list:
+    """Every built page's tables, each page in a 1280 px frame (``unstyled``: without the
+    site's stylesheet, to check that the measure can fail)."""
+    pages = sorted(p for p in site.rglob("*.html") if p.name != "404.html")
+    if unstyled:
+        copies = folder / "pages"
+        for page in pages:
+            html = re.sub(
+                r'<link rel="stylesheet" href="[./]*stylesheets/extra.css">',
+                "",
+                page.read_text(encoding="utf-8"),
+            )
+            base = page.resolve().parent.as_uri() + "/"
+            html = html.replace("<head>", f'<head><base href="{base}">', 1)
+            out = copies / page.relative_to(site)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            out.write_text(html, encoding="utf-8")
+        pages = [copies / p.relative_to(site) for p in pages]
+    frames = "".join(
+        f'<iframe src="{p.resolve().as_uri()}" style="display:block;border:0;width:1280px;'
+        'height:800px"></iframe>'
+        for p in pages
+    )
+    folder.mkdir(parents=True, exist_ok=True)
+    holder = folder / "tables.html"
+    holder.write_text(f"<!doctype html><html><body>{frames}{_TABLES_PROBE}</body></html>")
+    return measure(browser, holder, folder / "profile", "--allow-file-access-from-files")
+
+
+def _table_faults(found: list[dict]) -> list[str]:
+    faults = []
+    for frame in found:
+        page = frame["page"].rsplit("/", 2)[-2:]
+        for table in frame["tables"]:
+            if table["broken"]:
+                faults.append(f"{'/'.join(page)}: names broken across lines: {table['broken'][:3]}")
+            if table["right"] > table["column"] + 0.5 and (
+                table["overflow"] not in ("auto", "scroll")
+                # Material's scroll container reaches 0.8 rem (16 px) into the column's margin
+                or table["wrap_right"] > table["column"] + 16.5
+                or table["scrollbar"] != "auto"
+            ):
+                faults.append(
+                    f"{'/'.join(page)}: a table wider than the column, not scrolling visibly"
+                )
+    return faults
+
+
+def test_tables_fit_or_scroll_and_names_never_break_at_1280_px(
+    site: Path, browser: str, tmp_path: Path
+):
+    """Every built page at 1280 px: a name in a table's first column (a flag, a config key,
+    a dataset path) is on one line, and a table wider than the column scrolls inside it with
+    its scrollbar drawn. Without the site's stylesheet the flag names break, so the check can
+    fail."""
+    found = _measure_tables(site, browser, tmp_path / "styled")
+    assert sum(len(f["tables"]) for f in found) >= 60
+    assert sum(t["names"] for f in found for t in f["tables"]) >= 300
+    faults = _table_faults(found)
+    assert not faults, f"{len(faults)} tables: {faults[:5]}"
+
+    unstyled = _measure_tables(site, browser, tmp_path / "unstyled", unstyled=True)
+    assert any("names broken" in fault for fault in _table_faults(unstyled))

@@ -286,7 +286,10 @@ def test_engine_ray_without_ray_says_how_to_install(tmp_path, capsys, monkeypatc
         ["--data_dir", "d", "--root_dir", str(tmp_path), *FAST, "--engine", "ray"], capsys
     )
     assert rc == 2 and out == ""
-    assert err == 'error: the Ray engine needs Ray: pip install "trossen_arm_mujoco[ray]"\n'
+    assert (
+        err == "error: the Ray engine needs Ray: "
+        'pip install ".[ray]" in the trossen_arm_mujoco checkout\n'
+    )
 
 
 def test_unreachable_ray_address_is_one_line_exit_2(tmp_path, capsys):

@@ -1,6 +1,6 @@
 """Starting or joining the Ray instance that ``record --engine ray`` runs its episodes on.
 
-Ray is optional (``pip install "trossen_arm_mujoco[ray]"``) and imported only here, when the
+Ray is optional (``pip install ".[ray]"`` in the checkout) and imported only here, when the
 Ray engine is asked for.
 
 Without an address a private local Ray is started that stays on this machine:
@@ -45,7 +45,7 @@ __all__ = [
     "ray_session",
 ]
 
-RAY_MISSING = 'the Ray engine needs Ray: pip install "trossen_arm_mujoco[ray]"'
+RAY_MISSING = 'the Ray engine needs Ray: pip install ".[ray]" in the trossen_arm_mujoco checkout'
 
 #: Environment of a private local Ray (see the module docstring).
 LOCAL_RAY_ENV = {
