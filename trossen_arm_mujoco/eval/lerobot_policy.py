@@ -34,6 +34,7 @@ __all__ = [
     "LEROBOT_MISSING",
     "LeRobotPolicy",
     "check_checkpoint",
+    "check_loadable",
     "checkpoint_dir",
     "checkpoint_features",
     "feature_mismatch",
@@ -164,6 +165,59 @@ def feature_mismatch(policy_inputs: dict[str, tuple[int, ...]], env: KitPolicyEn
     return problems
 
 
+def _register_steps() -> None:
+    """Register this project's processor steps with LeRobot (a checkpoint's postprocessor
+    may hold the controller's limits, its preprocessor a pose encoder)."""
+    from trossen_arm_mujoco.eval.camera_pose_step import register as register_camera_pose
+    from trossen_arm_mujoco.eval.controller_limits_step import register
+
+    register()
+    register_camera_pose()
+
+
+def check_loadable(path: str | Path) -> None:
+    """Refuse, in one line naming the file, a checkpoint LeRobot could not load: its weights
+    or processor files missing or damaged (``eval.checkpoint_files``), or a saved processor
+    step this LeRobot does not know. Reads file headers only: no model is built."""
+    import importlib
+
+    from trossen_arm_mujoco.eval.checkpoint_files import check_checkpoint_files, saved_steps
+
+    folder = checkpoint_dir(path)
+    check_checkpoint_files(folder, path)
+    import_lerobot()
+    from lerobot.processor import ProcessorStepRegistry
+
+    _register_steps()
+    for name, i, step in saved_steps(folder):
+        where = f"--policy {path}: step {i} of {folder / name}"
+        if "registry_name" in step:
+            try:
+                ProcessorStepRegistry.get(step["registry_name"])
+            except KeyError:
+                raise UserError(
+                    f"{where} is '{step['registry_name']}', a processor step this LeRobot "
+                    f"does not know (LeRobot {_lerobot_version()}): evaluate where the "
+                    "package that registers it is installed, or train again"
+                ) from None
+            continue
+        module, _, cls = str(step["class"]).rpartition(".")
+        try:
+            getattr(importlib.import_module(module), cls)
+        except Exception as exc:  # ImportError, AttributeError, ValueError (no module)
+            raise UserError(
+                f"{where} is the class '{step['class']}', which cannot be imported "
+                f"({type(exc).__name__}: {exc}): install the package that has it, or train "
+                "again"
+            ) from None
+
+
+def _lerobot_version() -> str:
+    import lerobot
+
+    return str(getattr(lerobot, "__version__", "?"))
+
+
 class LeRobotPolicy:
     """A checkpoint loaded for one env (see the module docstring)."""
 
@@ -185,18 +239,23 @@ class LeRobotPolicy:
         out = cfg.output_features.get(ACTION_KEY)
         _raise_on_mismatch(path, inputs, None if out is None else out.shape, env)
         self.torch = torch
-        from trossen_arm_mujoco.eval.camera_pose_step import register as register_camera_pose
-        from trossen_arm_mujoco.eval.controller_limits_step import register
-
-        register()  # a checkpoint's postprocessor may hold the controller's limits
-        register_camera_pose()  # and its preprocessor a pose encoder
-        self.policy = get_policy_class(cfg.type).from_pretrained(str(folder), config=cfg)
-        self.policy.eval()
-        self.pre, self.post = make_pre_post_processors(
-            cfg,
-            pretrained_path=str(folder),
-            preprocessor_overrides={"device_processor": {"device": device}},
-        )
+        check_loadable(path)  # its files whole, its processor steps known (registered)
+        try:
+            self.policy = get_policy_class(cfg.type).from_pretrained(str(folder), config=cfg)
+            self.policy.eval()
+            self.pre, self.post = make_pre_post_processors(
+                cfg,
+                pretrained_path=str(folder),
+                preprocessor_overrides={"device_processor": {"device": device}},
+            )
+        except (UserError, MemoryError):
+            raise
+        except Exception as exc:  # what the file checks cannot see (a tensor of other shape)
+            why = " ".join(str(exc).split())[:300]
+            raise UserError(
+                f"--policy {path}: LeRobot cannot load the checkpoint in {folder} "
+                f"({type(exc).__name__}: {why}); copy it again or train again"
+            ) from None
         self._preprocess_observation = preprocess_observation
         self.task_text = env.task_description
 

@@ -380,10 +380,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     env = settings.make_env()  # fail fast on a bad task, camera, size or checkpoint
     try:
         if settings.policy != "scripted" and not is_function_spec(settings.policy):
-            from trossen_arm_mujoco.eval.lerobot_policy import check_checkpoint, import_lerobot
+            from trossen_arm_mujoco.eval.lerobot_policy import (
+                check_checkpoint,
+                check_loadable,
+                import_lerobot,
+            )
 
             check_checkpoint(settings.policy, env)
             import_lerobot()
+            check_loadable(settings.policy)  # its files whole: before any episode, any kit
     finally:
         env.close()
     bar = tqdm(total=settings.num_episodes, desc="eval", unit="episode", file=sys.stderr)
