@@ -2,9 +2,10 @@
 what is wrong with it, exit status 2, before any episode runs, on both backends: weights
 (``model.safetensors``) missing, empty, truncated or not safetensors; a saved processor file
 missing; a normalizer state file missing or truncated; a processor step LeRobot does not know.
+Weights overwritten with NaN stop the evaluation at the first action, on both backends alike.
 
-The checkpoints are written here by hand (the files lerobot-train saves, tiny), except one
-that LeRobot builds (an ACT policy of a few hundred weights): those tests
+The checkpoints are written here by hand (the files lerobot-train saves, tiny), except the one
+with NaN weights, which LeRobot builds (an ACT policy of a few hundred weights): those tests
 run where LeRobot is importable (the Python 3.12 leg, marker ``py312``)."""
 
 from __future__ import annotations
@@ -262,7 +263,7 @@ def test_the_policy_checks_its_files_itself(tmp_path):
         env.close()
 
 
-# -- a checkpoint LeRobot itself saved passes the checks -------------------------------------
+# -- weights overwritten with NaN: both backends stop at the first action ---------------------
 def act_checkpoint(folder: Path, weights: float | None = None) -> Path:
     """A state-based ACT checkpoint of a few hundred weights, saved as lerobot-train saves
     it (weights, processors with their statistics); ``weights``: every weight set to it."""
@@ -309,6 +310,56 @@ def act_checkpoint(folder: Path, weights: float | None = None) -> Path:
     pre.save_pretrained(folder)
     post.save_pretrained(folder)
     return folder
+
+
+@pytest.fixture
+def served_kit():
+    """A served kit in this process (no cameras) and its control channel: the flags of
+    ``eval --backend wire --connect``."""
+    pytest.importorskip("trossen_arm_sim")
+    pytest.importorskip("trossen_arm")
+    from trossen_arm_mujoco.twin.episode_control import EpisodeControl
+    from trossen_arm_mujoco.twin.kit_world import KitWorld
+    from trossen_arm_mujoco.twin.served_kit import ServedKit
+
+    left, right, port = "127.0.0.161", "127.0.0.162", _free_port()
+    world = KitWorld()
+    kit = ServedKit(world, {"left": left, "right": right})
+    control = EpisodeControl(world, port)
+    try:
+        kit.start()
+        control.start()
+        yield [
+            "--connect",
+            "--left_ip",
+            left,
+            "--right_ip",
+            right,
+            "--control_port",
+            str(port),
+        ]
+    finally:
+        control.stop()
+        kit.close()
+
+
+def test_nan_weights_stop_both_backends_with_the_same_line(tmp_path, capsys, served_kit):
+    _lerobot_in_process()
+    ckpt = act_checkpoint(tmp_path / "nan", weights=float("nan"))
+    check_checkpoint_files(ckpt)  # whole files: only the numbers are wrong
+    lines = {}
+    for backend in ("sim", "wire"):
+        out = tmp_path / f"eval_{backend}"
+        extra = served_kit if backend == "wire" else []
+        rc, lines[backend] = _eval(ckpt, out, backend, capsys, "--episode_length", "5", *extra)
+        assert rc == 2
+        assert not (out / "eval_info.json").exists()
+    assert lines["sim"] == lines["wire"]
+    assert lines["sim"] == (
+        f"error: the policy {ckpt} produced a non-finite action at episode 0 step 0: NaN in "
+        "14 of 14 values; the checkpoint's weights may be damaged (overwritten, or trained "
+        "into NaN): evaluate another checkpoint or train again"
+    )
 
 
 def test_a_whole_act_checkpoint_passes_the_checks_and_evaluates(tmp_path, capsys):

@@ -78,6 +78,12 @@ def jump(obs):
 jump.reset = jump_reset
 
 
+def nan(obs):
+    q = [float(v) for v in obs["agent_pos"]]
+    q[3] = float("nan")
+    return q
+
+
 def stop_stream(obs):
     STEPS.append(len(STEPS))
     if len(STEPS) == 10:
@@ -385,6 +391,38 @@ def test_a_policy_that_raises_ends_the_run_as_in_the_sim(
         policies.STEPS.clear()
         sim_rc, sim_line, _ = policy_error([*common, "--output_dir", str(tmp_path / "sim")], capsys)
         assert (sim_rc, sim_line) == (rc, line)
+
+
+def test_a_non_finite_action_stops_both_backends_with_the_same_line(
+    tmp_path, policies, kit_here, capsys
+) -> None:
+    """A NaN in an action is no arm fault to score: both backends stop the run at that step,
+    one ``error:`` line, exit status 2, no eval_info.json (a damaged checkpoint's weights
+    answer so: tests/eval/test_checkpoint_files.py)."""
+    left, right, port = kit_here
+    spec = f"{policies.__name__}:nan"
+    common = ["--policy", spec, "--num_episodes", "2", "--episode_length", "10"]
+    wire_out, sim_out = tmp_path / "wire", tmp_path / "sim"
+    wire = [
+        "--backend",
+        "wire",
+        "--connect",
+        "--left_ip",
+        left,
+        "--right_ip",
+        right,
+        "--control_port",
+        str(port),
+    ]
+    rc, line, rest = policy_error([*wire, "--output_dir", str(wire_out), *common], capsys)
+    assert rc == 2 and rest == ""
+    assert line == (
+        f"error: the policy {spec} produced a non-finite action at episode 0 step 0: NaN in "
+        "1 of 14 values; a policy must return finite numbers: check what it computes"
+    )
+    sim_rc, sim_line, sim_rest = policy_error([*common, "--output_dir", str(sim_out)], capsys)
+    assert (sim_rc, sim_line, sim_rest) == (rc, line, "")
+    assert not (wire_out / "eval_info.json").exists() and not (sim_out / "eval_info.json").exists()
 
 
 #: A stand-in for eval: starts the kit as eval does (``wire_link.start_kit``), prints the

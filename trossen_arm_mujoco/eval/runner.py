@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.action_check import check_action
 from trossen_arm_mujoco.eval.env import KitPolicyEnv
 from trossen_arm_mujoco.eval.episode_pool import run_episodes
 from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
@@ -199,6 +200,7 @@ class EpisodeRunner:
         rewards, success, fault = [], False, None
         for t in range(env.episode_length):
             action = self._call_policy(index, f"step {t}", self.policy.act, obs)
+            check_action(s.policy, action, index, f"step {t}")
             obs, reward, terminated, truncated, info = env.step(action)
             self.recorder.record(env, reward)
             rewards.append(reward)

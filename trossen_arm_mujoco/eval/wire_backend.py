@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.action_check import check_action
 from trossen_arm_mujoco.eval.prepare import carries_images
 from trossen_arm_mujoco.eval.runner import EvalSettings, PolicyCallError
 from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore, eval_info, stages_reached
@@ -254,6 +255,7 @@ class WireEpisodeRunner:
             except TimeoutError:
                 failure = f"the policy sent no action for {self.action_timeout:g} s (step {k})"
                 break
+            check_action(self.settings.policy, action, index, f"step {k}")  # as --backend sim
             goal, goal_time = self.env.to_driver(action), GOAL_TIME_FACTOR * self.period
             if clamp is not None:
                 goal = clamp(goal, self._measured, goal_time)
