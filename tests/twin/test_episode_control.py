@@ -201,3 +201,175 @@ def test_refusals_are_one_line_errors() -> None:
                 EpisodeControl(world, taken.getsockname()[1])
     finally:
         world.close()
+
+
+# -- a burst of clients, and a server out of file descriptors ---------------------------------
+def test_a_burst_of_32_clients_connecting_at_once_is_served() -> None:
+    """32 clients connect at once before any is accepted (the listener's backlog holds them;
+    with the backlog of 4 it had, the fifth and later connects timed out), then each gets
+    its answer."""
+    import threading
+
+    world = KitWorld()
+    control = EpisodeControl(world, free_port())  # listening, not accepting yet
+    n, clients, errors = 32, [], []
+    go = threading.Barrier(n)
+
+    def connect() -> None:
+        try:
+            go.wait(10)
+            clients.append(socket.create_connection(("127.0.0.1", control.port), timeout=3))
+        except OSError as exc:
+            errors.append(exc)
+
+    threads = [threading.Thread(target=connect) for _ in range(n)]
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(30)
+        assert not errors and len(clients) == n, errors
+        control.start()
+        for sock in clients:
+            sock.sendall(b'{"cmd": "status"}\n')
+        for sock in clients:
+            with sock.makefile("rb") as f:
+                assert json.loads(f.readline())["ok"] is True
+    finally:
+        for sock in clients:
+            sock.close()
+        control.stop()
+        world.close()
+
+
+def test_an_accept_out_of_descriptors_refuses_that_client_and_serving_goes_on(caplog) -> None:
+    """EMFILE from accept (the waiting client stays queued): one log line, a pause, and the
+    next accept serves on; another error is the listener's end (stop), as before."""
+    import errno
+    import logging
+
+    from trossen_arm_mujoco.twin.serving import Acceptor
+
+    class Conn:
+        def setsockopt(self, *args) -> None:
+            pass
+
+        def close(self) -> None:
+            pass
+
+    conn = Conn()
+
+    class Listener:  # fails twice for want of descriptors, then accepts
+        def __init__(self) -> None:
+            self.calls = 0
+
+        def accept(self):
+            self.calls += 1
+            if self.calls <= 4:  # twice, each time again when the spare is let go
+                raise OSError(errno.EMFILE, "Too many open files")
+            return conn, ("127.0.0.1", 1)
+
+    pauses: list[float] = []
+    log = logging.getLogger("test.acceptor")
+    acceptor = Acceptor(Listener(), "control channel", log, pauses.append, pause=0.01)
+    try:
+        with caplog.at_level(logging.WARNING, logger="test.acceptor"):
+            assert acceptor.accept() is None and acceptor.accept() is None
+            assert acceptor.accept() is conn
+        assert [r.getMessage() for r in caplog.records] == [
+            "control channel: cannot accept a connection (Too many open files (EMFILE)): "
+            "refused it; still serving"
+        ]
+        assert acceptor.refused == 2 and pauses == [0.01, 0.01]
+
+        class Shut:
+            def accept(self):
+                raise OSError(errno.EBADF, "Bad file descriptor")
+
+        with pytest.raises(OSError):
+            Acceptor(Shut(), "x", log).accept()
+    finally:
+        acceptor.close()
+
+
+#: A control channel in a process allowed few file descriptors: prints its port, serves
+#: until its stdin closes.
+LOW_LIMIT = """
+import logging, os, resource, sys
+logging.basicConfig(format="%(name)s: %(message)s")
+from trossen_arm_mujoco.twin.episode_control import EpisodeControl
+from trossen_arm_mujoco.twin.kit_world import KitWorld
+
+world = KitWorld()
+control = EpisodeControl(world, int(sys.argv[1])).start()
+_, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+resource.setrlimit(resource.RLIMIT_NOFILE, (len(os.listdir("/proc/self/fd")) + 4, hard))
+print("serving", flush=True)
+sys.stdin.read()
+control.stop()
+"""
+
+
+def test_a_control_channel_out_of_descriptors_keeps_serving(tmp_path) -> None:
+    """Far more clients than descriptors: the ones beyond the limit are refused, one line is
+    logged, and once clients leave a new one is served as before."""
+    import subprocess
+    import sys
+    import time
+
+    port = free_port()
+    script = tmp_path / "low_limit.py"
+    script.write_text(LOW_LIMIT)
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(port)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    clients: list[socket.socket] = []
+    try:
+        assert proc.stdout.readline().strip() == "serving"
+        answered = 0
+        for _ in range(12):  # about 4 descriptors are left: most of these are refused
+            try:
+                sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+                clients.append(sock)
+                sock.sendall(b'{"cmd": "status"}\n')
+                answered += json.loads(sock.makefile("rb").readline() or b"null") is not None
+            except (OSError, ValueError):
+                pass  # refused: reset or closed
+        assert 1 <= answered < 12
+        for sock in clients:
+            sock.close()
+        clients.clear()
+        deadline = 20
+        for _ in range(deadline * 10):  # the served clients' descriptors come back
+            try:
+                with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+                    sock.sendall(b'{"cmd": "status"}\n')
+                    reply = sock.makefile("rb").readline()
+            except OSError:
+                reply = b""
+            if reply:
+                break
+            time.sleep(0.1)
+        assert json.loads(reply)["ok"] is True
+        assert proc.poll() is None  # still serving
+    finally:
+        for sock in clients:
+            sock.close()
+        proc.stdin.close()
+        try:
+            proc.wait(20)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    err = proc.stderr.read()
+    assert proc.returncode == 0, err
+    lines = [line for line in err.splitlines() if "cannot accept a connection" in line]
+    assert lines and lines[0].endswith(
+        "control channel: cannot accept a connection (Too many open files (EMFILE)): "
+        "refused it; still serving"
+    ), err
+    assert "Traceback" not in err, err

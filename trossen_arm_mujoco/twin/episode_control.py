@@ -59,7 +59,7 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.gym.inputs import object_pose
 from trossen_arm_mujoco.twin.frame import Frame
 from trossen_arm_mujoco.twin.kit_world import KitWorld
-from trossen_arm_mujoco.twin.serving import check_loopback, shut
+from trossen_arm_mujoco.twin.serving import LISTEN_BACKLOG, Acceptor, check_loopback, shut
 
 __all__ = [
     "MAX_DEPTH",
@@ -175,10 +175,11 @@ class EpisodeControl:
                 f"cannot serve the control channel on {self.host}:{self.port} "
                 f"({exc.strerror}); choose another --control_port"
             ) from None
-        self._listen.listen(4)
+        self._listen.listen(LISTEN_BACKLOG)  # a burst of clients waits to be accepted
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
         self._clients: list[socket.socket] = []
+        self._lock = threading.Lock()  # the two lists above: the accept thread and stop()
         world.frame_listeners.append(self._on_frame)
 
     def start(self) -> EpisodeControl:
@@ -238,19 +239,45 @@ class EpisodeControl:
 
     # -- server threads -------------------------------------------------------------------
     def _accept(self) -> None:
-        while not self._stop.is_set():
-            try:
-                conn, _ = self._listen.accept()
-            except OSError:
-                return
+        """Accept clients, one thread each, until stopped; a connection refused for want of
+        file descriptors (or a thread) is logged once and the channel serves on."""
+        acceptor = Acceptor(self._listen, "control channel", log, self._stop.wait)
+        try:
+            while not self._stop.is_set():
+                try:
+                    conn = acceptor.accept()
+                except OSError:
+                    return  # shut by stop()
+                if conn is not None:
+                    self._start_client(conn)
+        finally:
+            acceptor.close()
+
+    def _start_client(self, conn: socket.socket) -> None:
+        t = threading.Thread(
+            target=self._serve, args=(conn,), name="kit-control-client", daemon=True
+        )
+        with self._lock:
+            self._threads = [c for c in self._threads if c.is_alive()]  # the clients gone
             self._clients.append(conn)
-            t = threading.Thread(
-                target=self._serve, args=(conn,), name="kit-control-client", daemon=True
-            )
-            t.start()
+            try:
+                t.start()
+            except RuntimeError as exc:  # no thread can be started now: refuse this client
+                self._clients.remove(conn)
+                shut(conn)
+                log.warning("control channel: cannot serve a client (%s): refused it", exc)
+                return
             self._threads.append(t)
 
     def _serve(self, conn: socket.socket) -> None:
+        try:
+            self._serve_lines(conn)
+        finally:
+            with self._lock:
+                if conn in self._clients:
+                    self._clients.remove(conn)
+
+    def _serve_lines(self, conn: socket.socket) -> None:
         reader = conn.makefile("rb")
         try:
             while (got := read_request(reader)) is not None:
@@ -299,9 +326,11 @@ class EpisodeControl:
         """Close the channel and its clients (idempotent)."""
         self._stop.set()
         shut(self._listen)
-        for conn in list(self._clients):
+        with self._lock:
+            clients, threads = list(self._clients), list(self._threads)
+        for conn in clients:
             shut(conn)
-        for t in self._threads:
+        for t in threads:
             t.join(2.0)
         if self._on_frame in self.world.frame_listeners:
             self.world.frame_listeners.remove(self._on_frame)

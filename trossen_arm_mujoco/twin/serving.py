@@ -18,6 +18,11 @@ servers can be started and stopped many times in one process (tests, ``serve``, 
 - **No thread dies on bad input**: a TCP client whose request cannot be served is
   disconnected; a datagram whose handling raises is dropped (logged) and serving goes on;
   only the newest waiting datagram is answered (the driver gave up on older ones).
+- **Listeners that outlast a burst and a shortage**: every TCP listener queues
+  ``LISTEN_BACKLOG`` connections (the kernel's ``SOMAXCONN``), so a burst of clients waits to
+  be accepted instead of being dropped; an ``accept`` that fails for want of file descriptors
+  or memory (EMFILE, ENFILE, ENOBUFS, ENOMEM) refuses that one connection, logs one line,
+  pauses ``ACCEPT_PAUSE_S`` and accepts again (:class:`Acceptor`): the listener stays.
 
 :class:`~.arm_server.ArmServer` (a follower arm of the served kit) and
 :class:`~.leader_server.LeaderArmServer` (a simulated leader arm) specialise it.
@@ -25,22 +30,28 @@ servers can be started and stopped many times in one process (tests, ``serve``, 
 
 from __future__ import annotations
 
+import errno
 import importlib
 import logging
+import os
 import socket
+import struct
 import threading
 import time
 from typing import Any
 
-from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.errors import UserError, describe_os_error
 from trossen_arm_mujoco.real.preflight import check_loopback
 
 __all__ = [
+    "ACCEPT_PAUSE_S",
     "INSTALL_HINT",
     "JOIN_TIMEOUT_S",
+    "LISTEN_BACKLOG",
     "MAX_DATAGRAM",
     "UDP_ERROR_PAUSE_S",
     "UDP_POLL_S",
+    "Acceptor",
     "LoopbackArmServer",
     "check_loopback",
     "require_sim_server",
@@ -71,6 +82,101 @@ UDP_ERROR_PAUSE_S: float = 0.001
 JOIN_TIMEOUT_S: float = 2.0
 #: Largest datagram read (bytes); a robot input of 7 joints is 113.
 MAX_DATAGRAM: int = 4096
+
+
+#: Connections a TCP listener queues before they are accepted (the kernel caps it at
+#: net.core.somaxconn): a burst of clients waits instead of being dropped.
+LISTEN_BACKLOG: int = socket.SOMAXCONN
+#: Pause (s) after an accept that failed for want of file descriptors or memory.
+ACCEPT_PAUSE_S: float = 0.05
+#: ``accept`` errors that mean "not now" (resources), not "the listener is gone".
+OUT_OF_RESOURCES = frozenset({errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM})
+
+
+def _spare_descriptor() -> int | None:
+    """A file descriptor held in reserve (``/dev/null``), None when none is left."""
+    try:
+        return os.open(os.devnull, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+    except OSError:
+        return None
+
+
+class Acceptor:
+    """``accept`` on a TCP listener, surviving a shortage of file descriptors.
+
+    When ``accept`` fails with EMFILE / ENFILE / ENOBUFS / ENOMEM the waiting connection
+    would stay queued and every later ``accept`` fail alike (a loop that spins, or a thread
+    that ends and takes the listener with it). Here one descriptor is held in reserve: it is
+    released to accept that connection, which is closed at once (refused: the client sees a
+    reset), then taken again; one line is logged per run of failures, and the call pauses
+    ``pause`` s (``wait``) before returning None. Call :meth:`close` when done.
+
+    Args:
+        listener: the listening socket.
+        name: what the log line calls it, e.g. ``"left arm"``.
+        log: where the line goes.
+        wait: the pause (``time.sleep``, or a stop event's ``wait``).
+        pause: seconds to pause after a refused connection.
+    """
+
+    def __init__(
+        self,
+        listener: socket.socket,
+        name: str,
+        log: logging.Logger = logger,
+        wait: Any = time.sleep,
+        pause: float = ACCEPT_PAUSE_S,
+    ) -> None:
+        self.listener, self.name, self.log, self.wait, self.pause = listener, name, log, wait, pause
+        self.refused = 0
+        self._failing = False
+        self._spare = _spare_descriptor()
+
+    def accept(self) -> socket.socket | None:
+        """The next client's connection; None when none could be accepted now (refused, or
+        gone before it was accepted). Raises ``OSError`` when the listener was shut."""
+        try:
+            conn, _ = self.listener.accept()
+        except OSError as exc:
+            if exc.errno == errno.ECONNABORTED:  # the client left while queued
+                return None
+            if exc.errno not in OUT_OF_RESOURCES:
+                raise
+            self._refuse(exc)
+            return None
+        self._failing = False
+        return conn
+
+    def _refuse(self, exc: OSError) -> None:
+        self.refused += 1
+        if not self._failing:
+            self._failing = True
+            self.log.warning(
+                "%s: cannot accept a connection (%s): refused it; still serving",
+                self.name,
+                describe_os_error(exc),
+            )
+        if self._spare is not None:  # make room to take the waiting one off the queue
+            os.close(self._spare)
+            self._spare = None
+            try:
+                conn, _ = self.listener.accept()
+            except OSError:
+                pass
+            else:
+                try:  # a reset, not an end of stream: refused
+                    conn.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+                except OSError:
+                    pass
+                conn.close()
+            self._spare = _spare_descriptor()
+        self.wait(self.pause)
+
+    def close(self) -> None:
+        """Release the descriptor held in reserve (idempotent)."""
+        if self._spare is not None:
+            os.close(self._spare)
+            self._spare = None
 
 
 def require_sim_server() -> None:
@@ -131,7 +237,7 @@ class LoopbackArmServer(TrossenArmSimServer):  # type: ignore[misc,valid-type]
             self._tcp_socket = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
             self._tcp_socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             self._tcp_socket.bind((self.host, TCP_PORT))
-            self._tcp_socket.listen(1)
+            self._tcp_socket.listen(LISTEN_BACKLOG)
             self._udp_socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             self._udp_socket.bind((self.host, UDP_PORT))  # no SO_REUSEADDR: never shared
         except OSError as exc:
@@ -180,11 +286,22 @@ class LoopbackArmServer(TrossenArmSimServer):  # type: ignore[misc,valid-type]
 
     def _tcp_loop(self) -> None:
         listener = self._tcp_socket
-        while self._running and listener is not None:
+        if listener is None:
+            return
+        acceptor = Acceptor(listener, self.name)
+        try:
+            self._accept_clients(acceptor)
+        finally:
+            acceptor.close()
+
+    def _accept_clients(self, acceptor: Acceptor) -> None:
+        while self._running:
             try:
-                conn, _ = listener.accept()
+                conn = acceptor.accept()
             except OSError:
                 return  # shut down by stop()
+            if conn is None:  # refused for want of descriptors: serving goes on
+                continue
             with self._clients_lock:
                 self._clients.add(conn)
             self._client_connected()
