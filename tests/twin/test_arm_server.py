@@ -142,3 +142,35 @@ def test_stop_ends_every_thread_and_addresses_are_checked(served_kit, arm_driver
             check_loopback(bad, "--left_ip")
     with pytest.raises(UserError, match="both 127.0.0.41"):
         served_kit(LEFT, LEFT)
+
+
+def test_an_arm_out_of_file_descriptors_refuses_and_then_serves(
+    served_kit, arm_driver, monkeypatch, caplog
+) -> None:
+    """The left arm's accept fails with EMFILE twice, and so does the accept that would take
+    the waiting connection off the queue each time (as when the process has no descriptor
+    left): one log line, and the listener accepts the driver afterwards (before, its thread
+    ended and the arm stayed unreachable)."""
+    import errno
+    import logging
+    import socket
+
+    real_accept = socket.socket.accept
+    failures = []
+
+    def accept(sock):
+        if sock.getsockname() == (LEFT, 50001) and len(failures) < 4:
+            failures.append(1)
+            raise OSError(errno.EMFILE, "Too many open files")
+        return real_accept(sock)
+
+    monkeypatch.setattr(socket.socket, "accept", accept)
+    with caplog.at_level(logging.WARNING, logger="trossen_arm_mujoco.twin"):
+        served_kit(LEFT, RIGHT)
+        driver = arm_driver(LEFT)
+    assert len(failures) == 4
+    np.testing.assert_allclose(driver.get_all_positions()[1], np.pi / 12, atol=0.01)
+    assert [r.getMessage() for r in caplog.records if "accept" in r.getMessage()] == [
+        "left arm: cannot accept a connection (Too many open files (EMFILE)): refused it; "
+        "still serving"
+    ]
