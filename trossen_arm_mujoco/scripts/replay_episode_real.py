@@ -34,7 +34,7 @@ Examples::
 
 from __future__ import annotations
 
-__all__ = ["IP_FLAGS", "MAX_CONNECT_TIMEOUT_S", "build_parser", "cli", "main"]
+__all__ = ["build_parser", "cli", "main"]
 
 if __name__ == "__main__" and not __package__:  # run as a file: import from the repo root
     import sys
@@ -47,18 +47,14 @@ if __name__ == "__main__" and not __package__:  # run as a file: import from the
 
 import argparse
 import functools
-import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from trossen_arm_mujoco.collect.resume import format_indices
 from trossen_arm_mujoco.constants import ROOT_DIR
 from trossen_arm_mujoco.data.reader import (
     Episode,
-    episode_path,
-    list_episodes,
     load_episode,
     resolve_data_dir,
 )
@@ -75,14 +71,12 @@ from trossen_arm_mujoco.real.driver import (
     CONNECT_TIMEOUT_S,
     DEFAULT_END_EFFECTOR,
     DEFAULT_MODEL,
-    check_end_effector,
     find_trossen_arm,
-    import_trossen_arm,
     installed_version,
     release_driver_logs,
 )
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX, clamp_gripper
-from trossen_arm_mujoco.real.preflight import check_arm_ips, recorded_dt
+from trossen_arm_mujoco.real.preflight import recorded_dt
 from trossen_arm_mujoco.real.replay import (
     BACKENDS,
     MAX_FPS,
@@ -90,7 +84,6 @@ from trossen_arm_mujoco.real.replay import (
     DriverFactory,
     ReplayConfig,
     ReplayResult,
-    check_fps,
     make_drivers,
     replay,
 )
@@ -101,13 +94,15 @@ from trossen_arm_mujoco.real.report import (
     write_outputs,
 )
 from trossen_arm_mujoco.real.stop import Interrupted, StopFlag, stop_on_signals
-from trossen_arm_mujoco.real.validate import ArmLimits, format_trajectory_report, validate_actions
-
-#: Longest ``--connect_timeout`` (s).
-MAX_CONNECT_TIMEOUT_S: float = 600.0
-
-#: The flag that sets each arm's address.
-IP_FLAGS: dict[str, str] = {"left": "--left_ip", "right": "--right_ip"}
+from trossen_arm_mujoco.real.validate import format_trajectory_report, validate_actions
+from trossen_arm_mujoco.scripts.replay_real_checks import (
+    MAX_CONNECT_TIMEOUT_S,
+    arm_ips,
+    check_numbers,
+    end_effector_note,
+    find_episode,
+    output_dir,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -218,28 +213,6 @@ def main(
         return _run(build_parser().parse_args(argv), driver_factory, clock, flag, on_served)
 
 
-def _ips(args: argparse.Namespace) -> dict[str, str]:
-    """The arms' addresses: the flags, else the backend's defaults; checked before anything
-    connects (IPv4, one per arm; loopback for wire), a one-line error naming the flag."""
-    wire = args.backend == "wire"
-    default = (
-        {"left": "127.0.0.2", "right": "127.0.0.3"}
-        if wire
-        else {"left": "192.168.1.5", "right": "192.168.1.4"}
-    )
-    given = {"left": args.left_ip, "right": args.right_ip}
-    ips = {side: default[side] if given[side] is None else given[side] for side in given}
-    if not wire:
-        return check_arm_ips(ips, IP_FLAGS)
-    from trossen_arm_mujoco.twin.served_kit import check_kit_ips
-    from trossen_arm_mujoco.twin.serving import require_sim_server
-
-    ips = check_kit_ips(ips, IP_FLAGS)
-    if not args.dry_run:
-        require_sim_server()
-    return ips
-
-
 def _run(
     args: argparse.Namespace,
     driver_factory: DriverFactory | None,
@@ -247,29 +220,11 @@ def _run(
     flag: StopFlag,
     on_served: Callable[[Any], None] | None = None,
 ) -> int:
-    check_fps(args.fps)
-    if not (math.isfinite(args.goal_time_factor) and 0 < args.goal_time_factor <= 20):
-        raise UserError(f"--goal_time_factor must be in (0, 20], got {args.goal_time_factor:g}")
-    limits = ArmLimits.from_mjcf()
-    top = float(limits.driver_upper[-1])
-    if not (math.isfinite(args.gripper_max) and 0 < args.gripper_max <= top):
-        raise UserError(f"--gripper_max must be in (0, {top:g}] m, got {args.gripper_max:g}")
-    timeout = args.connect_timeout
-    if not (math.isfinite(timeout) and 0 < timeout <= MAX_CONNECT_TIMEOUT_S):
-        raise UserError(
-            f"--connect_timeout must be in (0, {MAX_CONNECT_TIMEOUT_S:g}] s, got {timeout:g}"
-        )
-    if args.episode_idx < 0:
-        raise UserError(f"--episode_idx must be >= 0, got {args.episode_idx}")
-    if args.output_dir is not None and not str(args.output_dir).strip():
-        raise UserError(
-            "--output_dir must not be empty; give a folder, or leave the flag out to write "
-            "next to the episode (<data folder>/replay)"
-        )
-    ips = _ips(args)
-    ee_note = _check_end_effector(args.end_effector, args.backend, args.dry_run)
+    limits = check_numbers(args)
+    ips = arm_ips(args)
+    ee_note = end_effector_note(args.end_effector, args.backend, args.dry_run)
     folder = resolve_data_dir(args.root_dir, args.data_dir)
-    episode = load_episode(_find_episode(folder, args.episode_idx))
+    episode = load_episode(find_episode(folder, args.episode_idx))
     if str(episode.attrs.get("layout", "")) == "mobileai":  # before any driver exists
         raise UserError(
             f"{episode.path} is a Mobile AI recording (layout mobileai: the arms' 14 values, "
@@ -295,7 +250,7 @@ def _run(
         return 0
 
     stem = f"episode_{args.episode_idx}_{args.backend}"
-    out_dir = check_outputs(_output_dir(args, episode), stem, "--output_dir")
+    out_dir = check_outputs(output_dir(args, episode), stem, "--output_dir")
     factory = (
         driver_factory
         if driver_factory is not None
@@ -380,33 +335,6 @@ def _run(
     return 0
 
 
-def _find_episode(folder: Path, index: int) -> Path:
-    """The file of episode ``index`` in ``folder``; a missing one is a one-line error that
-    names the flags choosing it and the episodes that are there."""
-    path = episode_path(folder, index)
-    if path.is_file():
-        return path
-    if not folder.is_dir():
-        raise UserError(
-            f"data folder not found: {folder}; check --data_dir (relative to --root_dir "
-            f"unless absolute)"
-        )
-    found = [k for k, _ in list_episodes(folder)]
-    if not found:
-        raise UserError(f"{folder} holds no episode files (episode_<k>.hdf5); check --data_dir")
-    raise UserError(
-        f"episode file not found: {path}; {folder} holds {format_indices(found)}: pass one "
-        f"of them with --episode_idx"
-    )
-
-
-def _output_dir(args: argparse.Namespace, episode: Episode) -> Path:
-    """``--output_dir`` (``~`` expanded), else ``replay/`` next to the episode."""
-    if args.output_dir is None:
-        return episode.path.parent / "replay"
-    return Path(args.output_dir).expanduser()
-
-
 def _start_kit(episode: Episode, ips: dict[str, str], on_served: Callable[[Any], None] | None):
     """``--backend wire``: serve the simulated kit on ``ips``, set up like the episode's
     scene (its task, the objects at its recorded start); faults are reported on stdout."""
@@ -457,24 +385,6 @@ def _say_safe(result: ReplayResult) -> None:
         print(f"{done}; arms are home and asleep", flush=True)
     else:
         print(f"{done}; no arm was configured, none moved", flush=True)
-
-
-def _check_end_effector(name: str, backend: str, dry_run: bool) -> str | None:
-    """Check ``--end_effector`` against the installed trossen_arm; returns a note or None.
-
-    Raises:
-        UserError: an unknown preset (listing the valid ones), or the trossen backend
-            without trossen_arm (install hint).
-    """
-    ta = find_trossen_arm()
-    if ta is None:
-        if backend in ("trossen", "wire") and not dry_run:
-            import_trossen_arm()  # raises the install hint
-        return f"note: trossen_arm is not installed, so --end_effector {name} is not checked"
-    check_end_effector(ta, name)
-    if backend == "sim" and name != DEFAULT_END_EFFECTOR:
-        return f"note: --end_effector {name} is valid; the twin models the follower gripper"
-    return None
 
 
 def cli(
