@@ -156,6 +156,13 @@ def _lerobot_in_process() -> None:
 
 
 @pytest.fixture
+def lerobot_here() -> None:
+    """Skips the test where LeRobot cannot be imported in this process (before the fixtures
+    after it in the test's arguments are built)."""
+    _lerobot_in_process()
+
+
+@pytest.fixture
 def lerobot_or_not(monkeypatch):
     """Where LeRobot is not importable (Python 3.11), eval's own file checks run all the same:
     only the import that would refuse the run first is skipped."""
@@ -343,8 +350,9 @@ def served_kit():
         kit.close()
 
 
-def test_nan_weights_stop_both_backends_with_the_same_line(tmp_path, capsys, served_kit):
-    _lerobot_in_process()
+def test_nan_weights_stop_both_backends_with_the_same_line(
+    lerobot_here, tmp_path, capsys, served_kit
+):
     ckpt = act_checkpoint(tmp_path / "nan", weights=float("nan"))
     check_checkpoint_files(ckpt)  # whole files: only the numbers are wrong
     lines = {}
