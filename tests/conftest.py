@@ -286,6 +286,10 @@ def _recorded_episodes_replay_at_50_fps(tmp_path_factory: pytest.TempPathFactory
             from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 
             actions = KIT14_LAYOUT.to_vendor(actions[:, :14])
+        elif layout == "widowxai":  # a single arm's 7 values: checked as one arm of the kit
+            from trossen_arm_mujoco.collect.single_arm import arm_to_vendor16
+
+            actions = arm_to_vendor16(actions)
         try:
             validate_actions(actions, 50.0)
         except TrajectoryError as exc:

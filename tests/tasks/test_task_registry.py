@@ -53,6 +53,9 @@ def test_scripted_entries_have_policy_and_ee_flavour(name):
     if layout == "ee":  # an end-effector policy: record's mocap rollout, then the joint replay
         assert callable(policy) and hasattr(policy, "generate_trajectory")
         assert "ee_scene" in entry.load_config()
+    elif layout == "arm_ee":  # one arm's tool poses: IK rollout, then the joint replay
+        assert callable(policy) and hasattr(policy, "plan")
+        assert len(entry.sampler_class().arms) == 1
     else:  # a joint policy (the Mobile AI's): recorded as it acts, in a layout of LAYOUTS
         assert layout in LAYOUTS and callable(policy)
 

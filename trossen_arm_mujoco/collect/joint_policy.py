@@ -33,8 +33,10 @@ from trossen_arm_mujoco.collect.pipeline import (
     episode_seed,
     write_episode,
 )
+from trossen_arm_mujoco.collect.single_arm import SingleArmRecorder, is_arm_ee_policy
 from trossen_arm_mujoco.data.schema import SCHEMA
 from trossen_arm_mujoco.data.writer import EpisodeWriter
+from trossen_arm_mujoco.policies.scripted import ARM_EE
 from trossen_arm_mujoco.real.validate import ArmLimits, TrajectoryError, validate_actions
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, LAYOUTS
 from trossen_arm_mujoco.tasks import registry
@@ -43,16 +45,20 @@ __all__ = ["JointPolicyRecorder", "is_joint_policy", "make_recorder"]
 
 
 def is_joint_policy(policy_cls: type) -> bool:
-    """Whether a scripted policy acts in a joint layout (recorded in one phase)."""
-    return getattr(policy_cls, "action_layout", "ee") != "ee"
+    """Whether a scripted policy acts in a joint layout (recorded in one phase); the kit's
+    end-effector policies (``"ee"``) and a single arm's (``"arm_ee"``) do not."""
+    return getattr(policy_cls, "action_layout", "ee") not in ("ee", ARM_EE)
 
 
 def make_recorder(
     settings: RecordSettings, step_hook: StepHook | None = None
-) -> EpisodeRecorder | JointPolicyRecorder:
+) -> EpisodeRecorder | JointPolicyRecorder | SingleArmRecorder:
     """The recorder of ``settings.task_name``: ``JointPolicyRecorder`` for a joint-space
-    scripted policy, else the two-phase ``EpisodeRecorder``."""
+    scripted policy, ``collect.single_arm.SingleArmRecorder`` for a single arm's end-effector
+    policy (``action_layout = "arm_ee"``), else the kit's two-phase ``EpisodeRecorder``."""
     policy_cls = registry.load(settings.task_name).policy_class()
+    if is_arm_ee_policy(policy_cls):
+        return SingleArmRecorder(settings, step_hook)
     if is_joint_policy(policy_cls):
         return JointPolicyRecorder(settings, step_hook)
     return EpisodeRecorder(settings, step_hook)

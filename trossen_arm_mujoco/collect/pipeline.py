@@ -23,6 +23,7 @@ what the real-replay check saw.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -160,6 +161,10 @@ class EpisodeOutcome:
         """Why the episode failed, in a few words; None for a success."""
         if self.success:
             return None
+        if math.isnan(self.task_max_reward):  # the task judges success itself (single arm)
+            if not self.real_replay_checked:
+                return "actions fail the real-arm speed check"
+            return "the task's success test failed"
         if not self.final_reward >= self.task_max_reward:
             return f"reward below max {self.task_max_reward:g}"
         if not self.real_replay_checked:
@@ -420,14 +425,17 @@ def write_episode(
     max_reward: float,
     overwrite: bool = False,
     create_folder: bool = True,
+    judge: Callable[[], bool] | None = None,
 ) -> EpisodeOutcome:
     """Write one episode file with ``play`` streaming its steps, and judge it.
 
     The file is ``data.writer.EpisodeWriter``'s: written to a temporary file and renamed
     into ``path`` only when ``play`` returns (atomic), never over an existing file unless
     ``overwrite``; ``create_folder=False`` needs the folder to exist. Success: the last
-    reward equals ``max_reward`` and the real-replay check passed; ``success``,
-    ``final_reward``, ``max_reward`` and ``play``'s attributes are set on the file.
+    reward equals ``max_reward`` (or, with ``judge``, ``judge()`` called after ``play``: the
+    task's own success test, ``max_reward`` then NaN) and the real-replay check passed;
+    ``success``, ``final_reward``, ``max_reward`` and ``play``'s attributes are set on the
+    file.
     """
     s = settings
     with EpisodeWriter(
@@ -443,7 +451,8 @@ def write_episode(
         create_folder=create_folder,
     ) as writer:
         rewards, speed_ok, more = play(writer)
-        success = bool(rewards[-1] == max_reward) and speed_ok
+        reached = judge() if judge is not None else rewards[-1] == max_reward
+        success = bool(reached) and speed_ok
         writer.set_attrs(
             success=success,
             final_reward=float(rewards[-1]),

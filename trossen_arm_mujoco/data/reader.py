@@ -21,9 +21,11 @@ import numpy as np
 from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
 from trossen_arm_mujoco.data.schema import (
     EPISODE_FILE_RE,
+    JOINT_ARRAYS,
     SCHEMA,
     SCHEMAS,
     episode_file_name,
+    joint_width,
 )
 from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
 from trossen_arm_mujoco.errors import UserError
@@ -54,7 +56,9 @@ class Episode:
 
     Attributes:
         path: the file.
-        qpos, qvel, action: float64 ``(T, 16)`` (rad, rad/s; fingers m, m/s).
+        qpos, qvel, action: float64 ``(T, 16)`` (rad, rad/s; fingers m, m/s); ``(T, 7)``
+            for a single wxai arm's recording (attribute ``layout`` ``"widowxai"``:
+            ``joint_0`` .. ``joint_5``, then the gripper).
         reward: float64 ``(T,)``, None for vendor files.
         env_state: float64 ``(T, 7k)`` object poses (xyz + quat wxyz each; the cube
             transfer: k = 1), None for vendor files.
@@ -236,6 +240,7 @@ def _load(f: h5py.File, path: Path, load_images: bool) -> Episode:
     arrays: dict[str, np.ndarray | None] = {}
     num_steps: int | None = None
     first = ""
+    joints = (joint_width(attrs.get("layout")),)  # the rows' width in the file's layout
     for name, spec in zip(schema.array_names, schema.arrays, strict=True):
         node = f.get(spec.path)
         if node is None:
@@ -243,13 +248,14 @@ def _load(f: h5py.File, path: Path, load_images: bool) -> Episode:
                 arrays[name] = None
                 continue
             raise EpisodeError(f"{path}: missing dataset /{spec.path}")
-        want = "(T, " + ", ".join(map(str, spec.width)) + ")" if spec.width else "(T,)"
+        width = joints if name in JOINT_ARRAYS else spec.width
+        want = "(T, " + ", ".join(map(str, width)) + ")" if width else "(T,)"
         if not isinstance(node, h5py.Dataset):
             raise EpisodeError(f"{path}: /{spec.path} is a group, expected a dataset {want}")
-        width_ok = node.shape[1:] == spec.width or (
+        width_ok = node.shape[1:] == width or (
             spec.variable and node.ndim == 2 and node.shape[1] % spec.width[0] == 0 < node.shape[1]
         )
-        if node.ndim != 1 + len(spec.width) or not width_ok:
+        if node.ndim != 1 + len(width) or not width_ok:
             raise EpisodeError(f"{path}: /{spec.path} has shape {node.shape}, expected {want}")
         if node.dtype.kind != "f":
             raise EpisodeError(

@@ -11,12 +11,17 @@ training code reads)::
                                           real_replay_checked, real_replay_fps,
                                           peak_speed_fraction, speed_limited_values,
                                           shadows, visual
-    /action                        float32 (T, 16)   joint targets, see constants.START_ARM_POSE
+    /action                        float32 (T, J)    joint targets, see constants.START_ARM_POSE
     /reward                        float32 (T,)
-    /observations/qpos             float32 (T, 16)   rad (revolute) / m (fingers)
-    /observations/qvel             float32 (T, 16)   rad/s / m/s
+    /observations/qpos             float32 (T, J)    rad (revolute) / m (fingers)
+    /observations/qvel             float32 (T, J)    rad/s / m/s
     /observations/env_state        float32 (T, 7k)   object poses: xyz (m) + quat wxyz each
     /observations/images/<cam>     uint8 (T, H, W, 3), chunked (1, H, W, 3), gzip by default
+
+The joint width ``J`` follows the root attribute ``layout`` (:func:`joint_width`): 16 (the
+kit's ``vendor16`` rows; also the Mobile AI's ``mobileai``) without it, 7 for a single wxai
+arm's recordings (``layout = "widowxai"``: ``joint_0`` .. ``joint_5`` rad, then the gripper as
+the ``left_carriage_joint`` travel, m).
 
 Versions:
 
@@ -51,7 +56,10 @@ __all__ = [
     "GZIP_LEVEL",
     "JOINT_NAMES",
     "JOINT_UNITS",
+    "JOINT_ARRAYS",
+    "LAYOUT_WIDTHS",
     "NUM_JOINTS",
+    "SINGLE_ARM_LAYOUT",
     "SCHEMA",
     "SCHEMAS",
     "SCHEMA_V1",
@@ -62,6 +70,7 @@ __all__ = [
     "EpisodeSchema",
     "encode_attr",
     "episode_file_name",
+    "joint_width",
     "temp_file_name",
 ]
 
@@ -74,6 +83,23 @@ SCHEMA_VERSION: int = 2
 
 #: Width of qpos, qvel and action vectors (two arms x (6 joints + 2 fingers)).
 NUM_JOINTS: int = VENDOR16_LAYOUT.size
+
+#: The arrays whose width is the joint width of the episode's layout (:func:`joint_width`).
+JOINT_ARRAYS: tuple[str, ...] = ("qpos", "qvel", "action")
+
+#: Layout (root attribute ``layout``) of a single wxai arm's recordings: per row
+#: ``joint_0`` .. ``joint_5`` (rad), then the gripper (``left_carriage_joint`` travel, m).
+SINGLE_ARM_LAYOUT: str = "widowxai"
+
+#: Joint width of the layouts whose rows are not 16 wide.
+LAYOUT_WIDTHS: dict[str, int] = {SINGLE_ARM_LAYOUT: 7}
+
+
+def joint_width(layout: Any = None) -> int:
+    """Width of ``qpos``, ``qvel`` and ``action`` rows of an episode whose root attribute
+    ``layout`` is ``layout`` (None or absent: the kit's 16)."""
+    return LAYOUT_WIDTHS.get(str(layout), NUM_JOINTS) if layout is not None else NUM_JOINTS
+
 
 #: Width of env_state per object: position xyz (m) + orientation quaternion wxyz; the cube
 #: transfer has one object (7 values), peg insertion two (peg then socket, 14 values).

@@ -21,10 +21,15 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.data.reader import Episode
-from trossen_arm_mujoco.data.schema import JOINT_NAMES, JOINT_UNITS, NUM_JOINTS
+from trossen_arm_mujoco.data.schema import (
+    JOINT_NAMES,
+    JOINT_UNITS,
+    NUM_JOINTS,
+    SINGLE_ARM_LAYOUT,
+)
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.fileio import atomic_path
-from trossen_arm_mujoco.robot.layout import LAYOUTS
+from trossen_arm_mujoco.robot.layout import ARM_JOINTS, LAYOUTS
 
 __all__ = [
     "H264_ENCODERS",
@@ -226,10 +231,16 @@ def _step_period(episode: Episode) -> float | None:
 
 
 def joint_labels(episode: Episode) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(names, units) of the episode's 16 qpos/action values: its layout's (root attribute
-    ``layout``, e.g. ``mobileai``), else the vendor's 16."""
-    layout = LAYOUTS.get(str(episode.attrs.get("layout", "")))
-    return (JOINT_NAMES, JOINT_UNITS) if layout is None else (layout.names, layout.units)
+    """(names, units) of the episode's qpos/action values: its layout's (root attribute
+    ``layout``, e.g. ``mobileai``), else the vendor's 16; a single arm's 7 (``widowxai``)
+    are ``joint_0`` .. ``joint_5``, ``gripper``."""
+    name = str(episode.attrs.get("layout", ""))
+    layout = LAYOUTS.get(name)
+    if layout is not None:
+        return layout.names, layout.units
+    if name == SINGLE_ARM_LAYOUT:
+        return (*ARM_JOINTS, "gripper"), ("rad",) * 6 + ("m",)
+    return JOINT_NAMES, JOINT_UNITS
 
 
 def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80) -> Path:
@@ -254,7 +265,7 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
     FigureCanvasAgg(fig)
     axes = fig.subplots(4, 4, sharex=True).ravel()
     names, units = joint_labels(episode)
-    for j, ax in enumerate(axes[:NUM_JOINTS]):
+    for j, ax in enumerate(axes[: min(NUM_JOINTS, episode.qpos.shape[1], len(names))]):
         ax.plot(time, episode.qpos[:, j], label="qpos", linewidth=1.2)
         ax.plot(time, episode.action[:, j], "--", label="action", linewidth=1.0)
         ax.set_title(names[j], fontsize=9)

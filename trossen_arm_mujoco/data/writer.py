@@ -30,8 +30,10 @@ from trossen_arm_mujoco.data.schema import (
     DEFAULT_COMPRESSION,
     ENV_STATE_DIM,
     GZIP_LEVEL,
+    JOINT_ARRAYS,
     SCHEMA,
     encode_attr,
+    joint_width,
 )
 from trossen_arm_mujoco.data.schema import VENDOR_DT as DT
 
@@ -121,11 +123,14 @@ class EpisodeWriter:
                 f"env_state_dim must be a positive multiple of {ENV_STATE_DIM} (7 values per "
                 f"object), got {env_state_dim}"
             )
-        #: Per-step shape of every numeric dataset (``env_state`` chosen per episode).
+        #: Per-step shape of every numeric dataset (``env_state`` chosen per episode; the
+        #: joint arrays as wide as the ``layout`` attribute says, ``schema.joint_width``).
+        joints = (joint_width((attrs or {}).get("layout")),)
         self.widths = {
             name: (int(env_state_dim),) if spec.variable else spec.width
             for name, spec in zip(SCHEMA.array_names, SCHEMA.arrays, strict=True)
         }
+        self.widths.update({name: joints for name in JOINT_ARRAYS})
         self.verify = verify
         self.episode_len = int(episode_len)
         self.camera_names = list(camera_names)
@@ -219,6 +224,11 @@ class EpisodeWriter:
                         f"({np.asarray(self._attrs[name]).tolist()!r}); "
                         f"got {value!r:.80}"
                     )
+            if name == "layout" and (joint_width(value),) != self.widths["qpos"]:
+                raise EpisodeWriteError(
+                    f"attribute 'layout' {value!r:.40} has {joint_width(value)} joint values, "
+                    f"but the writer was made for {self.widths['qpos'][0]}; pass it in attrs="
+                )
             self._attrs[name] = encoded
 
     def append(
@@ -233,7 +243,8 @@ class EpisodeWriter:
         """Write one step.
 
         Args:
-            qpos, qvel, action: 16 finite values each (rad, rad/s for joints; m, m/s fingers).
+            qpos, qvel, action: 16 finite values each (rad, rad/s for joints; m, m/s fingers);
+                7 for a single arm's recording (attribute ``layout`` ``"widowxai"``).
             reward: finite scalar.
             env_state: ``env_state_dim`` finite values, object poses xyz (m) + quat wxyz.
             images: ``{camera: uint8 (H, W, 3)}`` for exactly the writer's cameras.

@@ -18,7 +18,9 @@ from trossen_arm_mujoco.robot.configs import JOINT_VELOCITY_LIMITS
 from trossen_arm_mujoco.tasks.task import DEFAULT_POLICY_DT
 
 __all__ = [
+    "ARM_EE",
     "GRIPPER_PLAN_SPEED",
+    "ArmWaypointPolicy",
     "BimanualWaypointPolicy",
     "Waypoint",
     "add_position_noise",
@@ -144,3 +146,54 @@ class BimanualWaypointPolicy:
         right = interpolate(self.right_trajectory, self.step_count)
         self.step_count += 1
         return np.concatenate([left, right])
+
+
+#: ``action_layout`` of a single arm's end-effector policy: its action is one arm's
+#: ``[xyz (m), quat wxyz, gripper (m)]`` (8 values; ``collect.single_arm`` records it).
+ARM_EE = "arm_ee"
+
+
+class ArmWaypointPolicy:
+    """Base of the scripted policies of a single wxai arm (``collect.single_arm``).
+
+    Called with the policy observation of the episode (a dict: the task's observation parts,
+    ``ee_pose`` (7,) the tool frame [xyz m, quat wxyz] in the world frame, ``env_state``
+    (7 per object: [xyz m, quat wxyz]) and, for a goal-conditioned task, ``goal`` (3,) m);
+    returns the 8-value EE action ``[xyz (m), quat wxyz, gripper (m)]`` of the tool frame
+    (``ee_site``) in the world frame, gripper = finger travel (0 closed .. 0.044 open). On the
+    first call ``plan(obs)`` builds ``trajectory``; the plan is open loop.
+
+    Args:
+        inject_noise: perturb waypoint positions (see the subclass), drawn from ``rng`` only.
+        rng: ``np.random.Generator`` or int seed for the noise.
+    """
+
+    #: The layout of its actions: one arm's tool pose and gripper (recorded in two phases).
+    action_layout: str = ARM_EE
+    #: Steps the plan needs before the task can be judged.
+    minimum_episode_len: int = 0
+
+    def __init__(self, inject_noise: bool = False, rng: np.random.Generator | int | None = None):
+        self.inject_noise = inject_noise
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        self.step_count = 0
+        self.trajectory: list[Waypoint] = []
+
+    def plan(self, obs: dict) -> list[Waypoint]:
+        """The arm's waypoints from the first observation."""
+        raise NotImplementedError
+
+    def _jitter(self, point, scale: float) -> np.ndarray:
+        """point + U(-scale, scale) per axis, from this policy's generator only."""
+        point = np.asarray(point, dtype=float)
+        return point + self.rng.uniform(-scale, scale, 3) if scale else point
+
+    def __call__(self, obs: dict) -> np.ndarray:
+        """The (8,) EE action of the current step."""
+        if self.step_count == 0:
+            trajectory = self.plan(obs)
+            check_waypoints(trajectory, f"{type(self).__name__} trajectory")
+            self.trajectory = trajectory
+        action = interpolate(self.trajectory, self.step_count)
+        self.step_count += 1
+        return action

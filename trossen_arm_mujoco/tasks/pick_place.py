@@ -17,12 +17,13 @@ from trossen_arm_mujoco.tasks.config_key import number
 from trossen_arm_mujoco.tasks.push import (
     PUSH_KEYS,
     PUSH_REQUIRED,
+    RECORD_EPISODE_LEN,
     PushSampler,
     PushTask,
     cube_rest_z,
 )
 from trossen_arm_mujoco.tasks.sampler import uniform
-from trossen_arm_mujoco.tasks.task_entry import TaskEntry
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
 
 __all__ = ["TASKS", "PickPlaceSampler", "PickPlaceTask"]
 
@@ -84,6 +85,8 @@ TASKS = (
         PickPlaceSampler,
         "pick_place",
         "wxai: bring a cube to a goal on the table or in the air",
+        policy="trossen_arm_mujoco.policies.pick_place:PickPlacePolicy",
+        record=record_defaults(RECORD_EPISODE_LEN, cam_names=PushSampler.cameras),
         gym_ids={
             "TrossenMujoco/WXAIPickPlace-v0": "env",
             "TrossenMujoco/WXAIPickPlaceGoal-v0": "goal",

@@ -23,12 +23,23 @@ from trossen_arm_mujoco.tasks.single_arm import (
     SingleArmTask,
     goal_distance,
 )
-from trossen_arm_mujoco.tasks.task_entry import TaskEntry
+from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
 
-__all__ = ["TASKS", "CUBE", "MAX_GOAL_TRIES", "PushSampler", "PushTask", "cube_rest_z"]
+__all__ = [
+    "TASKS",
+    "CUBE",
+    "MAX_GOAL_TRIES",
+    "RECORD_EPISODE_LEN",
+    "PushSampler",
+    "PushTask",
+    "cube_rest_z",
+]
 
 CUBE = ("cube", ("cube_joint", "cube"))
 MAX_GOAL_TRIES = 100
+#: Steps (0.02 s) of a recorded episode of push and of pick_place (``record``): their
+#: scripted policies (``policies/push.py``, ``policies/pick_place.py``) need 300 and 320.
+RECORD_EPISODE_LEN = 350
 
 
 def cube_rest_z(env: MujocoEnv, table_height: float) -> float:
@@ -152,6 +163,8 @@ TASKS = (
         PushSampler,
         "push",
         "wxai: push a cube onto a goal on the table",
+        policy="trossen_arm_mujoco.policies.push:PushPolicy",
+        record=record_defaults(RECORD_EPISODE_LEN, cam_names=SingleArmSampler.cameras),
         gym_ids={"TrossenMujoco/WXAIPush-v0": "env", "TrossenMujoco/WXAIPushGoal-v0": "goal"},
         keys=PUSH_KEYS,
         required=PUSH_REQUIRED,

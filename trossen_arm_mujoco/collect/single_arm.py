@@ -1,0 +1,311 @@
+"""Two-phase recording of a single wxai arm's task with a scripted end-effector policy.
+
+A policy that declares ``action_layout = "arm_ee"`` (``policies.scripted.ArmWaypointPolicy``:
+the shipped ``push`` and ``pick_place`` policies, or a user's own single-arm task's) gives
+each step one arm's tool pose and gripper, ``[xyz (m), quat wxyz, gripper (m)]`` in the world
+frame. Such a task is recorded the way the kit's tasks are:
+
+Phase 1 (scripted rollout, nothing rendered): the task's joint flavour with the arm in the
+``ee_pose`` command mode, where the arm's controller solves the IK of each tool pose and
+moves the joint targets toward it within the real arm's joint speed limits
+(``robot.controllers``; the gripper target moves within the carriage's limit); the env steps.
+The joint targets actually applied each step are kept: 6 arm joints (rad) and the gripper
+(finger travel, m). Phase 2: those targets are replayed in the ``joint_position`` mode (as the
+real arm takes them) from the same scene (the same episode seed drives both samplers), the
+requested cameras are rendered and every step is streamed to the episode file. The task
+judges success at the last step (``Task.judge_success``: for push and pick_place the cube's
+centre within ``success_tolerance`` of the goal).
+
+The file is the usual schema (``data.schema``) with root attribute ``layout = "widowxai"``:
+``qpos``, ``qvel`` and ``action`` are ``(T, 7)``: ``joint_0`` .. ``joint_5`` (rad, rad/s),
+then the gripper (``left_carriage_joint`` travel, m, m/s; measured in ``qpos``/``qvel``,
+commanded in ``action``); ``env_state`` (T, 7 per object) the object poses [xyz m, quat
+wxyz]; ``reward`` the task's reward after each step; ``goal`` (3,) m the episode's goal
+(goal-conditioned tasks). ``dt`` = the task's ``policy_dt`` (0.02 s).
+``real_replay_checked``: the actions pass the real-arm check at the recording rate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+
+from trossen_arm_mujoco.collect.pipeline import (
+    EpisodeOutcome,
+    RecordSettings,
+    StepHook,
+    episode_attrs,
+    episode_seed,
+    limit_speed,
+    write_episode,
+)
+from trossen_arm_mujoco.data.schema import SCHEMA, SINGLE_ARM_LAYOUT
+from trossen_arm_mujoco.data.writer import EpisodeWriter
+from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.policies.scripted import ARM_EE
+from trossen_arm_mujoco.real.validate import ArmLimits, TrajectoryError, validate_actions
+from trossen_arm_mujoco.robot.configs import ACTUATED_FINGER, JOINT_VELOCITY_LIMITS
+from trossen_arm_mujoco.robot.layout import ARM_JOINTS
+from trossen_arm_mujoco.tasks import registry
+from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
+
+__all__ = [
+    "ARM_ACTION_SPEED_LIMITS",
+    "ARM_VALUES",
+    "SingleArmRecorder",
+    "arm_to_vendor16",
+    "is_arm_ee_policy",
+]
+
+#: The 7 recorded values of the arm: its 6 joints, then the gripper (actuated carriage).
+ARM_VALUES: tuple[str, ...] = (*ARM_JOINTS, ACTUATED_FINGER)
+#: Speed limit of each of the 7 values (URDF: rad/s, m/s).
+ARM_ACTION_SPEED_LIMITS = np.array([JOINT_VELOCITY_LIMITS[j] for j in ARM_VALUES])
+
+
+def is_arm_ee_policy(policy_cls: type) -> bool:
+    """Whether a scripted policy gives one arm's tool pose (``action_layout == "arm_ee"``)."""
+    return getattr(policy_cls, "action_layout", "ee") == ARM_EE
+
+
+def arm_to_vendor16(actions: np.ndarray) -> np.ndarray:
+    """``(T, 7)`` arm actions as ``(T, 16)`` rows of the real-replay check: the arm as the
+    left arm (both finger values = the gripper), the right arm holding still at the first
+    row's values."""
+    a = np.asarray(actions, dtype=float)
+    left = np.concatenate([a, a[:, 6:7]], axis=1)
+    return np.concatenate([left, np.broadcast_to(left[:1], left.shape)], axis=1)
+
+
+class SingleArmRecorder:
+    """Records episodes of a single-arm task with an ``arm_ee`` scripted policy (module
+    docstring).
+
+    The same interface as ``collect.pipeline.EpisodeRecorder`` (``record``, ``close``,
+    ``settings``, ``joint_env``, ``policy_dt``, ``fps``, ``minimum_episode_len``,
+    ``scripted_rollout``, ``replay``); ``max_reward`` is NaN (the task judges success).
+
+    Args:
+        settings: ``collect.pipeline.RecordSettings`` of the run.
+        step_hook: called after each phase-2 step with (t, observation, joint ``MujocoEnv``).
+    """
+
+    def __init__(self, settings: RecordSettings, step_hook: StepHook | None = None):
+        self.entry = registry.load(settings.task_name)
+        self.policy_cls = self.entry.policy_class()
+        self.settings = settings
+        self.step_hook = step_hook
+        self.arm_limits = ArmLimits.from_mjcf()
+        self.last_speed_limited = 0
+        sampler_cls = self.entry.sampler_class()
+        if len(sampler_cls.arms) != 1:
+            raise UserError(
+                f"task '{self.entry.name}': its policy {self.policy_cls.__name__} acts on one "
+                f"arm (action_layout 'arm_ee'), but its sampler has {len(sampler_cls.arms)} "
+                "arms"
+            )
+        self.arm_group, self.gripper_group = sampler_cls.arms[0]
+        # phase 1: the arm takes tool poses (IK within the joint speed limits), no cameras
+        ee = SamplerSettings(command_mode="ee_pose", randomize=settings.randomize)
+        self.ee_sampler = registry.make_sampler(self.entry.name, ee)
+        self.joint_sampler = registry.make_sampler(self.entry.name, settings.sampler_settings())
+        #: randomization record of the last episode (None: not randomizing).
+        self.last_randomization: dict | None = None
+        self.ee_task = None
+        self.joint_task = None
+        probe = self.joint_sampler.make_task()
+        self.policy_dt = probe.policy_dt
+        self.fps = 1.0 / self.policy_dt
+        self.max_reward = float("nan")
+        #: Steps the scripted policy needs to finish the task (0 when it does not say).
+        self.minimum_episode_len = int(getattr(self.policy_cls, "minimum_episode_len", 0))
+        self._state_index = {
+            flavour: self._state_indices(sampler)
+            for flavour, sampler in (("ee", self.ee_sampler), ("joint", self.joint_sampler))
+        }
+        arm = self.joint_sampler.robot_view.get_move_group(self.arm_group)
+        gripper = self.joint_sampler.robot_view.get_move_group(self.gripper_group)
+        self.action_low = np.concatenate([arm.ctrl_limits[:, 0], gripper.ctrl_limits[:, 0]])
+        self.action_high = np.concatenate([arm.ctrl_limits[:, 1], gripper.ctrl_limits[:, 1]])
+
+    def _state_indices(self, sampler) -> tuple[np.ndarray, np.ndarray]:
+        """(qpos indices, dof indices) of the 7 recorded values in ``sampler``'s model."""
+        view, model = sampler.robot_view, sampler.env.model
+        arm = view.get_move_group(self.arm_group)
+        gripper = view.get_move_group(self.gripper_group)
+        finger = int(model.actuator_trnid[gripper.actuator_id, 0])
+        qpos = np.array([*arm.qpos_idx, model.jnt_qposadr[finger]], dtype=int)
+        dofs = np.array([*arm.dof_idx, model.jnt_dofadr[finger]], dtype=int)
+        return qpos, dofs
+
+    @property
+    def joint_env(self):
+        """The recorded world (``sim.env.MujocoEnv``)."""
+        return self.joint_sampler.env
+
+    def policy_observation(self, task) -> dict[str, np.ndarray]:
+        """What the policy is called with: the task's observation, ``ee_pose`` (7,) the
+        tool frame [xyz m, quat wxyz] (world), ``env_state`` (7 per object) and ``goal``
+        (3,) m for a goal-conditioned task."""
+        env = task.env
+        obs = dict(task.get_observation())
+        arm = task.robot.view.get_move_group(self.arm_group)
+        obs["ee_pose"] = arm.get_frame_pose(env.data)
+        obs["env_state"] = self._env_state(env)
+        if getattr(task, "goal_conditioned", False):
+            obs["goal"] = np.array(task.goal, dtype=float)
+        return obs
+
+    @staticmethod
+    def _env_state(env) -> np.ndarray:
+        """Poses of the env's objects, 7 each ([xyz m, quat wxyz]), in ``objects`` order."""
+        poses = [obj.get_pose(env.data) for obj in env.objects.values()]
+        return np.concatenate(poses) if poses else np.zeros(0)
+
+    def _start(self, sampler, seed: int):
+        """The episode of ``seed`` in ``sampler`` (the same draws in both flavours)."""
+        return sampler.next_task(np.random.default_rng(seed))
+
+    def scripted_rollout(self, seed: int) -> tuple[np.ndarray, dict]:
+        """Phase 1. Returns (joint actions (T, 7), initial object poses {name: (7,)}).
+
+        The actions are the joint targets the ``ee_pose`` controller applied (within the joint
+        limits and the real arm's speed limits at the recording rate); any value still faster
+        is rate-limited (``self.last_speed_limited`` counts them; normally 0). They are rounded
+        to the file's dtype (float32), so phase 2 replays exactly the stored values.
+        """
+        s = self.settings
+        rng = np.random.default_rng(seed)
+        task = self.ee_task = self.ee_sampler.next_task(rng)
+        self.last_randomization = self.ee_sampler.randomization
+        env = self.ee_sampler.env
+        poses = {name: obj.get_pose(env.data) for name, obj in env.objects.items()}
+        policy = self.policy_cls(inject_noise=s.inject_noise, rng=rng)
+        arm = task.robot.view.get_move_group(self.arm_group)
+        gripper = task.robot.view.get_move_group(self.gripper_group)
+        actions = np.empty((s.episode_len, len(ARM_VALUES)))
+        for t in range(s.episode_len):
+            ee = np.asarray(policy(self.policy_observation(task)), dtype=float)
+            if ee.shape != (8,):
+                raise UserError(
+                    f"policy {self.policy_cls.__name__}: an arm_ee action has 8 values "
+                    f"[xyz, quat wxyz, gripper], got shape {ee.shape}"
+                )
+            task.step({self.arm_group: ee[:7], self.gripper_group: ee[7:8]})
+            actions[t, :6] = arm.get_ctrl(env.data)
+            actions[t, 6] = gripper.get_ctrl(env.data)[0]
+        np.clip(actions, self.action_low, self.action_high, out=actions)
+        self.last_speed_limited = limit_speed(actions, ARM_ACTION_SPEED_LIMITS, self.fps)
+        actions[:] = actions.astype(SCHEMA.array("action").dtype)
+        return actions, poses
+
+    def scripted_success(self) -> bool:
+        """Whether phase 1 ended in success (the task's judgement)."""
+        return self.ee_task is not None and bool(self.ee_task.judge_success())
+
+    def replay(
+        self,
+        actions: np.ndarray,
+        seed: int,
+        writer: EpisodeWriter | None = None,
+        progress: Callable[[], None] | None = None,
+    ) -> np.ndarray:
+        """Phase 2: replay joint actions ``(T, 7)`` in the episode of ``seed``; returns the
+        rewards (T,). Each step appends (state before the action, action, reward after it)
+        to ``writer``."""
+        rewards = np.empty(len(actions))
+        for _ in self.replay_steps(actions, seed, rewards, writer):
+            if progress is not None:
+                progress()
+        return rewards
+
+    def replay_steps(
+        self,
+        actions: np.ndarray,
+        seed: int,
+        rewards: np.ndarray,
+        writer: EpisodeWriter | None = None,
+    ) -> Iterator[int]:
+        """:meth:`replay`, one step per iteration: yields ``t`` after step ``t``."""
+        task = self.joint_task = self._start(self.joint_sampler, seed)
+        env = self.joint_sampler.env
+        data = env.data
+        qpos_idx, dof_idx = self._state_index["joint"]
+        for t in range(len(actions)):
+            images = env.render_images() if writer is not None else {}
+            qpos, qvel = data.qpos[qpos_idx].copy(), data.qvel[dof_idx].copy()
+            env_state = self._env_state(env)
+            a = actions[t]
+            task.step({self.arm_group: a[:6], self.gripper_group: a[6:7]})
+            rewards[t] = task.get_reward()
+            if writer is not None:
+                writer.append(
+                    qpos=qpos,
+                    qvel=qvel,
+                    action=a,
+                    reward=rewards[t],
+                    env_state=env_state,
+                    images=images,
+                )
+            if self.step_hook is not None:
+                self.step_hook(t, task.get_observation(), env)
+            yield t
+
+    def record(
+        self,
+        attempt: int,
+        path: Path,
+        overwrite: bool = False,
+        progress: Callable[[], None] | None = None,
+        extra_attrs: dict | None = None,
+        create_folder: bool = True,
+    ) -> EpisodeOutcome:
+        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``; an
+        ``EpisodeOutcome``. Arguments as ``EpisodeRecorder.record``."""
+        s = self.settings
+        seed = episode_seed(s.base_seed, attempt)
+        actions, poses = self.scripted_rollout(seed)
+        speed_ok, peak_use = self.check_real_replay(actions)
+        goal = getattr(self.ee_task, "goal", None)
+        attrs = episode_attrs(
+            s,
+            self.entry.name,
+            attempt,
+            self.policy_dt,
+            poses,
+            self.last_randomization,
+            extra_attrs,
+            layout=SINGLE_ARM_LAYOUT,
+            joint_names=list(ARM_VALUES),
+            **({"goal": np.asarray(goal, dtype=float)} if goal is not None else {}),
+            real_replay_checked=speed_ok,
+            peak_speed_fraction=peak_use,
+            speed_limited_values=int(self.last_speed_limited),
+        )
+
+        def play(writer: EpisodeWriter) -> tuple[np.ndarray, bool, dict]:
+            return self.replay(actions, seed, writer, progress), speed_ok, {}
+
+        def judge() -> bool:
+            return bool(self.joint_task.judge_success())
+
+        return write_episode(
+            s, path, attrs, play, self.max_reward, overwrite, create_folder, judge=judge
+        )
+
+    def check_real_replay(self, actions: np.ndarray) -> tuple[bool, float]:
+        """The 7 values through the real-replay validator at the recording rate (1 /
+        policy_dt), as one arm of ``replay_episode_real.py --fps 50 --dry_run``. Returns
+        (passed, largest speed as a fraction of its limit; NaN when the check failed)."""
+        try:
+            trajectory = validate_actions(arm_to_vendor16(actions), self.fps, self.arm_limits)
+        except TrajectoryError:
+            return False, float("nan")
+        return True, float(np.max(trajectory.peak_speed / self.arm_limits.velocity))
+
+    def close(self) -> None:
+        """Close both samplers and the envs (and renderers) they own."""
+        self.ee_sampler.close()
+        self.joint_sampler.close()
