@@ -265,14 +265,18 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
     FigureCanvasAgg(fig)
     axes = fig.subplots(4, 4, sharex=True).ravel()
     names, units = joint_labels(episode)
-    for j, ax in enumerate(axes[: min(NUM_JOINTS, episode.qpos.shape[1], len(names))]):
+    n = min(NUM_JOINTS, episode.qpos.shape[1], len(names))  # 7 for a single arm
+    for j, ax in enumerate(axes[:n]):
         ax.plot(time, episode.qpos[:, j], label="qpos", linewidth=1.2)
         ax.plot(time, episode.action[:, j], "--", label="action", linewidth=1.0)
         ax.set_title(names[j], fontsize=9)
         ax.set_ylabel(units[j], fontsize=8)
         ax.tick_params(labelsize=7)
-    for ax in axes[-4:]:
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    for ax in axes[max(0, n - 4) : n]:  # the bottom plot of each column
         ax.set_xlabel("time (s)" if dt is not None else "step (no valid dt)", fontsize=8)
+        ax.tick_params(labelbottom=True)
     axes[0].legend(fontsize=7, loc="best")
     title = episode.path.name
     if "success" in episode.attrs:
