@@ -89,6 +89,15 @@ def test_free_joint_object_errors(scene):
         FreeJointObject(model, "cube_joint")
     with pytest.raises(UserError, match="unknown geom 'cube'.*red_box"):
         FreeJointObject(model, "red_box_joint", "cube")
+    # an object is (free joint, geom): the body's name in the geom's place, or a geom of
+    # another body, names the body's own geoms
+    body = mujoco.mj_id2name(
+        model, mujoco.mjtObj.mjOBJ_BODY, model.jnt_bodyid[model.joint("red_box_joint").id]
+    )
+    with pytest.raises(UserError, match=f"'{body}' is a body, not a geom.*red_box"):
+        FreeJointObject(model, "red_box_joint", body)
+    with pytest.raises(UserError, match="geom 'table' is not on body"):
+        FreeJointObject(model, "red_box_joint", "table")
     cube = FreeJointObject(model, "red_box_joint")
     before = data.qpos.copy()
     with pytest.raises(UserError, match="7 finite values"):

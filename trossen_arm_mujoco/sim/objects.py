@@ -13,6 +13,34 @@ from trossen_arm_mujoco.names import lookup_id
 __all__ = ["FreeJointObject"]
 
 
+def _object_geom(
+    model: mujoco.MjModel, joint_name: str, body_id: int, geom_name: str | None
+) -> int | None:
+    """The id of ``geom_name``, a geom of the free joint's body (None when not given); a
+    body's name given in its place, or a geom of another body, is a one-line UserError."""
+    if not geom_name:
+        return None
+    body = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body_id)
+    own = [
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
+        for g in range(model.ngeom)
+        if int(model.geom_bodyid[g]) == body_id
+    ]
+    geom_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, geom_name)
+    if geom_id < 0 and mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, geom_name) >= 0:
+        raise UserError(
+            f"'{geom_name}' is a body, not a geom: an object is (free joint, geom); "
+            f"the geoms of body '{body}': {', '.join(own) or 'none'}"
+        )
+    geom_id = lookup_id(model, "geom", geom_name)
+    if int(model.geom_bodyid[geom_id]) != body_id:
+        raise UserError(
+            f"geom '{geom_name}' is not on body '{body}', the body of free joint "
+            f"'{joint_name}': give one of its geoms: {', '.join(own) or 'none'}"
+        )
+    return geom_id
+
+
 class FreeJointObject:
     """A body with a free joint. Pose = [x, y, z, qw, qx, qy, qz] (world, m)."""
 
@@ -24,7 +52,7 @@ class FreeJointObject:
         self.qpos_adr = int(model.jnt_qposadr[self.joint_id])
         self.dof_adr = int(model.jnt_dofadr[self.joint_id])
         self.body_id = int(model.jnt_bodyid[self.joint_id])
-        self.geom_id = lookup_id(model, "geom", geom_name) if geom_name else None
+        self.geom_id = _object_geom(model, joint_name, self.body_id, geom_name)
 
     def get_pose(self, data: mujoco.MjData) -> np.ndarray:
         """The object's pose, (7,) [x, y, z (m, world frame), quat wxyz], a copy."""
