@@ -148,3 +148,47 @@ def test_static_frames_train_with_the_early_ones_and_are_never_held_out():
             static=(extra_images, extra_poses[:2]),
             progress=lambda line: None,
         )
+
+
+def test_augment_changes_light_colour_and_place_deterministically():
+    import torch
+
+    from trossen_arm_mujoco.train.pose_encoder import AUGMENT_SHIFT, augment_batch
+
+    images, _, _, _ = _frames(n_eps=2, per_ep=4)
+    batch = torch.from_numpy(images).permute(0, 3, 1, 2).float() / 255.0
+    first = augment_batch(batch, torch.Generator().manual_seed(1))
+    again = augment_batch(batch, torch.Generator().manual_seed(1))
+    other = augment_batch(batch, torch.Generator().manual_seed(2))
+    assert first.shape == batch.shape and float(first.min()) >= 0 and float(first.max()) <= 1
+    torch.testing.assert_close(first, again)
+    assert not torch.allclose(first, other) and not torch.allclose(first, batch)
+    # the square moves by at most AUGMENT_SHIFT pixels each way
+    red = (first[:, 0] > first[:, 2] + 0.2).nonzero()
+    for i in range(len(batch)):
+        rows, cols = red[red[:, 0] == i, 1], red[red[:, 0] == i, 2]
+        r0, c0 = (batch[i, 0] > batch[i, 2] + 0.2).nonzero().min(0).values.tolist()
+        assert abs(int(rows.min()) - r0) <= AUGMENT_SHIFT
+        assert abs(int(cols.min()) - c0) <= AUGMENT_SHIFT
+
+
+def test_an_augmented_encoder_still_finds_the_square_and_repeats():
+    images, poses, eps, idx = _frames()
+    runs = [
+        train_encoder(
+            images,
+            poses,
+            eps,
+            idx,
+            seed=3,
+            epochs=15,
+            threads=1,
+            augment=True,
+            progress=lambda line: None,
+        )
+        for _ in range(2)
+    ]
+    (net, report), (again, _) = runs
+    spread_mm = poses[:, :2].std(0).mean() * 1000
+    assert report.start_xy_mm < 0.5 * spread_mm, (report, spread_mm)
+    np.testing.assert_array_equal(predict(net, images[:5]), predict(again, images[:5]))

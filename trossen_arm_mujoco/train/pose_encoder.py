@@ -35,7 +35,10 @@ from trossen_arm_mujoco.errors import UserError
 __all__ = [
     "EARLY_FRAMES",
     "EARLY_REPEAT",
+    "AUGMENT_LIGHT",
+    "AUGMENT_SHIFT",
     "EncoderReport",
+    "augment_batch",
     "encoder_from_state",
     "held_out",
     "object_errors",
@@ -67,6 +70,12 @@ BATCH = 64
 PEAK_LR = 2e-3
 #: Episodes held out (the last tenth) for the report's errors.
 HOLDOUT_FRACTION = 0.1
+#: ``augment``: each training image's brightness scaled by up to this fraction, each colour
+#: channel by up to half of it, an offset of up to a fifth of it added (a room's light and a
+#: camera's exposure and white balance), and the image shifted by up to
+#: :data:`AUGMENT_SHIFT` pixels each way (a camera mounted slightly off).
+AUGMENT_LIGHT = 0.3
+AUGMENT_SHIFT = 2
 
 
 @dataclass(frozen=True)
@@ -209,6 +218,33 @@ def static_repeat(early: int, static: int) -> int:
     return max(1, round(early / (2 * static))) if static else 0
 
 
+def augment_batch(images: Any, generator: Any) -> Any:
+    """``images`` (B, 3, H, W) float in [0, 1] with the :data:`AUGMENT_LIGHT` and
+    :data:`AUGMENT_SHIFT` changes drawn from ``generator`` (a ``torch.Generator``), per image;
+    the result is in [0, 1], same shape. A shift fills the uncovered border with the edge's
+    pixels."""
+    import torch
+    import torch.nn.functional as F
+
+    b = images.shape[0]
+
+    def uniform(*shape: int, scale: float) -> Any:
+        return (torch.rand(*shape, generator=generator) * 2 - 1) * scale
+
+    gain = 1 + uniform(b, 1, 1, 1, scale=AUGMENT_LIGHT)
+    tint = 1 + uniform(b, 3, 1, 1, scale=AUGMENT_LIGHT / 2)
+    offset = uniform(b, 1, 1, 1, scale=AUGMENT_LIGHT / 5)
+    out = (images * gain * tint + offset).clamp(0.0, 1.0)
+    pad = AUGMENT_SHIFT
+    if pad:
+        h, w = out.shape[-2:]
+        padded = F.pad(out, (pad, pad, pad, pad), mode="replicate")
+        dy = torch.randint(0, 2 * pad + 1, (b,), generator=generator)
+        dx = torch.randint(0, 2 * pad + 1, (b,), generator=generator)
+        out = torch.stack([padded[i, :, dy[i] : dy[i] + h, dx[i] : dx[i] + w] for i in range(b)])
+    return out
+
+
 def train_encoder(
     images: np.ndarray,
     targets: np.ndarray,
@@ -219,6 +255,7 @@ def train_encoder(
     epochs: int = EPOCHS,
     threads: int | None = None,
     static: tuple[np.ndarray, np.ndarray] | None = None,
+    augment: bool = False,
     progress: Any = print,
 ) -> tuple[Any, EncoderReport]:
     """Train an encoder on frames (N, H, W, 3) uint8 with their poses (N, D) (the first
@@ -229,7 +266,10 @@ def train_encoder(
     ``static``: more frames (M, H, W, 3) and their poses (M, D) of the scene at its start
     (the arms at home, the objects where the task's sampler put them): the arms say nothing
     there, so only the objects can give their poses. They train with the early frames,
-    shown :func:`static_repeat` times as often, and are never held out."""
+    shown :func:`static_repeat` times as often, and are never held out.
+
+    ``augment``: every training batch changed by :func:`augment_batch` (light, colour,
+    a small shift), drawn from ``seed``; the held-out report reads the frames unchanged."""
     import torch
     import torch.nn.functional as F
 
@@ -243,6 +283,7 @@ def train_encoder(
         torch.set_num_threads(int(threads))
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
+    draws = torch.Generator().manual_seed(seed) if augment else None
     targets = np.asarray(targets, dtype=np.float32)
     held = held_out(episode)
     n_hold = len(held)
@@ -272,7 +313,10 @@ def train_encoder(
         total = 0.0
         for i in range(0, len(order), BATCH):
             rows = order[i : i + BATCH]
-            loss = F.mse_loss(net.normalized(x_all[rows].float() / 255.0), y_all[rows])
+            batch = x_all[rows].float() / 255.0
+            if draws is not None:
+                batch = augment_batch(batch, draws)
+            loss = F.mse_loss(net.normalized(batch), y_all[rows])
             opt.zero_grad()
             loss.backward()
             opt.step()
