@@ -96,8 +96,9 @@ def test_a_non_finite_base_command_is_a_fault_with_the_checks_on(env):
 def test_other_layouts_and_other_tasks_are_refused_in_one_line():
     with pytest.raises(UserError, match="takes the layouts mobileai, not 'kit14'"):
         KitPolicyEnv(TASK, render_mode=None)
-    with pytest.raises(UserError, match="neither a Stationary AI kit nor a Mobile AI task"):
-        task_layouts("reach")
+    assert task_layouts("reach") == ("widowxai",)  # a single arm's task: eval.arm_env
+    with pytest.raises(UserError, match="takes the layouts widowxai, not 'kit14'"):
+        KitPolicyEnv("reach", render_mode=None)
     assert _layout_for(TASK, None, None) == "mobileai"
     assert _layout_for(TASK, None, "vendor16") == "mobileai"  # a 16-value checkpoint
     assert _layout_for("sim_transfer_cube", None, None) == "kit14"
@@ -156,7 +157,7 @@ def test_eval_of_a_task_it_does_not_take_is_one_line(tmp_path, capsys):
         ["--task_name", "reach", "--policy", "scripted", "--output_dir", str(tmp_path / "e")],
         capsys,
     )
-    assert "neither a Stationary AI kit nor a Mobile AI task" in _one_line_error(rc, out, err)
+    assert "task 'reach' has no scripted policy" in _one_line_error(rc, out, err)
 
 
 def test_a_function_policy_drives_the_mobile_task(tmp_path, capsys, monkeypatch):

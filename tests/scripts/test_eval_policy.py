@@ -12,8 +12,6 @@ from pathlib import Path
 import pytest
 
 from trossen_arm_mujoco import cli
-from trossen_arm_mujoco.eval.mobile_base import mobile_names
-from trossen_arm_mujoco.tasks import registry
 
 REPO = Path(__file__).resolve().parents[2]
 #: A checkpoint config trained on cam_low at 48x64, 14-value actions.
@@ -74,9 +72,9 @@ def test_scripted_run_writes_eval_info(tmp_path, capsys):
 
 BAD_INPUTS = {
     "unknown task": (["--task_name", "sim_nope"], "unknown task 'sim_nope'; valid tasks:"),
-    "single-arm task": (
+    "task without a scripted policy": (
         ["--task_name", "reach"],
-        "task 'reach' is neither a Stationary AI kit nor a Mobile AI task",
+        "task 'reach' has no scripted policy",
     ),
     "unknown camera": (["--cam_names", "cam_nope"], "unknown camera 'cam_nope'; valid cameras:"),
     "bad image size": (["--image_size", "48by64"], "image size must look like HxW"),
@@ -240,13 +238,8 @@ def test_subprocess_exit_status_and_exact_stderr(tmp_path):
     )
     assert done.returncode == 2
     assert done.stdout == ""
-    # the shipped ones and installed packages', then the Mobile AI's
-    kit = ", ".join(registry.kit_names() + mobile_names())
-    assert kit.count("sim_insertion, sim_transfer_cube") == 1 and "mobile_pick_place" in kit
-    assert done.stderr == (
-        f"error: task 'reach' is neither a Stationary AI kit nor a Mobile AI task; valid "
-        f"tasks: {kit}\n"
-    )
+    # the single arm's reach is evaluated (eval.arm_env) but has no scripted policy
+    assert done.stderr == "error: task 'reach' has no scripted policy\n"
     assert not (tmp_path / "eval").exists()
 
 

@@ -168,8 +168,17 @@ class SingleArmRecorder:
         """The episode of ``seed`` in ``sampler`` (the same draws in both flavours)."""
         return sampler.next_task(np.random.default_rng(seed))
 
-    def scripted_rollout(self, seed: int) -> tuple[np.ndarray, dict]:
+    def scripted_rollout(
+        self,
+        seed: int | np.random.Generator,
+        object_poses: dict[str, np.ndarray] | None = None,
+        goal: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, dict]:
         """Phase 1. Returns (joint actions (T, 7), initial object poses {name: (7,)}).
+
+        ``seed``: the episode's seed, or its generator (``eval``'s episode stream);
+        ``object_poses`` and ``goal`` (m, world) replace the sampled ones (``eval --policy
+        scripted`` plans the eval env's episode).
 
         The actions are the joint targets the ``ee_pose`` controller applied (within the joint
         limits and the real arm's speed limits at the recording rate); any value still faster
@@ -178,7 +187,9 @@ class SingleArmRecorder:
         """
         s = self.settings
         rng = np.random.default_rng(seed)
-        task = self.ee_task = self.ee_sampler.next_task(rng)
+        task = self.ee_task = self.ee_sampler.next_task(rng, object_poses=object_poses)
+        if goal is not None:
+            task.goal = goal
         self.last_randomization = self.ee_sampler.randomization
         env = self.ee_sampler.env
         poses = {name: obj.get_pose(env.data) for name, obj in env.objects.items()}

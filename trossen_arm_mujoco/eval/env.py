@@ -135,7 +135,14 @@ def feature_spec(
 ) -> dict[str, tuple[str, str, tuple[int, ...]]]:
     """What the env observes and takes, as LeRobot features: env key -> (LeRobot key, kind,
     shape), kind one of ``STATE``, ``ENV``, ``VISUAL``, ``ACTION``. Images are (H, W, 3)
-    (``cam_names`` and ``image_size``: a ``CameraSettings``' ``names`` and ``size``)."""
+    (``cam_names`` and ``image_size``: a ``CameraSettings``' ``names`` and ``size``). A
+    single arm's task (layout ``widowxai``): ``eval.arm_env.arm_feature_spec``."""
+    from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
+
+    if is_arm_task(task):
+        from trossen_arm_mujoco.eval.arm_tasks import arm_feature_spec, arm_object_count
+
+        return arm_feature_spec(arm_object_count(task), tuple(cam_names), image_size)
     size = _layout(layout).size
     n_obj = len(registry.load(task).task_class().objects)
     h, w = image_size
@@ -163,16 +170,20 @@ def _layout(name: str):
 
 def task_layouts(task: str) -> tuple[str, ...]:
     """The layouts a policy of ``task`` may use, its default first: ``kit14``, ``vendor16``
-    for a Stationary AI kit task, ``mobileai`` for a Mobile AI one; a UserError naming the
-    tasks eval takes for any other."""
+    for a Stationary AI kit task, ``mobileai`` for a Mobile AI one, ``widowxai`` for a single
+    arm's (``eval.arm_env``); a UserError naming the tasks eval takes for any other."""
+    from trossen_arm_mujoco.eval.arm_tasks import ARM_LAYOUT_NAME, arm_names, is_arm_task
+
     entry = registry.load(task)
     if entry.name in registry.kit_names():
         return KIT_LAYOUTS
     if entry.name in mobile_names():
         return MOBILE_LAYOUTS
+    if is_arm_task(entry.name):
+        return (ARM_LAYOUT_NAME,)
     raise UserError(
-        f"task '{entry.name}' is neither a Stationary AI kit nor a Mobile AI task; valid "
-        f"tasks: {', '.join(registry.kit_names() + mobile_names())}"
+        f"task '{entry.name}' is neither a Stationary AI kit, a Mobile AI nor a single-arm "
+        f"task; valid tasks: {', '.join(registry.kit_names() + mobile_names() + arm_names())}"
     )
 
 

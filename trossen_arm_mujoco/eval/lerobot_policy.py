@@ -81,10 +81,11 @@ def checkpoint_dir(path: str | Path) -> Path:
 def checkpoint_features(path: str | Path) -> dict[str, Any]:
     """What a checkpoint's ``config.json`` says it observes, read without LeRobot: its
     cameras (``cam_names``), their (H, W) (``image_size``), the layout name of its action
-    (``layout``: ``kit14`` for 14 values, ``vendor16`` for 16), and whether it observes
-    what no real kit can give (``sim_only``: ``observation.environment_state``, the objects'
-    exact poses, unless the checkpoint's preprocessor computes them from a camera:
-    ``eval.camera_pose_step``). Keys are missing when the config does not say."""
+    (``layout``: ``kit14`` for 14 values, ``vendor16`` for 16, ``widowxai`` for 7), and
+    whether it observes what no real kit can give (``sim_only``:
+    ``observation.environment_state``, the objects' exact poses, unless the checkpoint's
+    preprocessor computes them from a camera: ``eval.camera_pose_step``). Keys are missing
+    when the config does not say."""
     folder = checkpoint_dir(path)
     try:
         config = json.loads((folder / "config.json").read_text(encoding="utf-8"))
@@ -112,6 +113,8 @@ def checkpoint_features(path: str | Path) -> dict[str, Any]:
         found["layout"] = "kit14"
     elif list(size) == [16]:
         found["layout"] = "vendor16"
+    elif list(size) == [7]:  # one WidowX AI arm (eval.arm_env)
+        found["layout"] = "widowxai"
     return found
 
 
@@ -149,9 +152,13 @@ def feature_mismatch(policy_inputs: dict[str, tuple[int, ...]], env: KitPolicyEn
     """Differences between a policy's input features (LeRobot key -> shape; images (C,H,W))
     and what ``env`` observes; empty when the policy can run on it."""
     offered: dict[str, tuple[int, ...]] = {}
-    for key, kind, shape in feature_spec(
-        env.task, env.cam_names, env.image_size, env.layout_name
-    ).values():
+    features = getattr(env, "features", None)  # a single arm's env says its own
+    spec = (
+        features()
+        if callable(features)
+        else feature_spec(env.task, env.cam_names, env.image_size, env.layout_name)
+    )
+    for key, kind, shape in spec.values():
         if kind == "VISUAL":
             shape = (shape[2], shape[0], shape[1])
         if kind != "ACTION":

@@ -4,7 +4,11 @@
   episode's object poses, its joint trajectory replayed at the env's rate with the export's
   action rule, ``export.lerobot_plan.frame_map``): the reference row. A scripted policy
   that acts in a joint layout (``mobile_pick_place``'s, in ``mobileai``) runs closed-loop on
-  the env's episode, as ``record`` records it (``ClosedLoopScriptedPolicy``).
+  the env's episode, as ``record`` records it (``ClosedLoopScriptedPolicy``). A single
+  arm's scripted policy (``action_layout = "arm_ee"``: push, pick_place) is planned as
+  ``record``'s phase 1 runs it (``collect.single_arm``: the arm's ``ee_pose`` controller
+  within the real speed limits) on the env's episode (its objects' poses and goal), and
+  its 7 joint targets are replayed at the env's rate (``ArmScriptedPolicy``).
 - ``module:function``: a plain Python callable ``function(observation) -> action`` (the
   env's observation dict; an action in the env's layout); an optional ``reset()``
   attribute is called at every episode start.
@@ -28,6 +32,7 @@ from trossen_arm_mujoco.eval.env import KitPolicyEnv, episode_generator
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT
 
 __all__ = [
+    "ArmScriptedPolicy",
     "ClosedLoopScriptedPolicy",
     "FunctionPolicy",
     "Policy",
@@ -126,6 +131,48 @@ class ScriptedPolicy:
         self.recorder.close()
 
 
+class ArmScriptedPolicy:
+    """A single arm's scripted policy for the episode ``env`` was reset to (see the module
+    docstring); its end-effector world is built once and reused."""
+
+    def __init__(self, task: str, randomize: bool = False):
+        from trossen_arm_mujoco.collect.pipeline import RecordSettings
+        from trossen_arm_mujoco.collect.single_arm import SingleArmRecorder
+
+        self.recorder = SingleArmRecorder(RecordSettings(task_name=task, randomize=randomize))
+        self._plan = np.zeros((0, 7))
+        self._t = 0
+
+    def reset(self, env: Any, seed: int) -> None:
+        """Plan the episode: the scripted rollout of ``env``'s episode (the same draws,
+        the env's object poses and goal), resampled to the env's fps when it differs."""
+        import dataclasses
+
+        src_dt = self.recorder.policy_dt
+        native_len = max(1, int(round(env.episode_length / env.fps / src_dt)))
+        self.recorder.settings = dataclasses.replace(self.recorder.settings, episode_len=native_len)
+        actions, _ = self.recorder.scripted_rollout(
+            episode_generator(seed), object_poses=env.object_poses(), goal=env.goal()
+        )
+        source_fps = round(1.0 / src_dt)
+        if round(env.fps) != source_fps:
+            from trossen_arm_mujoco.export.lerobot_plan import frame_map
+
+            actions = frame_map(len(actions), source_fps, round(env.fps)).actions(actions)
+        self._plan = np.asarray(actions, dtype=float)
+        self._t = 0
+
+    def act(self, observation: dict[str, Any]) -> np.ndarray:
+        """The next planned action, (7,); the last one again after the plan ends."""
+        row = self._plan[min(self._t, len(self._plan) - 1)]
+        self._t += 1
+        return row
+
+    def close(self) -> None:
+        """Close the recorder that plans the episodes."""
+        self.recorder.close()
+
+
 class FunctionPolicy:
     """``module:function`` (see the module docstring)."""
 
@@ -176,6 +223,10 @@ def make_policy(spec: str, env: KitPolicyEnv, device: str = "cpu") -> Policy:
         from trossen_arm_mujoco.tasks import registry
 
         policy_cls = registry.load(env.task).policy_class()
+        from trossen_arm_mujoco.collect.single_arm import is_arm_ee_policy
+
+        if is_arm_ee_policy(policy_cls):  # one arm's tool poses, planned as record does
+            return ArmScriptedPolicy(env.task, randomize=bool(getattr(env, "randomize", False)))
         if getattr(policy_cls, "action_layout", "ee") != "ee":  # acts in joint space
             return ClosedLoopScriptedPolicy(policy_cls, env)
         return ScriptedPolicy(env.task)

@@ -73,6 +73,10 @@ class RolloutRecorder:
     def record(self, env: Any, reward: float) -> None:
         """Read the state after one ``env.step`` (``env``: a ``KitPolicyEnv``; ``reward``: the
         step's reward)."""
+        if self._readers is None and getattr(env, "arms", 2) == 1:  # one arm, one gripper
+            task = env.episode
+            gripper = task.robot.view.get_move_group("gripper")
+            self._readers = (gripper, gripper, lambda: False, task.data)
         if self._readers is None:  # the episode's grippers and contact check, found once
             task = env.episode
             view = task.robot.view

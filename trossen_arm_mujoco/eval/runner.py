@@ -144,8 +144,13 @@ class EvalSettings:
 
     def make_env(self) -> KitPolicyEnv:
         """A ``KitPolicyEnv`` of these settings (task, cameras, fps, episode length,
-        layout), rendering ``rgb_array`` frames for the videos."""
-        return KitPolicyEnv(
+        layout), rendering ``rgb_array`` frames for the videos; a single arm's task: an
+        ``eval.arm_env.ArmPolicyEnv`` of them."""
+        from trossen_arm_mujoco.eval.arm_env import ArmPolicyEnv
+        from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
+
+        env_cls = ArmPolicyEnv if is_arm_task(self.task) else KitPolicyEnv
+        return env_cls(
             self.task,
             cameras=self.cameras,
             fps=self.fps,

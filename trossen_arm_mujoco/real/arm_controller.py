@@ -37,13 +37,31 @@ from trossen_arm_mujoco.real.controller_checks import (
 from trossen_arm_mujoco.real.goal_trajectory import GOAL_TIME_FACTOR, GoalTrajectory
 from trossen_arm_mujoco.real.gripper import GRIPPER_INDEX, GRIPPER_MAX
 
-__all__ = ["GOAL_TIME_FACTOR", "SIDES", "VALUE_LABELS", "KitController", "controller_target"]
+__all__ = [
+    "ARM_SIDES",
+    "GOAL_TIME_FACTOR",
+    "SIDES",
+    "VALUE_LABELS",
+    "KitController",
+    "controller_target",
+    "value_labels",
+]
 
 #: The arms, in the order of the 14 values.
 SIDES: tuple[str, ...] = ("left", "right")
+#: The one arm of a single WidowX AI (its 7 values are labelled without a side).
+ARM_SIDES: tuple[str, ...] = ("",)
+
+
+def value_labels(sides: Sequence[str] = SIDES) -> tuple[str, ...]:
+    """Label of each value of the arms ``sides`` (``left_joint_0`` .. ``right_gripper``;
+    a side ``""``: ``joint_0`` .. ``gripper``), for faults and speed reports."""
+    return tuple(f"{s}_{label}" if s else label for s in sides for label in LABELS)
+
+
 #: Label of each of the 14 values (``left_joint_0`` .. ``right_gripper``), for faults and
 #: speed reports.
-VALUE_LABELS: tuple[str, ...] = tuple(f"{s}_{label}" for s in SIDES for label in LABELS)
+VALUE_LABELS: tuple[str, ...] = value_labels(SIDES)
 
 
 def controller_target(position: float, j: int, limit: JointLimit) -> float:
@@ -61,37 +79,51 @@ class KitController:
         limits: the 7 joint limits of each arm (default ``controller_limits()``).
         checks: apply the controller's checks (False: the same trajectory, nothing
             refused: the unconstrained score).
+        sides: the arms, in the order of their values: ``SIDES`` (the kit's 14 values,
+            default) or ``ARM_SIDES`` (one WidowX AI arm's 7, labelled ``joint_0`` ..
+            ``gripper``).
 
     Attributes:
         fault: the first fault since :meth:`reset` (None while every setpoint passed);
-            its ``joint`` is a :data:`VALUE_LABELS` entry.
+            its ``joint`` is one of :attr:`labels`.
         fault_tick: how many ticks after :meth:`reset` it came (None when no fault).
-        peak_fraction: float64 ``(14,)`` largest speed asked of each value since
-            :meth:`reset`, as a fraction of its velocity limit (without tolerance).
+        peak_fraction: float64 ``(14,)`` (``(7,)`` for one arm) largest speed asked of
+            each value since :meth:`reset`, as a fraction of its velocity limit (without
+            tolerance).
+        labels: the label of each value (``value_labels(sides)``).
     """
 
-    def __init__(self, limits: Sequence[JointLimit] | None = None, checks: bool = True) -> None:
+    def __init__(
+        self,
+        limits: Sequence[JointLimit] | None = None,
+        checks: bool = True,
+        sides: Sequence[str] = SIDES,
+    ) -> None:
         lims = list(limits) if limits is not None else controller_limits()
         self.limits = lims
         self.checks = bool(checks)
+        self.sides = tuple(sides)
+        self.labels = value_labels(self.sides)
+        arms = len(self.sides)
         self.checker = InputChecker(lims)
-        self._vmax = np.array([lim.velocity_max for lim in lims] * 2)
+        self._vmax = np.array([lim.velocity_max for lim in lims] * arms)
         # controller_target as bounds, computed once (tick runs every physics step)
         n = len(lims)
-        self._low = np.array([lim.position_min for lim in lims] * 2)
+        self._low = np.array([lim.position_min for lim in lims] * arms)
         self._high = np.array(
-            [controller_target(lim.position_max, j % n, lim) for j, lim in enumerate(lims * 2)]
+            [controller_target(lim.position_max, j % n, lim) for j, lim in enumerate(lims * arms)]
         )
         self._modes = [POSITION] * len(lims)
-        self._trajectory = GoalTrajectory.hold(np.zeros(2 * len(lims)))
+        self._trajectory = GoalTrajectory.hold(np.zeros(arms * len(lims)))
         self._t = 0.0
         self._ticks = 0
         self.fault: Fault | None = None
         self.fault_tick: int | None = None
-        self.peak_fraction = np.zeros(2 * len(lims))
+        self.peak_fraction = np.zeros(arms * len(lims))
 
     def reset(self, measured: np.ndarray) -> None:
-        """A fresh episode: the setpoint holds ``measured`` (14,), no fault, no peak."""
+        """A fresh episode: the setpoint holds ``measured`` (14,; 7 for one arm), no fault,
+        no peak."""
         self._trajectory = GoalTrajectory.hold(np.asarray(measured, dtype=np.float64))
         self._t, self._ticks = 0.0, 0
         self.fault, self.fault_tick = None, None
@@ -121,16 +153,19 @@ class KitController:
         return target, fault
 
     def peak_fractions(self) -> dict[str, float]:
-        """:attr:`peak_fraction` by value label (``left_joint_0`` ... ``right_gripper``)."""
-        return {k: float(v) for k, v in zip(VALUE_LABELS, self.peak_fraction)}
+        """:attr:`peak_fraction` by value label (``left_joint_0`` ... ``right_gripper``; one
+        arm: ``joint_0`` ... ``gripper``)."""
+        return {k: float(v) for k, v in zip(self.labels, self.peak_fraction)}
 
     def _check(self, pos: np.ndarray, vel: np.ndarray) -> Fault | None:
         n = len(self.limits)
-        for a, side in enumerate(SIDES):
+        for a, side in enumerate(self.sides):
             values = [(float(pos[a * n + j]), float(vel[a * n + j]), 0.0) for j in range(n)]
             fault = self.checker.check(self._modes, values)
-            if fault is not None:
+            if fault is not None and side:
                 return dataclasses.replace(
                     fault, joint=f"{side}_{fault.joint}", reason=f"{side} arm {fault.reason}"
                 )
+            if fault is not None:
+                return fault
         return None

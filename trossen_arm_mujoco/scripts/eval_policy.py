@@ -92,7 +92,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--task_name",
         default=None,
-        help=f"registered kit task (default: the checkpoint's dataset's, else {DEFAULT_TASK})",
+        help="registered kit, Mobile AI or single-arm task (default: the checkpoint's "
+        f"dataset's, else {DEFAULT_TASK})",
     )
     add_num_episodes(p, "episodes", 10)
     p.add_argument(
@@ -117,8 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--layout",
         default=None,
-        choices=sorted(LAYOUTS),
-        help="joint layout of observations and actions (default: the checkpoint's, else kit14)",
+        choices=sorted([*LAYOUTS, "widowxai"]),
+        help="joint layout of observations and actions (default: the checkpoint's, else "
+        "kit14; mobileai for a Mobile AI task, widowxai for a single arm's)",
     )
     p.add_argument(
         "--output_dir",
@@ -379,6 +381,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     link = _kit_link(args, workers)  # --backend wire's addresses, checked before any episode
     env = settings.make_env()  # fail fast on a bad task, camera, size or checkpoint
     try:
+        if settings.policy == "scripted":  # a task without one: one line before any episode
+            from trossen_arm_mujoco.tasks import registry
+
+            registry.load(settings.task).policy_class()
         if settings.policy != "scripted" and not is_function_spec(settings.policy):
             from trossen_arm_mujoco.eval.lerobot_policy import (
                 check_checkpoint,
