@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from trossen_arm_mujoco.errors import unknown_name_error
+
 __all__ = [
     "ASSETS_DIR",
     "MOBILE_AI_CAMERAS",
@@ -14,6 +16,7 @@ __all__ = [
     "STATIONARY_CAMERAS",
     "STATIONARY_TABLE_TOP",
     "asset_path",
+    "model_files",
 ]
 
 #: Folder of the shipped models.
@@ -33,7 +36,22 @@ MOBILE_AI_CAMERAS: tuple[str, ...] = ("cam_high", "cam_left_wrist", "cam_right_w
 MOBILE_AI_TABLE_TOP: float = 0.75
 
 
+def model_files() -> list[str]:
+    """The shipped MJCF files, as paths relative to ``ASSETS_DIR`` (``"wxai/scene.xml"``):
+    this project's models and scenes, and the vendor's scene names that include them."""
+    root = Path(ASSETS_DIR)
+    return sorted(p.relative_to(root).as_posix() for p in root.rglob("*.xml"))
+
+
 def asset_path(relative: str | Path) -> Path:
-    """Absolute path of a model: as given when absolute, else relative to ``ASSETS_DIR``."""
+    """Absolute path of a model: as given when absolute, else relative to ``ASSETS_DIR``, where
+    a path that names no shipped file is a one-line ``UserError`` listing the shipped ones."""
     p = Path(relative)
-    return p if p.is_absolute() else Path(ASSETS_DIR) / p
+    if p.is_absolute():
+        return p
+    path = Path(ASSETS_DIR) / p
+    if not path.is_file():
+        raise unknown_name_error(
+            "scene", p.as_posix(), model_files(), hint="paths under trossen_arm_mujoco/assets"
+        )
+    return path

@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError, note
+from trossen_arm_mujoco.robot.gripper_group import GripperGroup
 from trossen_arm_mujoco.robot.kinematics import (
     Kinematics,
     damped_least_squares,
@@ -64,7 +65,8 @@ class Controller:
     Args:
         model, data: the compiled scene and its state (a joint-actuated scene of this
             project: ``assets/wxai/scene_*.xml``, ``assets/stationary_ai/*_scene_joint.xml``,
-            ``assets/mobile_ai/mobile_ai_scene.xml``).
+            ``assets/mobile_ai/mobile_ai_scene.xml``), or the vendor's name of one
+            (``assets/wxai/scene_wxai_pick_place.xml``; docs/vendor-api.md).
         robot_type: ``RobotType`` member or its value (``"wxai"``).
         ee_site_name: the arm's tool-frame site: ``"ee_site"`` on the WidowX AI; on the
             kits ``"left/ee_site"`` / ``"right/ee_site"`` (or the vendor's
@@ -81,7 +83,9 @@ class Controller:
 
     The vendor's public attributes: ``arm_joint_ids``, ``arm_qpos_indices``,
     ``arm_dof_indices``, ``arm_actuator_ids``, ``gripper_joint_ids``,
-    ``gripper_qpos_indices``, ``gripper_actuator_ids`` (int arrays into the model and data),
+    ``gripper_qpos_indices``, ``gripper_actuator_ids`` (lists of int indices into the model
+    and data; the gripper lists have one entry per ``gripper_joint_names`` name, by default
+    the actuated finger's),
     ``num_arm_joints`` (6), ``jac_pos`` and ``jac_rot`` ((3, nv) arrays: the tool frame's
     Jacobian, filled by :meth:`compute_ik_step` and :meth:`set_ee_pose`),
     ``GRIPPER_OPEN_POSITION`` and ``GRIPPER_CLOSED_POSITION``.
@@ -126,14 +130,14 @@ class Controller:
         self._first_joint = int(self.arm.joint_ids[0])
         self.out_of_reach = False
         self.out_of_reach_count = 0
-        # the vendor's attribute names
-        self.arm_joint_ids = np.asarray(self.arm.joint_ids, dtype=int)
-        self.arm_qpos_indices = np.asarray(self.arm.qpos_idx, dtype=int)
-        self.arm_dof_indices = np.asarray(self.arm.dof_idx, dtype=int)
-        self.arm_actuator_ids = np.asarray(self.arm.actuator_ids, dtype=int)
-        self.gripper_joint_ids = np.asarray(self.gripper.joint_ids, dtype=int)
-        self.gripper_qpos_indices = np.asarray(self.gripper.qpos_idx, dtype=int)
-        self.gripper_actuator_ids = np.asarray(self.gripper.actuator_ids, dtype=int)
+        # the vendor's attributes: lists of model indices, as its controller builds them
+        self.arm_joint_ids = [int(j) for j in self.arm.joint_ids]
+        self.arm_qpos_indices = [int(model.jnt_qposadr[j]) for j in self.arm_joint_ids]
+        self.arm_dof_indices = [int(model.jnt_dofadr[j]) for j in self.arm_joint_ids]
+        self.arm_actuator_ids = [int(a) for a in self.arm.actuator_ids]
+        self.gripper_joint_ids = _gripper_joints(model, self.gripper, gripper_joint_names)
+        self.gripper_qpos_indices = [int(model.jnt_qposadr[j]) for j in self.gripper_joint_ids]
+        self.gripper_actuator_ids = [int(self.gripper.actuator_id)] * len(self.gripper_joint_ids)
         self.num_arm_joints = len(self.arm_joint_ids)
         self.jac_pos = np.zeros((3, model.nv))
         self.jac_rot = np.zeros((3, model.nv))
@@ -152,8 +156,9 @@ class Controller:
         return self.data.qpos[self.arm.qpos_idx].copy()
 
     def get_gripper_position(self) -> float:
-        """Travel of the gripper's actuated finger (m; 0 closed, 0.044 open)."""
-        return float(self.gripper.get_noop_ctrl(self.data)[0])
+        """Travel (m; 0 closed, 0.044 open) of the first gripper joint
+        (``gripper_qpos_indices[0]``: by default the actuated finger), as the vendor's."""
+        return float(self.data.qpos[self.gripper_qpos_indices[0]])
 
     # -- commands --------------------------------------------------------------------------
     def set_arm_joint_positions(self, joint_positions: np.ndarray) -> None:
@@ -265,6 +270,18 @@ def _check_names(what: str, given, valid: Sequence[str], exact: bool = False) ->
             f"{what} {list(given)} do not match this arm's joints {list(valid)}; "
             f"pass those (or None for them)"
         )
+
+
+def _gripper_joints(
+    model: mujoco.MjModel, gripper: GripperGroup, names: Sequence[str] | None
+) -> list[int]:
+    """The vendor's ``gripper_joint_ids``: the joints of ``names`` (checked), in that order;
+    None: the finger joint the gripper's actuator drives (the vendor's WidowX AI default)."""
+    if names is None:
+        return [int(model.actuator_trnid[gripper.actuator_id, 0])]
+    return [
+        int(gripper.joint_ids[gripper.joint_names.index(to_project_name(str(n)))]) for n in names
+    ]
 
 
 def _reach(model: mujoco.MjModel, joint_ids: Sequence[int], site_id: int) -> float:
