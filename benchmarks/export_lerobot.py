@@ -169,7 +169,15 @@ def main() -> None:
         )
         for name, video in ENCODINGS.items():
             out = tmp / name.replace(" ", "_")
-            summary = export_lerobot(data_dir, out, "bench/ds", video=video, progress=False)
+            summary = export_lerobot(  # every recorded frame, as the LeRobot writer below
+                data_dir,
+                out,
+                "bench/ds",
+                video=video,
+                progress=False,
+                fps=round(1 / episodes[0].dt),
+                sim_features=True,
+            )
             floor = floor_seconds(frames, video, summary.fps)
             low, mean, per_frame = fidelity(out, frames)
             print(

@@ -5,7 +5,8 @@ backward, optimizer.
         /tmp/prof_ds_state --steps 30 --warmup 5
 
 Runs in a Python with LeRobot 0.6.1 (``TROSSEN_LEROBOT_PYTHON``; this project is not
-imported). The dataset is a LeRobot v3.0 folder made by ``trossen-mujoco export``. The step is
+imported). The dataset is a LeRobot v3.0 folder made by ``trossen-mujoco export``
+(``--sim_features`` for the recipes with ``environment_state``, as ``train_eval.py``). The step is
 ``lerobot-train``'s, built with LeRobot's own public API and the ACT settings of
 ``benchmarks/train_eval.py`` (dim_model 256, dim_feedforward 1024, 4 encoder / 1 decoder
 layers, chunk 50, no VAE, batch 16, lr 1e-4, resnet18 backbone without pretrained weights,

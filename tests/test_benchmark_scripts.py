@@ -79,7 +79,16 @@ def test_train_step_profile_splits_an_act_step_into_its_parts(tmp_path):
             "--seed",
             "0",
         ],
-        ["export", "--data_dir", str(data), "--output", str(dataset), "--repo_id", "local/tiny"],
+        [
+            "export",
+            "--data_dir",
+            str(data),
+            "--output",
+            str(dataset),
+            "--repo_id",
+            "local/tiny",
+            "--sim_features",  # no camera: ACT observes the cube's pose
+        ],
     ):
         done = subprocess.run([*cli, *args], capture_output=True, text=True, env=env, timeout=300)
         assert done.returncode == 0, done.stderr

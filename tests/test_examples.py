@@ -183,6 +183,7 @@ def test_lerobot_eval_runs_the_example_package_task(tmp_path):
         str(tmp_path / "ds"),
         "--repo_id",
         "me/lift_puck",
+        "--sim_features",  # no camera: the policy observes the puck's pose
         cwd=tmp_path,
     )
     env = {**os.environ, "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl", "WANDB_MODE": "disabled"}

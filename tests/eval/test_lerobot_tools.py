@@ -123,6 +123,8 @@ def trained(tmp_path_factory) -> dict[str, Path]:
             "local/transfer",
             progress=False,
             video=VideoSettings(codec="h264"),
+            fps=50,  # the recording rate, as these checks were made for
+            sim_features=True,  # the cube's pose: the state-only policy's input
         )
         out[name] = _train(python, dataset, root / f"train_{name}", root)
     out["root"] = root

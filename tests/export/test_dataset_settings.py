@@ -45,6 +45,7 @@ def test_the_plan_carries_rate_layout_cameras_size_crops_and_task(tmp_path, make
         layout="kit14",
         cameras=CameraSettings(("cam_high",), (48, 64), parse_crops(CROP)),
         task="sim_transfer_cube",
+        sim_features=False,
     )
     assert DatasetSettings.from_json(settings.to_json(), "here") == settings
 
@@ -205,7 +206,13 @@ def test_the_files_of_before_the_camera_settings_object_read_the_same(tmp_path):
         ckpt.mkdir()
         (ckpt / CHECKPOINT_FILE).write_text(json.dumps(data))
         settings, _ = checkpoint_settings(ckpt)
-        assert settings.to_json() == {"state_extras": [], **data}
+        # written before these settings: the sim's features, no base action recorded
+        assert settings.to_json() == {
+            "state_extras": [],
+            **data,
+            "sim_features": True,
+            "base_action": None,
+        }
     assert settings.cameras == CameraSettings(("cam_high",), (60, 80), parse_crops(CROP))
 
 

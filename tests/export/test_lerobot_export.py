@@ -91,13 +91,14 @@ def misaligned(decoded: np.ndarray, source: np.ndarray) -> list[tuple[int, int]]
     return out
 
 
-def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
+def test_recorded_episodes_sim_features_export(recorded, tmp_path, capsys):
+    """At the recording rate with the sim's features: every value is the file's."""
     out = tmp_path / "ds"
-    rc, stdout, err = run(capsys, recorded, out)
+    rc, stdout, err = run(capsys, recorded, out, "--fps", "50", "--sim_features")
     assert rc == 0, err
     assert (
-        "exported 2 episode(s), 40 frames at 50 fps (cameras: cam_high, cam_left_wrist), "
-        "layout kit14" in stdout
+        "exported 2 episode(s), 40 frames at 50 fps, with the sim's features (cameras: "
+        "cam_high, cam_left_wrist), layout kit14 (robot_type bi_widowxai_follower_robot)" in stdout
     )
     assert "LeRobotDataset('me/ds', root=" in stdout
     assert "export: 100%" in err  # progress bar over episodes
@@ -111,12 +112,12 @@ def test_recorded_episodes_default_export(recorded, tmp_path, capsys):
     assert info["splits"] == {"train": "0:2"}
     feats = info["features"]
     assert list(feats) == [
-        "observation.state",
-        "observation.velocity",
         "action",
-        "observation.environment_state",
+        "observation.state",
         "observation.images.cam_high",
         "observation.images.cam_left_wrist",
+        "observation.velocity",
+        "observation.environment_state",
         "next.reward",
         "next.success",
         "timestamp",
@@ -218,7 +219,20 @@ def test_float32_and_compressed_episodes_and_rolling_files(
     monkeypatch.setattr(fmt, "VIDEO_FILES_SIZE_MB", 1e-6)
     monkeypatch.setattr(fmt, "CHUNKS_SIZE", 2)  # and two files fill a chunk
     out = tmp_path / "ds"
-    rc, _, err = run(capsys, data, out, "--vcodec", "h264", "--pix_fmt", "yuv444p", "--crf", "12")
+    rc, _, err = run(
+        capsys,
+        data,
+        out,
+        "--fps",
+        "50",
+        "--sim_features",
+        "--vcodec",
+        "h264",
+        "--pix_fmt",
+        "yuv444p",
+        "--crf",
+        "12",
+    )
     assert rc == 0, err
 
     info = json.loads((out / "meta/info.json").read_text())
@@ -258,7 +272,16 @@ def test_vendor_recording_needs_a_task_and_has_no_reward(tmp_path, capsys):
     rc, _, err = run(capsys, data, tmp_path / "ds")
     assert rc == 2
     assert err.count("\n") == 1 and "has no task_name attribute" in err and "--task" in err
-    rc, _, err = run(capsys, data, tmp_path / "ds", "--task", "hand over the cube")
+    rc, _, err = run(
+        capsys,
+        data,
+        tmp_path / "ds",
+        "--task",
+        "hand over the cube",
+        "--fps",
+        "50",
+        "--sim_features",
+    )
     assert rc == 0, err
     info = json.loads((tmp_path / "ds/meta/info.json").read_text())
     assert "next.reward" not in info["features"] and "next.success" not in info["features"]
@@ -361,20 +384,20 @@ def test_overwrite_replaces_a_dataset_only_when_the_new_one_is_complete(
 ):
     data, out = tmp_path / "eps", tmp_path / "ds"
     make_episode(data / "episode_0.hdf5", 4, ["top"], seed=0)
-    assert run(capsys, data, out)[0] == 0
+    assert run(capsys, data, out, "--fps", "50")[0] == 0
     make_episode(data / "episode_1.hdf5", 6, ["top"], seed=1)
 
     def interrupted(self, frames):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(CameraVideo, "write", interrupted)
-    rc, _, err = run(capsys, data, out, "--overwrite")
+    rc, _, err = run(capsys, data, out, "--overwrite", "--fps", "50")
     assert rc == 130 and "interrupted" in err
     assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 4  # old one kept
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]  # no temp folder left
 
     monkeypatch.undo()
-    assert run(capsys, data, out, "--overwrite")[0] == 0
+    assert run(capsys, data, out, "--overwrite", "--fps", "50")[0] == 0
     assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 10
 
 
@@ -397,14 +420,17 @@ def test_trossen_mujoco_export_dispatch(tmp_path, capsys, make_episode):
     )
     assert rc == 0, capsys.readouterr().err
     info = json.loads((tmp_path / "ds/meta/info.json").read_text())
-    assert info["video_path"] is None and info["total_frames"] == 3
+    assert info["video_path"] is None and info["total_frames"] == 1  # floor(3 * 30 / 50)
+    assert info["fps"] == 30 and info["robot_type"] == "bi_widowxai_follower_robot"
 
 
 def test_vendor16_layout_keeps_the_files_16_values(recorded, tmp_path, capsys):
     out = tmp_path / "ds"
-    rc, stdout, err = run(capsys, recorded, out, "--layout", "vendor16")
+    rc, stdout, err = run(
+        capsys, recorded, out, "--layout", "vendor16", "--fps", "50", "--sim_features"
+    )
     assert rc == 0, err
-    assert "layout vendor16" in stdout
+    assert "layout vendor16 (robot_type trossen_ai_stationary)" in stdout
     info = json.loads((out / "meta/info.json").read_text())
     for key in ("observation.state", "observation.velocity", "action"):
         assert info["features"][key] == {
@@ -424,7 +450,7 @@ def test_vendor16_layout_keeps_the_files_16_values(recorded, tmp_path, capsys):
 def test_environment_state_names_without_object_names(tmp_path, make_episode):
     # written episodes have two objects (14 values) and no object_names attribute
     make_episode(tmp_path / "eps" / "episode_0.hdf5", 4, [], seed=0)
-    export_lerobot(tmp_path / "eps", tmp_path / "ds", "me/ds", progress=False)
+    export_lerobot(tmp_path / "eps", tmp_path / "ds", "me/ds", progress=False, sim_features=True)
     feature = json.loads((tmp_path / "ds/meta/info.json").read_text())["features"][
         "observation.environment_state"
     ]
@@ -508,6 +534,7 @@ def test_fps_30_resampling_against_a_hand_computation(tmp_path, capsys):
         out,
         "--fps",
         "30",
+        "--sim_features",
         "--vcodec",
         "h264",
         "--pix_fmt",
@@ -741,7 +768,7 @@ def test_rerun_removes_a_killed_runs_build_folder(tmp_path, capfd, make_episode)
     stale = tmp_path / ".ds.tmp"
     (stale / "data" / "chunk-000").mkdir(parents=True)
     (stale / "data" / "chunk-000" / "file-000.parquet").write_bytes(b"half a file")
-    assert _export(data, out) == 0
+    assert _export(data, out, "--fps", "50") == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
     assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 3
 
@@ -751,7 +778,7 @@ def test_rerun_restores_a_dataset_a_killed_overwrite_moved_aside(tmp_path, capfd
     puts the old one back (never lost), then behaves as with that dataset in place."""
     data, out = tmp_path / "eps", tmp_path / "ds"
     make_episode(data / "episode_0.hdf5", 3, [], seed=0)
-    assert _export(data, out) == 0
+    assert _export(data, out, "--fps", "50") == 0
     out.rename(tmp_path / ".ds.old")
     (tmp_path / ".ds.tmp").mkdir()
     capfd.readouterr()
@@ -761,7 +788,7 @@ def test_rerun_restores_a_dataset_a_killed_overwrite_moved_aside(tmp_path, capfd
     assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 3
     make_episode(data / "episode_1.hdf5", 4, [], seed=1)
     (tmp_path / ".ds.old").mkdir()  # moved aside, new one in place, old not yet removed
-    assert _export(data, out, "--overwrite") == 0
+    assert _export(data, out, "--overwrite", "--fps", "50") == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
     assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 7
 
@@ -853,7 +880,7 @@ def test_signal_mid_write_leaves_no_temporary_folder(tmp_path, sig, status, name
     assert _temps(tmp_path) == []
     if overwrite:
         assert lines[0].endswith(f"the dataset already in {out} is unchanged")
-        assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 120
+        assert json.loads((out / "meta/info.json").read_text())["total_frames"] == 72
         assert sorted(p.name for p in tmp_path.iterdir()) == ["ds", "eps"]
     else:
         assert lines[0].endswith(f"nothing was written to {out}")

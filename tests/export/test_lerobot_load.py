@@ -2,18 +2,25 @@
 
 LeRobot cannot be installed next to this package's Python 3.11 environment, so the check
 runs in a separate interpreter: ``TROSSEN_LEROBOT_PYTHON`` names a Python with
-``lerobot[dataset]`` installed (``.ci/run`` creates one and sets it). Four exports, all in
+``lerobot[dataset]`` installed (``.ci/run`` creates one and sets it). Five exports, all in
 the default layout (the real kit's 14 values), are loaded with the pyav and torchcodec video
 backends:
 
-- ``recorded``: recorder episodes (2 x 20 steps, 2 cameras 48x64, gzip images) as
-  H.264 yuv444p: frames within PSNR 35 dB of the HDF5 images.
+- ``plugin``: the default export of the recorder episodes: what ``lerobot-record`` writes
+  with Trossen's plugin (``bi_widowxai_follower_robot``, 30 fps, ``action``,
+  ``observation.state`` and the cameras only).
+- ``recorded``: recorder episodes (2 x 20 steps, 2 cameras 48x64, gzip images) at the
+  recording rate with the sim's features (``--fps 50 --sim_features``, the features every
+  export had before the plugin's became the default), as H.264 yuv444p: frames within PSNR
+  35 dB of the HDF5 images.
 - ``recorded_av1``: the same with the default encoding (AV1 yuv420p, as LeRobot): at 48x64
   half-resolution colour caps PSNR near 33 dB, so the bound is 28 dB here.
 - ``recorded_30``: the recorder episodes resampled to 30 fps (``fps=30``, the real kit's
-  rate), H.264 yuv444p: 2 x 12 frames, each image the source frame the export chose.
-- ``rolled``: written episodes with a moving square (float32 arrays, gzip and lzf images),
-  one data and video file per episode: every frame comes back in its place.
+  rate) with the sim's features, H.264 yuv444p: 2 x 12 frames, each image the source frame
+  the export chose.
+- ``rolled``: written episodes (at the recording rate, with the sim's features) with a
+  moving square (float32 arrays, gzip and lzf images), one data and video
+  file per episode: every frame comes back in its place.
 
 State, velocity, action, environment_state and reward must come back bit for bit as the
 float32 values computed from the HDF5 files (``frame_values``: the files' own values at the
@@ -65,7 +72,7 @@ def _lerobot_python() -> str:
     return python
 
 
-def _expected(data_dir: Path, tasks: list[str], out: Path, fps: int | None = None) -> Path:
+def _expected(data_dir: Path, tasks: list[str], out: Path, fps: int = 50) -> Path:
     """The values the loader must return (see lerobot_check.py), as an .npz: what the export
     computes from the HDF5 files at ``fps``; at the recording rate checked here against the
     files themselves."""
@@ -73,7 +80,7 @@ def _expected(data_dir: Path, tasks: list[str], out: Path, fps: int | None = Non
     for i, (_, path) in enumerate(list_episodes(data_dir)):
         ep = load_episode(path, load_images=True)
         values = frame_values(ep, fps=fps)
-        if fps is None:  # the kit's 14 of the files' 16 values, bit for bit
+        if fps == 50:  # the recording rate: the kit's 14 of the files' 16 values, bit for bit
             assert np.array_equal(
                 values["observation.state"], np.float32(ep.qpos)[:, KIT14_FROM_16]
             )
@@ -101,13 +108,22 @@ def loaded(request, make_episode, make_float32, tmp_path_factory) -> dict:
     tmp = tmp_path_factory.mktemp("lerobot_load")
     transfer = registry.load("sim_transfer_cube").description
     datasets = []
-    for name, video, fps in (
-        ("recorded", HIGH_FIDELITY, None),
-        ("recorded_av1", VideoSettings(), None),
-        ("recorded_30", HIGH_FIDELITY, 30),
+    for name, video, fps, sim in (
+        ("plugin", HIGH_FIDELITY, None, False),
+        ("recorded", HIGH_FIDELITY, 50, True),
+        ("recorded_av1", VideoSettings(), 50, True),
+        ("recorded_30", HIGH_FIDELITY, 30, True),
     ):
-        export_lerobot(recorded, tmp / name, f"test/{name}", video=video, progress=False, fps=fps)
-        expected = _expected(recorded, [transfer] * 2, tmp / f"{name}.npz", fps)
+        export_lerobot(
+            recorded,
+            tmp / name,
+            f"test/{name}",
+            video=video,
+            progress=False,
+            fps=fps,
+            sim_features=sim,
+        )
+        expected = _expected(recorded, [transfer] * 2, tmp / f"{name}.npz", fps or 30)
         datasets.append({"name": name, "root": str(tmp / name), "repo_id": f"test/{name}"})
         datasets[-1]["expected"] = str(expected)
 
@@ -121,7 +137,14 @@ def loaded(request, make_episode, make_float32, tmp_path_factory) -> dict:
     mp.setattr(fmt, "VIDEO_FILES_SIZE_MB", 1e-6)
     try:
         export_lerobot(
-            rolled, tmp / "rolled", "test/rolled", video=HIGH_FIDELITY, task="stack", progress=False
+            rolled,
+            tmp / "rolled",
+            "test/rolled",
+            video=HIGH_FIDELITY,
+            task="stack",
+            progress=False,
+            fps=50,
+            sim_features=True,
         )
     finally:
         mp.undo()
@@ -192,7 +215,32 @@ def test_frames_and_arrays_match_the_episodes(loaded, backend):
 
 
 def _lengths(name: str) -> list[int]:
-    return {"rolled": [12, 9, 10], "recorded_30": [12, 12]}.get(name, [20, 20])
+    return {"rolled": [12, 9, 10], "recorded_30": [12, 12], "plugin": [12, 12]}.get(name, [20, 20])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_the_default_export_is_what_lerobot_record_writes(loaded, backend):
+    """The plugin's robot type, 30 fps, action and state with its names, the cameras, and
+    none of the sim's features; the values those the export computes."""
+    got = _runs(loaded, backend)["plugin"]
+    assert got["robot_type"] == "bi_widowxai_follower_robot"
+    assert (got["num_episodes"], got["num_frames"], got["fps"]) == (2, 24, 30)
+    assert got["features"] == [
+        "action",
+        "observation.state",
+        "observation.images.cam_high",
+        "observation.images.cam_left_wrist",
+        "timestamp",
+        "frame_index",
+        "episode_index",
+        "index",
+        "task_index",
+    ]
+    assert got["names"] == {"state": KIT14_NAMES, "action": KIT14_NAMES}
+    assert got["max_abs"] == {"state": 0.0, "action": 0.0}
+    assert got["order"] == [[e, t] for e, n in enumerate(_lengths("plugin")) for t in range(n)]
+    for cam, value in got["min_psnr"].items():
+        assert value >= 35.0, (cam, value)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

@@ -39,7 +39,10 @@ def test_tasks_rate_and_success_threshold(tmp_path, make_episode):
     insertion = registry.load("sim_insertion").description
     assert plan.tasks == [insertion, registry.load("sim_transfer_cube").description]
     assert plan.task_index == [0, 1, 0]  # the alias names the same task
-    assert plan.fps == 50 and plan.with_reward and plan.max_reward == [4.0, 4.0, 4.0]
+    # 30 fps by default (the plugin's loop rate), resampled from the recorded 50
+    assert (plan.fps, plan.source_fps) == (30, 50)
+    assert plan.with_reward and plan.max_reward == [4.0, 4.0, 4.0]
+    assert plan_export(eps, None, fps=50).fps == 50
     assert plan_export(eps, "stack").tasks == ["stack"]
 
 
@@ -64,4 +67,4 @@ def test_vendor_and_recorded_episodes_do_not_mix(tmp_path, make_episode):
     with pytest.raises(UserError, match="has rewards but episode_9.hdf5 has none"):
         plan_export([ours, vendor], "x")
     plan = plan_export([vendor], "hand over")
-    assert not plan.with_reward and plan.max_reward == [None] and plan.fps == 50
+    assert not plan.with_reward and plan.max_reward == [None] and plan.source_fps == 50

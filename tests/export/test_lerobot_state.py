@@ -19,7 +19,7 @@ from trossen_arm_mujoco.collect.pipeline import EpisodeRecorder, RecordSettings
 from trossen_arm_mujoco.data.reader import load_episode
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings
-from trossen_arm_mujoco.export.joint_efforts import derived_efforts
+from trossen_arm_mujoco.export.joint_efforts import derived_efforts, derived_external_efforts
 from trossen_arm_mujoco.export.lerobot import frame_values
 from trossen_arm_mujoco.export.lerobot_state import check_state_extras, state_names
 
@@ -94,7 +94,7 @@ def test_efforts_are_the_simulations_actuator_forces(recording):
 
 def test_frame_values_hold_positions_velocities_efforts(recording):
     _, ep, _ = recording
-    values = frame_values(ep, extras=("vel", "eff"))
+    values = frame_values(ep, fps=50, extras=("vel", "eff"))  # the recording rate
     state = values["observation.state"]
     assert state.shape == (ep.num_steps, 42) and state.dtype == np.float32
     eff = derived_efforts(ep.qpos, ep.qvel, ep.action)[:, KIT14_FROM_16]
@@ -104,7 +104,7 @@ def test_frame_values_hold_positions_velocities_efforts(recording):
         assert np.array_equal(block[:, :7], np.float32(ep.qpos)[:, cols])
         assert np.array_equal(block[:, 7:14], np.float32(ep.qvel)[:, cols])
         assert np.array_equal(block[:, 14:], np.float32(eff[:, 7 * side : 7 * (side + 1)]))
-    plain = frame_values(ep)
+    plain = frame_values(ep, fps=50)
     assert np.array_equal(plain["action"], values["action"])
     assert plain["observation.state"].shape == (ep.num_steps, 14)
 
@@ -136,6 +136,8 @@ def test_lerobot_loads_the_export_with_both_flags(recording, tmp_path):
             "test/state",
             "--include_velocity",
             "--include_effort",
+            "--fps",
+            "50",  # the recording rate: the velocities are the file's
         ],
         capture_output=True,
         text=True,
@@ -158,7 +160,8 @@ def test_lerobot_loads_the_export_with_both_flags(recording, tmp_path):
     assert got["names"] == PLUGIN_NAMES and got["shape"] == [42]
     assert got["action_names"] == [n for n in PLUGIN_NAMES if n.endswith(".pos")]
     state = np.array(got["state"], dtype=np.float32)
-    assert np.array_equal(state, frame_values(ep, extras=("vel", "eff"))["observation.state"])
+    values = frame_values(ep, fps=50, extras=("vel", "eff"))
+    assert np.array_equal(state, values["observation.state"])
     vel = state[:, [PLUGIN_NAMES.index(f"left_joint_{i}.vel") for i in range(6)]]
     assert np.array_equal(vel, np.float32(ep.qvel)[:, :6])
     info = json.loads((out / "meta" / "info.json").read_text())
@@ -185,3 +188,25 @@ def test_eval_refuses_a_checkpoint_trained_on_the_wider_state(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1, err
     assert "per-joint vel/eff values" in err[0] and "--include_velocity" in err[0]
+
+
+def test_external_efforts_are_zero_in_free_motion_and_see_a_push(recording):
+    """The 60 recorded steps touch nothing: the arms' own model explains every velocity, so
+    the external effort is zero (float32 rounding of the file aside) while the efforts are
+    several Nm. A velocity the model cannot explain shows as M dv / dt on its joints."""
+    _, ep, _ = recording
+    ext = derived_external_efforts(ep.qpos, ep.qvel, ep.action, ep.dt)
+    assert ext.shape == (ep.num_steps, 16) and np.all(ext[0] == 0)
+    assert np.abs(ext).max() < 1e-3
+    pushed = np.array(ep.qvel, dtype=np.float64)
+    pushed[30, 1] += 0.05  # left joint_1 faster than the arm could make itself
+    kicked = derived_external_efforts(ep.qpos, pushed, ep.action, ep.dt)
+    assert (
+        abs(kicked[30, 1]) > 0.05 and np.abs(kicked[30, 8:]).max() < 1e-3  # the right arm
+    )
+    values = frame_values(ep, fps=50, extras=("ext_eff",))
+    names = state_names("kit14", ("ext_eff",))
+    assert names[7:14] == [f"left_{j}.ext_eff" for j in JOINTS]
+    np.testing.assert_array_equal(
+        values["observation.state"][:, 7:14], ext[:, KIT14_FROM_16[:7]].astype(np.float32)
+    )

@@ -6,11 +6,13 @@ import numpy as np
 import pytest
 
 from trossen_arm_mujoco.robot.layout import (
+    EXPORT_LAYOUTS,
     KIT14_LAYOUT,
     LAYOUTS,
     MOBILEAI_LAYOUT,
     START_ARM_POSE,
     VENDOR16_LAYOUT,
+    WIDOWXAI_LAYOUT,
     kit_joint_commands,
 )
 
@@ -42,6 +44,18 @@ def test_real_kit_names_and_units_are_the_plugins():
     assert set(LAYOUTS) == {"kit14", "vendor16", "mobileai"}
     assert LAYOUTS["kit14"] is KIT14_LAYOUT and LAYOUTS["vendor16"] is VENDOR16_LAYOUT
     assert LAYOUTS["mobileai"] is MOBILEAI_LAYOUT
+    assert EXPORT_LAYOUTS == {**LAYOUTS, "widowxai": WIDOWXAI_LAYOUT}
+
+
+def test_widowxai_is_one_followers_seven_values():
+    # Trossen's widowxai_follower_robot: config.joint_names joint_0..joint_5,
+    # left_carriage_joint, each "<joint>.pos" (lerobot_robot_trossen/widowxai_follower.py)
+    assert list(WIDOWXAI_LAYOUT.names) == [n.removeprefix("left_") for n in PLUGIN_NAMES[:7]]
+    assert list(WIDOWXAI_LAYOUT.units) == PLUGIN_UNITS[:7] and WIDOWXAI_LAYOUT.size == 7
+    seven = np.arange(7.0)  # a single arm's recording: 6 joints, the gripper
+    np.testing.assert_array_equal(WIDOWXAI_LAYOUT.from_vendor(seven), seven)
+    with pytest.raises(ValueError, match="7 values"):
+        WIDOWXAI_LAYOUT.from_vendor(np.zeros(16))
 
 
 def test_mobileai_is_the_kits_14_then_the_base():

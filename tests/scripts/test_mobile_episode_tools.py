@@ -1,11 +1,13 @@
 """The episode tools on Mobile AI recordings (``mobile_pick_place``, layout ``mobileai``):
 ``visualize`` plots them under the layout's names, ``replay-real`` refuses them in one line
 before any driver exists (no address outside loopback is ever contacted), ``export
---include_velocity`` / ``--include_effort`` refuse them in one line, and ``record
---inject_noise`` jitters the scripted policy's grasp and place points."""
+--include_velocity`` / ``--include_effort`` / ``--include_external_effort`` add the plugin's
+per-joint values for them as for the kit, and ``record --inject_noise`` jitters the scripted
+policy's grasp and place points."""
 
 from __future__ import annotations
 
+import json
 import socket
 from pathlib import Path
 from typing import Any
@@ -124,27 +126,31 @@ def test_replay_real_refuses_a_mobile_recording_in_one_line(recorded, flags, cap
 
 
 @pytest.mark.parametrize(
-    "flags",
-    [["--include_velocity"], ["--include_effort"], ["--include_velocity", "--include_effort"]],
+    ("flags", "kinds"),
+    [
+        (["--include_velocity"], ["vel"]),
+        (["--include_effort", "--include_external_effort"], ["eff", "ext_eff"]),
+    ],
 )
-def test_export_extras_refuse_a_mobile_recording_in_one_line(recorded, tmp_path, flags, capsys):
+def test_export_extras_name_a_mobile_recordings_values_as_the_plugin(
+    recorded, tmp_path, flags, kinds, capsys
+):
     pytest.importorskip("pyarrow")
+    out = tmp_path / "ds"
     rc = cli.main(
-        [
-            "export",
-            "--data_dir",
-            str(recorded),
-            "--output",
-            str(tmp_path / "ds"),
-            "--repo_id",
-            "me/mobile",
-            *flags,
-        ]
+        ["export", "--data_dir", str(recorded), "--output", str(out), "--repo_id", "me/m", *flags]
     )
-    line = _one_line(rc, capsys)
-    assert "not supported for Mobile AI recordings (layout mobileai)" in line
-    assert " and ".join(flags) in line
-    assert not (tmp_path / "ds").exists()
+    assert rc == 0, capsys.readouterr().err
+    info = json.loads((out / "meta" / "info.json").read_text())
+    arm = [*(f"joint_{i}" for i in range(6)), "left_carriage_joint"]
+    # mobileai_robot: each arm's .pos, then its extras; then the base (lerobot_robot_trossen)
+    expected = [
+        f"{side}_{joint}.{kind}"
+        for side in ("left", "right")
+        for kind in ("pos", *kinds)
+        for joint in arm
+    ] + ["x.vel", "theta.vel"]
+    assert info["features"]["observation.state"]["names"] == expected
 
 
 def test_record_inject_noise_jitters_the_grasp_and_place_points(tmp_path):

@@ -52,12 +52,21 @@ class DatasetSettings:
 
     Attributes:
         fps: frames per second of the dataset (the policy's rate).
-        layout: joint layout of state and action (``kit14`` or ``vendor16``).
+        layout: joint layout of state and action (``kit14``, ``vendor16``, ``mobileai``,
+            ``widowxai``).
         cameras: the cameras in recording order (none: state only), the (H, W) of their
             images and the rectangle of its 480x640 frame each cropped camera shows.
         task: the registered task the episodes are of (None: not one of ours).
         state_extras: per-joint values ``observation.state`` has besides the positions:
-            ``"vel"``, ``"eff"`` (export ``--include_velocity`` / ``--include_effort``).
+            ``"vel"``, ``"eff"``, ``"ext_eff"`` (export ``--include_velocity`` /
+            ``--include_effort`` / ``--include_external_effort``).
+        sim_features: the dataset has the simulation's features (export ``--sim_features``:
+            ``observation.velocity``, ``observation.environment_state``, ``next.reward``,
+            ``next.success``); settings written before the flag existed read as True (every
+            export had them).
+        base_action: the Mobile AI's base action, ``measured`` or ``commanded`` (export
+            ``--base_action``); None for robots without a base and for settings written
+            before the flag (their base action was the command).
     """
 
     fps: int
@@ -65,6 +74,8 @@ class DatasetSettings:
     cameras: CameraSettings = field(default_factory=CameraSettings)
     task: str | None = None
     state_extras: tuple[str, ...] = ()
+    sim_features: bool = True
+    base_action: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready form (the cameras as ``CameraSettings.to_json``: ``cam_names``,
@@ -75,6 +86,8 @@ class DatasetSettings:
             **self.cameras.to_json(),
             "task": self.task,
             "state_extras": list(self.state_extras),
+            "sim_features": bool(self.sim_features),
+            "base_action": self.base_action,
         }
 
     @classmethod
@@ -88,6 +101,8 @@ class DatasetSettings:
                 cameras=cameras,
                 task=str(data["task"]) if data.get("task") else None,
                 state_extras=tuple(str(e) for e in data.get("state_extras") or ()),
+                sim_features=bool(data.get("sim_features", True)),
+                base_action=str(data["base_action"]) if data.get("base_action") else None,
             )
         except (KeyError, TypeError, ValueError, IndexError, OverflowError, UserError) as exc:
             raise UserError(

@@ -14,6 +14,16 @@ It equals the recorded simulation's own actuator force wherever the arm controll
 reached the step's target (the joint speed limits let it within one step, as for the
 scripted policies' motions); a target it was still approaching, or held up by the safety
 floor, gives the force toward the target instead.
+
+External efforts (:func:`derived_external_efforts`, the plugin's ``.ext_eff``: the effort
+applied from outside the arm, after its own dynamics are accounted for) are what the arms'
+own model cannot explain: from each recorded state ``t - 1`` the kit's joint scene (the two
+arms, no task objects) is stepped for one recording period under the control then in effect,
+``action[t - 1]``, and the velocity it reaches is compared with the recorded ``qvel[t]``:
+``M(q_t) (qvel[t] - predicted) / dt``, the average generalized force over the period that the
+world outside the arm model applied (contacts with the objects, the table, the other arm).
+It is zero at ``t = 0`` and, within float32 rounding, wherever an arm moves in free space;
+a grasped or pushed object shows on the joints that carry it.
 """
 
 from __future__ import annotations
@@ -27,7 +37,7 @@ from trossen_arm_mujoco.assets import asset_path
 from trossen_arm_mujoco.robot.configs import stationary_ai_joint_config
 from trossen_arm_mujoco.robot.layout import LAYOUTS
 
-__all__ = ["KIT_SCENE", "derived_efforts"]
+__all__ = ["KIT_SCENE", "derived_efforts", "derived_external_efforts"]
 
 #: The joint-actuated kit scene whose actuators the efforts are of.
 KIT_SCENE = "stationary_ai/trossen_ai_scene_joint.xml"
@@ -63,11 +73,46 @@ def derived_efforts(qpos: np.ndarray, qvel: np.ndarray, action: np.ndarray) -> n
     for t in range(qpos.shape[0]):
         data.qpos[qpos_idx] = qpos[t]
         data.qvel[dof_idx] = qvel[t]
-        target = action[t - 1] if t > 0 else qpos[0]
-        for name, group in groups.items():
-            values = target[_VENDOR16.groups[name]]
-            # a gripper's control is its actuated finger (the second of the two values)
-            group.set_ctrl(data, values[-1:] if group.ctrl_dim == 1 else values)
+        _set_targets(data, groups, action[t - 1] if t > 0 else qpos[0])
         mujoco.mj_forward(model, data)
         out[t] = data.qfrc_actuator[dof_idx]
     return out
+
+
+def derived_external_efforts(
+    qpos: np.ndarray, qvel: np.ndarray, action: np.ndarray, dt: float
+) -> np.ndarray:
+    """External joint efforts ``(T, 16)`` (Nm; N for the finger joints) of an episode's
+    ``(T, 16)`` qpos, qvel and action recorded every ``dt`` seconds, in the files' 16-value
+    layout: the generalized force the arms' own model does not explain (module docstring);
+    row 0 is zero."""
+    model, qpos_idx, dof_idx, groups = _kit()
+    data = mujoco.MjData(model)
+    qpos, qvel, action = (np.asarray(a, dtype=np.float64) for a in (qpos, qvel, action))
+    substeps = max(1, round(float(dt) / model.opt.timestep))
+    out = np.zeros_like(qpos)
+    for t in range(1, qpos.shape[0]):
+        mujoco.mj_resetData(model, data)
+        data.qpos[qpos_idx] = qpos[t - 1]
+        data.qvel[dof_idx] = qvel[t - 1]
+        _set_targets(data, groups, action[t - 1])
+        mujoco.mj_step(model, data, nstep=substeps)
+        predicted = data.qvel[dof_idx].copy()
+        data.qpos[qpos_idx] = qpos[t]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_crb(model, data)
+        delta = np.zeros(model.nv)
+        delta[dof_idx] = qvel[t] - predicted
+        force = np.zeros(model.nv)
+        mujoco.mj_mulM(model, data, force, delta)
+        out[t] = force[dof_idx] / (substeps * model.opt.timestep)
+    return out
+
+
+def _set_targets(data: mujoco.MjData, groups: dict, target: np.ndarray) -> None:
+    """Each move group's control from a ``(16,)`` joint target; a gripper's control is its
+    actuated finger (the second of its two values)."""
+    for name, group in groups.items():
+        values = target[_VENDOR16.groups[name]]
+        group.set_ctrl(data, values[-1:] if group.ctrl_dim == 1 else values)

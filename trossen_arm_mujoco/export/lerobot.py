@@ -1,28 +1,40 @@
 """HDF5 episodes -> a LeRobot v3.0 dataset (layout in :mod:`.lerobot_format`).
 
+By default the dataset is what ``lerobot-record`` writes with Trossen's LeRobot plugin
+robot of the layout, and nothing else: ``robot_type`` the plugin's name
+(``bi_widowxai_follower_robot`` for the kit, ``mobileai_robot``, ``widowxai_follower_robot``
+for one arm), 30 frames per second (the plugin's ``loop_rate``), the features ``action``,
+``observation.state`` and ``observation.images.<camera>`` with the plugin's names and order.
 Per written frame ``k``:
 
-- ``observation.state``: qpos, ``observation.velocity``: qvel, ``action``: the joint
-  targets, float32 in the chosen layout: ``kit14`` (default), the real kit's 14 values as
-  Trossen's LeRobot plugin for the kit (``bi_widowxai_follower_robot``) names them,
-  ``left_joint_0.pos`` .. ``left_joint_5.pos``, ``left_left_carriage_joint.pos``, then
-  ``right_...`` (rad; the carriage, the gripper, in m; the coupled second finger dropped);
-  or ``vendor16``, the HDF5 files' 16 values and names. The action's grippers are as the
-  arm controller executes them, at most 0.04 m (:func:`controller_actions`). With
-  ``include_velocity`` / ``include_effort`` the state also holds each joint's ``.vel`` /
-  ``.eff`` values after each arm's positions, as Trossen's plugin names them
-  (:mod:`.lerobot_state`; efforts derived with MuJoCo's actuator model, :mod:`.joint_efforts`).
+- ``action``: the joint targets, float32 in the chosen layout: ``kit14`` (default), the
+  real kit's 14 values as the plugin for the kit names them, ``left_joint_0.pos`` ..
+  ``left_joint_5.pos``, ``left_left_carriage_joint.pos``, then ``right_...`` (rad; the
+  carriage, the gripper, in m; the coupled second finger dropped); ``mobileai``, those 14
+  then the base's ``x.vel``, ``theta.vel`` (by default the measured base velocity of the
+  frame, as the plugin records it; ``base_action="commanded"``: the recorded command);
+  ``widowxai``, one arm's 7; or ``vendor16``, the HDF5 files' 16 values and names. The
+  action's grippers are as the arm controller executes them, at most 0.04 m
+  (:func:`controller_actions`).
+- ``observation.state``: qpos in the same layout. With ``include_velocity`` /
+  ``include_effort`` / ``include_external_effort`` it also holds each joint's ``.vel`` /
+  ``.eff`` / ``.ext_eff`` values after each arm's positions, as the plugin names them
+  (:mod:`.lerobot_state`; efforts derived with MuJoCo, :mod:`.joint_efforts`).
+- ``observation.images.<camera>``: the camera image, as a frame of the camera's mp4.
+- ``task``: the task's description from the registry (or ``task=``).
+
+With ``sim_features`` the simulation's additions follow (no real robot gives them):
+
+- ``observation.velocity``: qvel in the layout (names ``<joint>.vel``);
 - ``observation.environment_state``: the episode's env_state, 7 values per object (xyz m,
   quat wxyz) named ``<object>_x`` .. ``<object>_qz``; left out for files without it
-  (vendor recordings).
-- ``observation.images.<camera>``: the camera image, as a frame of the camera's mp4.
+  (vendor recordings);
 - ``next.reward``: the task reward after the frame's action; ``next.success``: whether the
   task judges it a success then (reward reaches the task's maximum). Left out for files
   without rewards (vendor recordings).
-- ``task``: the task's description from the registry (or ``task=``).
 
-At the recording rate (default) frame ``k`` is source step ``k``. At a lower ``fps`` N
-(the real kit runs at 30) frame ``k`` is at ``t_k = k / N``: state, velocity and
+At the recording rate F frame ``k`` is source step ``k``. At a lower ``fps`` N (the default
+30 below the recorder's 50) frame ``k`` is at ``t_k = k / N``: state, velocity and
 environment_state are the source linearly interpolated at ``t_k`` (quaternions renormalised);
 images are the source frame nearest ``t_k``; the action is the source action trajectory
 interpolated at ``t_k + 1/N - dt`` (action ``j`` being the target for the end of step ``j``,
@@ -92,7 +104,9 @@ class ExportSummary:
     seconds: float
     source_fps: int
     layout: str
-    state_extras: tuple[str, ...] = ()  # "vel", "eff": per-joint values in the state
+    state_extras: tuple[str, ...] = ()  # "vel", "eff", "ext_eff": per-joint values in the state
+    sim_features: bool = False  # observation.velocity, environment_state, next.reward/success
+    base_action: str | None = None  # the Mobile AI's: "measured" or "commanded"
 
 
 def export_lerobot(
@@ -108,6 +122,9 @@ def export_lerobot(
     fps: int | None = None,
     include_velocity: bool = False,
     include_effort: bool = False,
+    include_external_effort: bool = False,
+    sim_features: bool = False,
+    base_action: str | None = None,
 ) -> ExportSummary:
     """Write the episodes of ``data_dir`` as a LeRobot v3.0 dataset in ``output``.
 
@@ -124,13 +141,18 @@ def export_lerobot(
         overwrite: replace an existing dataset in ``output``.
         progress: show a progress bar over episodes on stderr.
         layout: joint layout of state, velocity and action: ``"kit14"`` (the real kit's 14
-            values), ``"vendor16"`` (the HDF5 files' 16) or ``"mobileai"`` (the Mobile AI's
-            14 arm values then ``x.vel``, ``theta.vel``); None: ``mobileai`` for the Mobile
-            AI's recordings, else ``kit14`` (``lerobot_plan.resolve_layout``).
-        fps: frames per second to write, a whole number up to the recording rate (None: the
-            recording rate); below it the episodes are resampled (module docstring).
-        include_velocity, include_effort: add each joint's ``.vel`` (rad/s, m/s) / ``.eff``
-            (Nm, N) values to ``observation.state`` (kit14 only; module docstring).
+            values), ``"vendor16"`` (the HDF5 files' 16), ``"mobileai"`` (the Mobile AI's
+            14 arm values then ``x.vel``, ``theta.vel``) or ``"widowxai"`` (one arm's 7);
+            None: the one that fits the recordings (``lerobot_plan.resolve_layout``).
+        fps: frames per second to write, a whole number up to the recording rate (None: 30,
+            the plugin's loop rate, or the recording rate if lower); below the recording
+            rate the episodes are resampled (module docstring).
+        include_velocity, include_effort, include_external_effort: add each joint's
+            ``.vel`` (rad/s, m/s) / ``.eff`` / ``.ext_eff`` (Nm, N) values to
+            ``observation.state`` (the plugin's layouts; module docstring).
+        sim_features: add the simulation's features (module docstring).
+        base_action: the Mobile AI's base action, ``"measured"`` (None: the default) or
+            ``"commanded"``; a UserError for other layouts unless ``"measured"``.
 
     Raises:
         UserError: missing folder, no episodes, a corrupt or inconsistent episode, a
@@ -144,8 +166,16 @@ def export_lerobot(
     found = list_episodes(data_dir)
     if not found:
         raise UserError(f"no episode_<k>.hdf5 files in {data_dir}; record episodes first")
-    extras = state_extras(include_velocity, include_effort)
-    plan = plan_export([load_episode(path) for _, path in found], task, layout, fps, extras)
+    extras = state_extras(include_velocity, include_effort, include_external_effort)
+    plan = plan_export(
+        [load_episode(path) for _, path in found],
+        task,
+        layout,
+        fps,
+        extras,
+        sim_features=sim_features,
+        base_action=base_action,
+    )
     video = video or VideoSettings()
     if plan.cameras:
         video.check_available()
@@ -182,6 +212,8 @@ def export_lerobot(
         source_fps=plan.source_fps,
         layout=plan.layout,
         state_extras=plan.state_extras,
+        sim_features=plan.sim_features,
+        base_action=plan.base_action,
     )
 
 

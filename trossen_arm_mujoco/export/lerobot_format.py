@@ -13,9 +13,14 @@ A dataset folder holds::
     videos/<video_key>/chunk-CCC/file-FFF.mp4        per camera: the episodes one after the other
 
 Vector features are fixed-size lists of float32, features of shape (1,) are plain columns.
-Joint vectors are written in a layout of ``robot.layout.LAYOUTS``: ``kit14`` (the real kit's
+Joint vectors are written in a layout of ``robot.layout.EXPORT_LAYOUTS``: ``kit14`` (the real kit's
 14 values, ``left_joint_0.pos`` .. ``right_left_carriage_joint.pos``, as Trossen's LeRobot
-plugin for the kit) or ``vendor16`` (the HDF5 files' 16 values).
+plugin for the kit), ``mobileai`` (the Mobile AI's 16), ``widowxai`` (one arm's 7) or
+``vendor16`` (the HDF5 files' 16 values). The features are, in the order ``lerobot-record``
+writes them: ``action``, ``observation.state``, the cameras, then with ``sim_features`` the
+simulation's additions (``observation.velocity``, ``observation.environment_state``,
+``next.reward``, ``next.success``), then the index columns. ``robot_type`` is the plugin's
+robot of the layout (:data:`ROBOT_TYPES`).
 Files grow up to a size limit (100 MB data, 200 MB video) and then the next file starts;
 ``chunks_size`` files make a chunk folder.
 """
@@ -30,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from trossen_arm_mujoco.export.deps import require
-from trossen_arm_mujoco.robot.layout import LAYOUTS, VENDOR16_LAYOUT
+from trossen_arm_mujoco.robot.layout import EXPORT_LAYOUTS, VENDOR16_LAYOUT
 from trossen_arm_mujoco.robot.lerobot_keys import (
     ACTION_KEY,
     ENV_STATE_KEY,
@@ -52,6 +57,8 @@ __all__ = [
     "QUANTILES",
     "MOBILE_ROBOT_TYPE",
     "ROBOT_TYPE",
+    "ROBOT_TYPES",
+    "SIM_FEATURES",
     "STATS_PATH",
     "STAT_NAMES",
     "TASKS_PATH",
@@ -83,18 +90,26 @@ INFO_PATH = "meta/info.json"
 STATS_PATH = "meta/stats.json"
 TASKS_PATH = "meta/tasks.parquet"
 
-#: Robot type recorded in info.json (the Mobile AI's exports: ``MOBILE_ROBOT_TYPE``).
-ROBOT_TYPE = "trossen_ai_stationary"
-MOBILE_ROBOT_TYPE = "trossen_ai_mobile"
+#: ``robot_type`` of info.json per layout: the name of Trossen's LeRobot plugin robot whose
+#: ``lerobot-record`` writes that layout (``vendor16``, the files' own, is no plugin robot's).
+ROBOT_TYPES: dict[str, str] = {
+    "kit14": "bi_widowxai_follower_robot",
+    "mobileai": "mobileai_robot",
+    "widowxai": "widowxai_follower_robot",
+    "vendor16": "trossen_ai_stationary",
+}
+#: The Stationary AI kit's and the Mobile AI's robot types.
+ROBOT_TYPE = ROBOT_TYPES["kit14"]
+MOBILE_ROBOT_TYPE = ROBOT_TYPES["mobileai"]
 
 #: Joint vector features (in the export's layout): key -> the Episode attribute they hold.
 VECTOR_FEATURES: dict[str, str] = {
+    ACTION_KEY: "action",
     STATE_KEY: "qpos",
     VELOCITY_KEY: "qvel",
-    ACTION_KEY: "action",
 }
-# ENV_STATE_KEY (``robot.lerobot_keys``): object poses (the episodes' env_state: xyz m + quat
-# wxyz per object), when recorded.
+#: Features only ``sim_features`` exports add (the simulation's, not ``lerobot-record``'s).
+SIM_FEATURES: tuple[str, ...] = (VELOCITY_KEY, ENV_STATE_KEY, "next.reward", "next.success")
 #: Per-frame bookkeeping columns every LeRobot dataset has.
 INDEX_FEATURES: dict[str, str] = {
     "timestamp": "float32",
@@ -133,9 +148,13 @@ class FileIndex:
 
 
 def layout_values(layout: str, values: np.ndarray) -> np.ndarray:
-    """``(..., 16)`` values of the HDF5 files in ``layout`` (a key of ``LAYOUTS``)."""
-    target = LAYOUTS[layout]
+    """``(..., 16)`` values of the HDF5 files in ``layout`` (a key of ``EXPORT_LAYOUTS``)."""
+    target = EXPORT_LAYOUTS[layout]
     return np.asarray(values) if target is VENDOR16_LAYOUT else target.from_vendor(values)
+
+
+def _vector(names: list[str]) -> dict[str, Any]:
+    return {"dtype": "float32", "shape": [len(names)], "names": list(names)}
 
 
 def build_features(
@@ -145,44 +164,29 @@ def build_features(
     layout: str = "kit14",
     env_names: list[str] | None = None,
     state_names: list[str] | None = None,
+    sim_features: bool = False,
 ) -> dict[str, dict[str, Any]]:
-    """The ``features`` of info.json, in column order.
+    """The ``features`` of info.json, in column order (the module docstring's).
 
     Args:
         image_shapes: ``{camera: (H, W, 3)}`` in recording order (empty: no videos).
         video_info: ``{camera: info}``, the ``info`` block of each video feature (codec,
             pix_fmt, fps...).
-        with_reward: add ``next.reward`` (float32) and ``next.success`` (bool).
-        layout: joint layout of state, velocity and action (a key of ``LAYOUTS``): its
+        with_reward: the episodes have rewards (``next.reward`` float32 and ``next.success``
+            bool with ``sim_features``).
+        layout: joint layout of state, velocity and action (a key of ``EXPORT_LAYOUTS``): its
             size and names.
         env_names: names of the ``observation.environment_state`` values (None: no such
-            feature).
+            feature; written with ``sim_features`` only).
         state_names: names of the ``observation.state`` values when they are more than the
             layout's positions (``export.lerobot_state``: with velocities, efforts).
+        sim_features: add the simulation's features (:data:`SIM_FEATURES`).
     """
-    names = list(LAYOUTS[layout].names)
-    # velocities are named after their joints with a ".vel" suffix (kit14: "left_joint_0.vel")
-    vel_names = with_quantity(names, "vel")
+    names = list(EXPORT_LAYOUTS[layout].names)
     features: dict[str, dict[str, Any]] = {
-        key: {
-            "dtype": "float32",
-            "shape": [len(names)],
-            "names": vel_names if key == VELOCITY_KEY else names,
-        }
-        for key in VECTOR_FEATURES
+        ACTION_KEY: _vector(names),
+        STATE_KEY: _vector(names if state_names is None else list(state_names)),
     }
-    if state_names is not None:
-        features[STATE_KEY] = {
-            "dtype": "float32",
-            "shape": [len(state_names)],
-            "names": list(state_names),
-        }
-    if env_names is not None:
-        features[ENV_STATE_KEY] = {
-            "dtype": "float32",
-            "shape": [len(env_names)],
-            "names": list(env_names),
-        }
     for cam, (h, w, c) in image_shapes.items():
         features[video_key(cam)] = {
             "dtype": "video",
@@ -190,7 +194,12 @@ def build_features(
             "names": ["height", "width", "channels"],
             "info": dict(video_info[cam]),
         }
-    if with_reward:
+    if sim_features:
+        # velocities are named after their joints with a ".vel" suffix ("left_joint_0.vel")
+        features[VELOCITY_KEY] = _vector(with_quantity(names, "vel"))
+        if env_names is not None:
+            features[ENV_STATE_KEY] = _vector(env_names)
+    if with_reward and sim_features:
         features["next.reward"] = {"dtype": "float32", "shape": [1], "names": None}
         features["next.success"] = {"dtype": "bool", "shape": [1], "names": None}
     for key, dtype in INDEX_FEATURES.items():
@@ -206,12 +215,12 @@ def build_info(
     total_tasks: int,
     layout: str = "kit14",
 ) -> dict[str, Any]:
-    """The content of ``meta/info.json`` (``robot_type`` from the ``layout``: the Mobile
-    AI's for ``mobileai``, else the Stationary AI's)."""
+    """The content of ``meta/info.json`` (``robot_type`` the plugin's robot of the
+    ``layout``, :data:`ROBOT_TYPES`)."""
     has_video = any(ft["dtype"] == "video" for ft in features.values())
     return {
         "codebase_version": CODEBASE_VERSION,
-        "robot_type": MOBILE_ROBOT_TYPE if layout == "mobileai" else ROBOT_TYPE,
+        "robot_type": ROBOT_TYPES[layout],
         "fps": int(fps),
         "features": features,
         "total_episodes": int(total_episodes),

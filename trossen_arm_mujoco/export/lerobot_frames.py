@@ -4,8 +4,9 @@ State, velocity and action in the written layout (``lerobot_format.layout_values
 actions as the arm controller executes them (:func:`controller_actions`), the objects'
 poses, rewards and, per frame, the source step whose images it shows; resampled to the
 written rate as ``lerobot_plan`` says (``FrameMap``). :func:`frame_values` gives them for one
-episode (what tests and the open-loop parity check compare against); :func:`frame_columns`
-adds the index columns of a dataset's parquet rows.
+episode, the simulation's additions included (what tests and the open-loop parity check
+compare against); :func:`frame_columns` the columns of a dataset's parquet rows, the
+simulation's additions only with the plan's ``sim_features``.
 """
 
 from __future__ import annotations
@@ -15,8 +16,10 @@ import numpy as np
 from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.export import lerobot_format as fmt
 from trossen_arm_mujoco.export.lerobot_plan import (
+    MOBILEAI,
     ExportPlan,
     FrameMap,
+    check_base_action,
     episode_frames,
     frame_map,
     recorded_layout,
@@ -24,7 +27,7 @@ from trossen_arm_mujoco.export.lerobot_plan import (
 )
 from trossen_arm_mujoco.export.lerobot_state import state_source
 from trossen_arm_mujoco.real.gripper import GRIPPER_MAX
-from trossen_arm_mujoco.robot.layout import MOBILEAI_LAYOUT, SIDES
+from trossen_arm_mujoco.robot.layout import MOBILEAI_LAYOUT, SIDES, WIDOWXAI_LAYOUT
 from trossen_arm_mujoco.robot.lerobot_keys import ACTION_KEY, ENV_STATE_KEY, STATE_KEY, VELOCITY_KEY
 
 __all__ = ["controller_actions", "frame_columns", "frame_values"]
@@ -35,24 +38,29 @@ def frame_values(
     layout: str | None = None,
     fps: int | None = None,
     extras: tuple[str, ...] = (),
+    base_action: str | None = None,
 ) -> dict[str, np.ndarray]:
     """What an export writes for ``episode`` per frame, before any encoding.
 
     Returns:
-        ``observation.state``, ``observation.velocity``, ``action``: float32 ``(K, D)`` in
-        ``layout``; ``observation.environment_state``: float32 ``(K, 7k)`` (episodes with
-        env_state); ``next.reward``: float32 ``(K,)`` (episodes with rewards);
+        ``observation.state``, ``action``: float32 ``(K, D)`` in ``layout``; the simulation's
+        additions (written with ``sim_features``): ``observation.velocity`` float32
+        ``(K, D)``, ``observation.environment_state`` float32 ``(K, 7k)`` (episodes with
+        env_state), ``next.reward`` float32 ``(K,)`` (episodes with rewards);
         ``image_index``: int64 ``(K,)``, the source step whose images frame ``k`` shows.
-        ``K`` frames at ``fps`` (None: the recording rate); see ``export.lerobot``'s docstring.
-        ``extras`` (``"vel"``, ``"eff"``) widen the state (``lerobot_state.state_names``).
-        ``layout`` None: the one that fits the episode (``lerobot_plan.resolve_layout``).
+        ``K`` frames at ``fps`` (None: the export's default, ``lerobot_plan.output_fps``);
+        see ``export.lerobot``'s docstring. ``extras`` (``"vel"``, ``"eff"``, ``"ext_eff"``)
+        widen the state (``lerobot_state.state_names``). ``layout`` None: the one that fits
+        the episode (``lerobot_plan.resolve_layout``); ``base_action``: the Mobile AI's
+        (None: ``measured``).
 
     Raises:
         UserError: an unknown layout or one that does not fit the episode, a bad ``fps``,
-            an episode too short for ``fps``.
+            an episode too short for ``fps``, a base action without a base.
     """
     layout = resolve_layout([episode], layout)
-    return _values(episode, layout, episode_frames(episode, fps), extras)
+    base_action = check_base_action(layout, base_action)
+    return _values(episode, layout, episode_frames(episode, fps), extras, base_action)
 
 
 #: The finger values of the HDF5 files' 16 (left 6, 7; right 14, 15).
@@ -65,27 +73,35 @@ def controller_actions(action16: np.ndarray, recorded: str = "vendor16") -> np.n
     open 0.044 m to it). A policy learns the opening the arm reaches, and its own small
     errors around it stay inside the controller's 0.044 + 0.001 m position check (around
     0.044 they do not: about half its open-gripper actions would fault). ``recorded``: the
-    layout of the rows (``vendor16``, or ``mobileai``: grippers at 6 and 13)."""
+    layout of the rows (``vendor16``; ``mobileai``: grippers at 6 and 13; ``widowxai``: the
+    gripper at 6)."""
     out = np.array(action16, dtype=np.float64, copy=True)
     fingers = _FINGERS
     if recorded == "mobileai":
         fingers = [MOBILEAI_LAYOUT.gripper_index(side) for side in SIDES]
+    elif recorded == "widowxai":
+        fingers = [WIDOWXAI_LAYOUT.size - 1]  # one arm's 7: the gripper last
     out[..., fingers] = np.minimum(out[..., fingers], GRIPPER_MAX)
     return out
 
 
 def _values(
-    episode: Episode, layout: str, frames: FrameMap, extras: tuple[str, ...] = ()
+    episode: Episode,
+    layout: str,
+    frames: FrameMap,
+    extras: tuple[str, ...] = (),
+    base_action: str | None = None,
 ) -> dict[str, np.ndarray]:
-    state = state_source(episode, layout, extras) if extras else None
+    action = frames.actions(
+        fmt.layout_values(layout, controller_actions(episode.action, recorded_layout(episode)))
+    )
+    if layout == MOBILEAI and base_action != "commanded":  # the measured base velocity
+        base = MOBILEAI_LAYOUT.base
+        action[:, base] = frames.observations(np.asarray(episode.qpos)[:, base])
     out = {
-        STATE_KEY: frames.observations(
-            fmt.layout_values(layout, episode.qpos) if state is None else state
-        ),
+        ACTION_KEY: action,
+        STATE_KEY: frames.observations(state_source(episode, layout, extras)),
         VELOCITY_KEY: frames.observations(fmt.layout_values(layout, episode.qvel)),
-        ACTION_KEY: frames.actions(
-            fmt.layout_values(layout, controller_actions(episode.action, recorded_layout(episode)))
-        ),
     }
     if episode.env_state is not None:
         out[ENV_STATE_KEY] = frames.poses(episode.env_state)
@@ -102,9 +118,11 @@ def frame_columns(
     """Per-frame values of episode ``i`` for every non-video feature, and the source step
     of each frame's images."""
     frames = frame_map(ep.num_steps, plan.source_fps, plan.fps)
-    cols = _values(ep, plan.layout, frames, plan.state_extras)
+    cols = _values(ep, plan.layout, frames, plan.state_extras, plan.base_action)
     image_index = cols.pop("image_index")
-    if plan.with_reward:
+    if not plan.sim_features:
+        cols = {key: values for key, values in cols.items() if key not in fmt.SIM_FEATURES}
+    elif plan.with_reward:
         cols["next.success"] = ep.reward[frames.reward_index] >= plan.max_reward[i]
     n = frames.length
     cols["timestamp"] = (np.arange(n) / plan.fps).astype(np.float32)

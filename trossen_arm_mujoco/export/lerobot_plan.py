@@ -6,6 +6,9 @@ and their image sizes, the objects of ``env_state``, and either all have rewards
 (vendor recordings). Each gets a task description (the registry's, or the one given) and,
 when it has rewards, the task's maximum reward, which marks success.
 
+The rate written is ``fps`` N, by default :data:`DEFAULT_FPS` (30, the control loop rate of
+Trossen's LeRobot plugin, ``loop_rate``), or the recording rate when that is lower.
+
 Resampling to ``fps`` N (at most the recording rate F = 1 / dt): source step ``j`` holds the
 observation at time ``j / F``, action ``j`` is the joint target for the end of step ``j``
 (time ``(j + 1) / F``) and reward ``j`` is judged then. Written frame ``k`` is at
@@ -17,7 +20,11 @@ observation at time ``j / F``, action ``j`` is the joint target for the end of s
 - images: the source frame nearest ``t_k`` (a tie takes the earlier frame);
 - action: the source action trajectory (action ``j`` placed at ``j / F``) interpolated at
   ``t_k + 1 / N - 1 / F`` (index ``(k + 1) F / N - 1``): the target for ``t_{k+1}``, so that
-  holding it for ``1 / N`` s reaches where the source trajectory was at ``t_{k+1}``;
+  holding it for ``1 / N`` s reaches where the source trajectory was at ``t_{k+1}``; the
+  Mobile AI's base part (``base_action`` ``measured``, the default) is the base's measured
+  velocity at ``t_k``, the state's ``x.vel``, ``theta.vel``, as ``lerobot-record`` stores it
+  (the plugin's teleoperator reports the velocity the robot has just measured), or
+  (``commanded``) the recorded command, as the arms' targets;
 - reward, success: those of source step ``ceil((k + 1) F / N) - 1``, whose period
   ``(j / F, (j + 1) / F]`` contains the end of frame ``k``, ``t_{k+1}``.
 
@@ -40,16 +47,19 @@ from trossen_arm_mujoco.data.schema import ENV_STATE_DIM
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings
 from trossen_arm_mujoco.export.lerobot_state import check_state_extras
-from trossen_arm_mujoco.robot.layout import LAYOUTS
+from trossen_arm_mujoco.robot.layout import EXPORT_LAYOUTS
 from trossen_arm_mujoco.sim.camera_crop import CameraCrop, parse_crops
 from trossen_arm_mujoco.sim.camera_settings import DEFAULT_SIZE, CameraSettings
 from trossen_arm_mujoco.tasks import registry
 
 __all__ = [
+    "BASE_ACTIONS",
+    "DEFAULT_FPS",
     "DEFAULT_LAYOUT",
     "POSE_COMPONENTS",
     "ExportPlan",
     "FrameMap",
+    "check_base_action",
     "check_layout",
     "env_state_names",
     "episode_frames",
@@ -64,7 +74,18 @@ __all__ = [
 #: The layout written unless asked otherwise: the real kit's 14 values (the Mobile AI's
 #: recordings: ``mobileai``, ``resolve_layout``).
 DEFAULT_LAYOUT = "kit14"
-MOBILEAI, VENDOR16 = "mobileai", "vendor16"
+MOBILEAI, VENDOR16, WIDOWXAI = "mobileai", "vendor16", "widowxai"
+#: Export layouts per recorded layout, the default first.
+_FITTING: dict[str, tuple[str, ...]] = {
+    VENDOR16: (DEFAULT_LAYOUT, VENDOR16),
+    MOBILEAI: (MOBILEAI,),
+    WIDOWXAI: (WIDOWXAI,),
+}
+#: The rate written unless asked otherwise: Trossen's LeRobot plugin's ``loop_rate`` (Hz).
+DEFAULT_FPS = 30
+#: What the Mobile AI's action holds for the base: its measured velocity (``lerobot-record``
+#: with the plugin's teleoperator, the default) or the recorded command.
+BASE_ACTIONS: tuple[str, ...] = ("measured", "commanded")
 #: Suffixes of an object's 7 pose values in ``observation.environment_state`` names.
 POSE_COMPONENTS: tuple[str, ...] = ("x", "y", "z", "qw", "qx", "qy", "qz")
 
@@ -81,12 +102,17 @@ class ExportPlan:
         tasks: distinct task descriptions, in ``task_index`` order.
         task_index: per episode, its task's index.
         max_reward: per episode, the reward that means success (None without rewards).
-        layout: the joint layout written, a key of ``robot.layout.LAYOUTS``.
+        layout: the joint layout written, a key of ``robot.layout.EXPORT_LAYOUTS``.
         env_names: names of the ``observation.environment_state`` values (None: the
             episodes have no env_state).
         lengths: per episode, the frames written.
         state_extras: per-joint values added to ``observation.state`` after each arm's
-            positions, in the LeRobot plugin's order: ``"vel"``, ``"eff"`` (``.lerobot_state``).
+            positions, in the LeRobot plugin's order: ``"vel"``, ``"eff"``, ``"ext_eff"``
+            (``.lerobot_state``).
+        sim_features: write the simulation's additions (``observation.velocity``,
+            ``observation.environment_state``, ``next.reward``, ``next.success``).
+        base_action: the Mobile AI's base action, one of :data:`BASE_ACTIONS` (None for
+            the other layouts).
     """
 
     episodes: list[Episode]
@@ -104,7 +130,9 @@ class ExportPlan:
     crops: tuple[CameraCrop, ...] = ()  # the episodes' ``crops`` attribute (record --crop)
     looks: tuple[bool, bool] = (True, True)  # the episodes' (shadows, antialias) attributes
     task_name: str | None = None  # the registered task of the episodes, when they name one
-    state_extras: tuple[str, ...] = ()  # "vel", "eff": added to observation.state
+    state_extras: tuple[str, ...] = ()  # "vel", "eff", "ext_eff": added to observation.state
+    sim_features: bool = False
+    base_action: str | None = None
 
     def settings(self) -> DatasetSettings:
         """What the dataset is made with (``export.dataset_settings``), for its info.json."""
@@ -122,6 +150,8 @@ class ExportPlan:
             cameras=cameras,
             task=self.task_name,
             state_extras=self.state_extras,
+            sim_features=self.sim_features,
+            base_action=self.base_action,
         )
 
 
@@ -199,13 +229,13 @@ def frame_map(num_steps: int, source_fps: int, fps: int) -> FrameMap:
 
 def output_fps(requested: Real | str | None, source_fps: int) -> int:
     """The rate to write: ``requested`` (a whole number in ``1 .. source_fps``; a string from
-    the command line is parsed), or ``source_fps`` when None.
+    the command line is parsed), or when None :data:`DEFAULT_FPS` (``source_fps`` if lower).
 
     Raises:
         UserError: not a whole number, not positive, or above the recording rate.
     """
     if requested is None:
-        return int(source_fps)
+        return min(DEFAULT_FPS, int(source_fps))
     value: object = requested
     if isinstance(value, str):
         try:
@@ -232,7 +262,8 @@ def output_fps(requested: Real | str | None, source_fps: int) -> int:
 
 
 def episode_frames(episode: Episode, fps: Real | str | None = None) -> FrameMap:
-    """The :class:`FrameMap` of ``episode`` written at ``fps`` (None: its recording rate).
+    """The :class:`FrameMap` of ``episode`` written at ``fps`` (None: the default,
+    :func:`output_fps`).
 
     Raises:
         UserError: a bad ``fps`` (:func:`output_fps`), or an episode too short to give one
@@ -250,9 +281,9 @@ def episode_frames(episode: Episode, fps: Real | str | None = None) -> FrameMap:
 
 
 def check_layout(layout: str) -> str:
-    """``layout`` if it names a layout of ``robot.layout.LAYOUTS``, else a UserError."""
-    if layout not in LAYOUTS:
-        raise unknown_name_error("layout", str(layout), LAYOUTS)
+    """``layout`` if it names a layout of ``robot.layout.EXPORT_LAYOUTS``, else a UserError."""
+    if layout not in EXPORT_LAYOUTS:
+        raise unknown_name_error("layout", str(layout), EXPORT_LAYOUTS)
     return layout
 
 
@@ -299,17 +330,19 @@ def env_state_names(episode: Episode) -> list[str] | None:
 
 
 def recorded_layout(episode: Episode) -> str:
-    """The layout of an episode's 16-value rows: its ``layout`` attribute (``mobileai`` for
-    the Mobile AI's recordings, ``collect.joint_policy``), else ``vendor16``."""
+    """The layout of an episode's rows: its ``layout`` attribute (``mobileai`` for the Mobile
+    AI's recordings, ``collect.joint_policy``; ``widowxai`` for a single arm's), else
+    ``vendor16``."""
     value = episode.attrs.get("layout", VENDOR16)
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
 def resolve_layout(episodes: list[Episode], layout: str | None) -> str:
     """The layout to write: ``layout``, or (None) the one that fits the episodes: ``mobileai``
-    for Mobile AI recordings, else ``kit14``. A UserError for episodes recorded in different
-    layouts, and for a layout that does not fit them (the Mobile AI's 16 values export only
-    as ``mobileai``; the kit's never as ``mobileai``)."""
+    for Mobile AI recordings, ``widowxai`` for a single arm's, else ``kit14``. A UserError
+    for episodes recorded in different layouts, and for a layout that does not fit them (the
+    Mobile AI's and a single arm's values export only in their own layout; the kit's as
+    ``kit14`` or ``vendor16``)."""
     recorded = {recorded_layout(ep) for ep in episodes}
     if len(recorded) > 1:
         raise UserError(
@@ -317,20 +350,38 @@ def resolve_layout(episodes: list[Episode], layout: str | None) -> str:
             "export each robot's episodes separately"
         )
     stored = recorded.pop()
-    if stored not in LAYOUTS:
-        raise unknown_name_error(f"{episodes[0].path.name}: recorded layout", stored, LAYOUTS)
-    mobile = stored == MOBILEAI
+    if stored not in _FITTING:
+        raise unknown_name_error(f"{episodes[0].path.name}: recorded layout", stored, _FITTING)
+    fits = _FITTING[stored]
     if layout is None:
-        return MOBILEAI if mobile else DEFAULT_LAYOUT
+        return fits[0]
     check_layout(layout)
-    if mobile != (layout == MOBILEAI):
-        fits = MOBILEAI if mobile else f"{DEFAULT_LAYOUT} or {VENDOR16}"
+    if layout not in fits:
+        robot = {MOBILEAI: "the Mobile AI", WIDOWXAI: "one WidowX AI arm"}.get(
+            stored, "the Stationary AI kit"
+        )
         raise UserError(
             f"--layout {layout} does not fit episodes recorded in the {stored} layout "
-            f"({'the Mobile AI' if mobile else 'the Stationary AI kit'}); use --layout {fits} "
-            "or leave the flag out"
+            f"({robot}); use --layout {' or '.join(fits)} or leave the flag out"
         )
     return layout
+
+
+def check_base_action(layout: str, base_action: str | None) -> str | None:
+    """The base action to write: None for layouts without a base (a UserError when one is
+    asked for), else ``base_action`` (None: ``measured``), one of :data:`BASE_ACTIONS`."""
+    if layout != MOBILEAI:
+        if base_action not in (None, "measured"):
+            raise UserError(
+                f"--base_action {base_action} is for Mobile AI recordings (layout mobileai); "
+                f"the {layout} layout has no base: leave the flag out"
+            )
+        return None
+    if base_action is None:
+        return BASE_ACTIONS[0]
+    if base_action not in BASE_ACTIONS:
+        raise unknown_name_error("base action", str(base_action), BASE_ACTIONS)
+    return base_action
 
 
 def plan_export(
@@ -339,19 +390,24 @@ def plan_export(
     layout: str | None = None,
     fps: Real | str | None = None,
     state_extras: tuple[str, ...] = (),
+    sim_features: bool = False,
+    base_action: str | None = None,
 ) -> ExportPlan:
     """Check ``episodes`` (at least one) for export; ``task`` overrides every description,
     ``layout`` is the joint layout written (None: the one that fits the episodes,
-    ``resolve_layout``) and ``fps`` the rate (None: the recording rate); ``state_extras`` the
-    per-joint values added to the state (``"vel"``, ``"eff"``; kit14 only).
+    ``resolve_layout``) and ``fps`` the rate (None: :data:`DEFAULT_FPS`, or the recording
+    rate if lower); ``state_extras`` the per-joint values added to the state (``"vel"``,
+    ``"eff"``, ``"ext_eff"``; the plugin's layouts only); ``sim_features`` adds the
+    simulation's features; ``base_action`` the Mobile AI's base action (None: ``measured``).
 
     Raises:
         UserError: mixed rates, cameras, rewards, objects or layouts; no task to describe an
             episode with; an unknown layout or one that does not fit; a bad ``fps``; an
-            episode too short for ``fps``.
+            episode too short for ``fps``; a base action for a layout without a base.
     """
     layout = resolve_layout(episodes, layout)
     state_extras = check_state_extras(layout, state_extras)
+    base_action = check_base_action(layout, base_action)
     first = episodes[0]
     rate = source_fps(first)
     out_fps = output_fps(fps, rate)
@@ -411,7 +467,13 @@ def plan_export(
                 f"{ep.path.name} has rewards but no task_name to judge success with; "
                 f"valid task names: {', '.join(registry.names())}"
             )
-        max_reward.append(None if entry is None else float(entry.task_class().max_reward))
+        best = _max_reward(entry)
+        if sim_features and ep.reward is not None and best is None:
+            raise UserError(
+                f"{ep.path.name}: task {entry.name} has no maximum reward to judge next.success "
+                "with; export it without --sim_features"
+            )
+        max_reward.append(best)
     return ExportPlan(
         episodes=episodes,
         fps=out_fps,
@@ -429,7 +491,20 @@ def plan_export(
         looks=_looks(first),
         task_name=_task_name(episodes),
         state_extras=state_extras,
+        sim_features=bool(sim_features),
+        base_action=base_action,
     )
+
+
+def _max_reward(entry: registry.TaskEntry | None) -> float | None:
+    """The reward that means success for a registered task (None: no task, or a task that
+    does not declare one)."""
+    if entry is None:
+        return None
+    try:
+        return float(entry.task_class().max_reward)
+    except (AttributeError, TypeError):
+        return None
 
 
 def _crops(ep: Episode) -> str:

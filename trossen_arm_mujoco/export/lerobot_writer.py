@@ -91,7 +91,13 @@ def write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress: 
     infos = {cam: video.info(h, w, plan.fps) for cam, (h, w, _) in plan.image_shapes.items()}
     names = state_names(plan.layout, plan.state_extras) if plan.state_extras else None
     features = fmt.build_features(
-        plan.image_shapes, infos, plan.with_reward, plan.layout, plan.env_names, names
+        plan.image_shapes,
+        infos,
+        plan.with_reward,
+        plan.layout,
+        plan.env_names,
+        names,
+        sim_features=plan.sim_features,
     )
     schema = fmt.data_schema(features)
     data = DataFiles(root, schema)

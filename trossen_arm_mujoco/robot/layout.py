@@ -1,4 +1,5 @@
-"""The joint layouts of the Stationary AI kit, defined once: ``vendor16`` and ``kit14``.
+"""The joint layouts of the kit and its arms, defined once: ``vendor16``, ``kit14``,
+``mobileai`` and ``widowxai``.
 
 :class:`Vendor16Layout` (``VENDOR16_LAYOUT``, ``export --layout vendor16``) is the 16-value
 qpos/action layout of the vendor's HDF5 episodes and of the sim.
@@ -11,6 +12,10 @@ the same layout, with the finger columns holding the gripper command.
 :class:`Kit14Layout` (``KIT14_LAYOUT``, ``export --layout kit14``) is the real kit's 14
 values (per arm 6 joints and the gripper), as Trossen's LeRobot plugin and the driver take
 them.
+
+:class:`WidowXAILayout` (``WIDOWXAI_LAYOUT``, ``export --layout widowxai``) is one WidowX AI
+arm's 7 values as Trossen's plugin for a single follower (``widowxai_follower_robot``) names
+them, the layout of a single arm's recordings; export takes it (``EXPORT_LAYOUTS``).
 
 Users of the 16-value layout: the dm_control envs (observation slicing and action
 splitting), the dataset schema's labels, the recorder, the real replay (7 driver values per
@@ -29,6 +34,7 @@ __all__ = [
     "ARM_JOINTS",
     "ARM_VALUES",
     "EE_LAYOUT",
+    "EXPORT_LAYOUTS",
     "FINGER_JOINTS",
     "GRIPPER_CLOSED",
     "GRIPPER_OPEN",
@@ -38,10 +44,12 @@ __all__ = [
     "SIDES",
     "START_ARM_POSE",
     "VENDOR16_LAYOUT",
+    "WIDOWXAI_LAYOUT",
     "EELayout",
     "Kit14Layout",
     "MobileAILayout",
     "Vendor16Layout",
+    "WidowXAILayout",
     "kit_joint_commands",
 ]
 
@@ -253,6 +261,37 @@ class MobileAILayout(Kit14Layout):
         return out
 
 
+@dataclass(frozen=True)
+class WidowXAILayout:
+    """One WidowX AI arm's 7 values (``widowxai``), as Trossen's LeRobot plugin for a single
+    follower (``widowxai_follower_robot``) reads and commands them: ``joint_0.pos`` ..
+    ``joint_5.pos`` (rad), ``left_carriage_joint.pos`` (the gripper, m). A single arm's
+    recordings (HDF5 attribute ``layout`` ``widowxai``) are stored in this layout already."""
+
+    size: int = 7
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """``joint_0.pos`` .. ``joint_5.pos``, ``left_carriage_joint.pos``."""
+        return joint_value_names(ARM_JOINTS + ("left_carriage_joint",))
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """``rad`` for the 6 joints, ``m`` for the carriage."""
+        return ("rad",) * 6 + ("m",)
+
+    def from_vendor(self, values: np.ndarray) -> np.ndarray:
+        """A single arm's recorded ``(..., 7)`` values as they are (a copy)."""
+        v = np.asarray(values)
+        if v.shape[-1:] != (self.size,):
+            raise ValueError(f"expected {self.size} values per row, got shape {v.shape}")
+        return v.copy()
+
+
+#: One WidowX AI arm's 7-value layout (``widowxai_follower_robot``).
+WIDOWXAI_LAYOUT = WidowXAILayout()
+
+
 #: The base's two values in Trossen's ``mobileai_robot`` (trossen_slate's velocities).
 BASE_VALUES: tuple[str, ...] = ("x.vel", "theta.vel")
 #: The Mobile AI's 16-value layout (its recordings, LeRobot datasets and policies).
@@ -265,6 +304,12 @@ LAYOUTS: dict[str, Kit14Layout | Vendor16Layout] = {
     "kit14": KIT14_LAYOUT,
     "vendor16": VENDOR16_LAYOUT,
     "mobileai": MOBILEAI_LAYOUT,
+}
+#: The layouts ``export --layout`` writes: :data:`LAYOUTS` and ``widowxai`` (one arm's,
+#: chosen for a single arm's recordings).
+EXPORT_LAYOUTS: dict[str, Kit14Layout | Vendor16Layout | WidowXAILayout] = {
+    **LAYOUTS,
+    "widowxai": WIDOWXAI_LAYOUT,
 }
 
 

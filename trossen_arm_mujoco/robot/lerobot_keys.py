@@ -12,8 +12,9 @@ Feature keys, as LeRobot datasets (``meta/info.json``), policies (``input_featur
 - ``action`` (:data:`ACTION_KEY`): joint targets, same layout as the state.
 
 Joint value names follow Trossen's LeRobot plugin: ``<joint>.<quantity>``, with quantity
-``pos`` (rad; m for a gripper carriage), ``vel`` (rad/s; m/s) or ``eff`` (Nm; N), e.g.
-``left_joint_0.pos`` (:func:`joint_value_names`).
+``pos`` (rad; m for a gripper carriage), ``vel`` (rad/s; m/s), ``eff`` (Nm; N) or
+``ext_eff`` (the external part of the effort, Nm; N), e.g. ``left_joint_0.pos``
+(:func:`joint_value_names`).
 """
 
 from __future__ import annotations
@@ -44,8 +45,9 @@ ACTION_KEY = "action"
 #: Prefix of a camera's feature key: ``observation.images.<camera>``.
 IMAGE_KEY_PREFIX = "observation.images."
 
-#: Suffixes of a joint's values in Trossen's LeRobot plugin: position, velocity, effort.
-JOINT_QUANTITIES: tuple[str, ...] = ("pos", "vel", "eff")
+#: Suffixes of a joint's values in Trossen's LeRobot plugin: position, velocity, effort,
+#: external effort.
+JOINT_QUANTITIES: tuple[str, ...] = ("pos", "vel", "eff", "ext_eff")
 
 
 def image_key(camera: str) -> str:

@@ -5,10 +5,13 @@
 
 ``--format lerobot`` writes a LeRobot v3.0 dataset (see ``trossen_arm_mujoco.export``) that
 ``LeRobotDataset(repo_id, root=output)`` loads; it needs the ``lerobot`` extra
-(pyarrow, PyAV), not LeRobot itself. Joint values are written in the real kit's 14-value
-layout (``--layout kit14``, the default) or the files' 16 (``--layout vendor16``); the
-Mobile AI's recordings in its own (``mobileai``: the arms' 14 then ``x.vel``, ``theta.vel``,
-chosen by itself), at the recording rate or, resampled, at ``--fps N`` (the real kit runs at 30).
+(pyarrow, PyAV), not LeRobot itself. By default it is what ``lerobot-record`` writes with
+Trossen's LeRobot plugin: its robot type, 30 fps, its features and names. Joint values are
+written in the real kit's 14-value layout (``--layout kit14``, the default) or the files' 16
+(``--layout vendor16``); the Mobile AI's recordings in its own (``mobileai``: the arms' 14
+then ``x.vel``, ``theta.vel``), a single arm's in ``widowxai`` (7), each chosen by itself;
+resampled to ``--fps N``. ``--sim_features`` adds the simulation's features (joint
+velocities, object poses, reward, success).
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from collections.abc import Sequence
 
 from trossen_arm_mujoco.data.reader import resolve_data_dir
 from trossen_arm_mujoco.errors import ArgumentParser, UserError, run_cli
-from trossen_arm_mujoco.robot.layout import LAYOUTS
+from trossen_arm_mujoco.robot.layout import EXPORT_LAYOUTS
 from trossen_arm_mujoco.scripts.common_options import DEFAULT_TASK, add_data_dir, add_root_dir
 
 FORMATS = ("lerobot",)
@@ -67,31 +70,57 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--layout",
         default=None,
-        choices=tuple(LAYOUTS),
-        help="joint layout of state, velocity and action: kit14 = the real kit's 14 values "
+        choices=tuple(EXPORT_LAYOUTS),
+        help="joint layout of state and action: kit14 = the real kit's 14 values "
         "(left_joint_0.pos .. left_left_carriage_joint.pos, then right_; Trossen's LeRobot "
-        "plugin), vendor16 = the HDF5 files' 16, mobileai = the Mobile AI's 14 arm values "
-        "then x.vel, theta.vel (default: mobileai for Mobile AI recordings, else kit14)",
+        "plugin, bi_widowxai_follower_robot), vendor16 = the HDF5 files' 16, mobileai = the "
+        "Mobile AI's 14 arm values then x.vel, theta.vel (mobileai_robot), widowxai = one "
+        "arm's 7 (widowxai_follower_robot) (default: the one that fits the recordings: "
+        "mobileai for Mobile AI recordings, widowxai for a single arm's, else kit14)",
     )
     p.add_argument(
         "--fps",
         default=None,
         metavar="N",
         help="frames per second to write, a whole number up to the recording rate; lower "
-        "rates are resampled (the real kit runs at 30; default: the recording rate, 50)",
+        "rates are resampled (default: 30, the plugin's loop rate)",
+    )
+    p.add_argument(
+        "--sim_features",
+        action="store_true",
+        help="add the simulation's features, which no real robot records: "
+        "observation.velocity (joint velocities), observation.environment_state (object "
+        "poses), next.reward, next.success (default: only what lerobot-record writes)",
     )
     p.add_argument(
         "--include_velocity",
         action="store_true",
         help="add each joint's velocity to observation.state as Trossen's LeRobot plugin "
-        "names it (left_joint_0.vel .. after each arm's positions; rad/s, m/s; kit14 only)",
+        "names it (left_joint_0.vel .. after each arm's positions; rad/s, m/s; the recorded "
+        "qvel)",
     )
     p.add_argument(
         "--include_effort",
         action="store_true",
         help="add each joint's effort to observation.state as the plugin names it "
-        "(left_joint_0.eff ..; Nm, N), derived from the recording with MuJoCo's actuator "
-        "model (kit14 only)",
+        "(left_joint_0.eff ..; Nm, N): the actuator force at the recorded state, derived "
+        "with MuJoCo's actuator model (gravity compensation included)",
+    )
+    p.add_argument(
+        "--include_external_effort",
+        action="store_true",
+        help="add each joint's external effort to observation.state as the plugin names it "
+        "(left_joint_0.ext_eff ..; Nm, N): the force the arms' own model does not explain "
+        "(contacts with objects, the table, the other arm), derived with MuJoCo; 0 in free "
+        "motion",
+    )
+    p.add_argument(
+        "--base_action",
+        default=None,
+        choices=("measured", "commanded"),
+        help="the Mobile AI's base part of action (x.vel, theta.vel): measured = the base's "
+        "measured velocity of the frame, as the plugin records it (default), commanded = "
+        "the recorded velocity command",
     )
     p.add_argument(
         "--vcodec",
@@ -124,6 +153,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Export ``--data_dir``; returns the exit status."""
     args = build_parser().parse_args(argv)
     from trossen_arm_mujoco.export import VideoSettings, export_lerobot
+    from trossen_arm_mujoco.export.lerobot_format import ROBOT_TYPES
 
     data_dir = resolve_data_dir(args.root_dir, args.data_dir)
     if not data_dir.is_dir():
@@ -145,6 +175,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         fps=args.fps,
         include_velocity=args.include_velocity,
         include_effort=args.include_effort,
+        include_external_effort=args.include_external_effort,
+        sim_features=args.sim_features,
+        base_action=args.base_action,
     )
     rate = summary.frames / max(summary.seconds, 1e-9)
     cams = ", ".join(summary.cameras) or "none"
@@ -154,9 +187,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if summary.state_extras:
         added = ", ".join(f"<joint>.{e}" for e in summary.state_extras)
         resampled += f", the state with {added}"
+    if summary.sim_features:
+        resampled += ", with the sim's features"
+    if summary.base_action:
+        resampled += f", {summary.base_action} base action"
     print(
         f"exported {summary.episodes} episode(s), {summary.frames} frames at {summary.fps} fps"
-        f"{resampled} (cameras: {cams}), layout {summary.layout}, to {summary.output} in "
+        f"{resampled} (cameras: {cams}), layout {summary.layout} (robot_type "
+        f"{ROBOT_TYPES[summary.layout]}), to {summary.output} in "
         f"{summary.seconds:.1f} s ({rate:.0f} frames/s)"
     )
     print(f"load it with: LeRobotDataset('{args.repo_id}', root='{summary.output.resolve()}')")

@@ -34,8 +34,9 @@ dataset carries, ``trossen_arm_mujoco.export.dataset_settings``); an option that
 them is refused, one that repeats them is accepted.
 
 Observations and actions carry exactly the feature names and shapes ``trossen-mujoco export``
-writes (``observation.state``, ``observation.velocity``, ``observation.environment_state``,
-``observation.images.<cam>``, ``action``), so a policy trained on an export runs with no
+writes (``observation.state``, ``observation.images.<cam>``, ``action``, and with
+``--sim_features`` ``observation.velocity`` and ``observation.environment_state``; datasets
+exported before that flag always had them), so a policy trained on an export runs with no
 ``--rename_map``. The env itself is ``trossen_arm_mujoco.eval.env.KitPolicyEnv``; vector envs
 are built from it directly (picklable, so ``--eval.use_async_envs=true`` works with any start
 method).
