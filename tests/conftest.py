@@ -161,6 +161,76 @@ PY312_MODULES = (
     "tests/robot/test_lerobot_keys.py",
 )
 
+#: The quick subset (marked ``quick``; ``python -m pytest -m quick``, under 2 minutes on 2
+#: cores, docs/testing.md): for each unit of the package (every subpackage, and the top-level
+#: modules), test modules or single tests ("path::test_name", all its parameters) that run
+#: its main path. tests/test_quick_subset.py checks that the units are the package's (a new
+#: subpackage needs an entry), that each entry exists and that the unit is named by one of
+#: its entries (the top-level entries name every top-level module between them). No serial
+#: module (it skips in a run spread over the cores) and no ``long`` test belongs here.
+QUICK: dict[str, tuple[str, ...]] = {
+    "(top level)": (
+        "tests/test_public_api.py",  # imports every module of the package
+        "tests/test_import_graph.py",
+        "tests/test_quick_subset.py",  # this list against the package
+        "tests/test_utils.py::test_make_sim_env_returns_a_dm_control_environment",
+        "tests/test_utils.py::test_asset_path",
+        "tests/test_sim_env.py::test_custom_task_runs_unchanged_for_100_steps",
+        "tests/test_sim_env.py::test_vendor_recorded_transfer_transfers_the_cube",
+        "tests/test_ee_sim_env.py::test_custom_task_runs_unchanged_for_100_steps",
+        "tests/test_ee_sim_env.py::test_documented_reward_scores_4_on_scripted_transfers",
+        "tests/test_cli.py",
+        "tests/test_clip.py",
+        "tests/test_errors.py",
+        "tests/test_fileio.py",
+        "tests/test_images.py",
+        "tests/test_names.py",
+        "tests/test_processes.py",
+        "tests/test_quaternion.py",
+        "tests/test_viewer.py",
+        "tests/test_demo.py::test_headless_demo_writes_four_pngs",
+    ),
+    "assets": ("tests/assets/test_models.py", "tests/assets/test_mobile_ai.py"),
+    "robot": ("tests/robot/test_robot.py",),
+    "sim": ("tests/sim/test_env.py",),
+    "data": ("tests/data/test_writer.py", "tests/data/test_reader.py"),
+    "real": ("tests/real/test_replay.py", "tests/real/test_validate.py"),
+    "tasks": ("tests/tasks/test_transfer_cube.py",),
+    "policies": ("tests/policies/test_scripted.py",),
+    "gym": ("tests/gym/test_gym_stepping.py",),
+    "collect": (
+        "tests/collect/test_pipeline.py::test_full_episode_succeeds_without_images",
+        "tests/collect/test_pipeline.py::test_episode_matches_documented_layout",
+    ),
+    "export": (
+        "tests/export/test_lerobot_plan.py",
+        "tests/export/test_dataset_settings.py::test_export_writes_the_settings_into_info_json",
+    ),
+    "train": ("tests/train/test_pose_dataset.py",),
+    "eval": (
+        "tests/eval/test_scores.py",
+        "tests/eval/test_runner.py::test_function_policy_holding_the_start_pose_scores_nothing",
+    ),
+    "twin": ("tests/twin/test_episode_spool.py", "tests/twin/test_session_recorder.py"),
+    "src": ("tests/src/test_controller.py",),
+    "scripts": (
+        "tests/scripts/test_record_args.py",
+        "tests/scripts/test_record_sim_episodes.py::test_records_and_reports_success_line",
+    ),
+}
+
+#: What ``QUICK`` marks: whole modules, and (module, test name) pairs.
+QUICK_MODULES = frozenset(e for entries in QUICK.values() for e in entries if "::" not in e)
+QUICK_TESTS = frozenset(
+    tuple(e.split("::", 1)) for entries in QUICK.values() for e in entries if "::" in e
+)
+
+
+def _is_quick(module: str, name: str) -> bool:
+    """Whether the test ``name`` (its function's name) of ``module`` is in ``QUICK``."""
+    return module in QUICK_MODULES or (module, name) in QUICK_TESTS
+
+
 #: Skip reasons that mean "LeRobot (or its venv) is missing": with TROSSEN_LEROBOT_REQUIRED=1
 #: (tools/run_tests.sh sets it) such a skip fails the test instead, so that a LeRobot test
 #: cannot skip silently in every leg.
@@ -183,12 +253,27 @@ def _module_path(item) -> str:
     return Path(item.path).resolve().relative_to(REPO).as_posix()
 
 
+def pytest_ignore_collect(collection_path: Path, config) -> bool | None:
+    """With ``-m quick`` (exactly), a test module with nothing in ``QUICK`` is not collected:
+    importing every module would take longer than the quick tests themselves."""
+    if config.getoption("markexpr", "") != "quick" or not collection_path.name.startswith("test_"):
+        return None
+    try:
+        module = collection_path.resolve().relative_to(REPO).as_posix()
+    except ValueError:
+        return None
+    if collection_path.suffix != ".py" or not module.startswith("tests/"):
+        return None
+    return None if module in QUICK_MODULES or any(m == module for m, _ in QUICK_TESTS) else True
+
+
 def pytest_collection_modifyitems(config, items) -> None:
-    """Marks the modules of ``SERIAL_MODULES`` ``serial`` (skipped on a pytest-xdist worker)
-    and those of ``PY312_MODULES`` ``py312``; leaves out the tests marked ``long`` unless
-    ``--long`` is given."""
+    """Marks the modules of ``SERIAL_MODULES`` ``serial`` (skipped on a pytest-xdist worker),
+    those of ``PY312_MODULES`` ``py312`` and what ``QUICK`` names ``quick``; leaves out the
+    tests marked ``long`` unless ``--long`` is given."""
     in_repo = (REPO / "tests" / "conftest.py").resolve() == Path(__file__).resolve()
-    stale = [m for m in SERIAL_MODULES + PY312_MODULES if not (REPO / m).is_file()]
+    quick_files = {e.split("::", 1)[0] for entries in QUICK.values() for e in entries}
+    stale = [m for m in (*SERIAL_MODULES, *PY312_MODULES, *quick_files) if not (REPO / m).is_file()]
     if in_repo and stale:  # (not when a test copies this file elsewhere to run pytest there)
         raise pytest.UsageError(f"tests/conftest.py names test modules that do not exist: {stale}")
     # pytest's defaults (pyproject.toml) spread a run over the cores; a serial test there
@@ -208,6 +293,8 @@ def pytest_collection_modifyitems(config, items) -> None:
                 item.add_marker(pytest.mark.skip(reason=SERIAL_SKIP))
         if module in PY312_MODULES:
             item.add_marker(pytest.mark.py312)
+        if _is_quick(module, getattr(item, "originalname", item.name)):
+            item.add_marker(pytest.mark.quick)
         if item.get_closest_marker("long") and not config.getoption("--long"):
             long_left_out.append(item)
         else:
