@@ -130,6 +130,9 @@ def _scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: bool) -
         and Path(run.get("policy", "")).resolve() == ckpt.resolve()
         and run.get("num_episodes") == args.eval_episodes
         and run.get("seed") == args.eval_seed
+        # the same evaluation level: nominal, train (the task's section) or hard (widened)
+        and bool(run.get("randomize")) == (args.eval_randomize != "nominal")
+        and (run.get("randomization") is None) == (args.eval_randomize != "hard")
         and (not both or "unconstrained" in info)
     )
 
@@ -167,6 +170,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="recording seed")
     p.add_argument(
         "--inject_noise", action="store_true", help="record with the scripted plan's waypoint noise"
+    )
+    p.add_argument(
+        "--randomize",
+        default=None,
+        choices=("train", "hard"),
+        help="record (and record the static frames) with each episode's scene randomized at "
+        "this level (record --randomize LEVEL: lights, table, colours, friction, masses, "
+        "damping, camera poses, the arms' start)",
     )
     p.add_argument("--cam_names", default="none")
     p.add_argument("--image_size", default="96x128")
@@ -272,6 +283,12 @@ def build_parser() -> argparse.ArgumentParser:
         "insertion, 0 for the transfer)",
     )
     p.add_argument(
+        "--augment",
+        action="store_true",
+        help="with --pose_encoder: train the encoder on frames with the light, the camera's "
+        "exposure and white balance changed and the image shifted by up to 2 pixels",
+    )
+    p.add_argument(
         "--train_arg",
         action="append",
         default=[],
@@ -281,6 +298,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eval_episodes", type=int, default=50)
     p.add_argument("--eval_workers", type=int, default=2)
     p.add_argument("--eval_seed", type=int, default=0)
+    p.add_argument(
+        "--eval_randomize",
+        default="nominal",
+        choices=("nominal", "train", "hard"),
+        help="the evaluation level (eval --randomize LEVEL; default nominal: the model's "
+        "scene); benchmarks/robustness.py scores a checkpoint at every level",
+    )
     p.add_argument(
         "--controller_checks",
         choices=("both", "on", "off"),
@@ -319,6 +343,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
             "--pose_encoder), or leave it out"
         )
     args.static_frames = args.static_frames or 0
+    if args.augment and not args.pose_encoder:
+        fail(
+            "--augment changes the pose encoder's training frames: use it with --recipe "
+            "camera_pose (or --pose_encoder), or leave it out"
+        )
     problem = camera_settings_error(args.cam_names, args.image_size, args.crop, args.pose_encoder)
     if problem:
         fail(problem)
@@ -403,6 +432,7 @@ def main(argv: list[str] | None = None) -> None:
                             "--skip_failed",
                         ]
                         + (["--inject_noise"] if args.inject_noise else [])
+                        + (["--randomize", args.randomize] if args.randomize else [])
                         + crop,
                         work / "record.log",
                     )
@@ -472,7 +502,16 @@ def main(argv: list[str] | None = None) -> None:
                 [
                     (
                         "pose encoder",
-                        encode_job(python, dataset, data, derived, cores(), args.seed, static),
+                        encode_job(
+                            python,
+                            dataset,
+                            data,
+                            derived,
+                            cores(),
+                            args.seed,
+                            static,
+                            augment=args.augment,
+                        ),
                         work / "encode.log",
                     )
                 ],
@@ -561,6 +600,8 @@ def main(argv: list[str] | None = None) -> None:
                             "--overwrite",
                             "--controller_checks",
                             args.controller_checks,
+                            "--randomize",
+                            args.eval_randomize,
                         ]
                         + (length if args.eval_episode_length else []),
                         work / f"eval_seed_{seed}.log",

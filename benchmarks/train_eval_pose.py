@@ -44,21 +44,26 @@ def encode_job(
     threads: int,
     seed: int,
     static: Path | None = None,
+    augment: bool = False,
 ) -> list[str]:
     """The command that derives ``out`` from ``dataset`` and its ``episodes`` (and the
-    ``static`` episodes' first frames)."""
-    return [
-        python,
-        "-m",
-        "trossen_arm_mujoco.train.pose_dataset",
-        str(dataset),
-        str(episodes),
-        str(out),
-        "--threads",
-        str(threads),
-        "--seed",
-        str(seed),
-    ] + (["--static_episodes", str(static)] if static else [])
+    ``static`` episodes' first frames; ``augment``: the encoder's training images changed)."""
+    return (
+        [
+            python,
+            "-m",
+            "trossen_arm_mujoco.train.pose_dataset",
+            str(dataset),
+            str(episodes),
+            str(out),
+            "--threads",
+            str(threads),
+            "--seed",
+            str(seed),
+        ]
+        + (["--static_episodes", str(static)] if static else [])
+        + (["--augment"] if augment else [])
+    )
 
 
 def static_folder(work: Path) -> Path:
@@ -95,6 +100,7 @@ def static_job(cli: list[str], args: Any, folder: Path) -> list[str]:
             "--num_workers",
             "2",
         ]
+        + (["--randomize", args.randomize] if getattr(args, "randomize", None) else [])
         + crop
     )
 

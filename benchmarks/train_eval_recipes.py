@@ -74,11 +74,25 @@ RECIPES: dict[str, dict] = {
         "pose_encoder": True,
         "steps": 7000,
     },
+    # camera_pose on episodes whose scenes are randomized at the train level (lights, table,
+    # colours, physics, camera poses, the arms' start) and an encoder trained on augmented
+    # frames: the recipe for scenes that are not the model's
+    "camera_pose_robust": {
+        "episodes": 200,
+        "inject_noise": True,
+        "cam_names": "cam_high",
+        "image_size": "60x80",
+        "fps": 30,
+        "pose_encoder": True,
+        "randomize": "train",
+        "augment": True,
+        "steps": 7000,
+    },
 }
 
 
 #: The recipes that look at a crop of ``cam_high`` around the task's objects.
-CROPPED = ("camera", "camera_pose")
+CROPPED = ("camera", "camera_pose", "camera_pose_robust")
 
 
 def task_camera_facts(recipe: str, task: str) -> tuple[str | None, int, str | None]:

@@ -62,6 +62,8 @@ def results(path: Path) -> dict:
         out["unconstrained"] = info["unconstrained"]["aggregated"]
     run = info.get("run") or {}
     out["scored_on"] = {k: run.get(k) for k in ("task", "num_episodes", "seed", "episode_length")}
+    if run.get("randomize"):  # scenes randomized: at which level (nominal runs say nothing)
+        out["scored_on"].update(randomize=True, randomization=run.get("randomization"))
     if "timing" in info:
         out["timing"] = {
             k: info["timing"].get(k)

@@ -673,12 +673,14 @@ def test_the_spread_over_every_run_pools_only_runs_trained_and_scored_alike(tmp_
         "6": run(90.0),
         "7": run(70.0, steps=2000),  # another recipe
         "8": {**run(60.0), "scored_on": {**scored, "seed": 1}},  # other episodes
+        "10": {**run(40.0), "scored_on": {**scored, "randomize": True, "randomization": None}},
         "9": {"train": {"cpu_s": 1.0}, "trained_with": made},  # trained, not scored
         "4": {k: v for k, v in run(50.0).items() if k != "trained_with"},  # an older summary
     }
     assert set(rep.alike(runs, ["6"])) == {"5", "6"}
     assert set(rep.alike(runs, ["6", "9"])) == {"5", "6"}
     assert set(rep.alike(runs, ["8"])) == {"8"}
+    assert set(rep.alike(runs, ["10"])) == {"10"}  # scored on randomized scenes
     assert rep.alike(runs, ["6", "7"]) == {}  # this call's runs differ among themselves
     assert rep.alike(runs, ["4"]) == {} and rep.alike(runs, ["9"]) == {}
     spread = rep.report(rep.alike(runs, ["6"]), "every alike run", each=False)
@@ -687,3 +689,22 @@ def test_the_spread_over_every_run_pools_only_runs_trained_and_scored_alike(tmp_
     out = capsys.readouterr().out
     assert out.startswith("over 2 training runs (every alike run): mean 85.0%, worst 80.0%")
     assert "training seed" not in out
+
+
+def test_the_robust_recipe_records_randomized_scenes_and_augments_the_encoder():
+    bench = _recipe_module("train_eval")
+    args = bench.parse_args(["--recipe", "camera_pose_robust"])
+    assert args.randomize == "train" and args.augment and args.pose_encoder
+    assert args.crop == "cam_high:217,243,150,200" and args.eval_randomize == "nominal"
+    pose = _recipe_module("train_eval_pose")
+    static = pose.static_job(["trossen-mujoco"], args, Path("static"))
+    assert static[static.index("--randomize") + 1] == "train"
+    job = pose.encode_job("py", Path("d"), Path("e"), Path("o"), 2, 0, augment=True)
+    assert job[-1] == "--augment"
+
+
+def test_augment_without_the_pose_encoder_is_one_line(tmp_path):
+    run = _bench_without_lerobot(tmp_path / "w", "--augment")
+    assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--augment changes the pose encoder's" in lines[0], lines

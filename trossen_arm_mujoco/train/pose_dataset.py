@@ -228,6 +228,7 @@ def derive_dataset(
     overwrite: bool = False,
     keep_images: bool = False,
     static_episodes: str | Path | None = None,
+    augment: bool = False,
     progress: Any = print,
 ) -> dict[str, Any]:
     """Train the encoder on ``episodes``' frames of ``camera`` (the dataset's only camera
@@ -235,7 +236,8 @@ def derive_dataset(
     ``keep_images``; returns the encoder's report (errors in mm on held-out episodes, CPU and
     wall seconds). ``static_episodes``: a folder of short episodes of the same task and camera
     settings whose first frames (the arms at home, the objects sampled) the encoder also
-    trains on (``pose_encoder.train_encoder``'s ``static``)."""
+    trains on (``pose_encoder.train_encoder``'s ``static``); ``augment``: train on frames with
+    the light, colour and place changed (``pose_encoder.augment_batch``)."""
     from trossen_arm_mujoco.export.lerobot_output import build_folder, check_output, publish
 
     dataset, episodes = Path(dataset).expanduser(), Path(episodes).expanduser()
@@ -268,6 +270,7 @@ def derive_dataset(
         epochs=epochs,
         threads=threads,
         static=static,
+        augment=augment,
         progress=progress,
     )
     from trossen_arm_mujoco.train.pose_encoder import predict
@@ -305,6 +308,12 @@ def main(argv: list[str] | None = None) -> int:
         "frames, the scene at its start, the encoder also trains on",
     )
     p.add_argument(
+        "--augment",
+        action="store_true",
+        help="train the encoder on frames with the light, the camera's exposure and "
+        "white balance changed and the image shifted by up to 2 pixels",
+    )
+    p.add_argument(
         "--keep_images",
         action="store_true",
         help="keep the camera videos in the copy (a policy trained on the "
@@ -322,6 +331,7 @@ def main(argv: list[str] | None = None) -> int:
         overwrite=args.overwrite,
         keep_images=args.keep_images,
         static_episodes=args.static_episodes,
+        augment=args.augment,
     )
     print(
         f"pose encoder on held-out episodes: start x/y error {report['start_xy_mm']:.1f} mm "

@@ -1,0 +1,4 @@
+"""Scripted policies: the waypoint machinery (``policies.scripted``) and one module per task
+that has scripted demonstrations."""
+
+__all__: list[str] = []
