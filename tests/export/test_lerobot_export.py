@@ -375,7 +375,7 @@ def test_missing_dependency_names_the_extra(tmp_path, capsys, monkeypatch, make_
     rc, _, err = run(capsys, tmp_path / "eps", tmp_path / "ds")
     assert rc == 2 and err.count("\n") == 1
     assert f"needs the '{module}' package" in err
-    assert 'pip install "trossen_arm_mujoco[lerobot]"' in err
+    assert 'pip install ".[lerobot]" in the trossen_arm_mujoco checkout' in err
     assert not (tmp_path / "ds").exists()
 
 

@@ -10,7 +10,7 @@ from trossen_arm_mujoco.errors import UserError
 __all__ = ["LEROBOT_INSTALL_HINT", "require"]
 
 #: How to install what the LeRobot export needs.
-LEROBOT_INSTALL_HINT = 'pip install "trossen_arm_mujoco[lerobot]"'
+LEROBOT_INSTALL_HINT = 'pip install ".[lerobot]" in the trossen_arm_mujoco checkout'
 
 
 def require(module: str, package: str | None = None) -> ModuleType:
