@@ -173,11 +173,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--randomize",
-        default=None,
-        choices=("train", "hard"),
-        help="record (and record the static frames) with each episode's scene randomized at "
-        "this level (record --randomize LEVEL: lights, table, colours, friction, masses, "
-        "damping, camera poses, the arms' start)",
+        action="store_true",
+        help="record (and record the static frames) with each episode's scene randomized by "
+        "the task's randomization section (record --randomize: lights, table, colours, "
+        "friction, masses, damping, camera poses, the arms' start)",
     )
     p.add_argument("--cam_names", default="none")
     p.add_argument("--image_size", default="96x128")
@@ -432,7 +431,7 @@ def main(argv: list[str] | None = None) -> None:
                             "--skip_failed",
                         ]
                         + (["--inject_noise"] if args.inject_noise else [])
-                        + (["--randomize", args.randomize] if args.randomize else [])
+                        + (["--randomize"] if args.randomize else [])
                         + crop,
                         work / "record.log",
                     )

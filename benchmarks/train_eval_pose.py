@@ -100,7 +100,7 @@ def static_job(cli: list[str], args: Any, folder: Path) -> list[str]:
             "--num_workers",
             "2",
         ]
-        + (["--randomize", args.randomize] if getattr(args, "randomize", None) else [])
+        + (["--randomize"] if getattr(args, "randomize", False) else [])
         + crop
     )
 

@@ -84,7 +84,7 @@ RECIPES: dict[str, dict] = {
         "image_size": "60x80",
         "fps": 30,
         "pose_encoder": True,
-        "randomize": "train",
+        "randomize": True,
         "augment": True,
         "steps": 7000,
     },
