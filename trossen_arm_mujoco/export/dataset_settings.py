@@ -1,20 +1,13 @@
 """What a dataset was made with, carried by the dataset and by every checkpoint trained on it.
 
-``trossen-mujoco export`` writes :class:`DatasetSettings` into the dataset's
-``meta/info.json`` under the key :data:`INFO_KEY`: the task, the rate (``fps``), the joint
-layout, the cameras, their image size and crops (``record --crop``; one
-``sim.camera_settings.CameraSettings``). LeRobot keeps unknown keys of ``info.json``, so the
-dataset carries them wherever it goes.
+``trossen-mujoco export`` writes :class:`DatasetSettings` (task, ``fps``, joint layout,
+cameras, image size, crops) into ``meta/info.json`` under :data:`INFO_KEY`. A checkpoint
+finds them (:func:`checkpoint_settings`) in its own folder first (:data:`CHECKPOINT_FILE`,
+:func:`write_checkpoint_settings`), else through the ``train_config.json`` saved beside the
+weights (its ``dataset.root``'s ``meta/info.json``). Readers take their defaults from them;
+:func:`reconcile` refuses a flag that contradicts them and accepts one that repeats them.
 
-A checkpoint finds them (:func:`checkpoint_settings`) in its own folder first
-(:data:`CHECKPOINT_FILE`, written by :func:`write_checkpoint_settings`, e.g. by
-``benchmarks/train_eval.py`` once training ends, so the checkpoint stays self-contained when
-it is copied to another machine), else through the ``train_config.json`` ``lerobot-train``
-saves beside the weights: its ``dataset.root``'s ``meta/info.json``.
-
-Readers (``eval`` on both backends, the LeRobot env plugin, ``train_eval``) take their
-defaults from them; :func:`reconcile` refuses, in one line, a flag that contradicts them and
-accepts one that repeats them.
+Docs: docs/datasets.md (the LeRobot export), docs/train-eval.md.
 """
 
 from __future__ import annotations
@@ -167,14 +160,23 @@ def checkpoint_settings(folder: str | Path) -> tuple[DatasetSettings | None, str
 def reconcile(
     settings: DatasetSettings | None, source: str, flags: Mapping[str, Any]
 ) -> dict[str, Any]:
-    """Check command-line ``flags`` (name -> value given, None when not given) against
-    ``settings``: a flag that contradicts them is a one-line UserError naming the flag, the
-    value the checkpoint was trained with and ``source``; returns the settings' value for
-    every flag (the flag's own where there are no settings).
+    """Check command-line ``flags`` against a dataset's ``settings``.
 
-    Flag names: ``fps``, ``layout``, ``task`` and the camera flags as
-    ``sim.camera_settings.camera_flags`` parses them: ``cam_names`` (tuple), ``image_size``
-    ((H, W)), ``crops`` (tuple of ``CameraCrop``).
+    Args:
+        settings: what the dataset or checkpoint was made with; None: no settings (every
+            flag's own value is returned).
+        source: where the settings came from (a path), named in the error.
+        flags: flag name -> value given (None when not given). Names: ``fps``, ``layout``,
+            ``task`` and the camera flags as ``sim.camera_settings.camera_flags`` parses
+            them: ``cam_names`` (tuple), ``image_size`` ((H, W) pixels), ``crops`` (tuple
+            of ``CameraCrop``).
+
+    Returns:
+        The settings' value for every flag (the flag's own where there are no settings).
+
+    Raises:
+        UserError: a flag that contradicts the settings (one line naming the flag, the
+            value the checkpoint was trained with and ``source``).
     """
     if settings is None:
         return dict(flags)

@@ -1,29 +1,15 @@
 """Joint efforts of recorded kit episodes, derived with MuJoCo's actuator model.
 
-The HDF5 episodes hold joint positions, velocities and targets (``qpos``, ``qvel``,
-``action``), not forces. The effort of each joint at step ``t`` is what the simulation's
-actuators apply at the recorded state: ``qfrc_actuator`` of the kit's joint scene with
-``qpos[t]``, ``qvel[t]`` and the control in effect then, the previous step's target
-``action[t - 1]`` (at ``t = 0`` the joints themselves: the recorder starts holding still).
-That is each position servo's ``kp (target - q) - kv qdot`` within its force range, plus the
-gravity compensation the arms' actuators carry (``actuatorgravcomp``): the motor's total
-effort, as the real arm reports it (gravity, friction and load included; Nm for the arm
-joints, N for the gripper carriages).
+The HDF5 episodes hold positions, velocities and targets, not forces. :func:`derived_efforts`
+gives each joint's total motor effort at step ``t`` (``qfrc_actuator`` of the kit's joint
+scene at ``qpos[t]``, ``qvel[t]`` under the previous target ``action[t - 1]``: servo force
+plus gravity compensation, as the real arm reports it). :func:`derived_external_efforts`
+gives what the arms' own model cannot explain (contacts with objects, the table, the other
+arm): ``M(q_t) (qvel[t] - predicted) / dt``, zero at ``t = 0`` and in free motion. Both are
+``(T, 16)`` in the files' layout: Nm for the arm joints, N for the gripper carriages.
 
-It equals the recorded simulation's own actuator force wherever the arm controller had
-reached the step's target (the joint speed limits let it within one step, as for the
-scripted policies' motions); a target it was still approaching, or held up by the safety
-floor, gives the force toward the target instead.
-
-External efforts (:func:`derived_external_efforts`, the plugin's ``.ext_eff``: the effort
-applied from outside the arm, after its own dynamics are accounted for) are what the arms'
-own model cannot explain: from each recorded state ``t - 1`` the kit's joint scene (the two
-arms, no task objects) is stepped for one recording period under the control then in effect,
-``action[t - 1]``, and the velocity it reaches is compared with the recorded ``qvel[t]``:
-``M(q_t) (qvel[t] - predicted) / dt``, the average generalized force over the period that the
-world outside the arm model applied (contacts with the objects, the table, the other arm).
-It is zero at ``t = 0`` and, within float32 rounding, wherever an arm moves in free space;
-a grasped or pushed object shows on the joints that carry it.
+Docs: docs/cli/export.md (joint velocities and efforts); details:
+docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -62,10 +48,18 @@ def _kit() -> tuple[mujoco.MjModel, np.ndarray, np.ndarray, dict[str, tuple]]:
 
 
 def derived_efforts(qpos: np.ndarray, qvel: np.ndarray, action: np.ndarray) -> np.ndarray:
-    """Joint efforts ``(T, 16)`` (Nm; N for the finger joints) of an episode's ``(T, 16)``
-    qpos (rad / m), qvel (rad/s / m/s) and action (targets), in the files' 16-value layout;
-    see the module docstring. The coupled finger's value is its share of the gripper force
-    (0 where only gravity compensation acts on it)."""
+    """Joint efforts of an episode, in the files' 16-value layout (module docstring).
+
+    Args:
+        qpos: ``(T, 16)`` recorded joint positions (rad; m for the finger joints).
+        qvel: ``(T, 16)`` recorded joint velocities (rad/s; m/s).
+        action: ``(T, 16)`` recorded joint targets (rad; m); row ``t - 1`` is the control in
+            effect at step ``t``.
+
+    Returns:
+        ``(T, 16)`` efforts (Nm; N for the finger joints). The coupled finger's value is its
+        share of the gripper force (0 where only gravity compensation acts on it).
+    """
     model, qpos_idx, dof_idx, groups = _kit()
     data = mujoco.MjData(model)
     qpos, qvel, action = (np.asarray(a, dtype=np.float64) for a in (qpos, qvel, action))
@@ -82,10 +76,18 @@ def derived_efforts(qpos: np.ndarray, qvel: np.ndarray, action: np.ndarray) -> n
 def derived_external_efforts(
     qpos: np.ndarray, qvel: np.ndarray, action: np.ndarray, dt: float
 ) -> np.ndarray:
-    """External joint efforts ``(T, 16)`` (Nm; N for the finger joints) of an episode's
-    ``(T, 16)`` qpos, qvel and action recorded every ``dt`` seconds, in the files' 16-value
-    layout: the generalized force the arms' own model does not explain (module docstring);
-    row 0 is zero."""
+    """External joint efforts of an episode: the generalized force the arms' own model does
+    not explain (module docstring), in the files' 16-value layout.
+
+    Args:
+        qpos: ``(T, 16)`` recorded joint positions (rad; m for the finger joints).
+        qvel: ``(T, 16)`` recorded joint velocities (rad/s; m/s).
+        action: ``(T, 16)`` recorded joint targets (rad; m).
+        dt: the recording period (s).
+
+    Returns:
+        ``(T, 16)`` external efforts (Nm; N for the finger joints); row 0 is zero.
+    """
     model, qpos_idx, dof_idx, groups = _kit()
     data = mujoco.MjData(model)
     qpos, qvel, action = (np.asarray(a, dtype=np.float64) for a in (qpos, qvel, action))

@@ -1,60 +1,15 @@
 """HDF5 episodes -> a LeRobot v3.0 dataset (layout in :mod:`.lerobot_format`).
 
-By default the dataset is what ``lerobot-record`` writes with Trossen's LeRobot plugin
-robot of the layout, and nothing else: ``robot_type`` the plugin's name
-(``bi_widowxai_follower_robot`` for the kit, ``mobileai_robot``, ``widowxai_follower_robot``
-for one arm), 30 frames per second (the plugin's ``loop_rate``), the features ``action``,
-``observation.state`` and ``observation.images.<camera>`` with the plugin's names and order.
-Per written frame ``k``:
+By default the dataset is what ``lerobot-record`` writes with Trossen's LeRobot plugin robot
+of the layout: its ``robot_type``, 30 frames per second, the features ``action``,
+``observation.state`` and ``observation.images.<camera>`` with the plugin's names and order
+(joints in rad, gripper carriages in m); ``sim_features`` adds the simulation's own. Frames
+are resampled from the recording rate by the rule of :mod:`.lerobot_plan`. The export is
+atomic: every episode is validated first, the dataset is built in ``.<output name>.tmp`` and
+renamed onto ``output`` only when complete; an error or a signal leaves ``output`` as it was.
 
-- ``action``: the joint targets, float32 in the chosen layout: ``kit14`` (default), the
-  real kit's 14 values as the plugin for the kit names them, ``left_joint_0.pos`` ..
-  ``left_joint_5.pos``, ``left_left_carriage_joint.pos``, then ``right_...`` (rad; the
-  carriage, the gripper, in m; the coupled second finger dropped); ``mobileai``, those 14
-  then the base's ``x.vel``, ``theta.vel`` (by default the measured base velocity of the
-  frame, as the plugin records it; ``base_action="commanded"``: the recorded command);
-  ``widowxai``, one arm's 7; or ``vendor16``, the HDF5 files' 16 values and names. The
-  action's grippers are as the arm controller executes them, at most 0.04 m
-  (:func:`controller_actions`).
-- ``observation.state``: qpos in the same layout. With ``include_velocity`` /
-  ``include_effort`` / ``include_external_effort`` it also holds each joint's ``.vel`` /
-  ``.eff`` / ``.ext_eff`` values after each arm's positions, as the plugin names them
-  (:mod:`.lerobot_state`; efforts derived with MuJoCo, :mod:`.joint_efforts`).
-- ``observation.images.<camera>``: the camera image, as a frame of the camera's mp4.
-- ``task``: the task's description from the registry (or ``task=``).
-
-With ``sim_features`` the simulation's additions follow (no real robot gives them):
-
-- ``observation.velocity``: qvel in the layout (names ``<joint>.vel``);
-- ``observation.environment_state``: the episode's env_state, 7 values per object (xyz m,
-  quat wxyz) named ``<object>_x`` .. ``<object>_qz``; left out for files without it
-  (vendor recordings);
-- ``next.reward``: the task reward after the frame's action; ``next.success``: whether the
-  task judges it a success then (reward reaches the task's maximum). Left out for files
-  without rewards (vendor recordings).
-
-At the recording rate F frame ``k`` is source step ``k``. At a lower ``fps`` N (the default
-30 below the recorder's 50) frame ``k`` is at ``t_k = k / N``: state, velocity and
-environment_state are the source linearly interpolated at ``t_k`` (quaternions renormalised);
-images are the source frame nearest ``t_k``; the action is the source action trajectory
-interpolated at ``t_k + 1/N - dt`` (action ``j`` being the target for the end of step ``j``,
-holding it for ``1/N`` s reaches where the source was at ``t_{k+1}``); reward and success are
-those of the source step whose period contains ``t_{k+1}``. An episode of ``T`` steps gives
-``floor(T dt N)`` frames: later ones would need an action past the episode's end. The exact
-rule is in :mod:`.lerobot_plan`.
-
-An output it cannot write (a file or a broken link in the way, a non-empty folder, a
-read-only or unwritable parent) stops the export with one line before any episode is read.
-Every episode file is validated before anything is written; the dataset is built in a
-hidden sibling folder, ``.<output name>.tmp``, and renamed onto ``output`` only when
-complete. An error, Ctrl-C or SIGTERM removes the build folder and leaves ``output`` as it
-was; the build folder is locked while in use, so the next export removes one that a killed
-run (SIGKILL) left behind, and refuses to start while another export builds the same
-dataset. A file system that refuses the writes (full, read-only) is a one-line UserError.
-
-The parts: which episodes and source values (``lerobot_plan``), the values of each frame
-(``lerobot_frames``: ``frame_values``, ``controller_actions``, importable from here too), the
-folder (``lerobot_output``), the files (``lerobot_writer``, ``lerobot_format``).
+Docs: docs/datasets.md (The LeRobot export), docs/cli/export.md; design notes:
+docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

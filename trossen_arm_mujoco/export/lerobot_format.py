@@ -1,28 +1,15 @@
 """The LeRobot v3.0 dataset layout, defined once: paths, feature specs, ``meta/`` files.
 
-A dataset folder holds::
+A dataset folder holds ``meta/info.json``, ``meta/stats.json``, ``meta/tasks.parquet``,
+``meta/episodes/chunk-000/file-000.parquet`` (one row per episode),
+``data/chunk-CCC/file-FFF.parquet`` (one row per frame, one row group per episode) and
+``videos/<video_key>/chunk-CCC/file-FFF.mp4`` (per camera, the episodes one after the other).
+Vector features are fixed-size lists of float32; features of shape (1,) are plain columns.
+Joint vectors are in a layout of ``robot.layout.EXPORT_LAYOUTS``; ``robot_type`` is the
+plugin's robot of the layout (:data:`ROBOT_TYPES`). Files grow up to a size limit (100 MB
+data, 200 MB video), then the next starts; ``chunks_size`` files make a chunk folder.
 
-    meta/info.json                                   codebase_version "v3.0", fps, features,
-                                                     totals, file size limits, path templates
-    meta/stats.json                                  per feature: min max mean std count q01..q99
-    meta/tasks.parquet                               task (the index, a string) -> task_index
-    meta/episodes/chunk-000/file-000.parquet         one row per episode: length, tasks, the
-                                                     data and video files holding it, its
-                                                     from/to timestamps in each video, stats
-    data/chunk-CCC/file-FFF.parquet                  one row per frame, one row group per episode
-    videos/<video_key>/chunk-CCC/file-FFF.mp4        per camera: the episodes one after the other
-
-Vector features are fixed-size lists of float32, features of shape (1,) are plain columns.
-Joint vectors are written in a layout of ``robot.layout.EXPORT_LAYOUTS``: ``kit14`` (the real kit's
-14 values, ``left_joint_0.pos`` .. ``right_left_carriage_joint.pos``, as Trossen's LeRobot
-plugin for the kit), ``mobileai`` (the Mobile AI's 16), ``widowxai`` (one arm's 7) or
-``vendor16`` (the HDF5 files' 16 values). The features are, in the order ``lerobot-record``
-writes them: ``action``, ``observation.state``, the cameras, then with ``sim_features`` the
-simulation's additions (``observation.velocity``, ``observation.environment_state``,
-``next.reward``, ``next.success``), then the index columns. ``robot_type`` is the plugin's
-robot of the layout (:data:`ROBOT_TYPES`).
-Files grow up to a size limit (100 MB data, 200 MB video) and then the next file starts;
-``chunks_size`` files make a chunk folder.
+Docs: docs/datasets.md (The LeRobot export); the file tree: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -215,8 +202,20 @@ def build_info(
     total_tasks: int,
     layout: str = "kit14",
 ) -> dict[str, Any]:
-    """The content of ``meta/info.json`` (``robot_type`` the plugin's robot of the
-    ``layout``, :data:`ROBOT_TYPES`)."""
+    """The content of ``meta/info.json``.
+
+    Args:
+        features: feature key -> spec (``dtype``, ``shape``, ``names``), as :func:`build_features`
+            builds them.
+        fps: frames per second written.
+        total_episodes: number of episodes.
+        total_frames: number of frames, all episodes together.
+        total_tasks: number of distinct task descriptions.
+        layout: the joint layout; ``robot_type`` is its plugin robot (:data:`ROBOT_TYPES`).
+
+    Returns:
+        The JSON-ready dict.
+    """
     has_video = any(ft["dtype"] == "video" for ft in features.values())
     return {
         "codebase_version": CODEBASE_VERSION,

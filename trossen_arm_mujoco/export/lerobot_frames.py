@@ -42,6 +42,16 @@ def frame_values(
 ) -> dict[str, np.ndarray]:
     """What an export writes for ``episode`` per frame, before any encoding.
 
+    Args:
+        episode: the HDF5 episode, read.
+        layout: the joint layout written (None: the one that fits the episode,
+            ``lerobot_plan.resolve_layout``).
+        fps: the rate written (None: the export's default, ``lerobot_plan.output_fps``).
+        extras: per-joint values added to the state (``"vel"``, ``"eff"``, ``"ext_eff"``;
+            ``lerobot_state.state_names``).
+        base_action: the Mobile AI's base action, ``measured`` or ``commanded`` (None:
+            ``measured``).
+
     Returns:
         ``observation.state``, ``action``: float32 ``(K, D)`` in ``layout``; the simulation's
         additions (written with ``sim_features``): ``observation.velocity`` float32
@@ -115,8 +125,18 @@ def _values(
 def frame_columns(
     ep: Episode, plan: ExportPlan, i: int, first_index: int
 ) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Per-frame values of episode ``i`` for every non-video feature, and the source step
-    of each frame's images."""
+    """Per-frame values of one episode for every non-video feature.
+
+    Args:
+        ep: the episode.
+        plan: the checked export (:func:`~.lerobot_plan.plan_export`).
+        i: the episode's index in the dataset.
+        first_index: the dataset-wide ``index`` of the episode's first frame.
+
+    Returns:
+        Feature key -> ``(K, ...)`` column, and the source step of each frame's images
+        (int ``(K,)``).
+    """
     frames = frame_map(ep.num_steps, plan.source_fps, plan.fps)
     cols = _values(ep, plan.layout, frames, plan.state_extras, plan.base_action)
     image_index = cols.pop("image_index")

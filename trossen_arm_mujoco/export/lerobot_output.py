@@ -124,7 +124,13 @@ def recover_old(output: Path) -> None:
 
 
 def kept_note(output: Path, existing: bool, published: bool) -> str:
-    """What an interrupted export kept, for the one line of ``run_cli``."""
+    """What an interrupted export kept, for the one line of ``run_cli``.
+
+    Args:
+        output: the dataset folder asked for.
+        existing: whether a dataset was in ``output`` before the export.
+        published: whether the finished dataset had already been moved onto ``output``.
+    """
     if published:
         return f"the export had finished: the dataset is complete in {output}"
     if existing:

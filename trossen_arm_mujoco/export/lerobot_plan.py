@@ -1,37 +1,15 @@
 """Which episodes a LeRobot export holds and which source values make each written frame,
 checked before anything is written.
 
-All episodes must share the frame rate (a whole number of frames per second), the cameras
-and their image sizes, the objects of ``env_state``, and either all have rewards or none
-(vendor recordings). Each gets a task description (the registry's, or the one given) and,
-when it has rewards, the task's maximum reward, which marks success.
+All episodes must share the frame rate, the cameras and their image sizes, the objects of
+``env_state``, and either all have rewards or none (vendor recordings). The rate written is
+``fps`` N (default :data:`DEFAULT_FPS`, 30, or the recording rate F when lower). Frame ``k``
+is at ``t_k = k / N``: observations are the source interpolated at ``t_k``, images the
+nearest source frame, the action the source action trajectory at ``t_k + 1/N - 1/F``, reward
+and success those of the step whose period holds ``t_{k+1}``. ``T`` steps give
+``floor(T N / F)`` frames; at ``N = F`` every frame is its source step, bit for bit.
 
-The rate written is ``fps`` N, by default :data:`DEFAULT_FPS` (30, the control loop rate of
-Trossen's LeRobot plugin, ``loop_rate``), or the recording rate when that is lower.
-
-Resampling to ``fps`` N (at most the recording rate F = 1 / dt): source step ``j`` holds the
-observation at time ``j / F``, action ``j`` is the joint target for the end of step ``j``
-(time ``(j + 1) / F``) and reward ``j`` is judged then. Written frame ``k`` is at
-``t_k = k / N``:
-
-- state, velocity, environment_state: the source linearly interpolated at ``t_k`` (source
-  index ``s = k F / N``); the quaternion of each object is interpolated the shorter way (the
-  later one's sign flipped when the two point apart) and renormalised where interpolated;
-- images: the source frame nearest ``t_k`` (a tie takes the earlier frame);
-- action: the source action trajectory (action ``j`` placed at ``j / F``) interpolated at
-  ``t_k + 1 / N - 1 / F`` (index ``(k + 1) F / N - 1``): the target for ``t_{k+1}``, so that
-  holding it for ``1 / N`` s reaches where the source trajectory was at ``t_{k+1}``; the
-  Mobile AI's base part (``base_action`` ``measured``, the default) is the base's measured
-  velocity at ``t_k``, the state's ``x.vel``, ``theta.vel``, as ``lerobot-record`` stores it
-  (the plugin's teleoperator reports the velocity the robot has just measured), or
-  (``commanded``) the recorded command, as the arms' targets;
-- reward, success: those of source step ``ceil((k + 1) F / N) - 1``, whose period
-  ``(j / F, (j + 1) / F]`` contains the end of frame ``k``, ``t_{k+1}``.
-
-Frames whose action would lie past the source's last one are dropped: an episode of ``T``
-steps gives ``floor(T N / F)`` frames (then every value above exists). At ``N = F`` every
-frame is its source step, bit for bit. An action trajectory within speed limits stays
-within them: each written step spans ``F / N`` source steps of at most ``limit / F`` each.
+Docs: docs/datasets.md (resampling); the full rule: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -209,8 +187,16 @@ def _lerp(values: np.ndarray, index: np.ndarray, frac: np.ndarray) -> np.ndarray
 
 
 def frame_map(num_steps: int, source_fps: int, fps: int) -> FrameMap:
-    """The frames an episode of ``num_steps`` steps recorded at ``source_fps`` gives at
-    ``fps`` (``1 <= fps <= source_fps``); exact integer arithmetic throughout."""
+    """The frames an episode gives at ``fps``; exact integer arithmetic throughout.
+
+    Args:
+        num_steps: the episode's recorded steps ``T``.
+        source_fps: the recording rate F (steps per second).
+        fps: the rate written N, ``1 <= fps <= source_fps``.
+
+    Returns:
+        The :class:`FrameMap` of the ``floor(T N / F)`` frames.
+    """
     big_f, n = int(source_fps), int(fps)
     length = num_steps * n // big_f
     k = np.arange(length, dtype=np.int64)
@@ -393,12 +379,24 @@ def plan_export(
     sim_features: bool = False,
     base_action: str | None = None,
 ) -> ExportPlan:
-    """Check ``episodes`` (at least one) for export; ``task`` overrides every description,
-    ``layout`` is the joint layout written (None: the one that fits the episodes,
-    ``resolve_layout``) and ``fps`` the rate (None: :data:`DEFAULT_FPS`, or the recording
-    rate if lower); ``state_extras`` the per-joint values added to the state (``"vel"``,
-    ``"eff"``, ``"ext_eff"``; the plugin's layouts only); ``sim_features`` adds the
-    simulation's features; ``base_action`` the Mobile AI's base action (None: ``measured``).
+    """Check ``episodes`` for export and decide what each written frame holds.
+
+    Args:
+        episodes: the episodes to export, at least one, in dataset order.
+        task: a description for every episode (None: each task's from the registry).
+        layout: the joint layout written (None: the one that fits the episodes,
+            ``resolve_layout``).
+        fps: the rate written, frames per second (None: :data:`DEFAULT_FPS`, or the
+            recording rate if lower).
+        state_extras: per-joint values added to the state (``"vel"``, ``"eff"``,
+            ``"ext_eff"``; the plugin's layouts only).
+        sim_features: add the simulation's features (velocity, environment state, reward,
+            success).
+        base_action: the Mobile AI's base action, ``measured`` or ``commanded`` (None:
+            ``measured``).
+
+    Returns:
+        The :class:`ExportPlan`.
 
     Raises:
         UserError: mixed rates, cameras, rewards, objects or layouts; no task to describe an

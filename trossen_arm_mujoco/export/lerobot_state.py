@@ -1,21 +1,14 @@
 """``observation.state`` with joint velocities and efforts, as Trossen's LeRobot plugin has them.
 
-The plugin's WidowX AI follower (``widowxai_follower_robot``) adds, with
-``include_velocity`` / ``include_effort`` / ``include_external_effort``, one ``<joint>.vel``
-/ ``<joint>.eff`` / ``<joint>.ext_eff`` value per joint after its ``<joint>.pos`` values;
-LeRobot gathers every such value of a robot into ``observation.state``, in the robot's
-order. The kit (``bi_widowxai_follower_robot``) is the left follower's values with a
-``left_`` prefix, then the right's; the Mobile AI (``mobileai_robot``) is the kit's, then the
-base's ``x.vel``, ``theta.vel``. So the kit with velocity and effort has 42 values::
+With ``include_velocity`` / ``include_effort`` / ``include_external_effort`` the plugin adds
+one ``<joint>.vel`` (rad/s; m/s) / ``<joint>.eff`` (Nm; N) / ``<joint>.ext_eff`` value per
+joint after each arm's ``<joint>.pos`` values: the kit is the left follower's values with a
+``left_`` prefix, then the right's (42 values with velocity and effort); the Mobile AI adds
+the base's ``x.vel``, ``theta.vel``. Velocities are the recorded ``qvel``; efforts are
+derived with MuJoCo (:mod:`.joint_efforts`). Only the plugin's layouts (``widowxai``,
+``kit14``, ``mobileai``) have these names. The action keeps the positions.
 
-    left_joint_0.pos .. left_left_carriage_joint.pos,     (rad; the carriage m)
-    left_joint_0.vel .. left_left_carriage_joint.vel,     (rad/s; m/s)
-    left_joint_0.eff .. left_left_carriage_joint.eff,     (Nm; N)
-    right_joint_0.pos .. right_left_carriage_joint.eff
-
-Velocities are the recorded ``qvel``; efforts and external efforts are derived from the
-recording with MuJoCo (:mod:`.joint_efforts`). Only the plugin's layouts (``widowxai``,
-``kit14``, ``mobileai``) have the plugin's names. The action keeps the positions.
+Docs: docs/cli/export.md (joint velocities and efforts in the state).
 """
 
 from __future__ import annotations
@@ -62,7 +55,13 @@ def state_extras(
     include_effort: bool = False,
     include_external_effort: bool = False,
 ) -> tuple[str, ...]:
-    """The suffixes the flags add, in the plugin's order (``vel``, ``eff``, ``ext_eff``)."""
+    """The suffixes the flags add, in the plugin's order (``vel``, ``eff``, ``ext_eff``).
+
+    Args:
+        include_velocity: add each joint's ``.vel`` (rad/s; m/s).
+        include_effort: add each joint's ``.eff`` (Nm; N).
+        include_external_effort: add each joint's ``.ext_eff`` (Nm; N).
+    """
     chosen = {"vel": include_velocity, "eff": include_effort, "ext_eff": include_external_effort}
     return tuple(s for s in STATE_EXTRAS if chosen[s])
 
@@ -113,8 +112,17 @@ def _as_vendor16(layout: str, values: np.ndarray) -> np.ndarray:
 
 
 def state_source(episode: Episode, layout: str, extras: Sequence[str] = ()) -> np.ndarray:
-    """``(T, D)`` per recorded step, in :func:`state_names` order (float64): positions, and
-    the velocities and efforts ``extras`` asks for."""
+    """The state of every recorded step, in :func:`state_names` order.
+
+    Args:
+        episode: the episode.
+        layout: the joint layout (a name of ``robot.layout.EXPORT_LAYOUTS``).
+        extras: per-joint values after each arm's positions (``"vel"``, ``"eff"``,
+            ``"ext_eff"``).
+
+    Returns:
+        float64 ``(T, D)``: positions (rad; m), and the velocities and efforts asked for.
+    """
     target = EXPORT_LAYOUTS[layout]
     if layout not in EXTRA_LAYOUTS:  # vendor16: the files' own values
         return np.asarray(episode.qpos, dtype=np.float64)

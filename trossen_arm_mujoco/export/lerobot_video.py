@@ -1,19 +1,14 @@
 """Camera frames -> the mp4 files of a LeRobot dataset (PyAV).
 
 One :class:`CameraVideo` per camera appends the episodes one after the other to
-``videos/<key>/chunk-CCC/file-FFF.mp4``; each frame ``i`` of a file has the timestamp
-``i / fps`` s, so an episode's frame ``t`` is at ``from_timestamp + t / fps``. A file that
-has reached the size limit is closed and the next episode starts the next file.
+``videos/<key>/chunk-CCC/file-FFF.mp4``; frame ``i`` of a file is at ``i / fps`` s, so an
+episode's frame ``t`` is at ``from_timestamp + t / fps``. A file at the size limit is closed
+and the next episode starts the next file. The default encoding is LeRobot's own: AV1
+(libsvtav1), yuv420p, a keyframe every 2 frames, CRF 30; H.264 with yuv444p keeps full
+colour. Every call into the encoder restores the calling thread's scheduling afterwards
+(:func:`kept_scheduling`; SVT-AV1 run as root switches it to real-time).
 
-The default encoding is LeRobot's own: AV1 (libsvtav1), yuv420p, a keyframe every 2 frames,
-CRF 30. yuv420p halves the colour resolution, which costs little at 480x640 (measured
-PSNR >= 36 dB) but caps tiny images near 33 dB; H.264 with yuv444p keeps full colour.
-
-Run as root (a container, usually), SVT-AV1 switches the thread that opens and feeds it to
-real-time scheduling (``SCHED_FIFO``, priority 99; measured with PyAV 14's libsvtav1 4.1),
-and the thread would keep it after the export: every later simulation, render or training
-step of that process would then take the CPU from everything else on the machine. Each call
-into the encoder restores the thread's scheduling afterwards (:func:`kept_scheduling`).
+Docs: docs/cli/export.md; why: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -126,7 +121,13 @@ class VideoSettings:
         return opts
 
     def info(self, height: int, width: int, fps: int) -> dict[str, Any]:
-        """The ``info`` block of a video feature in info.json."""
+        """The ``info`` block of a video feature in info.json.
+
+        Args:
+            height: image height (pixels).
+            width: image width (pixels).
+            fps: frames per second of the video.
+        """
         av = require("av")
         codec = av.codec.Codec(ENCODERS[self.codec], "w").canonical_name
         info: dict[str, Any] = {

@@ -87,7 +87,17 @@ def _encode_camera(
 
 
 def write_dataset(root: Path, plan: ExportPlan, video: VideoSettings, progress: bool) -> int:
-    """Write the whole dataset into ``root``; returns the number of frames."""
+    """Write the whole dataset into ``root``.
+
+    Args:
+        root: the (empty) build folder.
+        plan: the checked export (:func:`~.lerobot_plan.plan_export`).
+        video: the video encoding.
+        progress: show a progress bar over the episodes.
+
+    Returns:
+        The number of frames written.
+    """
     infos = {cam: video.info(h, w, plan.fps) for cam, (h, w, _) in plan.image_shapes.items()}
     names = state_names(plan.layout, plan.state_extras) if plan.state_extras else None
     features = fmt.build_features(

@@ -30,6 +30,15 @@ class SimplyActuatedMoveGroup(MoveGroup):
     """One position actuator per joint: the control is the joint target (rad or m).
 
     ``joint_ids``, ``actuator_ids``, ``joint_posadr``, ``joint_veladr``: model indices.
+
+    Args:
+        model: compiled model, or an ``MjData`` to bind to at once.
+        name: group name (e.g. "left_arm").
+        joint_names: the group's joints, in command order.
+        actuator_names: one position actuator per joint, in the same order.
+
+    Raises:
+        UserError: not one actuator per joint, or a name the model lacks.
     """
 
     rate_limitable = True
@@ -65,7 +74,16 @@ class SimplyActuatedMoveGroup(MoveGroup):
 
 
 class ArmMoveGroup(MJCFFrameMixin, SimplyActuatedMoveGroup):
-    """A joint-actuated arm with a tool frame (a site, or a body with ``frame_type="body"``)."""
+    """A joint-actuated arm with a tool frame (a site, or a body with ``frame_type="body"``).
+
+    Args:
+        model: compiled model, or an ``MjData`` to bind to at once.
+        name: group name (e.g. "left_arm").
+        joint_names: the arm's joints, in command order.
+        actuator_names: one position actuator per joint, in the same order.
+        frame_site: the tool frame's name (a site, or a body).
+        frame_type: ``"site"`` or ``"body"``.
+    """
 
     def __init__(
         self, model, name, joint_names, actuator_names, frame_site: str, frame_type: str = "site"
@@ -79,6 +97,16 @@ class MocapArmGroup(MJCFFrameMixin, MoveGroup):
 
     The control is the mocap pose [x, y, z, qw, qx, qy, qz] (world frame, m); the weld pulls
     the arm's tool frame onto it. qpos/qvel are the arm's joints.
+
+    Args:
+        model: compiled model, or an ``MjData`` to bind to at once.
+        name: group name.
+        joint_names: the arm's joints.
+        mocap_body: the mocap body welded to the arm.
+        frame_site: the tool frame's site.
+
+    Raises:
+        UserError: ``mocap_body`` is not a mocap body, or a name the model lacks.
     """
 
     def __init__(self, model, name, joint_names, mocap_body: str, frame_site: str):

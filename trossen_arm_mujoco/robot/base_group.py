@@ -96,6 +96,11 @@ class ImmobileRobotBaseGroup(RobotBaseGroup):
     The body and every body above it must be free of joints and not mocap (else a
     UserError names the right base group). Its pose is read from ``data.xpos``/``xmat``:
     valid after ``mj_kinematics``.
+
+    Args:
+        model: compiled model, or an ``MjData`` to bind to at once.
+        name: group name (e.g. "base").
+        base_body: the base body's name.
     """
 
     def __init__(self, model, name: str, base_body: str):
@@ -133,6 +138,11 @@ class MocapRobotBaseGroup(RobotBaseGroup):
 
     The pose is ``data.mocap_pos``/``mocap_quat`` of the body, valid at once (the bodies
     hanging from it follow at the next ``mj_kinematics``).
+
+    Args:
+        model: compiled model, or an ``MjData`` to bind to at once.
+        name: group name (e.g. "base").
+        base_body: the base body's name.
     """
 
     def __init__(self, model, name: str, base_body: str):
@@ -192,6 +202,11 @@ class CarriedRobotBaseGroup(RobotBaseGroup):
     joint); its pose is read from ``data.xpos``/``xmat`` (valid after ``mj_kinematics``) and
     changes only with the carrier's (``Robot.set_world_pose`` moves the carrier; setting
     this pose alone is a UserError).
+
+    Args:
+        model: compiled model, or an ``MjData`` to bind to at once.
+        name: group name (e.g. "base").
+        base_body: the base body's name.
     """
 
     def __init__(self, model, name: str, base_body: str):

@@ -26,7 +26,13 @@ def model_and_data(source) -> tuple[mujoco.MjModel, mujoco.MjData | None]:
 
 
 def check_data_fits(model: mujoco.MjModel, data: mujoco.MjData, what: str) -> None:
-    """UserError unless ``data`` was made for a model of ``model``'s sizes."""
+    """UserError unless ``data`` was made for a model of ``model``'s sizes.
+
+    Args:
+        model: the model the caller works with.
+        data: the data handed in.
+        what: what the caller is, named in the error.
+    """
     if not isinstance(data, mujoco.MjData):
         raise UserError(f"{what}: expected a mujoco.MjData, got {type(data).__name__}")
     for size in ("nq", "nv", "nu", "nbody", "nmocap"):
@@ -39,7 +45,16 @@ def check_data_fits(model: mujoco.MjModel, data: mujoco.MjData, what: str) -> No
 
 
 def vector(name: str, value, size: int) -> np.ndarray:
-    """``value`` as a finite float vector of ``size`` values, else a one-line UserError."""
+    """``value`` as a finite float vector of ``size`` values, else a one-line UserError.
+
+    Args:
+        name: what the value is, named in the error.
+        value: anything ``np.asarray`` takes.
+        size: the number of values required.
+
+    Returns:
+        float ``(size,)``.
+    """
     v = np.asarray(value, dtype=float).reshape(-1)
     if v.shape != (size,):
         raise UserError(f"{name}: expected {size} control values, got {v.size}")

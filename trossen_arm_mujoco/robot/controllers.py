@@ -1,27 +1,15 @@
 """Controllers turn a move group's command into its control. They never step physics.
 
-Command modes:
-- ``joint_position``: absolute joint targets (rad / m), shape (n_joints,) for arms, (1,) for
-  grippers.
-- ``joint_rel_position``: joint deltas added to the current joint positions.
-- ``ee_pose``: tool-frame pose [x, y, z, qw, qx, qy, qz] (world, m). Mocap arms take it as is;
-  joint-actuated arms reach it by IK.
-- ``ee_delta``: Cartesian tool-frame delta, (3,) [dx, dy, dz] (m) or (6,) with a rotation
-  vector (rad), world frame, through differential IK.
-- ``base_velocity``: a differential-drive base's [x.vel (m/s), theta.vel (rad/s)], turned into
-  its two wheel speeds (``diff_drive.DiffDriveBaseGroup``); clipped like the real base.
+Command modes: ``joint_position`` (absolute joint targets, rad / m), ``joint_rel_position``
+(deltas added to the current joints), ``ee_pose`` (tool-frame pose [x, y, z, qw, qx, qy, qz],
+world frame, m; mocap arms take it as is, joint arms by IK), ``ee_delta`` (tool-frame delta
+[dx, dy, dz] m, or 6 values with a rotation vector in rad, world frame, differential IK) and
+``base_velocity`` ([x.vel m/s, theta.vel rad/s] of a differential-drive base). A controller
+keeps no state: each tick ``limit`` moves the control applied in ``data`` toward the target
+by at most ``velocity_limits * ctrl_dt`` per value, then clips it to the control range
+(mocap arms are not rate-limited). A robot's safety floor is held as ``floor``.
 
-Rate limiting: a controller first works out the control ``target`` its command asks for, then
-``limit`` moves the control currently applied (``group.get_ctrl(data)``) toward it by at most
-``group.velocity_limits * ctrl_dt`` per value (rad or m) and clips it to the control range.
-It keeps no state: what it starts from is read from ``data`` every tick. Mocap arms are not
-rate-limited (their control is a pose).
-
-Safety floor (``robot.safety_floor``): a controller of a robot with a floor holds it as
-``floor``. The Cartesian modes clip their target against it before any IK: ``ee_delta`` and
-``ee_pose`` never ask the tool frame below the floor (``SafetyFloor.tool_height``). Every
-arm's joint control is then held above it by the robot, tick by tick, with each controller's
-own ``limit`` (``SafetyFloor.hold``).
+Docs: docs/concepts/architecture.md (the robot layer); details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -128,8 +116,13 @@ class Controller:
 
         Joint modes clip each value on its own; IK modes (``scale_step``) shrink the whole
         step by one factor instead, so that the tool keeps its Cartesian direction.
-        ``ticks``: where ``ticks`` calls in a row would take the control toward a fixed
-        target (``max_step`` times ``ticks``), e.g. to check where a step of several ticks ends.
+
+        Args:
+            data: the state whose applied control (``group.get_ctrl(data)``) is the start.
+            target: the control asked for, (ctrl_dim,) (rad or m; wheel speeds rad/s).
+            ticks: where ``ticks`` calls in a row would take the control toward a fixed
+                target (``max_step`` times ``ticks``), e.g. to check where a step of several
+                ticks ends.
         """
         group = self.group
         step, neg_step = self._steps()
@@ -173,7 +166,13 @@ def _actuated_qpos(group: MoveGroup, data: mujoco.MjData) -> np.ndarray:
 
 
 class JointPosController(Controller):
-    """``joint_position``: the command is the absolute joint target."""
+    """``joint_position``: the command is the absolute joint target.
+
+    Args:
+        group: the move group it drives.
+        model: compiled model.
+        ctrl_dt: control period (s); None: see :class:`Controller`.
+    """
 
     command_mode = "joint_position"
 
@@ -206,7 +205,13 @@ class JointRelPosController(JointPosController):
 
 
 class EEPoseController(Controller):
-    """``ee_pose``: tool-frame pose; passed to a mocap body, or solved by IK for joint arms."""
+    """``ee_pose``: tool-frame pose; passed to a mocap body, or solved by IK for joint arms.
+
+    Args:
+        group: the move group it drives.
+        model: compiled model.
+        ctrl_dt: control period (s); None: see :class:`Controller`.
+    """
 
     command_mode = "ee_pose"
     scale_step = True
@@ -243,13 +248,27 @@ class EEPoseController(Controller):
         return q
 
     def limit(self, data, target, ticks=1):
+        """As :meth:`Controller.limit`; a mocap arm's pose passes as is.
+
+        Args:
+            data: the state whose applied control is the start.
+            target: the control asked for: joint targets (rad), or the mocap pose.
+            ticks: the number of ticks toward ``target``.
+        """
         if self._kin is None:
             return np.asarray(target, dtype=float)  # the mocap pose, as is
         return super().limit(data, target, ticks)
 
 
 class EEDeltaController(Controller):
-    """``ee_delta``: Cartesian delta of the tool frame through differential IK."""
+    """``ee_delta``: Cartesian delta of the tool frame through differential IK.
+
+    Args:
+        group: a joint-actuated arm with a tool frame.
+        model: compiled model.
+        rotation: the command also holds a rotation vector (6 values instead of 3).
+        ctrl_dt: control period (s); None: see :class:`Controller`.
+    """
 
     command_mode = "ee_delta"
     relative = True
@@ -303,6 +322,11 @@ class BaseVelocityController(Controller):
     ctrl_dt`` rad/s, both by one factor (``scale_step``), so that the base keeps the
     command's curvature while it speeds up; like the other controllers it keeps no state
     (it starts from the control applied in ``data``).
+
+    Args:
+        group: a differential-drive base group (``DiffDriveBaseGroup``).
+        model: compiled model.
+        ctrl_dt: control period (s); None: see :class:`Controller`.
     """
 
     command_mode = "base_velocity"
@@ -382,8 +406,18 @@ CONTROLLERS: dict[str, type[Controller]] = {
 def make_controller(
     mode: str, group: MoveGroup, model: mujoco.MjModel, ctrl_dt: float | None = None
 ) -> Controller:
-    """Controller for a command mode (``ctrl_dt``: control period, s); a UserError listing
-    the valid modes when unknown."""
+    """The controller for a command mode.
+
+    Args:
+        mode: a command mode (``joint_position``, ``joint_rel_position``, ``ee_pose``,
+            ``ee_delta``, ``base_velocity``).
+        group: the move group it drives.
+        model: compiled model.
+        ctrl_dt: control period (s); None: see :class:`Controller`.
+
+    Raises:
+        UserError: an unknown mode (listing the valid ones), or one the group cannot take.
+    """
     if mode not in CONTROLLERS:
         raise unknown_name_error("command mode", mode, CONTROLLERS)
     return CONTROLLERS[mode](group, model, ctrl_dt=ctrl_dt)

@@ -2,19 +2,14 @@
 
 ``DiffDriveBaseGroup`` is the base move group of a wheeled robot (the Mobile AI's SLATE base):
 its ``pose`` is the free joint's (the robot frame), its control the two wheel speeds
-[left, right] (rad/s, velocity actuators). The base's body velocities, as the real base takes
-and reports them (``x.vel`` forward, m/s; ``theta.vel`` yaw rate, rad/s, counter-clockwise
-seen from above), map to wheel speeds with the wheel radius r and the track b (distance
-between the wheels' contact points):
+[left, right] (rad/s). Body velocities as the real base takes them (``x.vel`` forward, m/s;
+``theta.vel`` yaw rate, rad/s, counter-clockwise from above) map to wheel speeds with wheel
+radius r and track b: ``left = (x.vel - theta.vel b / 2) / r``, ``right = (x.vel + theta.vel
+b / 2) / r`` (positive drives forward). The ``base_velocity`` controller keeps commands within
+``BaseVelocityLimits``. Units m, rad, s; poses in the world frame (4x4, or 7 values
+[x, y, z, qw, qx, qy, qz]); ``planar_pose`` is (x, y, yaw) on the floor.
 
-    left = (x.vel - theta.vel * b / 2) / r,    right = (x.vel + theta.vel * b / 2) / r
-
-(both wheels turn about the base's +y: a positive speed drives forward). The
-``base_velocity`` controller (``controllers.BaseVelocityController``) takes such commands,
-kept within ``BaseVelocityLimits`` (speeds, and the acceleration the wheel speeds ramp at).
-
-Units: m, rad, s; poses in the world frame (4x4, or 7 values [x, y, z, qw, qx, qy, qz]);
-``planar_pose`` is (x, y, yaw) of the base on the floor.
+Docs: docs/concepts/models.md (The base in the robot layer).
 """
 
 from __future__ import annotations
@@ -153,8 +148,15 @@ class DiffDriveBaseGroup(RobotBaseGroup):
         return np.array([q[0], q[1], yaw])
 
     def set_planar_pose(self, data: mujoco.MjData, x: float, y: float, yaw: float) -> None:
-        """Put the base upright at (x, y) heading ``yaw`` (rad), at its height at rest (the
-        model's initial height of the base body); velocities are kept."""
+        """Put the base upright at a planar pose, at its height at rest (the model's initial
+        height of the base body); velocities are kept.
+
+        Args:
+            data: the state to write.
+            x: world x of the base (m).
+            y: world y of the base (m).
+            yaw: heading about world z (rad, counter-clockwise from above).
+        """
         z = float(self.model.qpos0[self.qpos_idx[2]])
         pose = [x, y, z, np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         data.qpos[self._pose_sel] = vector(f"{self.name} planar pose", pose, 7)

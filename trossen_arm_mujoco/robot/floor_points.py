@@ -1,22 +1,15 @@
 """Points of an arm's collision geoms, whose lowest world point is the arm's lowest point.
 
-Used by the safety floor (``robot.safety_floor``). ``ArmPoints`` looks up, once, every
-collision geom of one arm: the geoms of the bodies that move with the arm's joints (the
-subtree of its first joint's body: links, wrist, fingers; not the fixed base). Each geom
-becomes a few points in its body's frame with a radius, whose lowest world point is the
-geom's lowest point:
+Used by the safety floor (``robot.safety_floor``). ``ArmPoints`` turns every collision geom
+of the bodies that move with one arm's joints (links, wrist, fingers; not the fixed base)
+into a few points in its body's frame with a radius, plus the tool-frame site (radius 0):
+exact for boxes, meshes, spheres and capsules, within 0.8 % of the radius for cylinders,
+conservative (bounding box) for the rest. ``ArmPoints.heights(data)`` is the world z (m) of
+every point's lowest reach at ``data``'s body poses. ``reach[p, i]`` bounds how far point p
+moves per radian of joint i; points no joint moves up or down (``fixed_height``) are not
+checked.
 
-- box, mesh: its corners / vertices (exact);
-- sphere, capsule: centre / the two axis end points, with the radius (exact);
-- cylinder: two 16-gons circumscribing its end discs (at most 0.8 % of the radius low);
-- ellipsoid, and any other type: the corners of its bounding box (conservative).
-
-The arm's tool-frame site is one more point (radius 0). ``ArmPoints.heights(data)`` is the
-world z (m) of every point's lowest reach at ``data``'s body poses: one matrix product.
-``reach[p, i]`` bounds how far point p moves per radian of joint i in any configuration (the
-lengths along the kinematic chain, added up; 0 for joints that do not move p, and for a
-vertical first joint, which moves nothing up or down); points no joint moves up or down
-(``fixed_height``, e.g. next to the shoulder) never break the floor and are not checked.
+Docs: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -101,8 +101,14 @@ def as_transform(name: str, pose) -> np.ndarray:
 
 
 def check_transforms(name: str, tf: np.ndarray, tol: float = 1e-6) -> None:
-    """UserError unless ``tf`` (..., 4, 4) holds finite rigid transforms: an orthonormal,
-    right-handed rotation block (within ``tol``) and a last row [0, 0, 0, 1]."""
+    """UserError unless ``tf`` holds finite rigid transforms.
+
+    Args:
+        name: what the transforms are, named in the error.
+        tf: (..., 4, 4) transforms: an orthonormal, right-handed rotation block and a last
+            row [0, 0, 0, 1].
+        tol: tolerance of the rotation block's orthonormality.
+    """
     if tf.shape[-2:] != (4, 4):
         raise UserError(f"{name}: expected 4x4 transforms, got shape {tf.shape}")
     if not np.all(np.isfinite(tf)):
@@ -182,13 +188,29 @@ def pose_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
 def pose_error_rp(
     target_rot: np.ndarray, target_pos: np.ndarray, rot: np.ndarray, pos: np.ndarray
 ) -> np.ndarray:
-    """``pose_error`` from rotations (..., 3, 3) and positions (..., 3)."""
+    """``pose_error`` from rotations and positions.
+
+    Args:
+        target_rot: (..., 3, 3) target rotations.
+        target_pos: (..., 3) target positions (m).
+        rot: (..., 3, 3) current rotations.
+        pos: (..., 3) current positions (m).
+
+    Returns:
+        (..., 6): as :func:`pose_error`.
+    """
     r_err = target_rot @ np.swapaxes(rot, -1, -2)
     return np.concatenate([target_pos - pos, rotation_log(r_err)], axis=-1)
 
 
 def frame_transform(data: mujoco.MjData, frame_type: str, frame_id: int) -> np.ndarray:
-    """World pose (4x4) of a site or body of ``data`` (after ``mj_kinematics``)."""
+    """World pose (4x4) of a site or body of ``data`` (after ``mj_kinematics``).
+
+    Args:
+        data: the state.
+        frame_type: ``"site"`` or ``"body"``.
+        frame_id: the site's or body's id.
+    """
     if frame_type == "site":
         return transform(data.site_xpos[frame_id], data.site_xmat[frame_id])
     return transform(data.xpos[frame_id], data.xmat[frame_id])
@@ -199,7 +221,14 @@ def frame_jacobian(
 ) -> np.ndarray:
     """(6, nv) Jacobian of a site (``mj_jacSite``) or body origin (``mj_jacBody``): rows
     [linear (m/unit); angular (rad/unit)], world frame. Needs ``mj_kinematics`` and
-    ``mj_comPos`` (or ``mj_forward``) for the current qpos."""
+    ``mj_comPos`` (or ``mj_forward``) for the current qpos.
+
+    Args:
+        model: compiled model.
+        data: the state.
+        frame_type: ``"site"`` or ``"body"``.
+        frame_id: the site's or body's id.
+    """
     jac = np.zeros((6, model.nv))
     jac_fn = mujoco.mj_jacSite if frame_type == "site" else mujoco.mj_jacBody
     jac_fn(model, data, jac[:3], jac[3:], frame_id)

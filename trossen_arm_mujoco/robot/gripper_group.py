@@ -21,6 +21,14 @@ class GripperGroup(MoveGroup):
     value: the target travel of the actuated finger (m). ``open_ctrl``/``closed_ctrl``
     (default the top / bottom of the actuator's range) are what ``set_gripper_ctrl_open``
     writes.
+
+    Args:
+        model: compiled model, or an ``MjData`` to bind to at once.
+        name: group name (e.g. "left_gripper").
+        joint_names: both finger joints.
+        actuator_name: the position actuator of the actuated finger.
+        open_ctrl: the open control (m); None: the top of the actuator's range.
+        closed_ctrl: the closed control (m); None: the bottom of the actuator's range.
     """
 
     rate_limitable = True

@@ -97,8 +97,17 @@ def actuator_ids(model: mujoco.MjModel, actuator_names: Sequence[str]) -> np.nda
 
 
 def root_body_id(model: mujoco.MjModel, root_body: str | int | None, joint_ids: np.ndarray) -> int:
-    """The body a group's chain hangs from: ``root_body`` (a name or an id) when given, else
-    the parent of the first joint's body, else (no joints) the world (0)."""
+    """The body a group's chain hangs from.
+
+    Args:
+        model: compiled model.
+        root_body: a body name or id; None: the parent of the first joint's body, else (no
+            joints) the world (0).
+        joint_ids: the group's joint ids.
+
+    Returns:
+        The body id.
+    """
     if isinstance(root_body, (int, np.integer)):
         return int(root_body)
     if root_body is not None:

@@ -1,20 +1,14 @@
 """JointTargetBatch: the absolute joint-position commands of several move groups of one
 robot, rate-limited and written as one vector per control tick.
 
-``Robot.compute_control`` runs every controller once per tick; for the common case, where
-the commanded groups are plain ``joint_position`` groups (an arm and its gripper, or both
-arms and grippers of the kit), the per-group work is the same few vector operations on a few
-values each. A batch does them once over all those groups' actuators: the same arithmetic
-as ``Controller.limit`` value by value, so the controls are identical, with one pass instead
-of one per group.
+When the commanded groups are plain ``joint_position`` groups (an arm and its gripper, or
+the kit's arms and grippers), a batch does ``Controller.limit``'s arithmetic once over all
+their actuators: the controls are identical, in one pass. A caller holding all the commands
+as one vector hands them over as ``JointTargets`` (``batch.commands``: views of that vector,
+checked once). ``preview`` says where the controls will be after some ticks without writing
+them; with ``keep=True`` the next tick reuses that result.
 
-A caller that has the commands of all those groups as one vector already (the gym
-adapter's joint_position actions) hands them over as ``JointTargets`` (``batch.commands``):
-a dict of views of that vector, checked once, which ``Robot.update_control`` takes as the
-batch's target without splitting and joining it again. ``preview`` says where the controls
-will be after some ticks, without writing them (e.g. where a step ends); with
-``keep=True`` the next tick reuses that result instead of computing it again (see
-``preview``).
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations
@@ -143,10 +137,18 @@ class JointTargetBatch:
         m), from ``data.ctrl``; nothing is written. Value by value what ``ticks`` calls of
         ``apply`` would leave (``Controller.limit`` with ``ticks``).
 
-        ``keep=True`` (one tick): the caller hands this very ``target`` array over, unchanged,
-        as the batch's target (``set_vector``, e.g. through ``JointTargets``) before the next
-        tick; that tick then writes the result kept here instead of computing it again, as
-        long as ``data`` is where it was (same ``data.time``: no physics step in between).
+        Args:
+            data: the state; the start is ``data.ctrl``.
+            target: (size,) joint targets (rad or m).
+            ticks: the number of control ticks.
+            keep: (one tick) the caller hands this very ``target`` array over, unchanged, as
+                the batch's target (``set_vector``, e.g. through ``JointTargets``) before the
+                next tick; that tick then writes the result kept here instead of computing
+                it again, as long as ``data`` is where it was (same ``data.time``: no physics
+                step in between).
+
+        Returns:
+            (size,) the controls after ``ticks`` ticks.
         """
         u = self._limited(data, target, ticks)
         if keep and ticks == 1:

@@ -31,10 +31,19 @@ def orientation_error(target_quat: np.ndarray, quat: np.ndarray) -> np.ndarray:
 
 
 def damped_least_squares(jac: np.ndarray, err: np.ndarray, damping: float = 1e-3) -> np.ndarray:
-    """dq = J^T (J J^T + damping^2 I)^-1 err; jac (m, n), err (m,) -> (n,).
+    """dq = J^T (J J^T + damping^2 I)^-1 err.
 
     J J^T + damping^2 I is symmetric positive definite for damping > 0: solved by MuJoCo's
-    Cholesky (a fraction of ``np.linalg.solve``'s overhead at these sizes); LU otherwise."""
+    Cholesky (a fraction of ``np.linalg.solve``'s overhead at these sizes); LU otherwise.
+
+    Args:
+        jac: (m, n) Jacobian.
+        err: (m,) task-space error.
+        damping: the damping factor (> 0: Cholesky; 0: LU).
+
+    Returns:
+        (n,) the joint step dq.
+    """
     a = jac @ jac.T
     m = a.shape[0]
     a.flat[:: m + 1] += damping**2
@@ -159,6 +168,15 @@ class Kinematics:
         max_step: float = 0.2,
     ) -> tuple[np.ndarray, float]:
         """Iterative IK from the current joints toward a pose (orientation optional).
+
+        Args:
+            qpos_full: (nq,) the model's full joint positions; the chain's are the start.
+            target_pos: (3,) the frame's target position, world frame (m).
+            target_quat: (4,) the target orientation, quaternion wxyz; None: position only.
+            iterations: the most iterations.
+            tol: stop once the error norm is below this (m, plus rad).
+            damping: damped least squares factor.
+            max_step: the largest joint step per iteration (rad).
 
         Returns:
             (q (n,), residual): joint solution within limits and the final error norm

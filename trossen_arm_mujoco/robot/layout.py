@@ -1,25 +1,16 @@
 """The joint layouts of the kit and its arms, defined once: ``vendor16``, ``kit14``,
 ``mobileai`` and ``widowxai``.
 
-:class:`Vendor16Layout` (``VENDOR16_LAYOUT``, ``export --layout vendor16``) is the 16-value
-qpos/action layout of the vendor's HDF5 episodes and of the sim.
+:class:`Vendor16Layout` (``VENDOR16_LAYOUT``) is the 16-value qpos/action layout of the
+vendor's HDF5 episodes and of the sim: left arm then right arm, per arm 6 revolute joints
+(rad) then the two coupled fingers (m, 0 closed .. 0.044 open): ``right_carriage_joint``
+(coupled, index 6 / 14) and ``left_carriage_joint`` (actuated, index 7 / 15; the action's
+finger columns hold the gripper command). :class:`Kit14Layout` (``KIT14_LAYOUT``) is the real
+kit's 14 values (per arm 6 joints and the gripper), as Trossen's LeRobot plugin and the
+driver take them; :class:`WidowXAILayout` one arm's 7; the Mobile AI's adds the base.
+``EXPORT_LAYOUTS`` maps the ``export --layout`` names to them.
 
-Left arm then right arm; per arm 6 revolute joints (rad) then the two coupled finger joints
-(m, 0 closed .. 0.044 open): ``right_carriage_joint`` (coupled, index 6 / 14) and
-``left_carriage_joint`` (actuated by the gripper, index 7 / 15). The recorded action uses
-the same layout, with the finger columns holding the gripper command.
-
-:class:`Kit14Layout` (``KIT14_LAYOUT``, ``export --layout kit14``) is the real kit's 14
-values (per arm 6 joints and the gripper), as Trossen's LeRobot plugin and the driver take
-them.
-
-:class:`WidowXAILayout` (``WIDOWXAI_LAYOUT``, ``export --layout widowxai``) is one WidowX AI
-arm's 7 values as Trossen's plugin for a single follower (``widowxai_follower_robot``) names
-them, the layout of a single arm's recordings; export takes it (``EXPORT_LAYOUTS``).
-
-Users of the 16-value layout: the dm_control envs (observation slicing and action
-splitting), the dataset schema's labels, the recorder, the real replay (7 driver values per
-arm) and the gym adapter.
+Docs: docs/datasets.md (The layouts).
 """
 
 from __future__ import annotations

@@ -1,20 +1,15 @@
 """LeRobot's names for the kit's values, defined once: feature keys and joint value names.
 
-Feature keys, as LeRobot datasets (``meta/info.json``), policies (``input_features`` /
-``output_features``) and envs name them:
+Feature keys (datasets, policies and envs): ``observation.state`` (:data:`STATE_KEY`, joint
+positions in a layout of ``robot.layout.LAYOUTS``), ``observation.velocity``
+(:data:`VELOCITY_KEY`, same layout), ``observation.environment_state`` (:data:`ENV_STATE_KEY`,
+7 values per object: xyz m, quat wxyz, world frame), ``observation.images.<camera>``
+(:func:`image_key`) and ``action`` (:data:`ACTION_KEY`, joint targets, the state's layout).
+Joint value names follow Trossen's LeRobot plugin, ``<joint>.<quantity>``: ``pos`` (rad; m
+for a gripper carriage), ``vel`` (rad/s; m/s), ``eff`` and ``ext_eff`` (Nm; N), e.g.
+``left_joint_0.pos`` (:func:`joint_value_names`).
 
-- ``observation.state`` (:data:`STATE_KEY`): joint positions in a layout of
-  ``robot.layout.LAYOUTS``;
-- ``observation.velocity`` (:data:`VELOCITY_KEY`): joint velocities, same layout;
-- ``observation.environment_state`` (:data:`ENV_STATE_KEY`): object poses, 7 values per
-  object (xyz m, quat wxyz), world frame;
-- ``observation.images.<camera>`` (:func:`image_key`): one camera's frames;
-- ``action`` (:data:`ACTION_KEY`): joint targets, same layout as the state.
-
-Joint value names follow Trossen's LeRobot plugin: ``<joint>.<quantity>``, with quantity
-``pos`` (rad; m for a gripper carriage), ``vel`` (rad/s; m/s), ``eff`` (Nm; N) or
-``ext_eff`` (the external part of the effort, Nm; N), e.g. ``left_joint_0.pos``
-(:func:`joint_value_names`).
+Docs: docs/datasets.md (The LeRobot export).
 """
 
 from __future__ import annotations

@@ -1,25 +1,16 @@
 """Move groups: named sets of a robot's joints that are commanded together.
 
 A move group owns the indices of its joints in ``qpos``/``qvel`` and of its actuators in
-``ctrl`` (or its mocap body), looked up once from the model at construction. Built from an
-``MjData`` (or bound later with ``bind``), it reads and writes that state through
-properties: ``joint_pos``, ``joint_vel``, ``ctrl``, ``noop_ctrl``; its frames are 4x4
-homogeneous transforms (``leaf_frame_to_world`` and friends, see ``frames.py``). Built from
-an ``MjModel`` only, the data-explicit methods (``get_qpos(data)``, ...) still work.
+``ctrl`` (or its mocap body), looked up once at construction, and reads and writes a bound
+``MjData`` through ``joint_pos``, ``joint_vel``, ``ctrl``, ``noop_ctrl`` (the data-explicit
+methods, ``get_qpos(data)``, ..., work unbound). Units: hinge joints rad, slide joints m;
+7-value poses [x, y, z, qw, qx, qy, qz], world frame (m); frames are 4x4 transforms. The
+*root frame* is the body the chain hangs from, the *leaf frame* the last joint's body or the
+named tool frame, the *robot frame* the pose of ``robot_base_group`` (else the root frame).
+Frames and Jacobians are valid after ``mj_kinematics``/``mj_forward``.
 
-Units: hinge joints in rad, slide joints (gripper fingers) in m; 7-value poses are
-[x, y, z, qw, qx, qy, qz] in the world frame (m).
-
-Frames: the *root frame* is the body the group's chain hangs from (the parent of its first
-joint's body); the *leaf frame* is the body of its last joint, or the named site/body of an
-``MJCFFrameMixin`` group (the tool frame ``ee_site`` of an arm). The *robot frame* is the
-pose of the group's ``robot_base_group``; a group without one uses its root frame. Frames
-and Jacobians read ``xpos``/``site_xpos``: valid after ``mj_kinematics``/``mj_forward``.
-
-Index lookup is in ``joint_indices.py``; a leaf frame named in the MJCF (the tool frame) in
-``mjcf_frame.py``; the actuated arms (joint targets, clipped to the actuators' ranges, or a
-mocap pose) in ``arm_groups.py``; the gripper in ``gripper_group.py``; base groups (the robot
-frame itself) in ``base_group.py``.
+Docs: docs/concepts/architecture.md (the robot layer); where each part lives:
+docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -172,8 +172,18 @@ class ParallelKinematics:
         base_poses=None,
         rel_to_base: bool = False,
     ) -> list[dict[str, np.ndarray]] | dict[str, np.ndarray]:
-        """Leaf-frame pose (4x4) of every move group, for one qpos dict or a list of them
-        (then a list of dicts, one per configuration); see ``RobotKinematics.fk``."""
+        """Leaf-frame pose (4x4) of every move group; see ``RobotKinematics.fk``.
+
+        Args:
+            qpos_dicts: move group id -> joint positions (rad / m), or a list of such dicts
+                (one per configuration).
+            base_poses: the robot base's world pose (4x4) per configuration, or one for all;
+                None: the loaded state's.
+            rel_to_base: poses relative to the robot frame instead of the world.
+
+        Returns:
+            Move group id -> 4x4 pose; a list of those for a list of dicts.
+        """
         single = isinstance(qpos_dicts, Mapping)
         dicts = [qpos_dicts] if single else list(qpos_dicts)
         qpos = self._qpos_from_dicts(dicts)
@@ -234,10 +244,14 @@ class ParallelKinematics:
     def solve(
         self, poses: np.ndarray, q0: np.ndarray | None = None, **options: Any
     ) -> BatchIKResult:
-        """Batched IK on arrays: ``poses`` (N, 4, 4) (or one (4, 4) for all ``q0``), ``q0``
-        (N, n_unlocked) initial joints (default the reference state); ``options`` as for
-        ``ik``. Per configuration the result equals ``RobotKinematics.solve_ik`` with the
-        same arguments."""
+        """Batched IK on arrays. Per configuration the result equals
+        ``RobotKinematics.solve_ik`` with the same arguments.
+
+        Args:
+            poses: (N, 4, 4) target leaf-frame poses (or one (4, 4) for all ``q0``).
+            q0: (N, n_unlocked) initial joints (rad / m); None: the reference state.
+            **options: as for ``ik`` (``eps``, ``max_iter``, ``damping``, ``max_step``, ...).
+        """
         arr = np.asarray(poses, dtype=float)
         if arr.ndim == 3:
             n = len(arr)

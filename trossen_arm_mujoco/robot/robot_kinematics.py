@@ -51,7 +51,14 @@ class IKResult:
 
 
 def check_ik_options(eps: float, max_iter: int, damping: float, max_step: float) -> None:
-    """One-line UserErrors for IK options out of range."""
+    """One-line UserErrors for IK options out of range.
+
+    Args:
+        eps: convergence tolerance of the pose error (> 0).
+        max_iter: the most iterations (>= 1).
+        damping: damped least squares factor (>= 0).
+        max_step: the largest joint step per iteration (> 0, rad).
+    """
     if not (np.isfinite(eps) and eps >= 0):
         raise UserError(f"IK eps must be a finite number >= 0, got {eps}")
     if int(max_iter) != max_iter or max_iter < 0:
@@ -116,7 +123,14 @@ class RobotKinematics:
     def world_target(
         self, group: MoveGroup, pose, base_pose=None, rel_to_base: bool = False
     ) -> np.ndarray:
-        """An IK target as a world pose of the loaded state (4x4)."""
+        """An IK target as a world pose of the loaded state (4x4).
+
+        Args:
+            group: the move group whose leaf frame is aimed.
+            pose: the target, 4x4 or 7 values [x, y, z, qw, qx, qy, qz] (m).
+            base_pose: the robot base's world pose to use; None: the loaded state's.
+            rel_to_base: ``pose`` is in the robot frame, not the world.
+        """
         target = as_transform("IK target pose", pose)
         if rel_to_base:
             base = group.robot_base_group
@@ -170,10 +184,19 @@ class RobotKinematics:
     def ik(
         self, move_group_id: str, pose, *args: Any, **kwargs: Any
     ) -> dict[str, np.ndarray] | None:
-        """Joint positions that put ``move_group_id``'s leaf frame at ``pose``, or None when
-        the solve does not converge; the other arguments are those of ``solve_ik``
-        (``unlocked_move_group_ids``, ``q0``, ``base_pose``, ``rel_to_base``, ``eps``,
-        ``max_iter``, ``damping``, ``max_step``)."""
+        """Joint positions that put ``move_group_id``'s leaf frame at ``pose``.
+
+        Args:
+            move_group_id: the group whose leaf frame is aimed.
+            pose: the target, 4x4 or 7 values [x, y, z, qw, qx, qy, qz] (m).
+            *args: as for ``solve_ik``.
+            **kwargs: as for ``solve_ik`` (``unlocked_move_group_ids``, ``q0``,
+                ``base_pose``, ``rel_to_base``, ``eps``, ``max_iter``, ``damping``,
+                ``max_step``).
+
+        Returns:
+            Move group id -> joint positions, or None when the solve does not converge.
+        """
         result = self.solve_ik(move_group_id, pose, *args, **kwargs)
         return result.qpos if result.converged else None
 

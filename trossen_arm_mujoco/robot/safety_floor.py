@@ -1,46 +1,17 @@
 """The safety floor: a robot's arms kept above the table, in the robot layer.
 
-Protections live in the robot layer, so every front door that drives a robot gets them: the
-gym envs, the dm_control joint and EE envs, record's joint replay, evaluation and the served
-kit. A ``Robot`` holds at most one ``SafetyFloor`` (``Robot.set_safety_floor``; task samplers
-install one on every robot they build, see ``tasks.sampler``) at
-``floor_z = table_height + margin`` (m, world z).
+A ``Robot`` holds at most one :class:`SafetyFloor` (``Robot.set_safety_floor``; the task
+samplers install one) at ``floor_z = table_height + margin`` (m, world z), so every front
+door that drives a robot gets it. Joint-actuated arms: every control tick, a move that would
+take a point of the arm's collision geoms or tool frame below the floor, and lower than it
+was, is shortened (fractions of :data:`BACKOFF`, down to holding the control); the
+controller keeps its target. Cartesian targets (``ee_delta``, ``ee_pose``, mocap arms) have
+their tool-frame height clipped before IK (:meth:`SafetyFloor.tool_height`). The floor holds
+controls, not geometry, and gripper targets are not floored. What it changed is in
+``report`` (:class:`FloorReport`; gym ``info["safety_clipped"]``, ``info["safety_links"]``).
 
-What is kept above it:
-
-- Joint-actuated arms: every collision geom of the arm (links, wrist, fingers; see
-  ``robot.floor_points``) and its tool frame. Every control tick, once the controllers have
-  computed the tick's controls (joint targets, rate-limited), one forward kinematics pass on
-  a private ``MjData`` puts every arm commanded in that tick at its new control (``below``).
-  An arm with a point below the floor gets the exact rule (``offender``): a move breaks the
-  floor when a point ends below the floor and lower than it was (a point already below it,
-  e.g. placed there, may stay or rise). The move is the control's, from the control the
-  tick started from to the new one, both put through forward kinematics (exact: no lag, no
-  slack). It is shortened (the fractions of ``BACKOFF``, down to no move: the control held)
-  until no point breaks the floor. A fraction of the step stays within the speed limits and
-  the control range the controller kept. The controller keeps its target: an arm commanded
-  into the table moves toward it at its speed limits, stops at the floor, and goes on as
-  soon as a command leads away. Ticks of any length hold it (the served kit ticks every
-  2 ms): a held control never sinks.
-- Cartesian targets: ``ee_delta`` and ``ee_pose`` controllers clip the tool frame's target
-  height (``tool_height``) before any IK: to the floor, or, for a tool frame below it, to no
-  lower than it is. Mocap arms (the EE envs) get only this, from their control (no lower
-  than it was asked to be): their control is the tool-frame pose, their links follow the
-  weld, and there are no joint targets to shorten.
-
-The floor holds controls, not the geometry: an arm moving onto its held targets overshoots
-them into the table, and gripper targets are not floored (fingers must close along the table
-to grasp an object resting on it). What keeps the geometry out is the table's contact with
-the arms' collision geoms, as stiff as MuJoCo keeps stable (``tools/build_models.py``,
-``RIGID_CONTACT``): fingers sink <= 0.5 mm (``tests/robot/test_floor_penetration.py``).
-
-Cost: one ``mj_kinematics`` per tick for all the arms of a robot (on its private data);
-an arm with a point below the floor takes 2-5 more.
-
-What the floor changed is in ``report`` (``FloorReport``): the links it held up since the
-robot's last command (``Robot.update_control``, ``reset`` and ``hold`` clear it). The gym
-envs put it into ``info`` (``safety_clipped``, ``safety_links``); the dm_control envs expose it
-as ``env.task.robot(env.physics).floor_report``.
+Docs: docs/concepts/architecture.md (the robot layer); the full rule and its cost:
+docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -149,8 +120,16 @@ class SafetyFloor:
     # -- heights --------------------------------------------------------------------------
     def heights(self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None) -> np.ndarray:
         """World z (m) of the lowest reach of every point of ``arm`` (its collision geoms and
-        tool frame), (N,), at ``qpos_full`` (nq,) with the arm's joints replaced by ``q``
-        (rad): forward kinematics on the private ``MjData``."""
+        tool frame): forward kinematics on the private ``MjData``.
+
+        Args:
+            qpos_full: (nq,) the model's joint positions.
+            arm: the arm's move group name.
+            q: the arm's joints (rad / m) to put in place of ``qpos_full``'s; None: keep them.
+
+        Returns:
+            (N,) heights (m).
+        """
         pts = self.arms[arm]
         data = self._data
         data.qpos[:] = qpos_full
@@ -162,16 +141,32 @@ class SafetyFloor:
     def lowest(
         self, qpos_full: np.ndarray, arm: str, q: np.ndarray | None = None
     ) -> tuple[float, int]:
-        """(lowest world z (m) of ``arm``'s collision geoms and tool frame, body id of that
-        point) at ``qpos_full`` (nq,) with the arm's joints replaced by ``q`` (rad)."""
+        """The lowest point of ``arm``'s collision geoms and tool frame.
+
+        Args:
+            qpos_full: (nq,) the model's joint positions.
+            arm: the arm's move group name.
+            q: the arm's joints (rad / m) to put in place of ``qpos_full``'s; None: keep them.
+
+        Returns:
+            (world z (m), body id of that point).
+        """
         z = self.heights(qpos_full, arm, q)
         i = int(z.argmin())
         return float(z[i]), int(self.arms[arm].owner[i])
 
     def offender(self, arm: str, z_new: np.ndarray, z_was: np.ndarray) -> int:
-        """Body id of the point that breaks the floor going from heights ``z_was`` to
-        ``z_new`` (both (N,), m), or -1: a point may not end below the floor unless it ends
-        no lower than it was (one already below may stay or rise; ``TOLERANCE``)."""
+        """The point that breaks the floor: a point may not end below the floor unless it ends
+        no lower than it was (one already below may stay or rise; ``TOLERANCE``).
+
+        Args:
+            arm: the arm's move group name.
+            z_new: (N,) the points' heights after the move (m, :meth:`heights`).
+            z_was: (N,) their heights before it (m).
+
+        Returns:
+            The body id of a breaking point, or -1.
+        """
         bad = (z_new < self.floor_z) & (z_new < z_was - TOLERANCE)
         if not bad.any():
             return -1
@@ -208,10 +203,19 @@ class SafetyFloor:
     def safe_fraction(
         self, qpos_full: np.ndarray, arm: str, q_from: np.ndarray, q_to: np.ndarray
     ) -> tuple[float, str]:
-        """(Largest fraction of ``arm``'s move from joints ``q_from`` to ``q_to`` (rad), among
-        1 and ``BACKOFF``, that breaks the floor nowhere (``offender``); name of the link
-        that breaks it on the whole move, "" when none), at ``qpos_full`` (nq,) for the
-        rest."""
+        """How much of ``arm``'s move keeps it above the floor.
+
+        Args:
+            qpos_full: (nq,) the model's joint positions (the rest of the robot).
+            arm: the arm's move group name.
+            q_from: the arm's joints before the move (rad / m).
+            q_to: the arm's joints after the whole move.
+
+        Returns:
+            (the largest fraction, among 1 and ``BACKOFF``, that breaks the floor nowhere
+            (``offender``); the name of the link that breaks it on the whole move, "" when
+            none).
+        """
         z_was = self.heights(qpos_full, arm, q_from)
         body = self.offender(arm, self.heights(qpos_full, arm, q_to), z_was)
         if body < 0:
@@ -223,11 +227,17 @@ class SafetyFloor:
         return 0.0, self.link_name(body)
 
     def hold(self, data: mujoco.MjData, start_ctrl: np.ndarray, names: Sequence[str]) -> list[str]:
-        """After a control tick's controls are written: the arms among ``names`` (the groups
-        commanded in the tick, a tuple or list) whose new control breaks the floor get a
-        shorter step, from ``start_ctrl`` ((nu,), ``data.ctrl`` before the tick) toward their
-        new control (see the module docstring), written to ``data.ctrl``. Returns the names
-        of the arms held up (their links are added to ``report``)."""
+        """Hold the floor after a control tick's controls are written: the arms whose new
+        control breaks it get a shorter step toward it, written to ``data.ctrl``.
+
+        Args:
+            data: the state, its ``ctrl`` holding the tick's new controls.
+            start_ctrl: (nu,) ``data.ctrl`` before the tick.
+            names: the groups commanded in the tick (a tuple or list).
+
+        Returns:
+            The names of the arms held up (their links are added to ``report``).
+        """
         key = names if type(names) is tuple else tuple(names)
         arms = self._checked.get(key)
         if arms is None:
@@ -256,9 +266,15 @@ class SafetyFloor:
     ) -> float:
         """The height (m, world z) the tool frame of ``group`` may be asked to reach instead
         of ``z_target``: ``z_target`` when it is on or above the floor; else the floor, or
-        ``z_was`` when that is lower (a tool frame below the floor may stay or rise).
-        ``z_was``: where the tool frame was asked to be (a mocap arm: its control), default
-        where it is (``data``'s site pose). A change is reported with the tool frame's link.
+        ``z_was`` when that is lower (a tool frame below the floor may stay or rise). A change
+        is reported with the tool frame's link.
+
+        Args:
+            data: the state.
+            group: an arm move group with a tool frame.
+            z_target: the height asked for (m, world z).
+            z_was: where the tool frame was asked to be (a mocap arm: its control); None:
+                where it is (``data``'s site pose).
         """
         floor_z = self.floor_z
         if z_target >= floor_z:
