@@ -1,22 +1,14 @@
 """gzip compression of image frames off the render path.
 
-h5py runs its filters (gzip included) inside the write call while holding the GIL, so a
-dataset created with ``compression="gzip"`` compresses every frame on the thread that
-renders. :class:`ChunkCompressor` instead hands each frame to a pool of threads that
-compress it (releasing the GIL) and writes the finished bytes, in submission order, with
-``write_direct_chunk`` from the caller's thread. The datasets carry the standard HDF5
-deflate filter, so any HDF5 reader decodes them; the bytes are what that filter stores (a
-zlib stream per chunk).
+:class:`ChunkCompressor` hands each frame to a pool of threads that compress it (releasing
+the GIL) and writes the finished bytes, in submission order, with ``write_direct_chunk`` from
+the caller's thread, instead of h5py's filter compressing on the rendering thread. The
+datasets carry the standard HDF5 deflate filter, so any HDF5 reader decodes them. Level 1
+(the default) uses ISA-L's deflate (``isal``) where installed: the same zlib stream, the same
+size, a quarter of the CPU time; other levels use :func:`zlib.compress`. Each dataset must be
+chunked one frame per chunk, ``(1, H, W, 3)``, and created with ``compression="gzip"``.
 
-Level 1 (the default) is compressed with ISA-L's deflate (``isal.isal_zlib``, a dependency)
-where it is installed: the same zlib stream format, files as small as zlib level 1 gives
-(0.0765 of raw on the recorder's frames, both), at a quarter of the CPU time (0.93 against
-3.77 ms per 480x640 frame, one thread; ``benchmarks/record_episode.py`` measures what that
-does to recording). Other levels, and level 1 without ``isal``, use :func:`zlib.compress`.
-
-Each dataset must be chunked one frame per chunk, ``(1, H, W, 3)``, and created with
-``compression="gzip"`` (h5py adds the deflate filter as optional, so a frame that does not
-shrink is stored raw with the filter skipped, as the filter itself does).
+Docs: docs/datasets.md; measurements: docs/benchmarks.md; why: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -64,7 +56,14 @@ def _compress(frame: np.ndarray, level: int, deflate=None) -> tuple[bytes, int]:
 
 
 def write_chunk(dataset: h5py.Dataset, offset: tuple[int, ...], data: bytes, mask: int) -> None:
-    """Store finished chunk bytes at chunk ``offset`` (element coordinates) of ``dataset``."""
+    """Store finished chunk bytes at chunk ``offset`` of ``dataset``.
+
+    Args:
+        dataset: a chunked HDF5 dataset with the deflate filter.
+        offset: the chunk's first element, in element coordinates (e.g. ``(t, 0, 0, 0)``).
+        data: the chunk's bytes as the filter stores them.
+        mask: the filter mask (1: the deflate filter skipped, the bytes raw).
+    """
     dataset.id.write_direct_chunk(offset, data, filter_mask=mask)
 
 
@@ -92,8 +91,12 @@ class ChunkCompressor:
         self._pending: deque[tuple[h5py.Dataset, int, Future[tuple[bytes, int]]]] = deque()
 
     def submit(self, dataset: h5py.Dataset, index: int, frame: np.ndarray) -> None:
-        """Queue frame ``index`` of ``dataset`` (uint8 ``(H, W, 3)``; copied, so the caller
-        may reuse it) and write every chunk finished so far.
+        """Queue a frame and write every chunk finished so far.
+
+        Args:
+            dataset: the image dataset, chunked ``(1, H, W, 3)``.
+            index: the frame's step ``t``.
+            frame: uint8 ``(H, W, 3)``; copied, so the caller may reuse it.
 
         Raises:
             OSError / RuntimeError from h5py when a chunk cannot be written.

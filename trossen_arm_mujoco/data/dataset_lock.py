@@ -1,17 +1,13 @@
 """One writer per dataset folder: an OS lock on ``<folder>/.trossen.lock``.
 
 A recording run holds :class:`DatasetLock` from before it looks at the folder until its last
-file is in place. The lock is ``flock(2)`` on the lock file, so the OS releases it when the
-holder exits for any reason (``kill -9`` included); the file holds the holder's pid and host,
-for the message a second run gives::
+file is in place. The lock is ``flock(2)``, so the OS releases it when the holder exits for
+any reason (``kill -9`` included); the file holds the holder's pid and host, for the one-line
+error a second run gives (:func:`locked_message`). The file is removed on release; a waiter
+that gets a removed file tries again on the new one. Inside one process the lock is
+reentrant (the command line takes it, the recorder's ``run`` nests inside).
 
-    error: another record run (pid 4242) is writing to /data/demo; wait for it to finish
-    (or pass --wait), or choose another --data_dir
-
-The lock file is removed when the lock is released. A run that waits for the lock (``wait``)
-and gets it on a file that its holder removed meanwhile tries again on the new file, so two
-runs never both believe they hold the folder. Inside one process the lock is reentrant: the
-command line takes it before planning the run, and the recorder's own ``run`` nests inside.
+Docs: docs/cli/record.md, docs/troubleshooting.md.
 """
 
 from __future__ import annotations
@@ -47,6 +43,11 @@ except ImportError:  # pragma: no cover - Windows: no flock, runs are not locked
 class DatasetLockedError(UserError):
     """Another process holds the dataset folder's lock.
 
+    Args:
+        message: the one-line error (:func:`locked_message`).
+        pid: the holder's pid.
+        host: the holder's host name.
+
     Attributes:
         pid: the holder's pid as its lock file says (None when unreadable).
         host: the holder's host name (None when unreadable).
@@ -80,8 +81,13 @@ def holder_text(pid: int | None, host: str | None) -> str:
 
 
 def locked_message(folder: Path, pid: int | None, host: str | None) -> str:
-    """The one-line error for a dataset ``folder`` locked by process ``pid`` on
-    ``host`` (either None when unknown), with how to go on."""
+    """The one-line error for a locked dataset folder, with how to go on.
+
+    Args:
+        folder: the dataset folder.
+        pid: the holder's pid (None when unknown).
+        host: the holder's host name (None when unknown).
+    """
     return (
         f"another record run ({holder_text(pid, host)}) is writing to {folder}; wait for it "
         "to finish (or pass --wait), or choose another --data_dir"

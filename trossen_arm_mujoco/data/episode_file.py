@@ -138,8 +138,13 @@ class EpisodeFile:
     def write_step(
         self, t: int, arrays: Mapping[str, np.ndarray], frames: Mapping[str, np.ndarray]
     ) -> None:
-        """Write row ``t`` of every numeric dataset (``arrays``, checked values of the
-        datasets' dtypes) and of every camera's images (``frames``: uint8 (H, W, 3))."""
+        """Write one step's rows.
+
+        Args:
+            t: the step index (row).
+            arrays: dataset path -> the step's values, checked, of the datasets' dtypes.
+            frames: camera name -> uint8 (H, W, 3) image.
+        """
         with self._discarded_on_error():
             for name, value in arrays.items():
                 self._arrays[name][t] = value
@@ -150,8 +155,12 @@ class EpisodeFile:
                     self._images[cam][t] = frame
 
     def commit(self, attrs: Mapping[str, Any], verify: bool, overwrite: bool) -> None:
-        """Write the root ``attrs``, flush, close, read back (``verify``) and rename onto
-        ``path`` (replacing a file there only with ``overwrite``).
+        """Write the root attributes, flush, close, read back and rename onto ``path``.
+
+        Args:
+            attrs: the root attributes.
+            verify: read the file back with the reader's validation before the rename.
+            overwrite: replace a file already at ``path``.
 
         Raises:
             EpisodeWriteError: the file does not read back, or the final file appeared

@@ -40,6 +40,11 @@ class EpisodeIOError(UserError):
     """The file system refused to write the episode (disk full, read-only or unwritable
     folder, folder removed during the run). The temporary file was removed.
 
+    Args:
+        message: the one-line error.
+        number: the OS error number, when known.
+        folder_missing: the episode's folder no longer exists.
+
     Attributes:
         errno: the OS error number when known (``errno.ENOSPC``...), else None.
         folder_missing: True when the episode's folder no longer exists.

@@ -1,39 +1,16 @@
 """The HDF5 episode layout, defined once and versioned.
 
-One file ``episode_<k>.hdf5`` holds one episode of ``T`` steps (the layout ACT-style
-training code reads)::
+One file ``episode_<k>.hdf5`` holds one episode of ``T`` steps (the layout ACT-style training
+code reads): root attributes (``sim``, ``task_name``, ``seed``, ``success``, ``dt``,
+``camera_names``, ``schema_version``, ...), ``/action`` float32 (T, J) joint targets,
+``/reward`` float32 (T,), ``/observations/qpos`` (T, J) rad / m, ``/observations/qvel``
+(T, J) rad/s / m/s, ``/observations/env_state`` (T, 7k) object poses (xyz m + quat wxyz) and
+``/observations/images/<cam>`` uint8 (T, H, W, 3), chunked one frame per chunk, gzip by
+default. ``J`` follows the root attribute ``layout`` (:func:`joint_width`): 16 without it, 7
+for a single wxai arm. Version 2 (current) stores every float dataset as float32; version 1
+used float64 and uncompressed images. Vendor files have no ``schema_version``.
 
-    /                              attrs: sim=True, task_name, seed, success, episode_len,
-                                          dt, camera_names, package_version,
-                                          mujoco_version, schema_version; the recorder
-                                          adds box_pose (tasks with the cube),
-                                          initial_env_state, object_names,
-                                          real_replay_checked, real_replay_fps,
-                                          peak_speed_fraction, speed_limited_values,
-                                          shadows, visual
-    /action                        float32 (T, J)    joint targets, see constants.START_ARM_POSE
-    /reward                        float32 (T,)
-    /observations/qpos             float32 (T, J)    rad (revolute) / m (fingers)
-    /observations/qvel             float32 (T, J)    rad/s / m/s
-    /observations/env_state        float32 (T, 7k)   object poses: xyz (m) + quat wxyz each
-    /observations/images/<cam>     uint8 (T, H, W, 3), chunked (1, H, W, 3), gzip by default
-
-The joint width ``J`` follows the root attribute ``layout`` (:func:`joint_width`): 16 (the
-kit's ``vendor16`` rows; also the Mobile AI's ``mobileai``) without it, 7 for a single wxai
-arm's recordings (``layout = "widowxai"``: ``joint_0`` .. ``joint_5`` rad, then the gripper as
-the ``left_carriage_joint`` travel, m).
-
-Versions:
-
-- 2 (current): every float dataset is float32, as in vendor files, so training code built
-  for them (ACT-style loaders feeding float32 networks) reads both alike; image datasets
-  are gzip-compressed unless recorded with ``--compression none`` (standard HDF5 deflate
-  filter: any HDF5 reader decodes them).
-- 1: the same layout with float64 datasets and uncompressed images by default.
-
-Files recorded by the vendor package ("vendor files") hold only ``sim`` and the
-float32 datasets ``action``, ``observations/qpos``, ``observations/qvel`` and
-``observations/images/<cam>``; they have no ``schema_version`` attribute.
+Docs: docs/datasets.md (The HDF5 episode schema).
 """
 
 from __future__ import annotations
@@ -176,7 +153,13 @@ class EpisodeSchema:
         return f"{self.image_group}/{camera}"
 
     def image_shape(self, num_steps: int, height: int, width: int) -> tuple[int, int, int, int]:
-        """Image dataset shape ``(T, H, W, 3)``."""
+        """Image dataset shape ``(T, H, W, 3)``.
+
+        Args:
+            num_steps: ``T``, the episode's steps.
+            height: ``H`` (pixels).
+            width: ``W`` (pixels).
+        """
         return (num_steps, height, width, 3)
 
     @staticmethod

@@ -182,8 +182,19 @@ def write_frames_video(
     height: int,
     width: int,
 ) -> Path:
-    """Encode RGB frames (uint8 (height, width, 3), even sizes) as one H.264 mp4, written
-    to a temp name and renamed onto ``out_path`` when complete. Returns ``out_path``."""
+    """Encode RGB frames as one H.264 mp4, written to a temp name and renamed onto
+    ``out_path`` when complete.
+
+    Args:
+        frames: uint8 (height, width, 3) images.
+        out_path: the mp4 to write.
+        fps: frames per second.
+        height: image height (pixels, even).
+        width: image width (pixels, even).
+
+    Returns:
+        ``out_path``.
+    """
     av = _require("av", "av")
     encoder = h264_encoder()
     out_path = Path(out_path).expanduser()
@@ -249,6 +260,11 @@ def plot_joints(episode: Episode, out_png: str | os.PathLike[str], dpi: int = 80
     units are the episode's layout's (root attribute ``layout``: a Mobile AI episode's
     ``mobileai`` rows are the arms' 14 values, then ``x.vel`` m/s, ``theta.vel`` rad/s;
     without it the vendor's 16).
+
+    Args:
+        episode: the episode, read.
+        out_png: the PNG to write.
+        dpi: the figure's resolution.
 
     Returns:
         ``out_png`` (replaced if it exists; written to a temp name first).

@@ -1,17 +1,14 @@
 """Streaming, atomic writing of one episode file (layout in :mod:`.schema`).
 
 Each :meth:`EpisodeWriter.append` checks one step (shapes, finite values, the cameras'
-images) and writes it straight into preallocated datasets of a temporary file next to the
-final one (:mod:`.episode_file`), so memory stays flat whatever the episode length. The
-temporary file (``.episode_<k>.hdf5.<pid>-<random>.tmp``: unique, so two writers never share
-one; :mod:`.temp_files`) becomes ``episode_<k>.hdf5`` only after all steps are written,
-flushed, fsynced and read back with the reader's validation; on any error it is deleted, so a
-folder never holds a half-written episode.
+images) and writes it into preallocated datasets of a temporary file next to the final one
+(:mod:`.episode_file`), so memory stays flat whatever the episode length. The temporary file
+becomes ``episode_<k>.hdf5`` only after all steps are written, fsynced and read back; on any
+error it is deleted, so a folder never holds a half-written episode. Images are
+gzip-compressed in background threads (:mod:`.chunk_compressor`). A write the file system
+refuses raises :class:`EpisodeIOError` (one line naming the file and the cause).
 
-Images are gzip-compressed by default, in background threads
-(:mod:`.chunk_compressor`), so compression stays off the render path. A write the file
-system refuses (disk full, read-only or unwritable folder, folder removed meanwhile) raises
-:class:`EpisodeIOError`, a one-line message naming the file and the cause.
+Docs: docs/datasets.md.
 """
 
 from __future__ import annotations

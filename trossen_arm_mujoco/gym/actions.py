@@ -1,28 +1,15 @@
 """Normalized gym actions -> robot commands.
 
-Every action dimension lies in [-1, 1] (values outside are clipped). Per arm, in the
-sampler's ``arms`` order:
+Every action value lies in [-1, 1] (values outside are clipped). Per arm, in the sampler's
+``arms`` order: 6 values (``joint_position``: mapped linearly onto the joint control range,
+rad; ``joint_rel_position``: joint deltas times ``joint_rel_limit``, rad; ``ee_delta``: 3
+world-frame tool deltas [dx, dy, dz] times ``ee_delta_limit``, m, through the robot layer's
+differential IK, with ``hold_orientation`` keeping the tool's orientation at reset), then 1
+gripper value (-1 closed .. +1 open over the actuator range, m). A robot with a
+differential-drive base adds 2 values: [x.vel, theta.vel] times the base's limits (m/s,
+rad/s). The safety floor is the robot layer's (``robot.safety_floor``), not this module's.
 
-- ``joint_position``: 6 values mapped linearly onto the joint control range (rad).
-- ``joint_rel_position``: 6 joint deltas, times ``joint_rel_limit`` (rad).
-- ``ee_delta``: 3 tool-frame deltas [dx, dy, dz] in the world frame, times
-  ``ee_delta_limit`` (m), through the robot layer's differential IK; with
-  ``hold_orientation`` the IK also turns the tool back to its orientation at reset.
-
-then 1 gripper value: -1 closed .. +1 open (finger travel over the actuator range, m).
-Then, for a robot with a differential-drive base (a ``base_velocity`` controller: the
-Mobile AI), 2 values: [x.vel, theta.vel] times the base's limits (m/s, rad/s).
-
-Safety floor: not here. It lives in the robot layer (``robot.safety_floor``), which keeps
-every collision geom of each arm and its tool frame above ``table_height + safety_margin``
-(m) tick by tick, whatever drives the robot; the gym env reports what it held up in the
-step's ``info`` (``gym.safety``).
-
-In ``joint_position`` mode the actions on the control ranges are the joint targets of every
-arm and gripper, in the order of the robot's ``JointTargetBatch`` over them
-(``Robot.joint_target_batch``): the commands go to the robot as ``JointTargets``, one vector
-it takes as is. The controls are those of commanding each group on its own (tested bit for
-bit), in fewer operations.
+Docs: docs/gym/index.md; design notes: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -3,41 +3,12 @@
 The env adapts; it does not score or randomize. The task's sampler builds the world and
 samples episodes from ``self.np_random``; the task scores; ``gym.actions`` turns actions into
 commands (the robot layer keeps the arms above the safety floor, ``gym.safety`` reports it);
-``gym.stepping`` advances time; ``gym.spaces`` shapes the observations.
+``gym.stepping`` advances time; ``gym.spaces`` shapes the observations. Every keyword
+argument is checked once, at construction (a one-line ``UserError``); a malformed action or
+reset option is an ``InvalidInput`` (``gym.inputs``). After ``close()``, ``step`` and
+``render`` raise until ``reset()`` reopens the env.
 
-Keyword arguments (besides the task's config keys, which override its YAML file):
-    task: registered task name (``tasks.registry.names()``).
-    obs_type: ``state`` | ``pixels`` | ``pixels_state`` (see ``gym.spaces``).
-    action_mode: ``joint_position`` | ``joint_rel_position`` | ``ee_delta`` (see
-        ``gym.actions``).
-    render_mode: None | ``rgb_array`` | ``human`` (a passive MuJoCo viewer; without a
-        display: a warning at construction, and nothing is shown).
-    stepping: ``fast`` | ``paused`` | ``realtime`` (see ``gym.stepping``).
-    width, height: image size (pixels) of pixel observations and ``rgb_array`` renders.
-    cameras: cameras of pixel observations and renders; default: the scene's first one.
-    randomize: domain randomization of every episode (default off), as the task config's
-        ``randomization`` section says (override it with ``randomization={...}``); the record
-        of the episode is ``info["randomization"]`` at reset.
-    shadows: whether the key light casts shadows (False renders pixels about twice as fast
-        with software rendering).
-    antialias: whether edges are smoothed by multisampling (False: one sample a pixel, about
-        twice as fast with software rendering; ``sim.looks``).
-    visual: ``own`` (the project's arm shapes) | ``menagerie`` (the official Trossen meshes
-        of a MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR``; see ``sim.looks``).
-        Only what is drawn changes; physics is the same.
-
-Every keyword argument is checked once, at construction (``tasks.config_schema`` for the
-config keys: kind, range, NaN/inf, ``*_low <= *_high``): a bad one is a one-line
-``UserError`` naming it and what is valid. A malformed action or reset option is an
-``InvalidInput`` (a UserError and a ValueError; ``gym.inputs``) naming the action space or
-the accepted reset options. After ``close()``, ``step`` and ``render`` raise
-a one-line ``UserError`` until ``reset()`` reopens the env (renderers, viewer and stepping
-thread are made again when needed).
-
-Reward: the task's reward (dense shaping for the wxai tasks, 0-4 for transfer_cube).
-``terminated``: the task ended (``terminate_on_success``); time limits come from the
-registered ``max_episode_steps`` (TimeLimit). ``info``: ``is_success``, ``safety_clipped``,
-``safety_links`` (links the safety floor held up, "" when none) and the task's diagnostics.
+Docs: docs/gym/index.md (options, reward, ``info``), one page per id under docs/gym/.
 """
 
 from __future__ import annotations
@@ -116,7 +87,35 @@ def has_display() -> bool:
 
 
 class TrossenMujocoEnv(gymnasium.Env):
-    """Gymnasium env over a registered task (see the module docstring for the kwargs)."""
+    """Gymnasium env over a registered task.
+
+    Args:
+        task: registered task name (``tasks.registry.names()``).
+        obs_type: ``state`` | ``pixels`` | ``pixels_state`` (see ``gym.spaces``).
+        action_mode: ``joint_position`` | ``joint_rel_position`` | ``ee_delta`` (see
+            ``gym.actions``).
+        render_mode: None | ``rgb_array`` | ``human`` (a passive MuJoCo viewer; without a
+            display: a warning at construction, and nothing is shown).
+        stepping: ``fast`` | ``paused`` | ``realtime`` (see ``gym.stepping``).
+        width: image width (pixels) of pixel observations and ``rgb_array`` renders.
+        height: image height (pixels), likewise.
+        cameras: cameras of pixel observations and renders; None: the scene's first one.
+        randomize: domain randomization of every episode, as the task config's
+            ``randomization`` section says (override it with ``randomization={...}``); the
+            record of the episode is ``info["randomization"]`` at reset.
+        shadows: whether the key light casts shadows (False renders pixels about twice as
+            fast with software rendering).
+        antialias: whether edges are smoothed by multisampling (False: one sample a pixel,
+            about twice as fast with software rendering; ``sim.looks``).
+        visual: ``own`` (the project's arm shapes) | ``menagerie`` (the official Trossen
+            meshes of a MuJoCo Menagerie checkout named by ``TROSSEN_MENAGERIE_DIR``; see
+            ``sim.looks``). Only what is drawn changes; physics is the same.
+        **config: the task's config keys, overriding its YAML file.
+
+    Raises:
+        UserError: a bad keyword argument or config value (one line naming it and what is
+            valid).
+    """
 
     # render_fps: 1 / policy_dt of the task (its YAML config), set per instance
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": None}

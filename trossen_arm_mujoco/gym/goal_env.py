@@ -38,20 +38,47 @@ class TrossenMujocoGoalEnv(TrossenMujocoEnv):
         super().__init__(task, **kwargs)
 
     def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray | float:
-        """Reward of goal pairs, shapes (..., 3) -> (...); a float for single goals."""
+        """Reward of goal pairs; a float for single goals.
+
+        Args:
+            achieved_goal: (..., 3) achieved goals (m, world frame, for the wxai tasks).
+            desired_goal: (..., 3) desired goals, likewise.
+            info: the step's ``info`` (unused; gymnasium-robotics' signature).
+
+        Returns:
+            (...) rewards.
+        """
         reward = self.probe.goal_reward(achieved_goal, desired_goal)
         if type(reward) is float:  # one pair (the step's)
             return reward
         return float(reward) if np.ndim(reward) == 0 else reward
 
     def compute_terminated(self, achieved_goal, desired_goal, info) -> np.ndarray | bool:
-        """Success when ``terminate_on_success``, else False; shapes (..., 3) -> (...)."""
+        """Success when ``terminate_on_success``, else False.
+
+        Args:
+            achieved_goal: (..., 3) achieved goals (m).
+            desired_goal: (..., 3) desired goals (m).
+            info: the step's ``info`` (unused).
+
+        Returns:
+            (...) booleans.
+        """
         success = self.probe.goal_success(achieved_goal, desired_goal)
         done = success & bool(self.config.get("terminate_on_success", False))
         return bool(done) if np.ndim(done) == 0 else done
 
     def compute_truncated(self, achieved_goal, desired_goal, info) -> np.ndarray | bool:
-        """Always False (time limits come from the TimeLimit wrapper); shapes as above."""
+        """Always False (time limits come from the TimeLimit wrapper).
+
+        Args:
+            achieved_goal: (..., 3) achieved goals (m).
+            desired_goal: (..., 3) desired goals (m).
+            info: the step's ``info`` (unused).
+
+        Returns:
+            (...) booleans, all False.
+        """
         shape = np.shape(achieved_goal)[:-1]
         return False if shape == () else np.zeros(shape, dtype=bool)
 

@@ -1,20 +1,15 @@
 """What the gym envs take from a caller at every step and reset, checked with errors that say
 what was expected.
 
-- ``step(action)``: an ``action_space`` sample, a float array of shape (dim,) (or anything
-  numpy turns into one: a list, float32/float64/int values). A string, an object, a wrong
-  shape or a NaN/inf is an ``InvalidInput`` naming the action space (shape, dtype, bounds).
-  The fast path (``ActionMapper.__call__``) checks only a float ndarray of the right shape;
-  anything else goes through ``action_array`` here.
-- ``reset(options=...)``: None or a dict of the keys of ``RESET_OPTIONS``; an unknown key
-  (the accepted ones listed) or a value of the wrong type is an ``InvalidInput``. An object
-  pose must be 7 finite numbers, its position inside the task's workspace box
-  (``workspace_low`` .. ``workspace_high`` of its config, the bounds of the ``env_state``
-  observation; ``DEFAULT_WORKSPACE`` when the caller gives none) and its quaternion of
-  non-zero norm (``object_pose``, also used by the served kit's control channel).
+``step(action)`` takes an ``action_space`` sample: a float array of shape (dim,) or anything
+numpy turns into one. ``reset(options=...)`` takes None or a dict of the keys of
+``RESET_OPTIONS``; an object pose is 7 finite numbers [x, y, z (m, world), quat wxyz], its
+position inside the task's workspace box, its quaternion of non-zero norm
+(:func:`object_pose`, also used by the served kit). Anything else is an ``InvalidInput``: a
+``UserError`` (one line) and a ``ValueError``, naming the action space or the accepted
+options.
 
-``InvalidInput`` is a ``UserError`` (one line; a command prints it without a traceback) and a
-``ValueError`` (what gymnasium and numpy users catch for a bad value).
+Docs: docs/gym/index.md.
 """
 
 from __future__ import annotations
@@ -65,7 +60,13 @@ class InvalidInput(UserError, ValueError):
 
 
 def describe_space(dim: int, low: float = -1.0, high: float = 1.0) -> str:
-    """The action space in words: ``Box(-1.0, 1.0, (dim,), float32)``."""
+    """The action space in words: ``Box(-1.0, 1.0, (dim,), float32)``.
+
+    Args:
+        dim: number of action values.
+        low: lower bound of every value.
+        high: upper bound of every value.
+    """
     return f"Box({low}, {high}, ({dim},), float32)"
 
 
@@ -112,11 +113,21 @@ def _box(low: np.ndarray, high: np.ndarray) -> str:
 
 
 def object_pose(pose: Any, what: str, workspace: tuple[Any, Any] | None = None) -> np.ndarray:
-    """``pose`` as a float64 (7,) [x, y, z (m, world), quat w, x, y, z], checked: an
-    ``InvalidInput`` starting with ``what`` (e.g. ``reset option object_poses['box']``) for a
-    value that is not 7 finite numbers, a position outside ``workspace`` ((low, high) (3,)
-    each, m; ``DEFAULT_WORKSPACE`` when None) or a quaternion of (near) zero norm. The
-    quaternion comes back normalized (as MuJoCo places it)."""
+    """An object pose, checked.
+
+    Args:
+        pose: 7 numbers [x, y, z (m, world), quat w, x, y, z].
+        what: what the pose is, starting the error (e.g. ``reset option
+            object_poses['box']``).
+        workspace: (low, high), (3,) each (m, world); None: ``DEFAULT_WORKSPACE``.
+
+    Returns:
+        float64 (7,), the quaternion normalized (as MuJoCo places it).
+
+    Raises:
+        InvalidInput: not 7 finite numbers, a position outside ``workspace`` or a
+            quaternion of (near) zero norm.
+    """
     p = None
     if not isinstance(pose, (str, bytes, Mapping)):
         try:

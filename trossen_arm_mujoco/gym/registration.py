@@ -1,20 +1,15 @@
 """Gymnasium ids of every env, registered on ``import trossen_arm_mujoco``: each task
 declares its ids (``TaskEntry.gym_ids``), those of installed packages included.
 
-Entry points are strings, so registering builds nothing and reads no file; calling
-``register_envs`` again is harmless (ids already in ``gymnasium.registry`` are skipped).
-Episode lengths (``max_episode_steps``) come from the tasks' YAML configs, read the first
-time a spec's ``max_episode_steps`` is asked for (``gymnasium.make`` asks after building the
-env, which reads the config first): a broken config fails only the ids of its task, with
-its one-line ``UserError``.
+Registering builds nothing and reads no file, and is harmless twice. ``max_episode_steps``
+comes from the task's YAML config, read when first asked for: a broken config fails only the
+ids of its task. Every id takes the keyword arguments of ``gym.env.TrossenMujocoEnv`` and the
+task's config keys::
 
     >>> import gymnasium as gym, trossen_arm_mujoco
-    >>> env = gym.make("TrossenMujoco/WXAIReachGoal-v0", action_mode="ee_delta")
     >>> env = gym.make("TrossenMujoco/WXAIPush-v0", obs_type="pixels", shadows=False)
 
-Every id takes the keyword arguments of ``gym.env.TrossenMujocoEnv`` (obs_type, action_mode,
-render_mode, stepping, width, height, cameras, shadows, antialias, visual) and the task's
-config keys.
+Docs: docs/gym/index.md.
 """
 
 from __future__ import annotations
@@ -46,7 +41,13 @@ ENV_IDS: dict[str, tuple[str, str, dict[str, Any]]] = _env_ids()
 
 class TaskEnvSpec(EnvSpec):
     """``EnvSpec`` of a registered task whose ``max_episode_steps`` is the task's YAML value,
-    read on first use (and kept); setting it replaces that."""
+    read on first use (and kept); setting it replaces that.
+
+    Args:
+        *args: as for ``gymnasium.envs.registration.EnvSpec``.
+        task: the registered task name ("" for no task: ``max_episode_steps`` as given).
+        **kwargs: as for ``EnvSpec``.
+    """
 
     def __init__(self, *args: Any, task: str = "", **kwargs: Any):
         super().__init__(*args, **kwargs)

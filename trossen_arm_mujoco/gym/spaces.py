@@ -1,21 +1,14 @@
 """Observation spaces of the gym adapter and the conversion of task observations into them.
 
-Observation types (``obs_type``):
+``obs_type``: ``state`` (a float32 vector, the task's observation parts concatenated in
+order; goal-conditioned tasks in the plain env append the desired goal and desired -
+achieved, (3,) each for the wxai tasks, m), ``pixels`` (uint8 (height, width * n_cameras, 3),
+the cameras side by side) or ``pixels_state`` (Dict(pixels=..., state=...)). Goal envs return
+Dict(observation=..., achieved_goal, desired_goal). Everything derives from the task's
+observation parts (``tasks.observation``); every Box is finite and state values are clipped
+into their bounds (joint ranges, velocity caps, the workspace box).
 
-- ``state``: float32 vector, the values of the task's observation parts concatenated in
-  order; goal-conditioned tasks in the plain env also append the desired goal and desired -
-  achieved (3,) each for the wxai tasks (m).
-- ``pixels``: uint8 image (height, width * n_cameras, 3), the cameras side by side.
-- ``pixels_state``: Dict(pixels=image, state=vector).
-
-Goal envs return Dict(observation=..., achieved_goal, desired_goal) (goal-sized: (3,) for the
-wxai tasks) where ``observation`` is the state vector (``state``), the image (``pixels``), or
-the state vector with an extra ``pixels`` key (``pixels_state``).
-
-Everything derives from the task's observation parts (``tasks.observation``): the vector's
-entries and their order, the Box bounds and the goals. Every Box is finite; state values are
-clipped into their bounds (the parts' bounds: joint ranges, velocity caps, the workspace
-box).
+Docs: docs/gym/index.md, and each id's page under docs/gym/.
 """
 
 from __future__ import annotations

@@ -1,21 +1,14 @@
 """Stepping regimes: how one policy step maps onto wall-clock time.
 
-- ``fast`` (default): the step runs ``policy_dt`` of physics as fast as possible;
-  deterministic, never sleeps.
-- ``paused``: as ``fast``, then sleeps so that the step lasts ``policy_dt`` of wall time;
-  the simulation waits while the policy thinks.
+- ``fast`` (default): ``policy_dt`` of physics as fast as possible; deterministic.
+- ``paused``: as ``fast``, then sleeps so that the step lasts ``policy_dt`` of wall time.
 - ``realtime``: a background thread advances physics in wall-clock time, one control tick
-  (``ctrl_dt``) at a time, also while the policy thinks. ``step`` hands the action over and
-  returns at once; observations are the latest state. The robots keep working on the latest
-  action every tick (rate-limited moves continue until reached) until the next one arrives.
-  If the thread falls behind by more than ``MAX_LAG`` seconds (e.g. a slow render holding
-  the lock), it drops the backlog (counted in ``dropped_s``) instead of racing to catch up.
+  (``ctrl_dt``) at a time, also while the policy thinks; ``step`` hands the action over and
+  returns at once with the latest state. A backlog over ``MAX_LAG`` s is dropped
+  (``dropped_s``).
 
-Every regime advances time through the one stepping loop, ``sim.env.MujocoEnv.step``:
-``fast`` and ``paused`` through ``Task.advance`` (``policy_dt / ctrl_dt`` ticks), ``realtime``
-with ``env.step(1)`` per tick. Timing comes from the task (``policy_dt``, ``ctrl_dt`` from its
-YAML config) and the model (``sim_dt``). All access to the simulation state goes through
-``stepper.lock``.
+Every regime advances time through ``sim.env.MujocoEnv.step``; all access to the simulation
+state goes through ``stepper.lock`` (thread-safety). Docs: docs/gym/index.md.
 """
 
 from __future__ import annotations

@@ -1,18 +1,14 @@
 """Replay of recorded episodes on real Trossen AI arms, or on their MuJoCo twin.
 
-- :mod:`.driver`: the :class:`ArmDriver` protocol and the real ``trossen_arm`` backend;
-- :mod:`.sim_driver`: :class:`SimArmDriver`, the simulated twin of one arm;
-- :mod:`.clock`: wall-clock and simulated time;
-- :mod:`.validate`: trajectory checks against joint and speed limits;
-- :mod:`.preflight`: the arms' addresses and the episode's step period, checked before
-  anything connects;
-- :mod:`.gripper`: gripper commands clamped to the controller's range, and counted;
-- :mod:`.replay`: the rate-limited replay loop;
-- :mod:`.shutdown`: driver calls as one-line errors, and the safe home/sleep/cleanup exit;
-- :mod:`.stop`: SIGINT, SIGTERM, SIGHUP and SIGQUIT as a stop flag;
-- :mod:`.report`: tracking-error CSV, JSON summary and plot.
-
+The parts: :mod:`.driver` (the :class:`ArmDriver` protocol, the ``trossen_arm`` backend),
+:mod:`.sim_driver` (the simulated twin of one arm), :mod:`.clock` (wall-clock and simulated
+time), :mod:`.validate` (trajectory checks), :mod:`.preflight` (addresses and step period,
+checked before anything connects), :mod:`.gripper` (gripper commands clamped and counted),
+:mod:`.replay` (the rate-limited loop), :mod:`.shutdown` (one-line driver errors, the safe
+exit), :mod:`.stop` (signals as a stop flag), :mod:`.report` (tracking CSV, JSON, plot).
 The command line is ``scripts/replay_episode_real.py`` (``trossen-mujoco replay-real``).
+
+Docs: docs/cli/replay-real.md.
 """
 
 from trossen_arm_mujoco.real.clock import Clock, SimClock, WallClock

@@ -2,21 +2,16 @@
 trajectory moves toward, and every setpoint of that trajectory passes the controller's
 checks.
 
-On the real kit (and on the served kit, ``twin/``) a policy's action reaches an arm as
-``set_all_positions(goal, goal_time=GOAL_TIME_FACTOR / fps)`` (Trossen's LeRobot plugin):
-the driver streams the setpoints of :class:`~.goal_trajectory.GoalTrajectory` from the
-current setpoint toward the goal, each with its feedforward velocity, and the controller
-enters its error state on the first one its checks refuse
-(:class:`~.controller_checks.InputChecker`: non-finite, outside the joint range, faster
-than the joint's speed limit). :class:`KitController` is that path for in-process
-evaluation: :meth:`KitController.command` starts the trajectory of one action,
-:meth:`KitController.tick` gives the checked setpoint of each control tick and the first
-fault, and the largest speed asked of each value is kept as a fraction of its limit.
+A policy's action reaches an arm as ``set_all_positions(goal, goal_time=GOAL_TIME_FACTOR /
+fps)`` (Trossen's LeRobot plugin): the driver streams the setpoints of
+:class:`~.goal_trajectory.GoalTrajectory`, and the controller enters its error state on the
+first its checks refuse (:class:`~.controller_checks.InputChecker`). :class:`KitController`
+is that path for in-process evaluation: :meth:`KitController.command` starts an action's
+trajectory, :meth:`KitController.tick` gives each control tick's checked setpoint and the
+first fault. Values are the kit's 14 (``robot.layout.KIT14_LAYOUT``): per arm ``joint_0`` ..
+``joint_5`` (rad) and the gripper carriage (m).
 
-Values are the real kit's 14 (``robot.layout.KIT14_LAYOUT``): per arm, left then right,
-``joint_0`` .. ``joint_5`` (rad) and the gripper carriage (m). :func:`controller_target`
-is what a controller does with an accepted position command (shared with the served arm):
-clip it to the joint range, the gripper to :data:`~.gripper.GRIPPER_MAX`.
+Docs: docs/real-kit.md, docs/train-eval.md.
 """
 
 from __future__ import annotations
@@ -65,9 +60,15 @@ VALUE_LABELS: tuple[str, ...] = value_labels(SIDES)
 
 
 def controller_target(position: float, j: int, limit: JointLimit) -> float:
-    """What an arm controller aims joint ``j`` at for an accepted position command: the
-    command clipped to the joint range (the gripper also to ``GRIPPER_MAX``, as the real
-    controller clips it)."""
+    """What an arm controller aims a joint at for an accepted position command: the command
+    clipped to the joint range (the gripper also to ``GRIPPER_MAX``, as the real controller
+    clips it).
+
+    Args:
+        position: the commanded position (rad; m for the gripper).
+        j: the driver value's index, 0..5 the joints, 6 the gripper.
+        limit: the value's limits (:func:`~.controller_checks.controller_limits`).
+    """
     hi = min(limit.position_max, GRIPPER_MAX) if j == GRIPPER_INDEX else limit.position_max
     return min(max(position, limit.position_min), hi)
 

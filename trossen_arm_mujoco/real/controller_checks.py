@@ -2,29 +2,16 @@
 fault that puts the arm in its error state when it does not.
 
 A real Trossen arm controller refuses robot inputs it must not follow: it enters an error
-state, idles its joints and answers every request with that state until the error is
-cleared. This module is that rule, written once: the served kit (``twin/``) checks every
-robot input its clients stream with it, and in-process evaluation (``eval/``, through
-:class:`~trossen_arm_mujoco.real.arm_controller.KitController`) checks every setpoint of the
-driver's trajectory with it. Checked in this order on every robot input
-(:class:`InputChecker`, one per arm):
+state, idles its joints and answers every request with that state until cleared. This module
+is that rule, written once, for the served kit (``twin/``) and in-process evaluation
+(:class:`~trossen_arm_mujoco.real.arm_controller.KitController`). :class:`InputChecker` (one
+per arm) refuses a non-finite value (``ROBOT_INPUT_INFINITE``), a position outside the range
+plus tolerance or a feedforward velocity beyond the limit plus tolerance
+(``JOINT_LIMIT_EXCEEDED``), and in velocity / effort modes a command beyond its limit.
+Limits (:func:`controller_limits`) are per driver value: 6 joints in rad, the gripper
+carriage in m.
 
-- any non-finite value: ``ROBOT_INPUT_INFINITE`` (kind ``non-finite``);
-- position mode: a position command outside ``[position_min - position_tolerance,
-  position_max + position_tolerance]`` (kind ``position``), or a feedforward velocity (the
-  speed of the driver's interpolated trajectory) beyond ``velocity_max +
-  velocity_tolerance`` (kind ``speed``): ``JOINT_LIMIT_EXCEEDED``;
-- velocity mode: a velocity command beyond ``velocity_max + velocity_tolerance``
-  (``speed``);
-- effort modes (``external_effort``, ``effort``): an effort beyond ``effort_max +
-  effort_tolerance`` (``effort``).
-
-Limits (:func:`controller_limits`), per driver value (6 joints in rad, gripper carriage in
-m): position ranges of the arm's MJCF (the gripper 0 .. 0.044 m); position tolerances
-``real.validate.POSITION_TOLERANCE`` (0.01 rad, 0.001 m); velocity limits of the URDF
-(``robot.configs.JOINT_VELOCITY_LIMITS``: 3.375 / 7.0 rad/s, 0.0875 m/s) with a tolerance
-of :data:`VELOCITY_TOLERANCE_FRACTION` of each; effort limits of the URDF
-(:data:`EFFORT_LIMITS`: 27 / 7 N m, 400 N) with :data:`EFFORT_TOLERANCE_FRACTION`.
+Docs: docs/real-kit.md; the limits and the order of checks: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

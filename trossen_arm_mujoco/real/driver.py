@@ -1,32 +1,15 @@
 """What replay needs from one arm, and the real backend over the ``trossen_arm`` driver.
 
-Positions of one arm are 7 values: ``[joint_0 .. joint_5 (rad), gripper (m)]``.
+Positions of one arm are 7 values: ``[joint_0 .. joint_5 (rad), gripper (m)]``. The gripper
+value is the travel of **one** carriage from closed, in metres (0 closed, 0.044 fully open;
+the finger gap is about twice that), as ``trossen_arm`` and the MJCF carriage joint mean it;
+the arm controller limits it to 0.04 m (:mod:`.gripper`). A 16-value dataset row maps to the
+driver as ``left = row[0:7]``, ``right = row[8:15]`` (:func:`split_arms`; the coupled
+finger's value is not sent). ``configure`` takes a ``trossen_arm.StandardEndEffector`` name
+(:func:`end_effector_presets`). :class:`TrossenArmDriver` imports ``trossen_arm`` lazily
+(``pip install 'trossen-arm-mujoco[real]'``); the twin is :mod:`.sim_driver`.
 
-Gripper convention
-    The gripper value is the travel of **one** carriage (finger) from the closed
-    position, in metres: 0 = closed, 0.044 = fully open (the finger gap is about twice
-    that). This is what ``trossen_arm`` means by the gripper joint position ("m for the
-    gripper joint"; the end-effector preset stores each carriage's offset from the palm
-    centre in the home, i.e. closed, configuration), and it is the MJCF carriage joint
-    coordinate. A dataset row (16 values, see ``constants.START_ARM_POSE``) maps to the
-    driver as ``left = row[0:7]`` and ``right = row[8:15]``: the 6 joints plus the
-    ``right_carriage_joint`` value (index 6 / 14). The ``left_carriage_joint`` value
-    (index 7 / 15) is the same finger travel of the coupled twin finger (recorded
-    values differ by < 0.1 mm) and is not sent; see :func:`split_arms`.
-
-Gripper range
-    The MJCF carriage travels 0 .. 0.044 m, but the arm controller limits the gripper to
-    0.04 m; see :mod:`trossen_arm_mujoco.real.gripper`, which clamps and counts.
-
-End-effector presets
-    ``configure`` takes the name of a ``trossen_arm.StandardEndEffector`` member.
-    :func:`end_effector_presets` reads the valid names from the installed package
-    (trossen_arm 1.11: ``wxai_v0_follower`` is the current follower preset, for the
-    2026-06-26 hardware; arms built in 2025 need ``wxai_v0_follower_20250509``).
-
-The real backend :class:`TrossenArmDriver` is imported lazily, so this module loads
-without the optional ``trossen_arm`` package (``pip install 'trossen-arm-mujoco[real]'``).
-The simulated twin lives in :mod:`trossen_arm_mujoco.real.sim_driver`.
+Docs: docs/cli/replay-real.md, docs/real-kit.md; conventions: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -131,7 +114,12 @@ class ArmDriver(Protocol):
         """Move toward ``positions`` (7 values: rad x6, gripper m), arriving after ``goal_time`` s.
 
         The controller interpolates its setpoint from where it is to the goal over
-        ``goal_time``; ``blocking=True`` returns once ``goal_time`` has elapsed.
+        ``goal_time``.
+
+        Args:
+            positions: 7 values: ``joint_0`` .. ``joint_5`` (rad), gripper (m).
+            goal_time: seconds until the goal is reached.
+            blocking: return only once ``goal_time`` has elapsed.
         """
         ...
 
@@ -292,7 +280,13 @@ def end_effector_presets(ta: ModuleType) -> list[str]:
 
 def check_end_effector(ta: ModuleType, end_effector: str, flag: str | None = None) -> None:
     """Raise a one-line ``UserError`` listing the valid presets if ``end_effector`` is
-    unknown; ``flag``: the command-line flag that chose it, named in the message."""
+    unknown.
+
+    Args:
+        ta: the imported ``trossen_arm`` module.
+        end_effector: a ``trossen_arm.StandardEndEffector`` member name.
+        flag: the command-line flag that chose it, named in the message.
+    """
     valid = end_effector_presets(ta)
     if end_effector not in valid:
         where = f"StandardEndEffector presets of the installed trossen_arm {installed_version()}"
@@ -303,6 +297,14 @@ def check_end_effector(ta: ModuleType, end_effector: str, flag: str | None = Non
 
 def resolve_presets(ta: ModuleType, model: str, end_effector: str) -> tuple[Any, Any]:
     """Look up ``trossen_arm.Model.<model>`` and ``trossen_arm.StandardEndEffector.<ee>``.
+
+    Args:
+        ta: the imported ``trossen_arm`` module.
+        model: a ``trossen_arm.Model`` member name, e.g. ``"wxai_v0"``.
+        end_effector: a ``trossen_arm.StandardEndEffector`` member name.
+
+    Returns:
+        (the model, the end-effector preset).
 
     Raises:
         UserError: an unknown name, listing the valid ones.
@@ -349,6 +351,12 @@ class TrossenArmDriver:
 
         A driver whose ``configure`` fails is cleaned up and released here, so that no
         half-made connection outlives the call.
+
+        Args:
+            ip_address: the arm controller's address.
+            model: robot model name, e.g. ``"wxai_v0"``.
+            end_effector: end-effector preset name, e.g. ``"wxai_v0_follower"``.
+            clear_error: clear a latched error state of the controller.
         """
         model_enum, effector = resolve_presets(self._ta, model, end_effector)
         driver = self._ta.TrossenArmDriver()
@@ -376,7 +384,13 @@ class TrossenArmDriver:
     def set_all_positions(
         self, positions: Sequence[float], goal_time: float, blocking: bool
     ) -> None:
-        """Send 7 goal positions (rad x6, gripper m), reached after ``goal_time`` (s)."""
+        """Send 7 goal positions, reached after ``goal_time``.
+
+        Args:
+            positions: 7 values: ``joint_0`` .. ``joint_5`` (rad), gripper (m).
+            goal_time: seconds until the goal is reached.
+            blocking: return only once ``goal_time`` has elapsed.
+        """
         values = [float(v) for v in positions]
         if len(values) != NUM_ARM_VALUES:
             raise ValueError(f"expected {NUM_ARM_VALUES} positions, got {len(values)}")

@@ -1,19 +1,14 @@
 """The arm driver's trajectory toward a goal: what ``set_all_positions(goal, goal_time)``
 makes the setpoint of an arm do.
 
-Like the real ``trossen_arm`` driver, a goal does not jump the arm: each command starts a
-setpoint trajectory from the current setpoint (position, velocity, acceleration; continuous
-across commands) to the goal over ``goal_time``:
+Like the real ``trossen_arm`` driver, each command starts a setpoint trajectory from the
+current setpoint (position, velocity, acceleration; continuous across commands) to the goal
+over ``goal_time``: above :data:`QUINTIC_MIN_GOAL_TIME` (0.2 s) a quintic (zero velocity and
+acceleration at the goal), shorter a linear ramp, zero a step change. Used by the simulated
+driver and by in-process evaluation (``KitController``), whose policies send every action
+with ``goal_time = GOAL_TIME_FACTOR / fps`` as Trossen's LeRobot plugin does.
 
-- ``goal_time > 0.2 s`` (:data:`QUINTIC_MIN_GOAL_TIME`): a quintic polynomial, zero velocity
-  and acceleration at the goal;
-- shorter: a linear ramp (constant speed ``(goal - start) / goal_time``);
-- zero: a step change.
-
-Used by the simulated driver (``real.sim_driver``) and by in-process evaluation
-(``real.arm_controller.KitController``), whose policies send every action with
-``goal_time = GOAL_TIME_FACTOR / fps`` as Trossen's LeRobot plugin and ``eval --backend
-wire`` do.
+Docs: docs/real-kit.md.
 """
 
 from __future__ import annotations
@@ -32,8 +27,16 @@ GOAL_TIME_FACTOR: float = 3.0
 
 
 class GoalTrajectory:
-    """Setpoint trajectory from ``(p0, v0, a0)`` to ``(goal, 0, 0)`` over ``duration`` s
-    (arrays of any one shape: rad, m; rad/s, m/s; rad/s^2, m/s^2)."""
+    """Setpoint trajectory from ``(p0, v0, a0)`` to ``(goal, 0, 0)`` over ``duration`` s.
+
+    Args:
+        p0: start positions (rad; m), any one shape for all four arrays.
+        v0: start velocities (rad/s; m/s).
+        a0: start accelerations (rad/s^2; m/s^2).
+        goal: goal positions (rad; m).
+        duration: the goal time (s): quintic above ``QUINTIC_MIN_GOAL_TIME``, a linear ramp
+            below, a step at zero.
+    """
 
     def __init__(
         self, p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, goal: np.ndarray, duration: float

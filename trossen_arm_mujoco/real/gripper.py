@@ -68,7 +68,12 @@ class GripperClamp:
 def clamp_gripper(
     commands: np.ndarray, gripper_max: float = GRIPPER_MAX, arms: Sequence[str] = ("left", "right")
 ) -> tuple[np.ndarray, GripperClamp]:
-    """Clamp the gripper values of ``commands`` (``(T, 2, 7)``) to at most ``gripper_max`` (m).
+    """Clamp the gripper values of ``commands`` to at most ``gripper_max``.
+
+    Args:
+        commands: ``(T, 2, 7)`` driver values per step and arm (rad; gripper m).
+        gripper_max: the largest gripper value (m).
+        arms: the arms' names, in the order of axis 1 (for the count).
 
     Returns:
         ``(clamped copy, GripperClamp)``; ``commands`` itself is not modified.

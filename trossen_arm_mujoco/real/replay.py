@@ -1,34 +1,17 @@
 """Rate-limited replay of a validated trajectory on two arms, with a safe exit.
 
-:func:`replay` runs, for the two arms ``left`` and ``right``:
+:func:`replay`, for the arms ``left`` and ``right``: clamps the gripper commands to
+``gripper_max``; configures each arm (position mode); moves to the first command over
+``start_time`` and waits ``settle_time``; streams the commands at ``fps`` (per step
+``set_all_positions(cmd, goal_time_factor / fps, blocking=False)``, waits until
+``t0 + (k + 1) / fps``, logs commanded vs measured); and always, after any exception or a
+stop signal, recovers an arm in error where it can, moves every configured arm home and to
+sleep, and cleans up (:func:`.shutdown.shutdown`). Stop signals (main thread only) set a flag
+checked every :data:`~.stop.WAIT_SLICE` s; all waiting goes through a ``Clock`` (real or
+simulated time). ``fps`` is bounded by :func:`check_fps` (a command lasts 1 ms ..
+:data:`MAX_COMMAND_PERIOD`).
 
-0. clamp the gripper commands to ``gripper_max`` (:mod:`.gripper`; counted in the result);
-1. ``configure`` each arm (model, end-effector preset, address), position mode;
-2. move to the first command, over ``start_time`` (2 s; longer if the speed limits
-   need it), and wait ``settle_time``;
-3. stream the commands at ``fps``: per step, ``set_all_positions(cmd, goal_time,
-   blocking=False)`` to both arms with ``goal_time = goal_time_factor / fps``, wait
-   until the step's deadline (``t0 + (k + 1) / fps``, so waits do not drift), then read
-   both arms' positions and log commanded (as sent) vs measured;
-4. always, after any exception (of any type, from any call) or a stop signal: stop
-   streaming; an arm whose controller entered an error state a command caused (e.g. a
-   joint limit exceeded: the driver raises on every call then) is recovered first, where
-   its driver can (``recover()``: clear the state, position mode; reported); then move
-   every configured arm home (``driver.HOME_POSE``), then to the sleep pose (all joints
-   0), then ``cleanup`` (:func:`.shutdown.shutdown`: each arm on its own, each call
-   retried once, every failure reported).
-
-SIGINT, SIGTERM, SIGHUP and SIGQUIT are caught while replay runs (main thread only) and
-only set a stop flag (:mod:`.stop`); the previous handlers are restored afterwards.
-Every wait (to the start pose, the settle time, each command period) is done in slices
-of at most :data:`~.stop.WAIT_SLICE` (0.05 s) with the flag checked between them, so a
-stop takes effect within one slice even at the lowest ``fps``. The home and sleep moves
-are not interruptible: a signal arriving then is only noted (``late_signals``). All
-waiting goes through a :class:`~trossen_arm_mujoco.real.clock.Clock`: real time for
-real arms, simulated time (much faster, or paced to real time) for the twin.
-
-The command rate is bounded by :func:`check_fps`: one command lasts ``1 / fps``, which
-must lie between 1 ms and :data:`MAX_COMMAND_PERIOD` (2 s).
+Docs: docs/cli/replay-real.md; the sequence in full: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -126,8 +109,12 @@ def make_drivers(
     which must then be a SimClock). ``"trossen"`` and ``"wire"``: two
     :class:`TrossenArmDriver` (no network until configure) and a :class:`WallClock` unless
     ``clock`` is given; for ``"wire"`` the caller serves the kit on the addresses replay
-    configures (``scripts/replay_episode_real.py`` does); their ``configure`` waits at most
-    ``connect_timeout`` s for a controller.
+    configures (``scripts/replay_episode_real.py`` does).
+
+    Args:
+        backend: ``"sim"``, ``"trossen"`` or ``"wire"``.
+        clock: the clock to wait on; None: a new one of the backend's kind.
+        connect_timeout: seconds ``configure`` waits at most for a controller.
     """
     if backend == "sim":
         clock = SimClock() if clock is None else clock

@@ -1,21 +1,14 @@
 """Tracking-error log of a replay and the files written from it.
 
-Per replay, next to the episode in ``<data folder>/replay/`` (or ``--output_dir``), checked
-before any arm moves (:func:`check_outputs`):
+Per replay, in ``<data folder>/replay/`` (or ``--output_dir``), checked before any arm moves
+(:func:`check_outputs`): ``episode_<k>_<backend>_tracking.csv`` (one row per streamed step:
+``step``, ``time_s``, then ``cmd_*`` and ``meas_*`` per arm and driver value; rad, gripper
+m), ``episode_<k>_<backend>_summary.json`` (RMS and max of measured - commanded per joint,
+plus run metadata) and ``episode_<k>_<backend>_tracking.png`` (one panel per joint). Files
+are written to a temporary name and renamed; a rerun of the same episode and backend
+replaces them.
 
-- ``episode_<k>_<backend>_tracking.csv``: one row per streamed step: ``step``, ``time_s``
-  (since streaming began, at the moment of measurement), then for each arm and driver
-  value (``left_joint_0`` ... ``right_gripper``) the commanded position as sent (gripper
-  after clamping to ``--gripper_max``) and the measured one (``cmd_*``, ``meas_*``; rad,
-  gripper m);
-- ``episode_<k>_<backend>_summary.json``: RMS and max of measured - commanded per joint,
-  plus run metadata (status, reason, fps, goal time, values clipped to the joint limits,
-  gripper commands clamped to ``--gripper_max``, end-effector preset, trossen_arm
-  version);
-- ``episode_<k>_<backend>_tracking.png``: commanded vs measured, one panel per joint.
-
-Files are written to a temporary name and then renamed, so a reader never sees half a
-file; a rerun of the same episode and backend replaces them.
+Docs: docs/cli/replay-real.md.
 """
 
 from __future__ import annotations
@@ -61,7 +54,13 @@ class TrackingLog:
     measured: list[np.ndarray] = field(default_factory=list)
 
     def add(self, time_s: float, commanded: np.ndarray, measured: np.ndarray) -> None:
-        """Record one step: ``commanded``/``measured`` are ``(2, 7)`` (left, right)."""
+        """Record one step.
+
+        Args:
+            time_s: seconds since streaming began, at the moment of measurement.
+            commanded: ``(2, 7)`` (left, right) positions as sent (rad; gripper m).
+            measured: ``(2, 7)`` positions read back.
+        """
         self.times.append(float(time_s))
         self.commanded.append(np.asarray(commanded, dtype=np.float64).reshape(14))
         self.measured.append(np.asarray(measured, dtype=np.float64).reshape(14))
@@ -130,6 +129,11 @@ def plot_tracking(log: TrackingLog, path: Path, title: str) -> None:
     """Save commanded vs measured positions, 7 rows x 2 arms, as a PNG at ``path``.
 
     Uses matplotlib's Agg canvas directly (no pyplot, no global backend change).
+
+    Args:
+        log: the replay's tracking log.
+        path: the PNG to write.
+        title: the figure's title.
 
     Raises:
         ImportError: matplotlib is not installed.
@@ -207,6 +211,12 @@ def write_outputs(
     out_dir: Path, stem: str, log: TrackingLog, summary: dict[str, Any]
 ) -> dict[str, Path | None]:
     """Write the CSV, the JSON summary (``summary`` + per-joint errors) and the plot.
+
+    Args:
+        out_dir: the folder (``<data folder>/replay/`` by default).
+        stem: the files' name stem, ``episode_<k>_<backend>``.
+        log: the replay's tracking log.
+        summary: run metadata for the JSON file.
 
     Returns:
         ``{"csv", "summary", "plot"}`` paths; ``"plot"`` is None when matplotlib is

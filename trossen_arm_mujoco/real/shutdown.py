@@ -1,28 +1,15 @@
-"""Driver calls that fail in one line, and the safe exit: home, sleep and clean up every arm.
+r"""Driver calls that fail in one line, and the safe exit: home, sleep and clean up every arm.
 
-Every driver call of replay goes through :func:`call`, which turns *any* exception
-(``ValueError``, ``TypeError``, the vendor's ``RuntimeError`` and ``LogicError``, ...)
-into a :class:`DriverError` naming the arm and the call, in one line. Positions read
-from an arm are checked (7 finite values) by :func:`read_positions`.
+Every driver call of replay goes through :func:`call`, which turns *any* exception into a
+:class:`DriverError` naming the arm and the call; :func:`read_positions` checks positions
+read (7 finite values). :func:`shutdown` runs after streaming, whatever stopped it, for each
+arm on its own: position mode where missing, home then sleep pose (goal times from the
+measured position and the speed limits), final read, cleanup. Each call is tried twice;
+failures are collected, never raised; an arm whose home move cannot be sent is given up
+(only its cleanup follows). ``Exception`` and ``KeyboardInterrupt`` are caught; other
+``BaseException``\ s (``SystemExit``, a test framework's failure) are not.
 
-:func:`shutdown` runs after streaming, whatever stopped it. For each arm on its own, so
-that a failure of one arm never keeps the other from its safe pose:
-
-1. an arm that was configured but not put in position mode is put in position mode;
-2. every configured arm is sent home, both arms together, then (after the move and
-   ``settle_time``) to the sleep pose. Each move's goal time comes from the arm's
-   measured position and the speed limits; if the position cannot be read, from the
-   worst case over the joint ranges;
-3. the final positions are read and every arm whose ``configure`` was called is
-   cleaned up.
-
-Each of these calls is tried twice: a call that fails once and then succeeds still
-reaches the safe pose (and is reported); every failure is collected, never raised. An arm
-whose home move cannot be sent (both tries failed: its controller no longer answers, e.g.
-the connection dropped) is given up: no more moves or reads are sent to it, only its
-cleanup, and one line says it was left where it stopped.
-``Exception`` and ``KeyboardInterrupt`` are caught; other ``BaseException``\\ s (a
-``SystemExit``, a test framework's failure) are not.
+Docs: docs/cli/replay-real.md; the sequence in full: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -75,7 +62,14 @@ def one_line(exc: BaseException) -> str:
 
 
 def call(side: str, what: str, fn: Callable[..., Any], *args: Any) -> Any:
-    """``fn(*args)``; any exception becomes a :class:`DriverError` naming arm and call."""
+    """``fn(*args)``; any exception becomes a :class:`DriverError` naming arm and call.
+
+    Args:
+        side: the arm, ``"left"`` or ``"right"``.
+        what: the call's name, for the message.
+        fn: the driver method.
+        *args: its arguments.
+    """
     try:
         return fn(*args)
     except DriverError:
@@ -105,7 +99,15 @@ def read_positions(side: str, driver: ArmDriver) -> np.ndarray:
 def move_time(
     start: np.ndarray | None, goal: np.ndarray, minimum: float, limits: ArmLimits
 ) -> float:
-    """Goal time (s) from ``start`` to ``goal``; from the farthest joint limits if unknown."""
+    """Goal time (s) of a move within the speed limits.
+
+    Args:
+        start: ``(7,)`` driver values where the arm is; None when unknown (then the
+            farthest point of the joint ranges).
+        goal: ``(7,)`` driver values to reach.
+        minimum: the shortest goal time (s).
+        limits: the arm's limits.
+    """
     if start is None:
         lo, hi = limits.driver_lower, limits.driver_upper
         start = np.where(np.abs(goal - lo) > np.abs(hi - goal), lo, hi)
@@ -154,6 +156,15 @@ def shutdown(
     limits: ArmLimits,
 ) -> tuple[dict[str, np.ndarray], list[str]]:
     """Home, sleep, clean up; see the module doc. Never raises ``Exception``.
+
+    Args:
+        drivers: arm name -> driver.
+        states: how far each arm got (which were configured, in position mode).
+        clock: the clock to wait on.
+        home_time: the shortest goal time of the home move (s).
+        sleep_time: the shortest goal time of the sleep move (s).
+        settle_time: the wait after each move (s).
+        limits: the arms' limits (goal times within the speed limits).
 
     Returns:
         ``({arm: final (7,) positions}, errors)``: positions of the arms that could be

@@ -1,21 +1,14 @@
 """The simulated twin of one arm: :class:`SimArmDriver`, an :class:`ArmDriver` over MuJoCo.
 
-It runs the single-arm model ``assets/wxai/wxai_follower.xml`` (timestep 0.002 s) with
-plain ``mujoco``. Like the real controller, a goal does not jump the arm: each
-``set_all_positions`` starts a setpoint trajectory from the current setpoint (position,
-velocity, acceleration; continuous across commands) to the goal over ``goal_time``
-(``real.goal_trajectory``: quintic above 0.2 s, a linear ramp below, a step change below
-one physics step, the control period).
+It runs the single-arm model ``assets/wxai/wxai_follower.xml`` (timestep 0.002 s). Like the
+real controller, each ``set_all_positions`` starts a setpoint trajectory from the current
+setpoint to the goal over ``goal_time`` (:mod:`.goal_trajectory`), updated every physics
+step (500 Hz); the position actuators track it, so the measured arm lags by real dynamics.
+Nothing moves between calls: :meth:`SimArmDriver.advance` simulates a span of time, called by
+the shared :class:`~trossen_arm_mujoco.real.clock.SimClock` on every ``clock.sleep(dt)``, so
+replay runs at simulation speed with the same code that waits in real time on real arms.
 
-(``trossen_arm`` documents the same rule with a 0.001 s step threshold.) The position
-actuators track that setpoint with their own gains, so the measured arm lags the
-setpoint by real dynamics. The setpoint is updated every physics step (500 Hz).
-
-Time: nothing moves between calls. :meth:`SimArmDriver.advance` simulates a span of
-time; the driver's :class:`~trossen_arm_mujoco.real.clock.SimClock` calls it on every
-``clock.sleep(dt)``, and ``blocking=True`` sleeps the clock for ``goal_time``. Replay
-therefore runs at simulation speed, far faster than real time, with the same code that
-waits in real time on real arms.
+Docs: docs/cli/replay-real.md (``--backend sim``).
 """
 
 from __future__ import annotations
@@ -121,7 +114,14 @@ class SimArmDriver:
         end_effector: str = DEFAULT_END_EFFECTOR,
         clear_error: bool = True,
     ) -> None:
-        """Accept the same arguments as the real driver; ``ip_address`` is only recorded."""
+        """Accept the same arguments as the real driver.
+
+        Args:
+            ip_address: the arm controller's address (only recorded).
+            model: robot model name, e.g. ``"wxai_v0"``.
+            end_effector: end-effector preset name, e.g. ``"wxai_v0_follower"``.
+            clear_error: clear a latched error state of the controller.
+        """
         if model not in SIM_MODELS:
             raise unknown_name_error("robot model", model, SIM_MODELS, "simulated twin")
         if end_effector not in SIM_END_EFFECTORS:
@@ -151,8 +151,12 @@ class SimArmDriver:
     ) -> None:
         """Start moving toward ``positions`` (7 values: rad x6, gripper m) over ``goal_time`` s.
 
-        Goals outside the actuator ranges are clamped to them. ``blocking=True``
-        sleeps the shared clock for ``goal_time`` (both arms move meanwhile).
+        Goals outside the actuator ranges are clamped to them.
+
+        Args:
+            positions: 7 values: ``joint_0`` .. ``joint_5`` (rad), gripper (m).
+            goal_time: seconds until the goal is reached (simulated time).
+            blocking: sleep the shared clock for ``goal_time`` (both arms move meanwhile).
         """
         self._require_configured()
         if not self.position_mode:

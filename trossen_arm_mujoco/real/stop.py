@@ -1,21 +1,14 @@
 """Stopping replay cleanly: a stop flag that SIGINT, SIGTERM, SIGHUP and SIGQUIT set.
 
-While :func:`stop_on_signals` is active (main thread only; elsewhere signals cannot be
-handled and it does nothing), each of :data:`STOP_SIGNALS` is handled the same way, by
-:meth:`StopFlag.on_signal`, according to how far the run got:
+While :func:`stop_on_signals` is active (main thread only; elsewhere it does nothing), each
+of :data:`STOP_SIGNALS` goes to :meth:`StopFlag.on_signal`: before any arm may move (not
+*armed*) it raises :class:`Interrupted` (a ``KeyboardInterrupt``); while streaming (armed) it
+records the reason and exit status ``128 + signal number``, which replay checks every
+:data:`WAIT_SLICE` s before its safe exit; after streaming (*closed*) it is only noted in
+:attr:`StopFlag.late`, so the home moves and result files finish. SIGKILL cannot be handled.
+The previous handlers are restored on leaving the ``with`` block.
 
-- before any arm may move (the flag is not *armed*): :class:`Interrupted` is raised, a
-  ``KeyboardInterrupt``, so the command ends at once; nothing was sent to an arm and
-  nothing is being written;
-- while streaming (armed): the reason and exit status ``128 + signal number`` are
-  recorded; replay checks the flag while it waits (in slices of :data:`WAIT_SLICE`) and
-  then runs its safe home/sleep exit;
-- after streaming ended (the flag is *closed*: homing, writing the results): the signal
-  is only noted in :attr:`StopFlag.late`; the home/sleep moves and the result files are
-  finished, so a late signal never leaves a half-written file or an arm mid-way.
-
-SIGKILL cannot be handled: it is the one way to end a replay at once. The previous
-handlers are restored on leaving the ``with`` block, whatever happened inside.
+Docs: docs/cli/replay-real.md, docs/troubleshooting.md.
 """
 
 from __future__ import annotations

@@ -1,20 +1,16 @@
 """Check a whole trajectory against the arm's limits before anything moves.
 
-A trajectory is the ``(T, 16)`` action array of an episode (layout of
-``constants.START_ARM_POSE``). :func:`validate_actions` checks, in this order:
+:func:`validate_actions` checks a ``(T, 16)`` action array (layout of
+``constants.START_ARM_POSE``), in this order: shape with ``T >= 1``; every value finite;
+every value within the single-arm MJCF's joint range (values at most
+:data:`POSITION_TOLERANCE` outside are clipped: MuJoCo's soft limits let simulated
+recordings press a few mrad past them); the speed between consecutive commands at the replay
+rate, ``|a[t+1] - a[t]| * fps``, of the 7 values sent to each arm, within
+:data:`VELOCITY_LIMITS` (the URDF's) plus :data:`VELOCITY_TOLERANCE`. The first violation
+raises :class:`TrajectoryError` (a ``UserError``: one line, exit 2) naming the step, arm,
+joint, value and limit.
 
-1. shape ``(T, 16)`` with ``T >= 1``;
-2. every value finite;
-3. every value (both fingers included) within the joint range of the single-arm MJCF
-   (``jnt_range``). Values at most :data:`POSITION_TOLERANCE` outside are clipped to
-   the range (simulated recordings press into joint limits by a few mrad, because
-   MuJoCo limits are soft); anything further is an error;
-4. the speed between consecutive commands at the replay rate, ``|a[t+1] - a[t]| * fps``,
-   of the 7 values sent to each arm, within :data:`VELOCITY_LIMITS` (the URDF limits)
-   plus :data:`VELOCITY_TOLERANCE`.
-
-The first violation raises :class:`TrajectoryError` (a ``UserError``: one line, exit 2)
-naming the step, the arm, the joint, the value and the limit.
+Docs: docs/cli/replay-real.md.
 """
 
 from __future__ import annotations
@@ -142,7 +138,15 @@ def _where(step: int, column: int) -> str:
 def validate_actions(
     actions: np.ndarray, fps: float, limits: ArmLimits | None = None
 ) -> Trajectory:
-    """Validate a ``(T, 16)`` action array for replay at ``fps`` (Hz); see the module doc.
+    """Validate an action array for replay; see the module doc.
+
+    Args:
+        actions: ``(T, 16)`` actions (layout of ``constants.START_ARM_POSE``; rad, m).
+        fps: the replay rate (Hz).
+        limits: the arm's limits; None: the defaults (MJCF ranges, URDF speeds).
+
+    Returns:
+        The checked :class:`Trajectory` (values within tolerance clipped to the range).
 
     Raises:
         TrajectoryError: the first violation, in one line.
@@ -209,8 +213,13 @@ def validate_actions(
 def safe_move_time(start: np.ndarray, goal: np.ndarray, minimum: float, limits: ArmLimits) -> float:
     """Goal time (s) for a point-to-point move within the speed limits.
 
-    Assumes a quintic profile (peak speed 1.875 x mean speed) and keeps a 10% margin;
-    never shorter than ``minimum``. ``start``/``goal``: ``(..., 7)`` driver values.
+    Assumes a quintic profile (peak speed 1.875 x mean speed) and keeps a 10% margin.
+
+    Args:
+        start: ``(..., 7)`` driver values (rad; gripper m).
+        goal: ``(..., 7)`` driver values.
+        minimum: the shortest goal time (s).
+        limits: the arm's limits (speeds).
     """
     dist = np.abs(np.asarray(goal, dtype=np.float64) - np.asarray(start, dtype=np.float64))
     need = float(np.max(1.875 * 1.1 * dist / limits.velocity)) if dist.size else 0.0
