@@ -45,8 +45,14 @@ CONFIG_DIR = Path(__file__).resolve().parent.parent / "config"
 
 
 def merge_randomization(name: str, base: Mapping[str, Any], section: Any) -> dict[str, Any]:
-    """``base`` (a complete section) updated kind by kind from the override ``section`` of
-    task config ``name``, validated (see ``randomization_schema.check_randomization``)."""
+    """A randomization section updated kind by kind from an override, validated (see
+    ``randomization_schema.check_randomization``).
+
+    Args:
+        name: the task config's name, for errors.
+        base: a complete ``randomization`` section.
+        section: the override (a mapping of kinds).
+    """
     return check_randomization(Source.overrides(name), base, section)
 
 
@@ -166,7 +172,17 @@ def merge_overrides(
     overrides: Mapping[str, Any],
     keys: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """``defaults`` updated with ``overrides``; unknown keys and invalid values raise."""
+    """``defaults`` updated with ``overrides``; unknown keys and invalid values raise.
+
+    Args:
+        name: the task's name, for errors.
+        defaults: the checked config.
+        overrides: keyword overrides (config key -> value).
+        keys: the task's own keys (its ``TaskEntry.keys``); None: the shared ones only.
+
+    Raises:
+        UserError: an unknown key or an invalid value (one line).
+    """
     return check_overrides(name, defaults, overrides, keys)
 
 

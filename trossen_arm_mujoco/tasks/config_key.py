@@ -141,9 +141,16 @@ class Key:
         return above and x <= self.high
 
     def check(self, where: str, value: Any, length: int | None = None) -> Any:
-        """``value`` converted (int, float, bool, str, list of floats); a one-line UserError
-        ``<where>: expected <what is valid>, got <value>`` when it is not valid. ``length``:
-        the one length a vector must have (an override of a file's vector)."""
+        """``value`` converted (int, float, bool, str, list of floats).
+
+        Args:
+            where: what the value is, starting the error.
+            value: the value given.
+            length: the one length a vector must have (an override of a file's vector).
+
+        Raises:
+            UserError: ``<where>: expected <what is valid>, got <value>``.
+        """
         bad = UserError(f"{where}: expected {self.describe()}, got {show(value)}")
         if self.kind == "bool":
             if isinstance(value, (bool, np.bool_)):
@@ -183,7 +190,14 @@ class Key:
 
 # -- the usual keys --------------------------------------------------------------------------
 def number(low: float = -INF, high: float = INF, unit: str = "", open_low: bool = False) -> Key:
-    """A number in ``[low, high]`` (``(low, high]`` with ``open_low``)."""
+    """A number in ``[low, high]`` (``(low, high]`` with ``open_low``).
+
+    Args:
+        low: the smallest value.
+        high: the largest value.
+        unit: the unit, for messages and docs.
+        open_low: ``low`` itself is not valid.
+    """
     return Key("number", low, high, open_low, unit=unit)
 
 
@@ -193,7 +207,14 @@ def positive(high: float = INF, unit: str = "") -> Key:
 
 
 def vector(*lengths: int, low: float = -10.0, high: float = 10.0, unit: str = "m") -> Key:
-    """A list of numbers of one of ``lengths``, each in ``[low, high]``."""
+    """A list of numbers of one of ``lengths``, each in ``[low, high]``.
+
+    Args:
+        *lengths: the valid lengths.
+        low: the smallest value of each number.
+        high: the largest value of each number.
+        unit: the unit, for messages and docs.
+    """
     return Key("vector", low, high, lengths=lengths, unit=unit)
 
 
@@ -201,6 +222,14 @@ def region(
     name: str, *lengths: int, low: float = -10.0, high: float = 10.0, unit: str = "m"
 ) -> dict[str, Key]:
     """``{name}_low`` and ``{name}_high``: the corners of a box (checked low <= high on every
-    axis, ``config_schema.check_ranges``)."""
+    axis, ``config_schema.check_ranges``).
+
+    Args:
+        name: the keys' stem.
+        *lengths: the valid lengths of each corner.
+        low: the smallest value of each number.
+        high: the largest value of each number.
+        unit: the unit, for messages and docs.
+    """
     key = vector(*lengths, low=low, high=high, unit=unit)
     return {f"{name}_low": key, f"{name}_high": key}

@@ -118,8 +118,13 @@ def _check_fallback(where: str, default: Any, value: Any) -> Any:
 
 def check_ranges(config: Mapping[str, Any], source: Source, changed: Any = None) -> None:
     """Every ``RANGE_PAIRS`` pair of ``config``: same length, low <= high on every axis.
-    ``changed`` (keys of an override): the pair is blamed on ``source`` only when one of its
-    keys is among them (``None``: always)."""
+
+    Args:
+        config: the config.
+        source: where the values come from, for errors.
+        changed: keys of an override: a pair is blamed on ``source`` only when one of its
+            keys is among them; None: always.
+    """
     for lo_key, hi_key in range_pairs(config):
         if changed is not None and lo_key not in changed and hi_key not in changed:
             continue
@@ -144,10 +149,18 @@ def check_file_config(
     keys: Mapping[str, Key] | None = None,
     required: tuple[str, ...] = (),
 ) -> dict[str, Any]:
-    """A config file's mapping validated and converted: known keys only (``KEYS``, the
-    task's own ``keys`` (its ``TaskEntry.keys``) and ``randomization``), the required ones of
-    ``REQUIRED`` and ``required`` present, every value valid, every range pair ordered;
-    ``randomization`` completed with the defaults."""
+    """A config file's mapping validated and converted: known keys only, the required ones
+    present, every value valid, every range pair ordered; ``randomization`` completed with
+    the defaults.
+
+    Args:
+        name: the task's name.
+        source: the file, for errors.
+        data: the file's mapping.
+        keys: the task's own keys (its ``TaskEntry.keys``), besides ``KEYS`` and
+            ``randomization``.
+        required: keys the task requires, besides ``REQUIRED``.
+    """
     table = {**KEYS, **(keys or {})}
     valid = [*table, RANDOMIZATION_KEY]
     for key in data:
@@ -179,9 +192,15 @@ def check_overrides(
     overrides: Mapping[str, Any],
     keys: Mapping[str, Key] | None = None,
 ) -> dict[str, Any]:
-    """``defaults`` (a checked config) updated with keyword ``overrides``, validated: only
-    the defaults' keys, each value valid (a vector as long as the default's; ``keys``: the
-    task's own keys), range pairs still ordered."""
+    """A checked config updated with keyword overrides, validated: only the defaults' keys,
+    each value valid (a vector as long as the default's), range pairs still ordered.
+
+    Args:
+        name: the task's name, for errors.
+        defaults: the checked config.
+        overrides: keyword overrides (config key -> value).
+        keys: the task's own keys (its ``TaskEntry.keys``).
+    """
     source = Source.overrides(name)
     table = {**KEYS, **(keys or {})}
     out = dict(defaults)

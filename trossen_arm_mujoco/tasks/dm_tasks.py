@@ -46,12 +46,14 @@ BOX_POSE: list[np.ndarray | None] = [None]
 class RegisteredTaskMixin(StationaryTaskBase):
     """Serves registered task ``task_name`` through the dm_control hooks.
 
-    Args (besides the base's):
+    Args:
+        *args: the base's.
         object_poses: object name -> initial pose [xyz, quat wxyz] used at every reset
             instead of sampled ones (e.g. to replay a recorded episode).
         randomize: domain randomization of every episode (default off).
         randomization: a randomization record (``tasks.randomization``) applied at every
             reset instead of sampling one.
+        **kwargs: the base's.
     """
 
     task_name: ClassVar[str] = ""
@@ -127,7 +129,13 @@ class TransferCubeEETask(RegisteredTaskMixin, TrossenAIStationaryEETask):
 
 class TransferCubeTask(RegisteredTaskMixin, TrossenAIStationaryTask):
     """The cube transfer in the joint env; the cube starts at ``box_pose`` (or
-    ``BOX_POSE[0]``, or a pose sampled from this task's generator)."""
+    ``BOX_POSE[0]``, or a pose sampled from this task's generator).
+
+    Args:
+        *args: as for :class:`RegisteredTaskMixin`.
+        box_pose: the cube's pose at every reset, (7,) [xyz m, quat wxyz]; None: as above.
+        **kwargs: as for :class:`RegisteredTaskMixin`.
+    """
 
     task_name = "sim_transfer_cube"
 

@@ -1,19 +1,15 @@
 """Bimanual peg insertion: the left arm picks up the socket, the right arm the peg, both lift
 them and the peg goes into the socket above the table.
 
-The one implementation of this task for every front door (dm_control envs, gymnasium env,
-recorder): the reward (0-4, ``InsertionReward``), the spawn distribution
-(``sample_insertion_poses``), the task (``InsertionTask``) and its sampler
-(``InsertionSampler``). Config: ``config/insertion.yaml``; scenes:
-``stationary_ai/trossen_ai_insertion_scene_joint.xml`` (joint flavour) and
-``stationary_ai/trossen_ai_insertion_scene.xml`` (mocap flavour); scripted policy:
-``policies/insertion.py``.
+The reward (0-4, ``InsertionReward``), the spawn distribution (``sample_insertion_poses``),
+the task (``InsertionTask``) and its sampler (``InsertionSampler``), for every front door.
+Config: ``config/insertion.yaml``; scenes: ``stationary_ai/trossen_ai_insertion_scene_joint.xml``
+(joint) and ``stationary_ai/trossen_ai_insertion_scene.xml`` (mocap); scripted policy:
+``policies/insertion.py``. Objects (world frame, m): the peg, a 20 x 20 x 120 mm bar
+(``peg_joint``, qpos 16..22); the socket, a 32 x 32 x 60 mm tube (``socket_joint``, qpos
+23..29) opening toward -y, its 26 x 26 mm hole leaving 3 mm around the peg.
 
-Objects (world frame, m): the peg is a 20 x 20 x 120 mm bar (geom ``peg``, free joint
-``peg_joint``, qpos 16..22), the socket a 32 x 32 x 60 mm square tube (free joint
-``socket_joint``, qpos 23..29) with walls ``socket-1``..``socket-4``, a closed end
-``socket-bottom`` and a ``pin`` on the inside of that end. Both lie along y; the socket opens
-toward -y, and its 26 x 26 mm hole leaves 3 mm around the peg.
+Docs: docs/gym/StationaryAIInsertion-v0.md.
 """
 
 from __future__ import annotations

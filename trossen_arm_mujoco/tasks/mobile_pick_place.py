@@ -1,26 +1,17 @@
 """Mobile pick and place (Mobile AI): drive to the table, pick the cube with the left arm,
 place it on the target.
 
-Scene ``mobile_ai/mobile_ai_scene.xml``: the table top at z = 0.75 m (front edge x = 0.8 m),
-a 50 mm cube (free joint ``cube_joint``) and the place target (site ``target_site``). The
-sampler puts the base at a random start pose behind the table (``base_start_low`` ..
-``base_start_high``: x m, y m, yaw rad) and the cube at a random spot on the table
-(``cube_low`` .. ``cube_high``: x, y m); the target stays at ``target_site``.
+Scene ``mobile_ai/mobile_ai_scene.xml``: table top at z = 0.75 m, a 50 mm cube
+(``cube_joint``) and the place target (site ``target_site``); the base starts at a random
+pose behind the table, the cube at a random spot on it. Reward stages (``STAGES``): 1 the
+base is at the table, 2 the left fingers touch the cube, 3 the cube is lifted ``lift_height``,
+4 it rests within ``success_tolerance`` of the target, untouched (success). Observations are
+float64, world frame; recorded in the ``mobileai`` layout (the arms' 14 values, then the
+base's [x.vel m/s, theta.vel rad/s]). Actions: arms in joint position, the base in
+``base_velocity``. Scripted policy: ``policies/mobile_pick_place.py``.
 
-Reward with stages (``MobilePickPlaceTask.get_reward``; ``STAGES``): 1 the base is at the
-table (the cube within ``reach_distance`` of the left arm's shoulder, horizontally), 2 the
-left fingers touch the cube, 3 and the cube is lifted ``lift_height`` above the table, 4 the
-cube rests on the table within ``success_tolerance`` of the target and no finger touches
-it. Success = 4.
-
-Observations (float64, world frame, live views of the simulation): ``qpos`` / ``qvel`` the
-arms' 16 values (per arm 6 joints and 2 fingers, as the Stationary AI's ``vendor16``: rad /
-m, rad/s / m/s), ``base_pose`` the base's free joint [xyz m, quat wxyz], ``base_vel`` its
-velocity [linear m/s (world), angular rad/s (base frame)], ``env_state`` the cube's pose
-[xyz m, quat wxyz] and ``target`` [xyz m]. Recorded (``recorded_state``): the ``mobileai``
-layout, the arms' 14 values then the base's [x.vel, theta.vel]. Actions: move group -> command, the
-arms in joint position, the base in ``base_velocity`` ([x.vel, theta.vel], clipped to the
-real base's limits). Scripted policy: ``policies/mobile_pick_place.py``.
+Docs: docs/concepts/models.md (The mobile pick-and-place task),
+docs/gym/MobileAIPickPlace-v0.md.
 """
 
 from __future__ import annotations

@@ -1,22 +1,15 @@
 """Observation parts: what a task observes, said once.
 
 A task declares its observation as an ordered list of named ``Part`` s
-(``Task.observation_parts``); everything else derives from that list: the dict observation
-(``Task.get_observation``: float64 copies), its bounds (``Task.observation_bounds``), the
-gym env's flat float32 vector and its Box, and, for goal-conditioned tasks, the achieved and
-desired goals (``Task.goal_parts``), their bounds and the goal distance the rewards use.
+(``Task.observation_parts``); everything else derives from it: the dict observation
+(``Task.get_observation``: float64 copies), its bounds, the gym env's flat float32 vector and
+Box, and for goal-conditioned tasks the achieved and desired goals and the goal distance. A
+part's value is a live view (a numpy array sharing memory with ``MjData`` or the task, read
+as is) or a callable returning the current value. ``indexed`` and ``joined`` make one live
+view where memory allows. Views handed out are read-only: nothing that reads an observation
+can write the simulation through it.
 
-A part's value is either
-
-- a live view: a numpy array that shares memory with ``MjData`` (e.g. ``data.qpos[7:14]``,
-  ``data.site_xpos[site]``) or with the task (e.g. its goal array). It follows the
-  simulation, so it is read as it is, without a call or a copy; or
-- a callable returning the current value (a small computed quantity, e.g. the cube's
-  position relative to the tool frame).
-
-``indexed`` and ``joined`` turn index lists and neighbouring views into one live view where
-memory allows (a callable otherwise). Views handed out here are read-only: nothing that reads
-an observation can write the simulation through it.
+Docs: docs/writing-a-task.md.
 """
 
 from __future__ import annotations

@@ -29,7 +29,13 @@ __all__ = ["TASKS", "PickPlaceSampler", "PickPlaceTask"]
 
 
 class PickPlaceTask(PushTask):
-    """Bring the cube's centre within ``success_tolerance`` of a 3-D goal (m)."""
+    """Bring the cube's centre within ``success_tolerance`` of a 3-D goal (m).
+
+    Args:
+        env: the task's env.
+        config: the task's checked config.
+        goal: the goal (3,) world frame (m); None: sampled at reset.
+    """
 
     name: ClassVar[str] = "pick_place"
 

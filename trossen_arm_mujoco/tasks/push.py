@@ -49,7 +49,13 @@ def cube_rest_z(env: MujocoEnv, table_height: float) -> float:
 
 
 class PushTask(SingleArmTask):
-    """Bring the cube's centre within ``success_tolerance`` of the goal (m)."""
+    """Bring the cube's centre within ``success_tolerance`` of the goal (m).
+
+    Args:
+        env: the task's env.
+        config: the task's checked config.
+        goal: the goal on the table, (3,) world frame (m); None: sampled at reset.
+    """
 
     name: ClassVar[str] = "push"
     marker_body: ClassVar[str] = "goal"

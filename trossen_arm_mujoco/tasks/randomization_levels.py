@@ -1,17 +1,14 @@
 """Named evaluation levels of scene variation: ``nominal``, ``train`` and a held-out ``hard``.
 
-- ``nominal``: no randomization (the model's scene);
-- ``train``: the task's own ``randomization`` section, what ``record --randomize`` trains on;
-- ``hard``: the same kinds, each range widened past anything ``train`` draws (:func:`harder`):
-  the cameras moved by 3x as much (15 mm and 3 degrees for the shipped tasks), the lights
-  tilted further (at least 35 degrees) with twice the tint and a wider brightness range,
-  twice the table and object colour jitter, friction and mass ranges half as wide again,
-  twice the joint damping and start noise. No distractor objects (a scene change, not a
-  range).
-
+``nominal``: no randomization; ``train``: the task's own ``randomization`` section, what
+``record --randomize`` trains on; ``hard``: the same kinds, each range widened past anything
+``train`` draws (:func:`harder`: cameras moved 3x as much, lights tilted further, twice the
+colour jitter, wider friction and mass, twice the damping and start noise; no distractors).
 ``eval --randomize LEVEL``, ``serve --randomize LEVEL`` and the env plugin's
 ``--env.randomize=LEVEL`` take them; a ``--randomization FILE`` replaces the task's section
 first, and ``hard`` widens that.
+
+Docs: docs/concepts/randomization.md, docs/train-eval.md.
 """
 
 from __future__ import annotations
@@ -60,10 +57,20 @@ def harder(section: Mapping[str, Any]) -> dict[str, Any]:
 def level_section(
     level: str | None, task: str, replacement: Mapping[str, Any] | None = None
 ) -> tuple[bool, dict[str, Any] | None]:
-    """``(randomize, section)`` for evaluation level ``level`` of registered ``task``:
-    ``nominal`` ``(False, None)``; ``train`` ``(True, replacement)`` (None: the task's own
-    section); ``hard`` ``(True, harder(...))`` of the task's section with ``replacement``'s
-    kinds in place. ``level`` None: ``train`` with a replacement, else ``nominal``."""
+    """What an evaluation level randomizes.
+
+    Args:
+        level: ``nominal``, ``train`` or ``hard``; None: ``train`` with a replacement, else
+            ``nominal``.
+        task: a registered task name.
+        replacement: a randomization section replacing the task's own (``--randomization
+            FILE``).
+
+    Returns:
+        ``(randomize, section)``: ``nominal`` ``(False, None)``; ``train`` ``(True,
+        replacement)`` (None: the task's own section); ``hard`` ``(True, harder(...))`` of
+        the task's section with ``replacement``'s kinds in place.
+    """
     from trossen_arm_mujoco.tasks import registry
     from trossen_arm_mujoco.tasks.config_key import Source
     from trossen_arm_mujoco.tasks.randomization_schema import (

@@ -1,23 +1,14 @@
 """A randomization record: what one episode's domain randomization set, as plain data.
 
-A record is a JSON-able dict of every sampled value, in absolute units, keyed by model
-names (``tasks.randomization.SceneRandomizer`` samples them)::
+A record is a JSON-able dict of every sampled value, in absolute units, keyed by model names
+(``tasks.randomization.SceneRandomizer`` samples them): ``version``, ``seed``, and per
+enabled kind ``lights``, ``table``, ``objects`` (rgba), ``friction``, ``object_mass`` (kg,
+kg m^2), ``joint_damping``, ``camera`` (pos m, quat wxyz in the parent body frame) and
+``joint_noise`` (rad). :func:`apply_randomization` writes a record into any model with those
+names (e.g. to re-render a recorded episode); ``record_to_json`` / ``record_from_json`` store
+it; ``seed`` rebuilds the generator it was drawn from (``generator_from_seed``).
 
-    {"version": 1, "seed": {"entropy": ..., "spawn_key": [...], "bit_generator": "PCG64"},
-     "lights": {light: {"dir": [3], "diffuse": [3], "specular": [3], "ambient": [3]}},
-     "table": {geom: {"material": name, "rgba": [4]}},
-     "objects": {geom: [4] rgba},
-     "friction": {geom: sliding friction},
-     "object_mass": {body: {"mass": kg, "inertia": [3] kg m^2}},
-     "joint_damping": {joint: damping},
-     "camera": {camera: {"pos": [3] m, "quat": [4] wxyz}},      # in the parent body frame
-     "joint_noise": {joint: {"noise": rad, "qpos": rad}}}         # initial arm joints
-
-Only enabled kinds appear. ``apply_randomization(model, record, data)`` writes a record into
-any model with those names (e.g. to re-render a recorded episode, or to give the joint
-flavour of a task the scene its end-effector flavour was randomized with); stored as JSON
-with ``record_to_json`` / ``record_from_json``. ``seed`` rebuilds the generator the record
-was drawn from (``generator_from_seed``).
+Docs: docs/concepts/randomization.md.
 """
 
 from __future__ import annotations
@@ -109,10 +100,14 @@ def apply_randomization(
     data: mujoco.MjData | None = None,
     ids: NameIds | None = None,
 ) -> None:
-    """Write a randomization record into ``model`` (and the initial arm joints into
-    ``data`` when given). Fields not in the record keep their current values, so apply it
-    to a nominal model. Call ``mj_forward`` afterwards. (``ids``: a name-lookup cache of
-    this model, kept by ``SceneRandomizer``.)
+    """Write a randomization record into a model. Fields not in the record keep their
+    current values, so apply it to a nominal model. Call ``mj_forward`` afterwards.
+
+    Args:
+        model: the model to write (names as in the record).
+        record: the randomization record.
+        data: where to write the initial arm joints (``joint_noise``); None: not written.
+        ids: a name-lookup cache of this model, kept by ``SceneRandomizer``.
 
     Raises:
         UserError: not a record of this version, an unknown kind or name (lists the valid

@@ -115,6 +115,11 @@ def default_randomization() -> dict[str, Any]:
 def check_randomization(source: Source, base: Mapping[str, Any], section: Any) -> dict[str, Any]:
     """``base`` (a complete section) updated kind by kind from ``section``, validated.
 
+    Args:
+        source: where ``section`` comes from, for errors.
+        base: a complete ``randomization`` section.
+        section: the override (kind -> parameters).
+
     Raises:
         UserError: unknown kind or parameter (lists the valid ones), or a value outside its
             form and bounds (see ``RANDOMIZATION_SCHEMA``); one line each.

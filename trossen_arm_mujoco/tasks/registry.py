@@ -1,31 +1,19 @@
 """Task registry: the ONE way every front door reaches a task.
 
-Every task is one ``TaskEntry`` (``tasks.task_entry``): its task class (reward, success,
-description, observations), its sampler (scene, scene objects, randomization), its config,
-its scripted policy when it has one, its recording defaults, its stages and its gymnasium
-ids. Entries come from two places, gathered once when this module is imported:
-
-- the shipped tasks: every module of ``trossen_arm_mujoco/tasks/`` that declares a
-  module-level ``TASKS`` tuple (adding a task = its module(s) and its config, nothing else);
-- installed packages: the entry-point group ``trossen_arm_mujoco.tasks``; each entry point
-  names a ``TaskEntry`` (or a tuple of them), e.g. in the package's ``pyproject.toml``::
-
-      [project.entry-points."trossen_arm_mujoco.tasks"]
-      my_lift = "my_trossen_task.task:TASK"
-
-An installed task that cannot be used (its entry point fails to import, two packages give
-one name, a required fact is missing) is left out and remembered (``problems()``): using it
-by name fails with that one line, naming the package. ``SIM_TASK_CONFIGS``
-(``constants.py``) is derived from the entries that have a scripted policy. Classes are
-named by import path and imported on first use, and configs are read only when a task is
-used (``load_config``, ``make_sampler``, ``RecordDefaults[name]``), so listing is cheap and a
-broken config fails only the commands that use its task.
+Every task is one ``TaskEntry`` (``tasks.task_entry``): its task class, sampler, config,
+scripted policy, recording defaults, stages and gymnasium ids. Entries come from the shipped
+task modules (each declaring a module-level ``TASKS`` tuple) and from installed packages
+(the entry-point group ``trossen_arm_mujoco.tasks``), gathered once on import. An installed
+task that cannot be used is left out and remembered (:func:`problems`): using it by name
+fails with that one line. Classes are imported and configs read only when a task is used,
+so listing is cheap and a broken config fails only the commands that use its task.
 
     >>> from trossen_arm_mujoco.tasks import registry
     >>> from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
-    >>> settings = SamplerSettings(command_mode="ee_delta")
-    >>> sampler = registry.make_sampler("reach", settings, success_tolerance=0.03)
+    >>> sampler = registry.make_sampler("reach", SamplerSettings(command_mode="ee_delta"))
     >>> task = sampler.sample_task(seed=0)
+
+Docs: docs/writing-a-task.md.
 """
 
 from __future__ import annotations

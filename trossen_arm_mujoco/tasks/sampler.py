@@ -1,21 +1,15 @@
 """TaskSampler: owns the env of a task family and turns a seed into a ready episode.
 
-It is the only place where episodes are randomized; every random number comes from the
-sampler's ``np.random.Generator`` (``self.rng``, made from ``seed`` at construction or
-replaced by the seed given to ``sample_task``).
+It is the only place where episodes are randomized: every random number comes from
+``self.rng`` (made from ``seed``, or replaced by the seed given to ``sample_task``). One
+episode (``sample_task``): the env is reset (positions only), the scene randomized (domain
+randomization with ``randomize=True``; ``tasks.randomization``), the task's objects placed
+and the task built (``_sample_task``; None when the draw gives no valid episode), then the
+task reset. How the env is built is one ``tasks.sampler_settings.SamplerSettings``; the
+safety floor (``floor_margin`` above the config's ``table_height``) goes to the robot. The
+sampler owns the env and closes it (``close()``, or ``with``).
 
-One episode (``sample_task``): the env is reset (``env.reset(settle=False)``: positions
-computed, controls and the rest of ``mj_forward`` left to the task's reset, which holds and
-forwards once the scene is set); ``randomize_scene(env, robot_view)``
-randomizes lighting, textures, dynamics and initial joint noise (domain randomization, when
-the sampler was made with ``randomize=True``; see ``tasks.randomization``); ``_sample_task(env)``
-places the task's objects and builds the task (None when this draw gives no valid episode);
-the task is reset. The sampler owns the env and closes it (``close()``, or ``with``).
-
-How the env is built is one ``tasks.sampler_settings.SamplerSettings`` (command mode,
-cameras, image size, flavour, randomization, looks, safety floor); the sampler hands its
-parts down as arguments: the scene's look to the scene loader, and the safety floor
-(``floor_margin`` above the config's ``table_height``) to the robot (``robot.safety_floor``).
+Docs: docs/writing-a-task.md.
 """
 
 from __future__ import annotations
@@ -47,13 +41,18 @@ Seed = int | np.random.Generator | None
 
 
 def uniform(rng: np.random.Generator, low: Any, high: Any, size: Any = None) -> Any:
-    """``rng.uniform(low, high, size)``: floats or array-likes ``low``, ``high`` (broadcast
-    together); a float when both are scalars and ``size`` is None, else an array.
+    """``rng.uniform(low, high, size)``, the same draws as the arithmetic written out
+    (``low + (high - low) * rng.random(shape)``), bit for bit; its cost is on
+    docs/benchmarks.md (``benchmarks/numpy_paths.py``).
 
-    Generator.uniform costs 1-10 us more per call than its arithmetic written out
-    (``low + (high - low) * rng.random(shape)``, which the samplers used before; the same
-    draws, bit for bit): a few calls per episode reset, nothing per step
-    (``benchmarks/numpy_paths.py``).
+    Args:
+        rng: the generator.
+        low: lower bounds, a float or array-like (broadcast with ``high``).
+        high: upper bounds, likewise.
+        size: the output shape; None: the broadcast shape.
+
+    Returns:
+        A float when both bounds are scalars and ``size`` is None, else an array.
     """
     return rng.uniform(low, high, size)
 
@@ -263,7 +262,17 @@ class TaskSampler:
         randomization: Mapping[str, Any] | None = None,
         max_tries: int = MAX_SAMPLE_TRIES,
     ) -> Task:
-        """``sample_task`` until it gives a task (at most ``max_tries`` draws)."""
+        """``sample_task`` until it gives a task.
+
+        Args:
+            seed: as for :meth:`sample_task`.
+            object_poses: as for :meth:`sample_task`.
+            randomization: as for :meth:`sample_task`.
+            max_tries: the most draws.
+
+        Raises:
+            UserError: no valid episode in ``max_tries`` draws.
+        """
         for attempt in range(max_tries):
             task = self.sample_task(seed if attempt == 0 else None, object_poses, randomization)
             if task is not None:
@@ -280,10 +289,18 @@ class TaskSampler:
         randomization: Mapping[str, Any] | None = None,
         forward: bool = True,
     ) -> Task | None:
-        """Randomize the current scene from ``rng`` (or apply ``randomization``), sample the
-        task, place ``object_poses``, then (``forward``) update the positions of everything
-        (``mj_forward``); the task is built but not reset (the dm_control front doors reset
-        through their own hooks). None when the draw gives no valid episode."""
+        """Randomize the current scene, sample the task and place the objects; the task is
+        built but not reset (the dm_control front doors reset through their own hooks).
+
+        Args:
+            rng: the generator of this episode's draws.
+            object_poses: object name -> pose [xyz m, quat wxyz] placed after sampling.
+            randomization: a record applied instead of sampling one.
+            forward: update the positions of everything (``mj_forward``) at the end.
+
+        Returns:
+            The task, or None when the draw gives no valid episode.
+        """
         self.rng = rng
         if randomization is not None:
             self.randomizer.apply(randomization, self.env.data)
