@@ -125,6 +125,8 @@ SERIAL_MODULES = (
     # the vendor's driver streams a move to a served kit: in a parallel run of the whole
     # suite (2026-11-29) a late period let the gripper's target run 28 mm ahead, a fault
     "tests/scripts/test_serve.py",
+    # the single arm through the wire: wall-clock control periods, as test_wire_backend
+    "tests/eval/test_arm_wire.py",
 )
 
 #: Why a ``serial`` test skips in a run spread over the cores (pytest's default here).

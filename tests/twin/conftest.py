@@ -22,6 +22,8 @@ tests/real/test_exit_clean.py                 127.0.0.121 .. 127.0.0.129
 tests/eval/test_wire_backend.py               127.0.0.131 .. 127.0.0.139
 tests/scripts/test_serve_rehearsal.py         127.0.0.141 .. 127.0.0.149
 tests/eval/test_checkpoint_files.py           127.0.0.161 .. 127.0.0.169
+tests/twin/test_arm_world.py                  127.0.0.171 .. 127.0.0.179
+tests/eval/test_arm_wire.py                   127.0.0.181 .. 127.0.0.189
 ============================================  ===========================
 
 (tests/twin/test_kit_world.py, test_session_recorder.py, test_episode_spool.py,

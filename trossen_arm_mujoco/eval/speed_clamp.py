@@ -42,21 +42,24 @@ class SpeedClamp:
 
     Args:
         fraction: share of the limit allowed, in (0, 1].
+        limits: the speed limit of each value (default ``KIT_SPEED_LIMITS``, the kit's 14;
+            a single arm's 7: ``KIT_SPEED_LIMITS[:7]``).
     """
 
-    def __init__(self, fraction: float) -> None:
+    def __init__(self, fraction: float, limits: np.ndarray | None = None) -> None:
         if not 0.0 < fraction <= 1.0:
             raise ValueError(f"fraction must be in (0, 1], got {fraction}")
         self.fraction = float(fraction)
+        self.limits = KIT_SPEED_LIMITS if limits is None else np.asarray(limits, dtype=float)
         self.shortened = 0
         self.goals = 0
 
     def __call__(self, goal: np.ndarray, measured: np.ndarray, goal_time: float) -> np.ndarray:
-        """``goal`` (14,) moved toward ``measured`` (14,, the arms' positions: rad, m) so
-        that no value is further than ``fraction * limit * goal_time / PEAK_TO_MEAN`` from
-        it."""
+        """``goal`` (14,; as many as ``limits``) moved toward ``measured`` (the arms'
+        positions: rad, m) so that no value is further than ``fraction * limit * goal_time /
+        PEAK_TO_MEAN`` from it."""
         base = np.asarray(measured, dtype=np.float64)
-        reach = self.fraction * KIT_SPEED_LIMITS * float(goal_time) / PEAK_TO_MEAN
+        reach = self.fraction * self.limits * float(goal_time) / PEAK_TO_MEAN
         out = np.clip(np.asarray(goal, dtype=np.float64), base - reach, base + reach)
         self.goals += 1
         if not np.array_equal(out, goal):

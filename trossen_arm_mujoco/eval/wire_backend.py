@@ -46,7 +46,7 @@ from trossen_arm_mujoco.eval.action_check import check_action
 from trossen_arm_mujoco.eval.prepare import carries_images
 from trossen_arm_mujoco.eval.runner import EvalSettings, PolicyCallError
 from trossen_arm_mujoco.eval.scores import STAGES, EpisodeScore, eval_info, stages_reached
-from trossen_arm_mujoco.eval.speed_clamp import SpeedClamp
+from trossen_arm_mujoco.eval.speed_clamp import KIT_SPEED_LIMITS, SpeedClamp
 from trossen_arm_mujoco.eval.wire_env import WireEnv
 from trossen_arm_mujoco.eval.wire_link import (
     ArmPair,
@@ -56,7 +56,7 @@ from trossen_arm_mujoco.eval.wire_link import (
     start_kit,
     stop_kit,
 )
-from trossen_arm_mujoco.real.arm_controller import KitController
+from trossen_arm_mujoco.real.arm_controller import ARM_SIDES, SIDES, KitController
 from trossen_arm_mujoco.real.controller_checks import fault_from_message
 from trossen_arm_mujoco.sim.camera_crop import FRAME, crop_frame
 
@@ -157,7 +157,8 @@ class WireEpisodeRunner:
             self.control = ControlClient(link.host, link.control_port)
             if self.env.cam_names:
                 self.cameras = CameraReader(link.host, link.camera_port)
-            self.arms = ArmPair(link.left_ip, link.right_ip)
+            # a single arm's task: its one arm on the left arm's address
+            self.arms = ArmPair(link.left_ip, None if self.env.single_arm else link.right_ip)
             self.policy = make_policy(settings.policy, self.env, settings.device)
         except BaseException:
             self.close()
@@ -177,6 +178,9 @@ class WireEpisodeRunner:
             "velocity": self.env.to_layout(vel),
             "environment_state": np.asarray(status["env_state"], dtype=np.float32),
         }
+        goal = self.env.goal()
+        if goal is not None:  # a single arm's goal, as the in-process env observes it
+            obs["goal"] = goal.astype(np.float32)
         if self.cameras is None:
             return obs, stamp, None
         frames, pixels = self.cameras.frames(), {}
@@ -229,8 +233,11 @@ class WireEpisodeRunner:
         timing, rewards, failure, fault = _Timing([], []), [], None, None
         # the speeds asked, as the driver's trajectory makes them (nothing refused here: the
         # served kit is the controller)
-        shadow, last_command = KitController(checks=False), None
-        clamp = SpeedClamp(self.speed_fraction) if self.speed_fraction else None
+        single = self.env.single_arm
+        sides = ARM_SIDES if single else SIDES
+        shadow, last_command = KitController(checks=False, sides=sides), None
+        limits = KIT_SPEED_LIMITS[:7] if single else None
+        clamp = SpeedClamp(self.speed_fraction, limits) if self.speed_fraction else None
         t0 = time.monotonic()
         for k in range(self.env.episode_length):
             deadline = t0 + k * self.period

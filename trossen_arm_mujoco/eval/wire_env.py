@@ -1,10 +1,11 @@
 """The env a policy adapter sees under ``eval --backend wire`` (``eval.wire_backend``).
 
 ``eval.policies`` adapters read their env's task, rate, layout, cameras and episode length
-and, for the scripted policy, the episode's object poses. :class:`WireEnv` gives them the
-in-process eval's values (from a ``KitPolicyEnv`` that only draws scenes: reset with a seed,
-never stepped, never rendered) and converts between the env's layout and the driver's 14
-values (per arm: 6 joints rad, gripper m).
+and, for the scripted policy, the episode's object poses (and a single arm's goal).
+:class:`WireEnv` gives them the in-process eval's values (from a ``KitPolicyEnv``, or a
+single arm's ``ArmPolicyEnv``, that only draws scenes: reset with a seed, never stepped,
+never rendered) and converts between the env's layout and the driver's values (per arm: 6
+joints rad, gripper m; the kit's 14, a single arm's 7).
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ def start_fields(scenes) -> dict:
     fields: dict = {
         "object_poses": {k: np.asarray(v).tolist() for k, v in scenes.object_poses().items()}
     }
+    goal = scenes.goal() if callable(getattr(scenes, "goal", None)) else None
+    if goal is not None:  # a single arm's goal-conditioned task
+        fields["goal"] = np.asarray(goal, dtype=float).tolist()
     if scenes.randomization is not None:
         fields["randomization"] = scenes.randomization
     return fields
@@ -45,16 +49,27 @@ class WireEnv:
         self.layout, self.layout_name = s.layout, s.layout_name
         self.cameras = settings.cameras
         self.cam_names, self.image_size = self.cameras.names, self.cameras.size
-        self.episode_length, self.max_reward = s.episode_length, s.max_reward
+        self.episode_length = s.episode_length
+        self.max_reward = float(getattr(s, "max_reward", np.nan))
         self.action_low, self.action_high = s.action_low, s.action_high
+        self.randomize = bool(s.randomize)
+        #: one arm's 7 driver values (a single arm's task), else the kit's 14
+        self.single_arm = s.layout.size == 7
         self._poses: dict[str, np.ndarray] = {}
+        self._goal: np.ndarray | None = None
 
     def draw_scene(self, seed: int) -> dict:
         """The served kit's ``start`` fields (:func:`start_fields`) of the in-process eval's
         ``reset(seed=seed)``."""
         self.scenes.reset(seed=seed)
         self._poses = {k: np.asarray(v).copy() for k, v in self.scenes.object_poses().items()}
+        goal = getattr(self.scenes, "goal", None)
+        self._goal = goal() if callable(goal) else None
         return start_fields(self.scenes)
+
+    def goal(self) -> np.ndarray | None:
+        """The episode's goal (3,) m, world, of a single arm's task (None: none), a copy."""
+        return None if self._goal is None else self._goal.copy()
 
     def object_poses(self) -> dict[str, np.ndarray]:
         """The object poses of the episode's scene: name -> (7,) world position (m) and
@@ -62,13 +77,15 @@ class WireEnv:
         return dict(self._poses)
 
     def to_layout(self, values14: np.ndarray) -> np.ndarray:
-        """14 driver values -> the env's layout (float32)."""
+        """14 driver values (a single arm's 7) -> the env's layout (float32)."""
         v = np.asarray(values14, dtype=np.float64)
-        out = v if self.layout is KIT14_LAYOUT else KIT14_LAYOUT.to_vendor(v)
+        keep = self.layout is KIT14_LAYOUT or self.single_arm
+        out = v if keep else KIT14_LAYOUT.to_vendor(v)
         return out.astype(np.float32)
 
     def to_driver(self, action: np.ndarray) -> np.ndarray:
-        """An action in the env's layout -> 14 driver values, clipped to the joint limits."""
+        """An action in the env's layout -> 14 driver values (a single arm's 7), clipped to
+        the joint limits."""
         a = np.array(action, dtype=np.float64).reshape(-1)
         if a.shape != (self.layout.size,) or not np.isfinite(a).all():
             raise UserError(
@@ -76,7 +93,9 @@ class WireEnv:
                 f"(layout {self.layout_name}), got {np.shape(action)}"
             )
         np.clip(a, self.action_low, self.action_high, out=a)
-        return a if self.layout is KIT14_LAYOUT else KIT14_LAYOUT.from_vendor(a)
+        if self.layout is KIT14_LAYOUT or self.single_arm:
+            return a
+        return KIT14_LAYOUT.from_vendor(a)
 
     def close(self) -> None:
         """Release the scene source (its physics)."""

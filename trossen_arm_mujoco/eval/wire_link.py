@@ -11,8 +11,9 @@ driver. Every address is checked to be IPv4 loopback (127.0.0.0/8) before it is 
 - :class:`ControlClient`: the JSON-lines channel of ``twin.episode_control``.
 - :class:`CameraReader`: a ZeroMQ SUB socket on the stream of ``twin.camera_stream``; keeps
   the latest image per camera and its timestamp (wall-clock s of the state shown).
-- :class:`ArmPair`: both arms through ``trossen_arm``: position mode, 7 values per arm
-  (6 joints rad, gripper m), read (positions, velocities) and command.
+- :class:`ArmPair`: both arms through ``trossen_arm`` (a single arm's task: its one arm, on
+  the left arm's address): position mode, 7 values per arm (6 joints rad, gripper m), read
+  (positions, velocities) and command.
 """
 
 from __future__ import annotations
@@ -86,16 +87,18 @@ def start_kit(
     returns once it serves. A child that exits first is a ``UserError`` with its last line.
     The child ends with this process (see the module doc); on Linux with the thread that
     called this one, so call it from the thread that will :func:`stop_kit` it."""
+    from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
+
+    # a single arm's task: its one arm on the left arm's address
+    arms = ["--ip", link.left_ip] if is_arm_task(task) else []
+    arms = arms or ["--left_ip", link.left_ip, "--right_ip", link.right_ip]
     cmd = [
         sys.executable,
         "-m",
         "trossen_arm_mujoco.scripts.serve",
         "--task_name",
         task,
-        "--left_ip",
-        link.left_ip,
-        "--right_ip",
-        link.right_ip,
+        *arms,
         "--control_port",
         str(link.control_port),
         "--control_host",
@@ -296,9 +299,10 @@ def _side_of_error(side: str, errors: tuple[type[BaseException], ...]) -> Iterat
 
 class ArmPair:
     """Both arms through ``trossen_arm`` (``configure`` with the follower preset, position
-    mode); :meth:`read` gives 14 values (left then right: 6 joints rad, gripper m)."""
+    mode); :meth:`read` gives 14 values (left then right: 6 joints rad, gripper m).
+    ``right_ip`` None: one arm (a single arm's task), 7 values, its errors side ``""``."""
 
-    def __init__(self, left_ip: str, right_ip: str, timeout: float = 10.0) -> None:
+    def __init__(self, left_ip: str, right_ip: str | None, timeout: float = 10.0) -> None:
         from trossen_arm_mujoco.real.driver import (
             DEFAULT_END_EFFECTOR,
             DEFAULT_MODEL,
@@ -308,7 +312,10 @@ class ArmPair:
 
         self._ta = ta = import_trossen_arm()
         self._presets = resolve_presets(ta, DEFAULT_MODEL, DEFAULT_END_EFFECTOR)
-        self.ips = [check_loopback(left_ip, "--left_ip"), check_loopback(right_ip, "--right_ip")]
+        self.ips = [check_loopback(left_ip, "--left_ip")]
+        if right_ip is not None:
+            self.ips.append(check_loopback(right_ip, "--right_ip"))
+        self.sides = SIDES if right_ip is not None else ("",)
         self.timeout = timeout
         #: What the driver raises once a controller is in an error state.
         self.errors: tuple[type[BaseException], ...] = (RuntimeError,)
@@ -334,7 +341,7 @@ class ArmPair:
         """Positions and velocities, 14 values each. An arm's error names its side
         (``exc.side``, ``left`` or ``right``)."""
         pos, vel = [], []
-        for side, d in zip(SIDES, self.drivers):
+        for side, d in zip(self.sides, self.drivers):
             with _side_of_error(side, self.errors):
                 pos.append(np.asarray(d.get_all_positions()))
                 vel.append(np.asarray(d.get_all_velocities()))
@@ -343,7 +350,7 @@ class ArmPair:
     def command(self, values14: np.ndarray, goal_time: float) -> None:
         """Send 7 goal positions to each arm (non-blocking, reached after ``goal_time`` s);
         an arm's error names its side (``exc.side``)."""
-        for i, (side, driver) in enumerate(zip(SIDES, self.drivers)):
+        for i, (side, driver) in enumerate(zip(self.sides, self.drivers)):
             goal = [float(v) for v in values14[7 * i : 7 * i + 7]]
             with _side_of_error(side, self.errors):
                 driver.set_all_positions(goal, float(goal_time), False)

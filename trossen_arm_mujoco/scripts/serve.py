@@ -2,6 +2,13 @@
 
     trossen-mujoco serve                       # left arm on 127.0.0.2, right arm on 127.0.0.3
     trossen-mujoco serve --record demo --cam_names cam_high --image_size 240x320
+    trossen-mujoco serve --task_name pick_place --ip 127.0.0.2   # the single WidowX AI arm
+
+A single arm's task (``push``, ``pick_place``, ``reach``) serves its one WidowX AI arm
+(``twin.arm_world``) on ``--ip`` (or ``--left_ip``; default 127.0.0.2), driven like a real
+WidowX AI (Trossen's ``widowxai_follower_robot``), with the task's cube and goal; ``--cameras``
+(``overview``, ``cam``) and ``--control_port`` as for the kit (its ``start`` also takes the
+episode's ``goal``); ``--record`` is the kit's only.
 
 One kit world (both arms and the task's objects, placed as ``record --seed S`` places its
 episode 0) steps in real time; each arm answers the ``trossen_arm`` driver (and anything
@@ -102,6 +109,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="right arm's address in 127.0.0.0/8 (default 127.0.0.3; leaders 127.0.0.5)",
     )
+    p.add_argument(
+        "--ip",
+        default=None,
+        help="a single arm's task (push, pick_place, reach): the arm's address in "
+        "127.0.0.0/8 (default --left_ip's, 127.0.0.2)",
+    )
     add_seed(p, "run seed: the scene of episode k is record --seed S's episode k")
     add_viewer(p, "show a live viewer (needs a display)")
     p.add_argument(
@@ -177,6 +190,35 @@ def _ips(args: argparse.Namespace, defaults: dict[str, str]) -> dict[str, str]:
     return check_kit_ips(given, {"left": "--left_ip", "right": "--right_ip"})
 
 
+def _single_arm(task: str) -> bool:
+    """Whether ``task`` is a single arm's (served by ``twin.arm_world.ArmWorld``)."""
+    from trossen_arm_mujoco.twin.arm_world import is_arm_world_task
+
+    return is_arm_world_task(task)
+
+
+def _arm_ips(args: argparse.Namespace) -> dict[str, str]:
+    """A single arm's address (``--ip``, else ``--left_ip``, else 127.0.0.2), checked;
+    ``--right_ip`` and ``--record`` are the kit's (one line otherwise)."""
+    from trossen_arm_mujoco.twin.arm_world import ARM_SIDE
+    from trossen_arm_mujoco.twin.serving import check_loopback
+
+    task = args.task_name
+    if args.right_ip is not None:
+        raise UserError(
+            f"--right_ip: task '{task}' serves one arm; give its address with --ip (or --left_ip)"
+        )
+    if args.ip is not None and args.left_ip is not None and args.ip != args.left_ip:
+        raise UserError("--ip and --left_ip both name the single arm's address; give one")
+    if args.record is not None:
+        raise UserError(
+            f"--record records the Stationary AI kit's sessions; task '{task}' is a single "
+            "arm's: record it with trossen-mujoco record --task_name " + task
+        )
+    flag = "--ip" if args.ip is not None else "--left_ip"
+    return {ARM_SIDE: check_loopback(args.ip or args.left_ip or "127.0.0.2", flag)}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse, serve until a stop signal; returns the exit status (0 after a deliberate
     stop). The stop signals' handlers are put back before it returns."""
@@ -205,6 +247,11 @@ def _parse_and_serve(argv: Sequence[str] | None, stops: StopSignals) -> int:
     level = logging.INFO if args.verbose else logging.WARNING
     for name in ("trossen_arm_sim", "trossen_arm_mujoco.twin"):
         logging.getLogger(name).setLevel(level)
+    if args.ip is not None and (args.role == "leader" or not _single_arm(args.task_name)):
+        raise UserError(
+            "--ip is a single arm's address (--task_name push, pick_place, reach); the "
+            "kit's arms take --left_ip and --right_ip"
+        )
     if args.role == "leader":
         if args.cameras is not None or args.control_port is not None:
             raise UserError("--cameras and --control_port need --role follower")
@@ -216,7 +263,7 @@ def _parse_and_serve(argv: Sequence[str] | None, stops: StopSignals) -> int:
     check_rehearsal_flags(args)
     from trossen_arm_mujoco.twin.served_kit import DEFAULT_IPS
 
-    ips = _ips(args, DEFAULT_IPS)
+    ips = _arm_ips(args) if _single_arm(args.task_name) else _ips(args, DEFAULT_IPS)
     check_seed(args.seed)
     if args.episode_len is not None and args.episode_len < 1:
         raise UserError(f"--episode_len must be at least 1, got {args.episode_len}")
@@ -267,7 +314,12 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
     from trossen_arm_mujoco.scripts.common_options import randomization_of, scene_looks
 
     randomize, randomization = randomization_of(args, args.task_name)
-    world = KitWorld(
+    world_cls = KitWorld
+    if _single_arm(args.task_name):
+        from trossen_arm_mujoco.twin.arm_world import ArmWorld
+
+        world_cls = ArmWorld
+    world = world_cls(
         args.task_name,
         base_seed=args.seed,
         episode_index=first,
@@ -301,9 +353,14 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
         stops.keep = True  # serving: once it ends, the process ends
         started = time.monotonic()
         try:
+            arms = (
+                f"left arm on {ips['left']}, right arm on {ips['right']}"
+                if "left" in ips
+                else f"the arm on {next(iter(ips.values()))}"
+            )
             _say(
-                f"serving {world.task_name} (seed {args.seed}, episode {first}): left arm on "
-                f"{ips['left']}, right arm on {ips['right']} (TCP 50001, UDP 50000)"
+                f"serving {world.task_name} (seed {args.seed}, episode {first}): {arms} "
+                "(TCP 50001, UDP 50000)"
                 + (f"; recording into {record[0]}" if record else "")
                 + (f"; cameras {','.join(stream.cam_names)} on {stream.address}" if stream else "")
                 + (f"; episode control on {control.host}:{control.port}" if control else "")

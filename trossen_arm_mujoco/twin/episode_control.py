@@ -14,6 +14,10 @@ only). A client sends one JSON object per line and gets one JSON object per line
                                             the scene randomized by this record (a start
                                             reply's), not drawn: eval --backend wire
                                             --randomize sends the in-process eval's
+    {"cmd": "start", "seed": 7, "goal": [x, y, z]}
+                                            a goal-conditioned task's goal (m, world; a
+                                            single arm's push, pick_place): eval --backend
+                                            wire sends the in-process eval's
     {"cmd": "end"}                          ends the episode; replies its score
     {"cmd": "status"}                       the episode now (and the sim-only ground truth)
 
@@ -34,7 +38,8 @@ the episode's poses; scoring runs from the next frame. Replies of ``start``, ``e
     success (the task judged success at any frame), stages {"1": s, "2": s, ...}: the first
     time (s after start) each reward level was reached (eval.scores.STAGES names them),
     object_names, env_state (sim-only: object poses now, 7 values each, the
-    ``observation.environment_state`` of state-based checkpoints), randomization (what
+    ``observation.environment_state`` of state-based checkpoints), goal (a goal-conditioned
+    task's, m, world), randomization (what
     the scene was randomized by, ``tasks.randomization``'s record; only when it was:
     ``serve --randomize`` or a start that sent one)
 
@@ -136,6 +141,7 @@ class EpisodeTracker:
             "stages": dict(self.stages),
             "object_names": list(poses),
             "env_state": w.env_state().tolist(),
+            **_goal_field(w.task),
             **({} if w.scene_randomization is None else {"randomization": w.scene_randomization}),
         }
 
@@ -213,8 +219,12 @@ class EpisodeControl:
                     "start: randomization must be a record (an object) as the "
                     "start reply's 'randomization' gives it"
                 )
+            goal = _start_goal(request, self.world)
             self.world.base_seed = seed
             self.world.reset(episode, object_poses=poses, randomization=record)
+            if goal is not None:  # the client's goal, shown by the task's marker
+                self.world.task.goal = goal
+                self.world.task.initialize_episode()
             self.tracker.begin()
             if self.recorder is not None:
                 self.recorder.session_started()
@@ -334,6 +344,35 @@ class EpisodeControl:
             t.join(2.0)
         if self._on_frame in self.world.frame_listeners:
             self.world.frame_listeners.remove(self._on_frame)
+
+
+def _goal_field(task: Any) -> dict[str, Any]:
+    """``{"goal": [x, y, z]}`` of a goal-conditioned task (m, world); empty otherwise."""
+    if not getattr(task, "goal_conditioned", False):
+        return {}
+    return {"goal": np.asarray(task.goal, dtype=float).tolist()}
+
+
+def _start_goal(request: dict[str, Any], world: KitWorld) -> np.ndarray | None:
+    """``start``'s ``goal``, checked: 3 finite numbers (m) in the task's workspace, for a
+    goal-conditioned task only (``UserError`` otherwise); None when not sent."""
+    raw = request.get("goal")
+    if raw is None:
+        return None
+    task = world.task
+    if not getattr(task, "goal_conditioned", False):
+        raise UserError(f"start: task '{world.task_name}' has no goal")
+    try:
+        goal = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        goal = np.zeros(0)
+    if goal.shape != (3,) or not np.isfinite(goal).all():
+        raise UserError(f"start: goal must be 3 finite numbers [x, y, z] (m), got {raw!r:.60}")
+    if hasattr(task, "ws_low") and not (
+        np.all(goal >= task.ws_low) and np.all(goal <= task.ws_high)
+    ):
+        raise UserError(f"start: goal {goal.tolist()} is outside the task's workspace")
+    return goal
 
 
 def _start_args(request: dict[str, Any], world: KitWorld) -> tuple[int, int, dict | None]:

@@ -55,7 +55,8 @@ GROUPS: tuple[str, ...] = ("left_arm", "left_gripper", "right_arm", "right_gripp
 
 
 class KitWorld:
-    """Both arms of the kit and a task's objects; see the module doc.
+    """Both arms of the kit and a task's objects; see the module doc. (``twin.arm_world.
+    ArmWorld`` is the single arm's world, with the arm ``sides = ("follower",)``.)
 
     Args:
         task_name: a registered kit task (``tasks.registry.kit_names``).
@@ -72,6 +73,23 @@ class KitWorld:
             (``serve --randomization FILE``); implies ``randomize``.
     """
 
+    #: The arms, in the order of their values (7 each).
+    sides: tuple[str, ...] = SIDES
+    #: Move groups commanded every tick, in the order of the target vector.
+    groups: tuple[str, ...] = GROUPS
+
+    def check_task(self, entry: registry.TaskEntry) -> None:
+        """A one-line ``UserError`` unless ``entry`` is a task this world holds."""
+        if entry.name not in registry.kit_names():
+            raise UserError(
+                f"task '{entry.name}' is not a Stationary AI (two-arm) task; a served kit "
+                f"holds one of: {', '.join(registry.kit_names())}"
+            )
+
+    def mjcf_name(self, side: str, name: str) -> str:
+        """The model's name of arm ``side``'s joint or actuator ``name``."""
+        return f"{side}/{name}"
+
     def __init__(
         self,
         task_name: str = registry.DEFAULT_TASK,
@@ -84,11 +102,7 @@ class KitWorld:
         randomization: Mapping[str, Any] | None = None,
     ) -> None:
         entry = registry.load(task_name)
-        if entry.name not in registry.kit_names():
-            raise UserError(
-                f"task '{entry.name}' is not a Stationary AI (two-arm) task; a served kit "
-                f"holds one of: {', '.join(registry.kit_names())}"
-            )
+        self.check_task(entry)
         config = entry.load_config()
         ctrl_dt = float(config.get("sim_dt") or 0.002)
         frame_dt = float(config["policy_dt"]) if fps is None else 1.0 / float(fps)
@@ -115,7 +129,7 @@ class KitWorld:
         self.task = None
         self.episode_index, self.seed = int(episode_index), 0
         self.reset(self.episode_index, object_poses=object_poses)
-        self.arms = {side: ArmState(self.measured(side)) for side in SIDES}
+        self.arms = {side: ArmState(self.measured(side)) for side in self.sides}
         #: Hooks of a recorder, called in the stepping thread with the lock held: before
         #: each frame, and with each finished frame.
         self.before_frame: Callable[[], None] | None = None
@@ -133,21 +147,24 @@ class KitWorld:
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
 
+    def layout_joints(self) -> list[str]:
+        """The model's joints of the recorded ``qpos`` / ``qvel`` values, in order (the
+        kit: the 16-value layout)."""
+        values = (*ARM_JOINTS, COUPLED_FINGER, "left_carriage_joint")
+        return [self.mjcf_name(s, j) for s in self.sides for j in values]
+
     def _index_joints(self) -> None:
-        m = self.model
-        jid = {s: [lookup_id(m, "joint", f"{s}/{j}") for j in DRIVER_JOINTS] for s in SIDES}
-        self.qadr = {s: m.jnt_qposadr[jid[s]].copy() for s in SIDES}
-        self.dadr = {s: m.jnt_dofadr[jid[s]].copy() for s in SIDES}
-        twin = {s: lookup_id(m, "joint", f"{s}/{COUPLED_FINGER}") for s in SIDES}
-        self.twin_dadr = {s: int(m.jnt_dofadr[twin[s]]) for s in SIDES}
-        names = [
-            f"{s}/{j}" for s in SIDES for j in (*ARM_JOINTS, COUPLED_FINGER, "left_carriage_joint")
-        ]
-        ids = [lookup_id(m, "joint", n) for n in names]  # the 16-value kit layout
+        m, name, sides = self.model, self.mjcf_name, self.sides
+        jid = {s: [lookup_id(m, "joint", name(s, j)) for j in DRIVER_JOINTS] for s in sides}
+        self.qadr = {s: m.jnt_qposadr[jid[s]].copy() for s in sides}
+        self.dadr = {s: m.jnt_dofadr[jid[s]].copy() for s in sides}
+        twin = {s: lookup_id(m, "joint", name(s, COUPLED_FINGER)) for s in sides}
+        self.twin_dadr = {s: int(m.jnt_dofadr[twin[s]]) for s in sides}
+        ids = [lookup_id(m, "joint", n) for n in self.layout_joints()]
         self.layout_qadr, self.layout_dadr = m.jnt_qposadr[ids].copy(), m.jnt_dofadr[ids].copy()
-        acts = {s: [*(f"{s}/{j}" for j in ARM_JOINTS), f"{s}/gripper"] for s in SIDES}
-        self.act = {s: np.array([lookup_id(m, "actuator", a) for a in acts[s]]) for s in SIDES}
-        self._batch = self.robot.joint_target_batch(GROUPS)
+        acts = {s: [*(name(s, j) for j in ARM_JOINTS), name(s, "gripper")] for s in sides}
+        self.act = {s: np.array([lookup_id(m, "actuator", a) for a in acts[s]]) for s in sides}
+        self._batch = self.robot.joint_target_batch(self.groups)
 
     # -- episodes -------------------------------------------------------------------------
     def reset(
@@ -183,7 +200,7 @@ class KitWorld:
                 self.data.ctrl[:] = saved[2]
                 mujoco.mj_forward(self.model, self.data)
             elif hasattr(self, "arms"):
-                for side in SIDES:
+                for side in self.sides:
                     self.arms[side] = ArmState(self.measured(side), self.arms[side].limits)
 
     @property
@@ -219,11 +236,15 @@ class KitWorld:
             out[VENDOR16_LAYOUT.fingers(side)] = t[6]
         return out
 
+    def joint_commands(self, vector: np.ndarray) -> dict[str, np.ndarray]:
+        """The robot's commands (move group -> targets) of the arms' 7-value targets."""
+        return VENDOR16_LAYOUT.joint_commands(self.action())
+
     # -- stepping -------------------------------------------------------------------------
     def _tick(self) -> None:
         d = self.data
-        vector = np.empty(14)
-        for a, side in enumerate(SIDES):
+        vector = np.empty(7 * len(self.sides))
+        for a, side in enumerate(self.sides):
             arm, dof = self.arms[side], self.dadr[side]
             limp = (arm.modes == EXTERNAL_EFFORT) | (arm.modes == EFFORT)
             d.qfrc_applied[dof] = 0.0
@@ -239,7 +260,7 @@ class KitWorld:
         if self._batch is not None:
             self.robot.update_control(self._batch.commands(vector))
         else:
-            self.robot.update_control(VENDOR16_LAYOUT.joint_commands(self.action()))
+            self.robot.update_control(self.joint_commands(vector))
         self.env.step(1)
 
     def _check_lag(self, side: str, arm: ArmState) -> None:

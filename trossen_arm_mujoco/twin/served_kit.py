@@ -16,7 +16,7 @@ ends every thread it started.
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -34,12 +34,17 @@ __all__ = ["DEFAULT_IPS", "ServedKit", "check_kit_ips", "kit_for_episode"]
 DEFAULT_IPS: dict[str, str] = {"left": "127.0.0.2", "right": "127.0.0.3"}
 
 
-def check_kit_ips(ips: Mapping[str, str], flags: Mapping[str, str] | None = None) -> dict[str, str]:
-    """The two arms' addresses, checked: IPv4 loopback and different (one-line
+def check_kit_ips(
+    ips: Mapping[str, str],
+    flags: Mapping[str, str] | None = None,
+    sides: Sequence[str] = SIDES,
+) -> dict[str, str]:
+    """The arms' addresses (the kit's two; ``sides``: those of another world, e.g. the
+    single arm's ``("follower",)``), checked: IPv4 loopback and different (one-line
     ``UserError`` otherwise). ``flags``: the flag naming each address, for messages."""
-    flags = flags or {side: f"{side} arm address" for side in SIDES}
-    out = {side: check_loopback(ips[side], flags[side]) for side in SIDES}
-    if out["left"] == out["right"]:
+    flags = flags or {side: f"{side} arm address" for side in sides}
+    out = {side: check_loopback(ips[side], flags[side]) for side in sides}
+    if tuple(sides) == SIDES and out["left"] == out["right"]:
         raise UserError(
             f"{flags['left']} and {flags['right']} are both {out['left']}; each arm needs "
             "its own address (e.g. 127.0.0.2 and 127.0.0.3)"
@@ -71,11 +76,13 @@ def kit_for_episode(
 
 
 class ServedKit:
-    """Both arms of ``world`` served on ``ips``; see the module doc.
+    """Both arms of ``world`` served on ``ips``; see the module doc. A single arm's world
+    (``twin.arm_world.ArmWorld``) is served the same way: its one arm on ``ips["follower"]``.
 
     Args:
         world: the kit world (stepped by the kit from :meth:`start` to :meth:`stop`).
-        ips: ``{"left": ip, "right": ip}``, distinct IPv4 loopback addresses.
+        ips: ``{"left": ip, "right": ip}``, distinct IPv4 loopback addresses (one per arm
+            of ``world.sides``).
         say: prints one line per event; default: nothing.
         recorder: told of client sessions; stopped (its queue written) by :meth:`stop`.
         report: the events ``say`` gets: ``connect``, ``disconnect``, ``fault``, ``clear``.
@@ -89,14 +96,15 @@ class ServedKit:
         recorder: SessionRecorder | None = None,
         report: Collection[str] = ("connect", "disconnect", "fault", "clear"),
     ) -> None:
-        self.world, self.ips = world, check_kit_ips(ips)
+        self.sides = tuple(world.sides)
+        self.world, self.ips = world, check_kit_ips(ips, sides=self.sides)
         self.say, self.recorder, self.report = say, recorder, frozenset(report)
-        self.adapters = {side: ArmAdapter(world, side) for side in SIDES}
+        self.adapters = {side: ArmAdapter(world, side) for side in self.sides}
         self.servers = {
             side: ArmServer(
                 self.adapters[side], self.ips[side], f"{side} arm", on_event=self._hook(side)
             )
-            for side in SIDES
+            for side in self.sides
         }
         world.on_fault = self._motion_fault
         self.faults: list[str] = []
@@ -138,13 +146,13 @@ class ServedKit:
     def connected(self) -> list[str]:
         """Arms with a connected client."""
         with self._lock:
-            return [s for s in SIDES if s in self._connected]
+            return [s for s in self.sides if s in self._connected]
 
     def start(self) -> ServedKit:
         """Serve both arms and step the world; a one-line ``UserError`` (nothing left
         running) when an address cannot be bound."""
         try:
-            for side in SIDES:
+            for side in self.sides:
                 self.servers[side].start()
         except BaseException:
             for server in self.servers.values():
