@@ -2,19 +2,15 @@
 
 A policy that declares ``action_layout`` (a key of ``robot.layout.LAYOUTS`` other than
 ``"ee"``; the Mobile AI's ``mobile_pick_place`` policy: ``"mobileai"``) gives each step's
-action in that layout, the way a policy trained on the real robot's data does. Such an
-episode is recorded as it is acted: the task's joint flavour renders the requested cameras,
-the policy acts on the task's observation, the env steps, and every step is streamed to the
-episode file (no end-effector rollout, no replay). The policy is made with the episode's
-task (``policy_cls(task, inject_noise=..., rng=...)``): it may read the task's robot (its
-kinematics, for IK) but never steps it.
+action in that layout. The episode is recorded as it is acted: the joint flavour renders the
+cameras, the policy acts on the task's observation, the env steps, each step is streamed to
+the file. The policy is made with the episode's task (``policy_cls(task, inject_noise=...,
+rng=...)``) and may read its robot but never steps it. The file's root attribute ``layout``
+names the rows' layout (``mobileai``: the arms' 14 values, then the base's [x.vel m/s,
+theta.vel rad/s]); ``real_replay_checked``: the arms' targets and the base's commands are
+within the real limits.
 
-The file is the usual schema (``data.schema``) with root attribute ``layout`` naming the
-layout of its 16-value ``qpos``, ``qvel`` and ``action`` rows, from the task's
-``recorded_state()``: for ``mobileai`` the arms' 14 values in the real kit's layout, then the
-base's [x.vel m/s, theta.vel rad/s] (measured in ``qpos`` and ``qvel``, commanded in
-``action``). ``real_replay_checked``: the arms' targets pass the real-arm check at the
-recording rate and the base's commands are within the real base's limits.
+Docs: docs/cli/record.md, docs/concepts/models.md.
 """
 
 from __future__ import annotations
@@ -112,8 +108,21 @@ class JointPolicyRecorder:
         extra_attrs: dict | None = None,
         create_folder: bool = True,
     ) -> EpisodeOutcome:
-        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``; an
-        ``EpisodeOutcome``. Arguments as ``EpisodeRecorder.record``."""
+        """Record attempt ``attempt`` into ``path``.
+
+        Args:
+            attempt: the attempt number; the seed derives from the run seed and it.
+            path: the episode file to write.
+            overwrite: replace a file already at ``path``.
+            progress: called after every recorded step (a progress bar).
+            extra_attrs: root attributes added to the file.
+            create_folder: create ``path``'s folder if missing; False: it must exist (a
+                dataset run: a folder removed meanwhile is an ``EpisodeIOError``, not
+                silently recreated).
+
+        Returns:
+            The :class:`EpisodeOutcome`.
+        """
         s = self.settings
         seed = episode_seed(s.base_seed, attempt)
         rng = np.random.default_rng(seed)

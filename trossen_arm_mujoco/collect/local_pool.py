@@ -1,27 +1,14 @@
 """Local worker processes that survive the death of a worker.
 
-``multiprocessing.Pool`` waits forever for the result of a worker that was killed (the OOM
-killer, ``kill -9``). :class:`WorkerPool` gives each worker its own pipe and watches its
-process: a worker that dies loses only the job it was running, which is run again in a new
-worker (``max_tries`` tries in all), and the run goes on. Results come back as they finish,
-with their job's position; the caller puts them back in order.
+``multiprocessing.Pool`` waits forever for the result of a killed worker (the OOM killer,
+``kill -9``). :class:`WorkerPool` gives each worker its own pipe and watches its process: a
+worker that dies loses only the job it was running, which runs again in a new worker
+(``max_tries`` tries in all). Results come back as they finish, with their job's position.
+Signals end a worker quietly: SIGINT is ignored (the parent decides); SIGTERM becomes
+``KeyboardInterrupt`` while it runs jobs, so it discards its partial file; a worker whose
+parent dies, even by SIGKILL, gets SIGTERM, so no worker outlives a run.
 
-Signals, and the parent's death, end a worker quietly (never a traceback on the run's stderr):
-
-- SIGINT is ignored from the worker's first instruction on (Ctrl-C goes to the whole
-  foreground process group; the parent decides): the parent blocks it while it starts a
-  worker, which inherits the blocked signal through its start-up (imports included) until
-  :func:`_worker_main` ignores it;
-- SIGTERM becomes ``KeyboardInterrupt`` while the worker runs jobs, so a worker stopped by
-  :meth:`WorkerPool.shutdown` (or by a ``kill`` of the process group) discards its partial file
-  before it exits; further SIGTERMs while it does so are ignored (its cleanup always ends);
-  once the worker is done (told to stop, or its parent gone) SIGTERM takes its default
-  action, so a late one ends the process at once and in silence, even while the interpreter
-  shuts down (closing renderers, running ``atexit`` functions);
-- a worker whose parent dies, even by SIGKILL, gets SIGTERM (Linux: ``PR_SET_PDEATHSIG``,
-  once for each thread of the parent as they exit; elsewhere a thread polls ``os.getppid()``
-  every :data:`PARENT_POLL_S`), so no worker outlives a run: it discards its partial file and
-  exits.
+Docs: docs/cli/record.md; the signal handling in full: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

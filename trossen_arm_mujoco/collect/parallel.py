@@ -1,22 +1,15 @@
 """Recording a dataset: N local worker processes, ordered publishing, one writer per folder.
 
-A run holds the folder's lock (:mod:`~trossen_arm_mujoco.data.dataset_lock`) from its first
-look at the folder to its last rename, and records what :func:`.resume.plan_run` says:
-without ``skip_failed`` each planned index is one attempt (episode ``k`` of a fresh run is
-attempt ``k``, seed derived from the run seed and ``k``), so the files are the same whatever
+A run holds the folder's lock (:mod:`~trossen_arm_mujoco.data.dataset_lock`) throughout and
+records what :func:`.resume.plan_run` says: without ``skip_failed`` each planned index is
+one attempt (seed derived from the run seed and ``k``), so the files are the same whatever
 the number of workers; with ``skip_failed`` attempts continue until the planned indices hold
-successes, given in attempt order.
+successes. Files are written atomically (via ``.staging/``, published in attempt order). A
+dead worker loses only its attempt (:mod:`.local_pool`). On SIGINT/SIGTERM, or a refused
+write (:attr:`RunReport.io_error`), partial episodes are discarded and finished ones
+published; rerunning the command continues. :mod:`.ray_engine` runs the same attempts on Ray.
 
-Files are written atomically. With more than one worker (or ``skip_failed``) each attempt is
-written under ``.staging/``, read back with the reader's validation and renamed to its
-episode name in attempt order. A worker process that dies (``kill -9``, the OOM killer)
-loses only the attempt it was running, which runs again in a new worker
-(:mod:`.local_pool`). On SIGINT/SIGTERM the partial episodes are discarded and every
-finished one is published (an attempt that finished before an earlier one leaves a gap that
-a rerun fills with the attempt a clean run would have used); rerunning the same command
-continues where the run stopped. A write the file system refuses (disk full, read-only
-folder, folder removed) stops the run the same way, with :attr:`RunReport.io_error` saying
-why. :mod:`.ray_engine` runs the same attempts as Ray tasks.
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations
@@ -129,7 +122,16 @@ def failure_summary(
     failed: list[EpisodeOutcome], total: int, noun: str, episode_len: int, minimum_len: int
 ) -> str:
     """``"2 of 3 episodes failed: reward below max 4 (episode_len 300 < 440 the scripted
-    policy needs)"``; empty when nothing failed. ``noun``: "episodes" or "attempts"."""
+    policy needs)"``; empty when nothing failed.
+
+    Args:
+        failed: the failed episodes' outcomes.
+        total: the number of episodes or attempts run.
+        noun: ``"episodes"`` or ``"attempts"``.
+        episode_len: the run's episode length (steps).
+        minimum_len: the steps the scripted policy needs (named when ``episode_len`` is
+            shorter and episodes failed on their reward).
+    """
     if not failed:
         return ""
     reasons = Counter(o.failure() or "not successful" for o in failed)

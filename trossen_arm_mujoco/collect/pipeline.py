@@ -1,24 +1,16 @@
 """Two-phase data collection of one episode, for any registered task with a scripted policy.
 
-Phase 1: the task's scripted policy drives the end-effector (mocap) flavour of the task;
-nothing is rendered. The arm joint trajectory is kept, with the finger values replaced by the
-gripper commands. Phase 2: that trajectory is replayed as actions in the joint flavour, which
-behaves like the real arms, from the same initial object poses; only the requested cameras
-are rendered, and every step is streamed to the episode file, so memory stays flat in the
-episode length. Success is judged in phase 2.
+Phase 1: the scripted policy drives the end-effector (mocap) flavour; nothing is rendered;
+the arm joint trajectory is kept, the finger values replaced by the gripper commands. Phase
+2: that trajectory is replayed as actions in the joint flavour, which behaves like the real
+arms, from the same initial object poses; only the requested cameras are rendered and each
+step is streamed to the file (memory flat in the episode length). Success is judged in phase
+2. With ``RecordSettings.randomize`` phase 1 samples the domain randomization and phase 2
+applies the same record (stored as the ``randomization`` attribute). The task's
+``policy_dt`` is the recording period; phase-1 actions are rounded to float32 before phase
+2, so the stored ``/action`` is exactly what was replayed.
 
-Domain randomization (``RecordSettings.randomize``, off by default): phase 1 samples it from
-the episode's generator; phase 2 applies the same record (``tasks.randomization``), so both
-phases see one randomized scene; the record is stored as the ``randomization`` attribute
-(JSON). Without it, episodes and files are exactly those of a recorder without
-randomization.
-
-Tasks are reached only through ``tasks.registry`` (task, sampler, policy, config); the task's
-``policy_dt`` is the recording period.
-
-The file stores float32 (schema version 2); the phase-1 actions are rounded to float32
-before phase 2 replays them, so the stored ``/action`` is exactly what was replayed and
-what the real-replay check saw.
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations
@@ -68,9 +60,17 @@ ACTION_SPEED_LIMITS = np.tile([JOINT_VELOCITY_LIMITS[j] for j in DATASET_JOINTS]
 
 
 def limit_speed(actions: np.ndarray, max_speed: np.ndarray, fps: float) -> int:
-    """Rate-limit a ``(T, D)`` trajectory in place: every value moves at most
-    ``max_speed / fps`` per step (``max_speed``: (D,), units per second). Returns how many
-    values were changed (0 when the trajectory was already within the limits)."""
+    """Rate-limit a trajectory in place: every value moves at most ``max_speed / fps`` per
+    step.
+
+    Args:
+        actions: ``(T, D)`` trajectory, changed in place.
+        max_speed: ``(D,)`` speed limits, units per second (rad/s, m/s).
+        fps: steps per second.
+
+    Returns:
+        How many values were changed (0 when already within the limits).
+    """
     max_step = np.asarray(max_speed, dtype=float) / fps
     changed = 0
     for t in range(1, len(actions)):
@@ -276,8 +276,15 @@ class EpisodeRecorder:
         """Phase 2: replay joint actions from ``object_poses``; returns rewards (T,).
 
         Each step appends (observation before the action, action, reward after it) to
-        ``writer``; the observation after the last action is not rendered. The scene is
-        randomized as ``randomization`` says (default: as in the last scripted rollout).
+        ``writer``; the observation after the last action is not rendered.
+
+        Args:
+            actions: ``(T, 16)`` joint actions (rad; m).
+            object_poses: object name -> initial pose (7,) [xyz m, quat wxyz].
+            writer: where each step goes; None: nothing is written.
+            progress: called after every step.
+            randomization: the randomization record to apply; None: the last scripted
+                rollout's.
         """
         rewards = np.empty(len(actions))
         for _ in self.replay_steps(actions, object_poses, rewards, writer, randomization):
@@ -295,7 +302,15 @@ class EpisodeRecorder:
     ) -> Iterator[int]:
         """:meth:`replay`, one step per iteration: yields ``t`` after step ``t`` (rendered,
         stepped, written; ``rewards[t]`` set), so a caller can interleave it with other
-        work (``benchmarks/record_episode.py`` times it against raw MuJoCo that way)."""
+        work (``benchmarks/record_episode.py`` times it against raw MuJoCo that way).
+
+        Args:
+            actions: ``(T, 16)`` joint actions (rad; m).
+            object_poses: object name -> initial pose (7,) [xyz m, quat wxyz].
+            rewards: ``(T,)`` array that receives the rewards.
+            writer: where each step goes; None: nothing is written.
+            randomization: as for :meth:`replay`.
+        """
         if randomization is None:
             randomization = self.last_randomization
         task = self.joint_task = self.joint_sampler.next_task(
@@ -330,10 +345,20 @@ class EpisodeRecorder:
         extra_attrs: dict | None = None,
         create_folder: bool = True,
     ) -> EpisodeOutcome:
-        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``.
+        """Record attempt ``attempt`` into ``path``.
 
-        ``create_folder=False``: the folder of ``path`` must exist (a dataset run: a folder
-        removed meanwhile is an ``EpisodeIOError``, not silently recreated).
+        Args:
+            attempt: the attempt number; the seed derives from the run seed and it.
+            path: the episode file to write.
+            overwrite: replace a file already at ``path``.
+            progress: called after every recorded step (a progress bar).
+            extra_attrs: root attributes added to the file.
+            create_folder: create ``path``'s folder if missing; False: it must exist (a
+                dataset run: a folder removed meanwhile is an ``EpisodeIOError``, not
+                silently recreated).
+
+        Returns:
+            The :class:`EpisodeOutcome`.
         """
         s = self.settings
         seed = episode_seed(s.base_seed, attempt)
@@ -385,10 +410,20 @@ def episode_attrs(
     extra_attrs: dict | None = None,
     **fields,
 ) -> dict:
-    """The root attributes of a recorded episode file: the run's (seed of ``attempt``,
-    settings, ``dt`` s per step, the objects' initial ``poses`` {name: (7,)}, the
-    randomization record as JSON when there is one), then the recorder's ``fields``, then
-    the caller's ``extra_attrs``. ``success`` starts False; ``write_episode`` sets it."""
+    """The root attributes of a recorded episode file: the run's, then the recorder's
+    ``fields``, then the caller's ``extra_attrs``. ``success`` starts False;
+    ``write_episode`` sets it.
+
+    Args:
+        settings: the run's settings.
+        task_name: the registered task.
+        attempt: the attempt number (its seed is stored).
+        dt: seconds per recorded step.
+        poses: the objects' initial poses {name: (7,) [xyz m, quat wxyz]}.
+        randomization: the randomization record (stored as JSON), or None.
+        extra_attrs: the caller's attributes.
+        **fields: the recorder's attributes.
+    """
     s = settings
     attrs = {
         "task_name": task_name,
@@ -436,6 +471,16 @@ def write_episode(
     task's own success test, ``max_reward`` then NaN) and the real-replay check passed;
     ``success``, ``final_reward``, ``max_reward`` and ``play``'s attributes are set on the
     file.
+
+    Args:
+        settings: the run's settings (episode length, cameras, image size, compression).
+        path: the episode file.
+        attrs: the root attributes (:func:`episode_attrs`).
+        play: streams the steps into the writer it is given.
+        max_reward: the task's maximum reward (NaN with ``judge``).
+        overwrite: replace a file already at ``path``.
+        create_folder: create ``path``'s folder if missing.
+        judge: the task's own success test, called after ``play``.
     """
     s = settings
     with EpisodeWriter(

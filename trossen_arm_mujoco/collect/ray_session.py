@@ -1,24 +1,13 @@
 """Starting or joining the Ray instance that ``record --engine ray`` runs its episodes on.
 
-Ray is optional (``pip install ".[ray]"`` in the checkout) and imported only here, when the
-Ray engine is asked for.
+Ray is optional (``pip install ".[ray]"``) and imported only here. Without an address a
+private local Ray is started that stays on this machine: node address 127.0.0.1, usage
+statistics and the cloud-metadata probe off (a private ``HOME`` with an empty
+``ray_bootstrap_config.yaml`` and the cluster's token), no dashboard, token authentication
+on. With an address (``auto``, ``host:port`` of a ``ray start --head`` node, or
+``ray://host:port``) that cluster is joined as it is configured.
 
-Without an address a private local Ray is started that stays on this machine:
-
-- its node address is the loopback address 127.0.0.1 (Ray otherwise picks the address of
-  the network interface that routes to a public IP, and probes the route to find it);
-- usage statistics are off, and the cloud-metadata probe that Ray's head process makes to
-  label such statistics (HTTP to 169.254.169.254) is skipped: the Ray processes get a
-  private ``HOME`` holding an empty ``ray_bootstrap_config.yaml`` (the file Ray reads
-  instead of probing) and the cluster's authentication token;
-- the dashboard is not started; token authentication stays on (Ray's default for a new
-  local instance; the token is kept in the private ``HOME``). Ray's gRPC servers still
-  listen on every interface (ray 2.60 has no setting for that); every connection the
-  processes make is to loopback (checked with strace, and by tests/collect/test_ray_engine.py
-  on the sockets the processes hold).
-
-With an address (``auto``, ``host:port`` of a ``ray start --head`` node, or ``ray://host:port``
-for Ray Client) that cluster is joined as it is configured.
+Docs: docs/cli/record.md (Recording on a Ray cluster); details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

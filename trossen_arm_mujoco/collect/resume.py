@@ -1,19 +1,15 @@
 """What a recording run records in a folder that may already hold episodes.
 
-:func:`plan_run` reads every episode file of the folder with the reader's validation. An
-unreadable file stops the run with its name and what to do; so does an episode recorded with
-other settings (task, seed, episode length, cameras, image size, noise, randomization, looks)
-than this run, naming the flags that differ. Then:
+:func:`plan_run` reads every episode file with the reader's validation; an unreadable file,
+or one recorded with other settings (naming the flags that differ), stops the run. A
+successful episode (or one whose success is not recorded) is kept; a failed one is recorded
+again; a missing index below ``num_episodes`` is recorded. Each episode is one attempt whose
+seed derives from the run seed and the attempt number: a missing index ``k`` gets attempt
+``k`` when no file used it (so a resumed run gives the files of an uninterrupted one), a
+failed index a fresh attempt after every attempt a file uses; with ``skip_failed`` attempts
+run from the first one no file used.
 
-- a successful episode (or one whose success is not recorded, e.g. a vendor file) is kept;
-- a failed episode (attribute ``success`` False) is recorded again and replaced;
-- a missing index below ``num_episodes`` (a gap, or past the last one) is recorded.
-
-Each episode of a run is one attempt, whose seed derives from the run seed and the attempt
-number. A missing index ``k`` gets attempt ``k`` when no file used it, so a resumed run
-gives the files of an uninterrupted one; a failed index gets a fresh attempt, after every
-attempt a file uses (the same attempt would fail the same way). With ``skip_failed``,
-attempts run from the first one no file used.
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations
@@ -203,9 +199,13 @@ def plan_run(
 ) -> RunPlan:
     """Plan a run that should leave episodes ``0 .. num_episodes - 1`` in ``folder``.
 
-    With ``overwrite`` every index is recorded afresh (attempt ``k`` as episode ``k``),
-    replacing existing files. Otherwise every existing episode is validated (and compared
-    with ``settings`` when given) first.
+    Args:
+        folder: the dataset folder.
+        num_episodes: the episodes the run should leave.
+        overwrite: record every index afresh (attempt ``k`` as episode ``k``), replacing
+            existing files; otherwise every existing episode is validated first.
+        settings: the run's settings, compared with every existing episode's; None: not
+            compared.
 
     Raises:
         UserError: an unreadable episode file, one recorded with other settings, or an

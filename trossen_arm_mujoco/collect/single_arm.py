@@ -1,28 +1,16 @@
 """Two-phase recording of a single wxai arm's task with a scripted end-effector policy.
 
-A policy that declares ``action_layout = "arm_ee"`` (``policies.scripted.ArmWaypointPolicy``:
-the shipped ``push`` and ``pick_place`` policies, or a user's own single-arm task's) gives
-each step one arm's tool pose and gripper, ``[xyz (m), quat wxyz, gripper (m)]`` in the world
-frame. Such a task is recorded the way the kit's tasks are:
+A policy with ``action_layout = "arm_ee"`` (``policies.scripted.ArmWaypointPolicy``: the
+shipped ``push`` and ``pick_place``) gives each step one arm's tool pose and gripper, ``[xyz
+(m), quat wxyz, gripper (m)]``, world frame. Phase 1 (nothing rendered): the joint flavour in
+``ee_pose`` mode, its controller solving IK within the real arm's speed limits; the joint
+targets applied are kept. Phase 2: they are replayed in ``joint_position`` mode from the same
+scene, the cameras rendered and each step streamed to the file; success is judged at the
+last step. The file (``data.schema``, ``layout = "widowxai"``) holds ``(T, 7)`` ``qpos``,
+``qvel``, ``action`` (``joint_0`` .. ``joint_5`` rad, then the gripper carriage m), ``goal``
+(3,) m and ``dt`` = the task's ``policy_dt``.
 
-Phase 1 (scripted rollout, nothing rendered): the task's joint flavour with the arm in the
-``ee_pose`` command mode, where the arm's controller solves the IK of each tool pose and
-moves the joint targets toward it within the real arm's joint speed limits
-(``robot.controllers``; the gripper target moves within the carriage's limit); the env steps.
-The joint targets actually applied each step are kept: 6 arm joints (rad) and the gripper
-(finger travel, m). Phase 2: those targets are replayed in the ``joint_position`` mode (as the
-real arm takes them) from the same scene (the same episode seed drives both samplers), the
-requested cameras are rendered and every step is streamed to the episode file. The task
-judges success at the last step (``Task.judge_success``: for push and pick_place the cube's
-centre within ``success_tolerance`` of the goal).
-
-The file is the usual schema (``data.schema``) with root attribute ``layout = "widowxai"``:
-``qpos``, ``qvel`` and ``action`` are ``(T, 7)``: ``joint_0`` .. ``joint_5`` (rad, rad/s),
-then the gripper (``left_carriage_joint`` travel, m, m/s; measured in ``qpos``/``qvel``,
-commanded in ``action``); ``env_state`` (T, 7 per object) the object poses [xyz m, quat
-wxyz]; ``reward`` the task's reward after each step; ``goal`` (3,) m the episode's goal
-(goal-conditioned tasks). ``dt`` = the task's ``policy_dt`` (0.02 s).
-``real_replay_checked``: the actions pass the real-arm check at the recording rate.
+Docs: docs/cli/record.md (Single-arm tasks); details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -176,9 +164,11 @@ class SingleArmRecorder:
     ) -> tuple[np.ndarray, dict]:
         """Phase 1. Returns (joint actions (T, 7), initial object poses {name: (7,)}).
 
-        ``seed``: the episode's seed, or its generator (``eval``'s episode stream);
-        ``object_poses`` and ``goal`` (m, world) replace the sampled ones (``eval --policy
-        scripted`` plans the eval env's episode).
+        Args:
+            seed: the episode's seed, or its generator (``eval``'s episode stream).
+            object_poses: object name -> pose (7,) [xyz m, quat wxyz] replacing the sampled
+                ones (``eval --policy scripted`` plans the eval env's episode).
+            goal: (3,) goal (m, world frame) replacing the sampled one.
 
         The actions are the joint targets the ``ee_pose`` controller applied (within the joint
         limits and the real arm's speed limits at the recording rate); any value still faster
@@ -223,9 +213,18 @@ class SingleArmRecorder:
         writer: EpisodeWriter | None = None,
         progress: Callable[[], None] | None = None,
     ) -> np.ndarray:
-        """Phase 2: replay joint actions ``(T, 7)`` in the episode of ``seed``; returns the
-        rewards (T,). Each step appends (state before the action, action, reward after it)
-        to ``writer``."""
+        """Phase 2: replay joint actions in the episode of ``seed``. Each step appends (state
+        before the action, action, reward after it) to ``writer``.
+
+        Args:
+            actions: ``(T, 7)`` joint actions (rad; gripper m).
+            seed: the episode's seed (the same scene as phase 1).
+            writer: where each step goes; None: nothing is written.
+            progress: called after every step.
+
+        Returns:
+            ``(T,)`` rewards.
+        """
         rewards = np.empty(len(actions))
         for _ in self.replay_steps(actions, seed, rewards, writer):
             if progress is not None:
@@ -239,7 +238,14 @@ class SingleArmRecorder:
         rewards: np.ndarray,
         writer: EpisodeWriter | None = None,
     ) -> Iterator[int]:
-        """:meth:`replay`, one step per iteration: yields ``t`` after step ``t``."""
+        """:meth:`replay`, one step per iteration: yields ``t`` after step ``t``.
+
+        Args:
+            actions: ``(T, 7)`` joint actions (rad; gripper m).
+            seed: the episode's seed.
+            rewards: ``(T,)`` array that receives the rewards.
+            writer: where each step goes; None: nothing is written.
+        """
         task = self.joint_task = self._start(self.joint_sampler, seed)
         env = self.joint_sampler.env
         data = env.data
@@ -273,8 +279,21 @@ class SingleArmRecorder:
         extra_attrs: dict | None = None,
         create_folder: bool = True,
     ) -> EpisodeOutcome:
-        """Record attempt ``attempt`` (seed derived from the run seed) into ``path``; an
-        ``EpisodeOutcome``. Arguments as ``EpisodeRecorder.record``."""
+        """Record attempt ``attempt`` into ``path``.
+
+        Args:
+            attempt: the attempt number; the seed derives from the run seed and it.
+            path: the episode file to write.
+            overwrite: replace a file already at ``path``.
+            progress: called after every recorded step (a progress bar).
+            extra_attrs: root attributes added to the file.
+            create_folder: create ``path``'s folder if missing; False: it must exist (a
+                dataset run: a folder removed meanwhile is an ``EpisodeIOError``, not
+                silently recreated).
+
+        Returns:
+            The :class:`EpisodeOutcome`.
+        """
         s = self.settings
         seed = episode_seed(s.base_seed, attempt)
         actions, poses = self.scripted_rollout(seed)

@@ -2,19 +2,13 @@
 
 A crop is given in pixels of the camera's full frame (``FRAME``, 480x640, the size its
 ``fovy`` describes): ``CameraCrop("cam_high", top=217, left=243, height=150, width=200)``
-shows rows 217..366 and columns 243..442 of that frame. It is applied to the compiled model
-as the camera's intrinsics (``cam_sensorsize`` and ``cam_intrinsic``: the frustum of that
-rectangle), so any renderer draws the rectangle straight at the image size it is asked for,
-without rendering the full frame first: an image of ``--image_size 96x128`` of a 150x200
-crop is the rectangle of the full frame, scaled by 0.64. A policy trained on cropped
-images is deployed by cropping the real camera's full frame the same way (:func:`crop_frame`,
-which ``eval --backend wire`` applies to the whole frames the served kit streams).
+shows rows 217..366 and columns 243..442. It is applied to the compiled model as the camera's
+intrinsics (``cam_sensorsize``, ``cam_intrinsic``), so any renderer draws the rectangle
+straight at the image size asked for. A policy trained on cropped images is deployed by
+cropping the real camera's full frame the same way (:func:`crop_frame`, as ``eval --backend
+wire`` does). Text form (``--crop``): ``CAMERA:TOP,LEFT,HEIGHT,WIDTH``.
 
-Why: in ``cam_high``'s full view the 25 mm cube of the transfer task spans about 10 of 640
-pixels, 2 pixels at 96x128; a 150x200 crop around the cube's spawn region keeps it at about 6
-pixels at the same image size (and the same rendering and training cost).
-
-Text form (``--crop``): ``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, e.g. ``cam_high:217,243,150,200``.
+Docs: docs/cli/record.md (``--crop``); why: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -130,11 +124,18 @@ def apply_crops(model: mujoco.MjModel, crops: tuple[CameraCrop, ...]) -> None:
 
 
 def crop_frame(image: np.ndarray, crop: CameraCrop | None, size: Sequence[int]) -> np.ndarray:
-    """What a camera with ``crop`` shows at ``size`` (H, W), made from a whole frame the way
-    a deployed policy's images are: cut ``crop``'s rectangle out of ``image`` (uint8
-    ``(H0, W0, 3)``, any size of the 4:3 frame: the rectangle is scaled from 480x640 to it),
-    then average it down (or up) to ``size``. ``crop`` None: the whole frame, resized. The
-    frame already at ``size`` with no crop is returned as it is."""
+    """What a camera with ``crop`` shows at ``size``, made from a whole frame the way a
+    deployed policy's images are: cut the rectangle out, then average it down (or up).
+
+    Args:
+        image: uint8 ``(H0, W0, 3)`` whole frame, any size of the 4:3 frame (the rectangle
+            is scaled from 480x640 to it).
+        crop: the rectangle; None: the whole frame, resized.
+        size: (H, W) of the result (pixels).
+
+    Returns:
+        uint8 ``(H, W, 3)``; ``image`` itself when it is already at ``size`` with no crop.
+    """
     h, w = int(size[0]), int(size[1])
     if crop is None and image.shape[:2] == (h, w):
         return image
@@ -152,8 +153,13 @@ def crop_frame(image: np.ndarray, crop: CameraCrop | None, size: Sequence[int]) 
 
 
 def check_observed(crops: Sequence[CameraCrop], cameras: Sequence[str], what: str) -> None:
-    """A one-line UserError when a crop names a camera that is not among ``cameras`` (the
-    ones recorded or observed: ``what`` says which)."""
+    """A one-line UserError when a crop names a camera that is not among ``cameras``.
+
+    Args:
+        crops: the crops.
+        cameras: the cameras recorded or observed.
+        what: which of the two ``cameras`` are, for the message.
+    """
     for crop in crops:
         if crop.camera not in cameras:
             shown = ", ".join(cameras) or "none"

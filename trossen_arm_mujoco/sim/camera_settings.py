@@ -1,23 +1,15 @@
 """CameraSettings: what a policy's cameras observe, in one checked object.
 
 Which cameras, the (H, W) of their images and the crops they show (``sim.camera_crop``) go
-together from the command line to the renderer and the export: a command line parses its
-``--cam_names``, ``--image_size`` and ``--crop`` flags once (:meth:`CameraSettings.from_cli`,
-or :func:`camera_flags` where a flag not given must stay "not given", e.g. to take a
-checkpoint's value), and the object travels from there (``eval.env.KitPolicyEnv``,
-``eval.runner.EvalSettings``, the wire backend, ``export.dataset_settings.DatasetSettings``).
-Only files hold its text form (:meth:`CameraSettings.to_json` / :meth:`CameraSettings.from_json`:
-a checkpoint's ``trossen_settings.json``, a dataset's ``meta/info.json``, ``eval_info.json``):
+together from the command line to the renderer and the export: a command line parses
+``--cam_names``, ``--image_size`` and ``--crop`` once (:meth:`CameraSettings.from_cli`, or
+:func:`camera_flags` where a flag not given must stay "not given"), and the object travels
+from there. Only files hold its text form (:meth:`CameraSettings.to_json` /
+:meth:`CameraSettings.from_json`), e.g. ``{"cam_names": ["cam_high"], "image_size": [60,
+80], "crops": ["cam_high:217,243,150,200"]}``; ``image_size`` is null without cameras;
+``shadows`` and ``antialias`` are written only when false.
 
-    {"cam_names": ["cam_high"], "image_size": [60, 80], "crops": ["cam_high:217,243,150,200"]}
-
-``image_size`` is null without cameras (a size means nothing then). ``shadows`` and
-``antialias`` (``sim.looks.SceneLooks``: how the frames were drawn) are written only when
-false: a file without them was drawn with both.
-
-    >>> cams = CameraSettings.from_cli("cam_high", "60x80", "cam_high:217,243,150,200")
-    >>> cams.names, cams.size, cams.crop_of("cam_high").height
-    (('cam_high',), (60, 80), 150)
+Docs: docs/cli/record.md, docs/datasets.md.
 """
 
 from __future__ import annotations
@@ -119,10 +111,18 @@ class CameraSettings:
         image_size: str | Sequence[int] | None = None,
         crops: str | Sequence[str | CameraCrop] | None = None,
     ) -> CameraSettings:
-        """The settings of ``--cam_names`` (comma list or ``none``), ``--image_size``
-        (``HxW``) and ``--crop`` (``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, one text with ``;``
-        between cameras or several texts); a flag that is None or empty takes the default
-        (no camera, 480x640, no crop). A bad value is a one-line UserError."""
+        """The settings of the camera flags; a flag that is None or empty takes the default
+        (no camera, 480x640, no crop).
+
+        Args:
+            cam_names: ``--cam_names``: a comma list or ``none``, or a sequence of names.
+            image_size: ``--image_size``: ``HxW`` (pixels), or (H, W).
+            crops: ``--crop``: ``CAMERA:TOP,LEFT,HEIGHT,WIDTH``, one text with ``;`` between
+                cameras or several texts (or ``CameraCrop`` values).
+
+        Raises:
+            UserError: a bad value (one line).
+        """
         flags = camera_flags(cam_names, image_size, crops)
         return cls(
             names=flags["cam_names"] or (),
@@ -179,10 +179,19 @@ def camera_flags(
     image_size: str | Sequence[int] | None,
     crops: str | Sequence[str | CameraCrop] | None,
 ) -> dict[str, Any]:
-    """The camera flags of a command line, parsed, each None when not given: ``cam_names``
-    (tuple of names; ``none``: the empty tuple), ``image_size`` ((H, W)), ``crops`` (tuple of
-    ``CameraCrop``). For a reader that fills the flags not given from elsewhere (a
-    checkpoint's settings) before making the :class:`CameraSettings`."""
+    """The camera flags of a command line, parsed, each None when not given. For a reader
+    that fills the flags not given from elsewhere (a checkpoint's settings) before making
+    the :class:`CameraSettings`.
+
+    Args:
+        cam_names: ``--cam_names`` as given (None: not given).
+        image_size: ``--image_size`` as given.
+        crops: ``--crop`` as given.
+
+    Returns:
+        ``cam_names`` (tuple of names; ``none``: the empty tuple), ``image_size`` ((H, W)
+        pixels), ``crops`` (tuple of ``CameraCrop``).
+    """
     return {
         "cam_names": parse_cameras(cam_names) if cam_names is not None else None,
         "image_size": parse_image_size(image_size) if image_size else None,

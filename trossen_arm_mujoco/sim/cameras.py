@@ -1,22 +1,15 @@
 """Named cameras rendered offscreen with one renderer reused for every frame.
 
-GL is opened only when an image is asked for: a ``CameraSet`` creates its renderer (and so
-the GL context) on its first render, never at construction.
+A ``CameraSet`` opens GL only when an image is asked for (its first render), never at
+construction; renderers never closed are closed at interpreter exit, before MuJoCo or
+dm_control terminate their EGL display (``sim.closing``). Smaller images get a
+proportionally smaller shadow map (:func:`shadow_map_size`), and a process whose first
+renderer draws small images (``SMALL_IMAGE``) renders without Mesa's rasterizer threads
+(``LP_NUM_THREADS`` set by the user wins). A process forked from one that had opened a GL
+context cannot render (a one-line ``UserError``, ``check_can_render``); ``spawn`` and
+``forkserver`` children render normally, and state-only envs work anywhere.
 
-Exit: renderers never closed are closed when the interpreter exits, before MuJoCo or
-dm_control terminate their EGL display (``sim.closing``).
-
-Cost (docs/benchmarks.md, "Rendering cost"): the model's shadow map
-(``visual/quality/shadowsize``) is meant for 640-pixel images and smaller images get a
-proportionally smaller one (at least 256); a process whose first renderer draws small images
-(``SMALL_IMAGE``) renders without Mesa's rasterizer threads, whose hand-off costs more than
-such a frame (``LP_NUM_THREADS`` set by the user wins).
-
-Forked processes: a process forked from one that had opened a GL context cannot open one
-itself (MuJoCo's EGL/Mesa state does not survive ``fork``; rendering hangs). Such a child
-gets a one-line ``UserError`` naming the fix (``check_can_render``) instead. Processes made
-with the ``spawn`` or ``forkserver`` start method are fresh and render normally; state-only
-envs never render and work in forked children too.
+Docs: docs/troubleshooting.md; cost: docs/benchmarks.md (Rendering cost).
 """
 
 from __future__ import annotations
@@ -81,7 +74,13 @@ SHADOW_MAP_IMAGE = 640
 
 def shadow_map_size(model_size: int, height: int, width: int) -> int:
     """Shadow map size for images of ``height`` x ``width``: the model's for 640 pixels,
-    proportionally smaller (a power of two, at least 256) for smaller images."""
+    proportionally smaller (a power of two, at least 256) for smaller images.
+
+    Args:
+        model_size: the model's shadow map size (``visual/quality/shadowsize``).
+        height: image height (pixels).
+        width: image width (pixels).
+    """
     wanted = model_size * max(height, width) / SHADOW_MAP_IMAGE
     size = 256
     while size < wanted:

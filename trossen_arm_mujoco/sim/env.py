@@ -35,7 +35,14 @@ if TYPE_CHECKING:
 
 
 def whole_ratio(longer: float, shorter: float, longer_name: str, shorter_name: str) -> int:
-    """``longer / shorter`` as an int; a UserError saying so when it is not whole."""
+    """``longer / shorter`` as an int; a UserError saying so when it is not whole.
+
+    Args:
+        longer: the longer period (s).
+        shorter: the shorter period (s).
+        longer_name: the longer one's name, for the message (e.g. ``policy_dt``).
+        shorter_name: the shorter one's name.
+    """
     if shorter <= 0 or longer <= 0:
         raise UserError(f"{longer_name} and {shorter_name} must be positive")
     ratio = longer / shorter
@@ -64,8 +71,13 @@ def load_model(
     xml_path: str | Path, looks: SceneLooks | None = None, edit: SceneEdit | None = None
 ) -> mujoco.MjModel:
     """Compiled model from an MJCF file (no GL), with one-line errors for missing/broken
-    files. ``looks``: shadows and arm meshes (default ``SceneLooks()``: own meshes, shadows
-    on); ``edit``: a task's own scene objects (``sim.scene_edit``; default none)."""
+    files.
+
+    Args:
+        xml_path: the MJCF file.
+        looks: shadows and arm meshes; None: ``SceneLooks()`` (own meshes, shadows on).
+        edit: a task's own scene objects (``sim.scene_edit``); None: none.
+    """
     path = _check_file(xml_path)
     looks = checked_looks(looks)
     try:
@@ -80,11 +92,14 @@ def load_physics(
     xml_path: str | Path, looks: SceneLooks | None = None, edit: SceneEdit | None = None
 ) -> Physics:
     """dm_control Physics from an MJCF file, with one-line errors for missing/broken files.
-    ``looks``: shadows and arm meshes (default ``SceneLooks()``: own meshes, shadows on);
-    ``edit``: a task's own scene objects (``sim.scene_edit``; default none).
 
     Imports dm_control here (its import initializes the display of its GL backend), so only
     the dm_control front doors pay for it.
+
+    Args:
+        xml_path: the MJCF file.
+        looks: shadows and arm meshes; None: ``SceneLooks()`` (own meshes, shadows on).
+        edit: a task's own scene objects (``sim.scene_edit``); None: none.
     """
     path = _check_file(xml_path)
     looks = checked_looks(looks)

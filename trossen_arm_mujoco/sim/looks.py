@@ -1,28 +1,16 @@
-"""How a loaded scene looks: shadows on or off, and which meshes draw the arms.
+"""How a loaded scene looks: shadows on or off, antialiasing, crops and which meshes draw the
+arms.
 
-Two looks of the arms: ``"own"`` (this project's generated shapes, shipped) and
-``"menagerie"`` (the official Trossen WidowX AI meshes of a MuJoCo Menagerie checkout on
-this machine, found through ``TROSSEN_MENAGERIE_DIR``; nothing is copied into the package).
-Only visual geoms change: kinematics, inertia and every contact geom stay this project's own,
-so physics is the same whatever the look.
+:class:`SceneLooks`: the arms drawn with ``"own"`` (this project's shapes) or ``"menagerie"``
+(the official Trossen meshes of a MuJoCo Menagerie checkout named by
+``TROSSEN_MENAGERIE_DIR``); only visual geoms change, so physics is the same whatever the
+look. ``shadows=False`` turns shadow casting off on every light; ``antialias=False`` draws
+one sample a pixel instead of 4x multisampling; ``crops`` set cameras' intrinsics
+(``sim.camera_crop``). The look travels as an argument, like a seed: ``SamplerSettings(looks=
+...)`` -> ``sim.env.MujocoEnv`` -> ``sim.env.load_model`` (or ``load_physics``); default
+``SceneLooks()`` (own meshes, shadows on).
 
-Crops: a camera can show one rectangle of its 480x640 frame (``crops``; ``sim.camera_crop``),
-set in the compiled model as that camera's intrinsics.
-
-Shadows: every scene has one shadow-casting key light; ``shadows=False`` turns shadow
-casting off on every light of the loaded model (``model.light_castshadow``).
-Antialiasing: edges are smoothed with 4x multisampling, as a real camera's pixels average the
-light that falls on them; ``antialias=False`` draws one sample a pixel (``model.vis.quality
-.offsamples`` 0), about half the CPU of a software-rendered frame (docs/benchmarks.md,
-"Rendering cost").
-
-The look travels as an argument, like a seed: a front door makes a ``SceneLooks`` and hands
-it to the sampler it builds (``SamplerSettings(looks=...)``), which hands it to
-``sim.env.MujocoEnv`` and on to ``sim.env.load_model`` (or, for the dm_control front doors,
-to ``load_physics``). No argument: ``SceneLooks()`` (own meshes, shadows on).
-
-    >>> settings = SamplerSettings(camera_names=("overview",), looks=SceneLooks(shadows=False))
-    >>> sampler = registry.make_sampler("push", settings)
+Docs: docs/gym/index.md (options); cost: docs/benchmarks.md (Rendering cost).
 """
 
 from __future__ import annotations
@@ -231,8 +219,13 @@ def _is_own_visual(geom) -> bool:
 
 
 def compile_model(path: Path, looks: SceneLooks, edit: SceneEdit | None = None) -> mujoco.MjModel:
-    """Compile the MJCF at ``path`` with ``looks`` and a task's ``edit`` (its own scene
-    objects, ``sim.scene_edit``; default none); mujoco errors propagate."""
+    """Compile an MJCF file with a look; mujoco errors propagate.
+
+    Args:
+        path: the MJCF file.
+        looks: shadows, antialiasing, crops and arm meshes.
+        edit: a task's own scene objects (``sim.scene_edit``); None: none.
+    """
     if edit:
         spec = compose_spec(path, edit)
         if looks.visual == "menagerie" and use_menagerie_visuals(spec, menagerie_folder()) == 0:

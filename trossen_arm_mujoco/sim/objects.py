@@ -42,7 +42,16 @@ def _object_geom(
 
 
 class FreeJointObject:
-    """A body with a free joint. Pose = [x, y, z, qw, qx, qy, qz] (world, m)."""
+    """A body with a free joint. Pose = [x, y, z, qw, qx, qy, qz] (world, m).
+
+    Args:
+        model: compiled model.
+        joint_name: the free joint.
+        geom_name: a geom of the joint's body (the object's contact geom); None: none.
+
+    Raises:
+        UserError: not a free joint, or a geom not on its body.
+    """
 
     def __init__(self, model: mujoco.MjModel, joint_name: str, geom_name: str | None = None):
         self.joint_name = joint_name
