@@ -85,6 +85,15 @@ def scripted_action(
     ee: each mocap target circles (radius CIRCLE_RADIUS) in the vertical plane across the
     arm, the two arms in opposite phase; joint: sinusoids around START_ARM_POSE. The
     grippers open and close. Actions are clipped to the env's action bounds.
+
+    Args:
+        flavour: ``"ee"`` or ``"joint"``.
+        first_obs: the env's first observation (the initial pose).
+        low: the action's lower bounds.
+        high: the action's upper bounds.
+
+    Returns:
+        ``action(t)``, ``t`` in seconds.
     """
     if flavour == "ee":
         start_poses = (
@@ -119,7 +128,13 @@ def scripted_action(
 
 # ----------------------------------------------------------------------------- runs
 def run_live(flavour: str, seconds: float, seed: int | None) -> None:
-    """Live viewer, real-time pace, until ``seconds`` or the window is closed."""
+    """Live viewer, real-time pace, until ``seconds`` or the window is closed.
+
+    Args:
+        flavour: ``"ee"`` or ``"joint"``.
+        seconds: how long to run (simulated s).
+        seed: the episode seed (None: random).
+    """
     from trossen_arm_mujoco.utils import make_sim_env
 
     env = make_sim_env(_task_class(flavour), cam_list=[], random=seed, time_limit=float("inf"))
@@ -164,6 +179,12 @@ def run_headless(flavour: str, seconds: float, seed: int | None, out_dir: Path) 
 
     The env renders nothing while it steps (``cam_list=[]``); the cameras are rendered once,
     after the last step.
+
+    Args:
+        flavour: ``"ee"`` or ``"joint"``.
+        seconds: how long to run (simulated s).
+        seed: the episode seed (None: random).
+        out_dir: the folder for the PNGs.
     """
     from trossen_arm_mujoco.sim.cameras import CameraSet
     from trossen_arm_mujoco.utils import make_sim_env

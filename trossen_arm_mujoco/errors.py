@@ -221,7 +221,16 @@ def show_warning_as_note(
     """A ``warnings.showwarning``: one ``note: <message>`` line on stderr, no source line.
 
     :func:`plain_warnings` installs it while a command runs; a worker process a command
-    starts (spawned, so without it) can set ``warnings.showwarning`` to it too."""
+    starts (spawned, so without it) can set ``warnings.showwarning`` to it too.
+
+    Args:
+        message: the warning.
+        category: its class (not shown).
+        filename: where it was raised (not shown).
+        lineno: its line (not shown).
+        file: the stream (default stderr).
+        line: the source line (not shown).
+    """
     text = _one_line(message)
     if category is not UserWarning and not text.startswith(category.__name__):
         text = f"{text} ({category.__name__})"
@@ -254,7 +263,14 @@ def _one_line(message: object) -> str:
 
 
 def unknown_name_error(kind: str, name: str, valid: Iterable[str], hint: str = "") -> UserError:
-    """Build the standard error for an unknown name, listing the valid ones."""
+    """Build the standard error for an unknown name, listing the valid ones.
+
+    Args:
+        kind: what the name is (e.g. ``"task"``).
+        name: the name given.
+        valid: the valid names.
+        hint: a sentence appended to the message.
+    """
     names = ", ".join(sorted(valid))
     msg = f"unknown {kind} '{name}'; valid {kind}s: {names}"
     if hint:

@@ -1,20 +1,15 @@
 """Atomic file writes: a reader sees the old file or the complete new one, never a part.
 
-Every file the package writes goes through here: the content is written to a temporary
-sibling ``.<name>.tmp`` (same folder, hence same file system, and hidden), fsynced, and
-renamed onto the final name; the folder is fsynced so that the rename survives a crash.
-On any error, Ctrl-C and SIGTERM included, the temporary file is removed.
+Every file the package writes goes through here: the content goes to a hidden temporary
+sibling ``.<name>.tmp``, is fsynced and renamed onto the final name, and the folder is
+fsynced; on any error, Ctrl-C and SIGTERM included, the temporary file is removed.
+:func:`atomic_path` yields the temporary path to write; :func:`publish` is the last step
+alone; :func:`deferred_signals` holds signals over steps that must finish together;
+:func:`folder_lock` and :func:`remove_stale_temps` keep one writer per folder and clean up
+after a killed run; :func:`check_writable_dir` and :func:`folder_problem` check an output
+folder before work starts (one line naming the flag).
 
-- :func:`atomic_path`: a context manager yielding the temporary path to write.
-- :func:`publish`: the last step alone, for writers that keep a temporary file open across
-  many calls (the episode writer) or move a finished file into place (the recorder).
-- :func:`deferred_signals`: hold Ctrl-C, SIGTERM and the like over a few steps that must
-  finish together (a rename and its cleanup), then deliver them.
-- :func:`folder_lock` and :func:`remove_stale_temps`: one writer per output folder, and the
-  temporary files of a killed (SIGKILL) run removed by the next.
-- :func:`check_writable_dir`: before a command starts its work, check that it can write
-  in its output folder (one line naming the flag when not); :func:`folder_problem` says
-  why a path cannot be a folder (a file, a symlink loop, a link to a missing path).
+Docs: docs/troubleshooting.md.
 """
 
 from __future__ import annotations
@@ -167,14 +162,26 @@ def atomic_path(path: PathLike, *, overwrite: bool = True, fsync: bool = True) -
 
 
 def write_bytes(path: PathLike, data: bytes, *, overwrite: bool = True) -> Path:
-    """Atomically write ``data`` to ``path`` (see :func:`atomic_path`); returns ``path``."""
+    """Atomically write ``data`` to ``path`` (see :func:`atomic_path`); returns ``path``.
+
+    Args:
+        path: the file to write.
+        data: its content.
+        overwrite: replace a file already there (False: ``FileExistsError`` if one exists).
+    """
     with atomic_path(path, overwrite=overwrite) as tmp:
         tmp.write_bytes(data)
     return Path(path)
 
 
 def write_text(path: PathLike, text: str, *, overwrite: bool = True) -> Path:
-    """Atomically write ``text`` (UTF-8) to ``path`` (see :func:`atomic_path`)."""
+    """Atomically write ``text`` (UTF-8) to ``path`` (see :func:`atomic_path`).
+
+    Args:
+        path: the file to write.
+        text: its content.
+        overwrite: replace a file already there (False: ``FileExistsError`` if one exists).
+    """
     return write_bytes(path, text.encode("utf-8"), overwrite=overwrite)
 
 

@@ -34,7 +34,14 @@ def names_of(model: mujoco.MjModel, kind: str) -> list[str]:
 
 
 def lookup_id(model: mujoco.MjModel, kind: str, name: str) -> int:
-    """Id of a named model element; a UserError listing the valid names when unknown."""
+    """Id of a named model element; a UserError listing the valid names when unknown.
+
+    Args:
+        model: compiled model.
+        kind: the element type (``"body"``, ``"joint"``, ``"site"``, ``"geom"``,
+            ``"actuator"``, ...).
+        name: its name.
+    """
     obj, _ = _OBJ[kind]
     idx = mujoco.mj_name2id(model, obj, name)
     if idx < 0:

@@ -15,6 +15,12 @@ class Quaternion:
     Build it from 4 elements (``Quaternion([1, 0, 0, 0])``) or from an axis and an angle
     (``Quaternion(axis=[0, 1, 0], degrees=-90)`` or ``radians=...``). ``*`` composes
     rotations (``a * b`` applies b first, then a), ``.elements`` gives the numpy array.
+
+    Args:
+        elements: 4 values [w, x, y, z] (or a Quaternion to copy); None with an axis.
+        axis: the rotation axis (3,), with ``degrees`` or ``radians``.
+        degrees: the rotation angle about ``axis`` (degrees).
+        radians: the rotation angle about ``axis`` (rad).
     """
 
     def __init__(
@@ -78,7 +84,13 @@ class Quaternion:
 
     @staticmethod
     def slerp(q0: Quaternion, q1: Quaternion, amount: float) -> Quaternion:
-        """Spherical interpolation from q0 (amount 0) to q1 (amount 1), shortest path."""
+        """Spherical interpolation from q0 (amount 0) to q1 (amount 1), shortest path.
+
+        Args:
+            q0: the start rotation.
+            q1: the end rotation.
+            amount: the fraction of the way, 0 .. 1.
+        """
         a = Quaternion(q0).normalised.elements
         b = Quaternion(q1).normalised.elements
         dot = float(np.dot(a, b))

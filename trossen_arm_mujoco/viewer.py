@@ -67,7 +67,13 @@ def launch_viewer(model, data, timeout: float | None = VIEWER_START_TIMEOUT_S):
     """``mujoco.viewer.launch_passive`` that gives up after ``timeout`` s instead of hanging
     (it waits forever when its window thread fails).
 
-    Returns (handle, threads): the threads the viewer started, to join after ``close()``.
+    Args:
+        model: compiled model.
+        data: the state shown.
+        timeout: seconds to wait for the window (None: forever).
+
+    Returns:
+        (handle, threads): the threads the viewer started, to join after ``close()``.
     """
     import mujoco.viewer
 
@@ -98,7 +104,13 @@ def launch_viewer(model, data, timeout: float | None = VIEWER_START_TIMEOUT_S):
 
 def close_viewer(viewer, threads: list[threading.Thread], timeout: float = 10.0) -> None:
     """Close the window and wait for the viewer's threads to finish: exiting while the
-    render thread still swaps buffers can crash Xlib (GLXBadDrawable)."""
+    render thread still swaps buffers can crash Xlib (GLXBadDrawable).
+
+    Args:
+        viewer: the viewer handle.
+        threads: the threads :func:`launch_viewer` returned.
+        timeout: seconds to wait for each thread.
+    """
     viewer.close()
     deadline = time.monotonic() + timeout
     for t in threads:
@@ -109,6 +121,11 @@ class LiveViewer:
     """A passive viewer on (model, data); ``update()`` after each step redraws it.
 
     Camera images passed to ``update`` are shown as thumbnails along the bottom edge.
+
+    Args:
+        handle: the passive viewer (:func:`launch_viewer`).
+        threads: its threads.
+        thumb_stride: thumbnails keep every ``thumb_stride``-th row and column.
     """
 
     def __init__(self, handle, threads: list[threading.Thread], thumb_stride: int = 4):

@@ -1,21 +1,16 @@
 """Scripted bimanual peg insertion for the end-effector (mocap) env.
 
 ``InsertionPolicy(inject_noise=False, rng=None)`` is called with a time step whose
-``observation`` has ``mocap_pose_left``, ``mocap_pose_right`` (tool-frame poses [xyz, quat
+``observation`` has ``mocap_pose_left``, ``mocap_pose_right`` (tool-frame poses [xyz m, quat
 wxyz]) and ``env_state`` (14: peg pose then socket pose) and returns the 16-value EE action
-``[left xyz, left quat wxyz, left gripper, right xyz, right quat, right gripper]``. On the
-first call it builds ``left_trajectory`` and ``right_trajectory`` with
-``generate_trajectory(ts_first)``.
+``[left xyz, left quat wxyz, left gripper, right xyz, right quat, right gripper]`` (world
+frame, m). On the first call it builds ``left_trajectory`` and ``right_trajectory``
+(``generate_trajectory``): the grippers, pointing down and tilted back by ``TILT_DEG``,
+grasp the socket (left) and the peg (right) from above, lift them onto one line along y
+(the socket at ``MEET_POINT``), and the right arm slides the peg in until it presses on the
+pin.
 
-The plan (world frame, steps of 0.02 s): both grippers point down, leaning back toward their
-own arm by ``TILT_DEG`` (so the wrist cameras, on top of the grippers, stay apart when the
-hands meet), and close on their objects from above, fingers across the object (along world
-x): the left gripper on the socket near its closed end, the right gripper on the peg just
-behind its centre. Both lift, carry the objects onto one line along y above the table (the
-socket at ``MEET_POINT``), and the right arm slides the peg into the socket until its tip
-presses on the pin. Only translations follow the grasp, so each object keeps its offset to the tool
-frame; the plan knows those offsets from its own grasp points (with noise included) and
-lines the peg up with the socket's hole through them.
+Docs: docs/gym/StationaryAIInsertion-v0.md; the plan: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

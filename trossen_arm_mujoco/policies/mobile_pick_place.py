@@ -2,16 +2,14 @@
 arm picks the cube and places it on the target.
 
 It acts in the Mobile AI's 16 values (``robot.layout.MOBILEAI_LAYOUT``: the arms' 14 joint
-targets in the real kit's layout, then the base's [x.vel m/s, theta.vel rad/s]), as a policy
-trained on ``mobileai_robot`` data does; the recorder records these actions as they are (one
-phase, no end-effector rollout). It is closed-loop on the observation (base pose, cube, target)
-and plans the arm with the robot's IK (``robot.kinematics.solve_ik``, tool frame pointing
-down), on the kinematics' own ``MjData``: it computes, the env steps.
+targets, then the base's [x.vel m/s, theta.vel rad/s]), as a policy trained on
+``mobileai_robot`` data does; it is closed-loop on the observation and plans the arm with
+the robot's IK on the kinematics' own ``MjData`` (it computes, the env steps). Plan (steps of
+``policy_dt``, 0.02 s): drive until the left shoulder is ``REACH`` m short of the cube, stop;
+then arm segments, each moving the joint targets linearly to its IK solution: above the
+cube, down, close, lift, above the target, down, open, up.
 
-Plan (one step = ``policy_dt``, 0.02 s): drive until the left shoulder is ``REACH`` m short
-of the cube (x.vel 3/s times the distance left, at most 0.5 m/s; theta.vel turns the
-heading to 0), stop within 4 mm; then arm segments, each moving the joint targets linearly to the
-segment's IK solution: above the cube, down, close, lift, above the target, down, open, up.
+Docs: docs/concepts/models.md (The mobile pick-and-place task).
 """
 
 from __future__ import annotations

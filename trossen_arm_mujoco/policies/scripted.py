@@ -34,7 +34,14 @@ Waypoint = dict
 
 
 def waypoint(t: float, xyz, quat, gripper: float) -> Waypoint:
-    """Build a waypoint dict with float arrays."""
+    """Build a waypoint dict with float arrays.
+
+    Args:
+        t: the step the waypoint is reached at.
+        xyz: (3,) tool-frame position (m, world frame).
+        quat: (4,) tool-frame orientation, quaternion wxyz.
+        gripper: the gripper value (m, finger travel).
+    """
     return {
         "t": float(t),
         "xyz": np.asarray(xyz, dtype=float).copy(),
@@ -78,7 +85,14 @@ def interpolate(waypoints: Sequence[Waypoint], t: float) -> np.ndarray:
 def add_position_noise(
     waypoints: Sequence[Waypoint], rng: np.random.Generator, scale: float, skip_first: bool = True
 ) -> list[Waypoint]:
-    """Copies of the waypoints with xyz += U(-scale, scale) per axis (m)."""
+    """Copies of the waypoints with xyz += U(-scale, scale) per axis (m).
+
+    Args:
+        waypoints: the plan.
+        rng: the generator of the noise.
+        scale: the noise's half range (m).
+        skip_first: keep the first waypoint (the start pose) as it is.
+    """
     out = []
     for i, w in enumerate(waypoints):
         w = dict(w)
@@ -94,7 +108,13 @@ GRIPPER_PLAN_SPEED: float = 0.8 * JOINT_VELOCITY_LIMITS["left_carriage_joint"]
 
 
 def steps_for(distance: float, speed: float, dt: float = DEFAULT_POLICY_DT) -> int:
-    """Whole policy steps (``dt`` s each) to cover ``distance`` at ``speed`` at most."""
+    """Whole policy steps to cover ``distance`` at ``speed`` at most.
+
+    Args:
+        distance: the distance (m, or rad).
+        speed: the highest speed (per second).
+        dt: seconds per policy step.
+    """
     return int(np.ceil(abs(distance) / (speed * dt)))
 
 

@@ -3,16 +3,13 @@
 
 ``PickAndTransferPolicy(inject_noise=False, rng=None)`` is called with a dm_control time step
 and returns a 16-value EE action ``[left xyz, left quat wxyz, left gripper, right xyz, right
-quat, right gripper]``. On the first call it builds left and right waypoint lists with
-``generate_trajectory(ts_first)`` from ``mocap_pose_left``, ``mocap_pose_right`` and
-``env_state`` (the cube pose).
+quat, right gripper]`` (world frame, m). On the first call it builds the waypoints
+(``generate_trajectory``) from ``mocap_pose_left``, ``mocap_pose_right`` and ``env_state``.
+The plan (steps of 0.02 s, a 600-step episode): the right gripper grasps the cube's upper
+half from above and lifts it to the meet point; the left gripper grasps its lower half; both
+hold it for ``HANDOVER_HOLD`` steps; the right opens and moves away.
 
-The plan (world frame, steps of 0.02 s, for a 600-step episode):
-the right gripper turns to point down, descends onto the cube and grasps its upper half,
-lifts it to the meet point; the left gripper, pointing toward the right arm, comes in below
-the right fingertips and grasps the cube's lower half; both grippers hold the cube together
-for ``HANDOVER_HOLD`` steps (0.6 s); the right gripper opens and moves away; the left arm
-holds the cube in the air.
+Docs: docs/gym/StationaryAITransferCube-v0.md.
 """
 
 from __future__ import annotations

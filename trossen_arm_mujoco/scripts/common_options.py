@@ -1,18 +1,17 @@
 """The command-line options that several commands share, declared once.
 
-``record``, ``teleop``, ``serve``, ``export`` and ``eval`` take some of the same flags: the
-task (``--task_name``), where datasets live (``--root_dir``, ``--data_dir``), the run seed
-(``--seed``), cameras and their image size (``--cam_names``, ``--image_size``), the rate
-(``--fps``), episode counts and lengths, image compression, the scene's looks
-(``--no_shadows``, ``--visual``), the engine, a live viewer, ``--wait`` and ``--overwrite``. Each
-``add_*`` function declares one of them (type, default and the shape of its help: what it
-does in that command, then ``(default: ...)``); the checks (``check_seed``,
-``camera_names``, ``image_size``, ``dataset_folder``, ``scene_looks``) turn the parsed text
-into values, and every mistake is a one-line ``UserError`` naming the flag.
+``record``, ``teleop``, ``serve``, ``export`` and ``eval`` share flags: the task, where
+datasets live, the run seed, cameras and image size, the rate, episode counts and lengths,
+compression, the scene's looks, the engine, a viewer, ``--wait`` and ``--overwrite``. Each
+``add_*`` function declares one (type, default, help ending in ``(default: ...)``); the
+checks (``check_seed``, ``camera_names``, ``image_size``, ``dataset_folder``,
+``scene_looks``) turn parsed text into values, every mistake a one-line ``UserError`` naming
+the flag::
 
     >>> p = ArgumentParser(prog="trossen-mujoco record")
     >>> add_task_name(p, "task to record")
-    >>> add_seed(p, "run seed; episode k uses a seed derived from (seed, k)")
+
+Docs: docs/cli/index.md.
 """
 
 from __future__ import annotations
@@ -99,8 +98,13 @@ def add_root_dir(p: _Parser) -> None:
 
 
 def add_data_dir(p: _Parser, what: str = "dataset folder", example: str = "") -> None:
-    """``--data_dir`` (required): ``what``, relative to ``--root_dir`` unless absolute;
-    ``example`` is appended to the help as ``(e.g. ...)``."""
+    """``--data_dir`` (required), relative to ``--root_dir`` unless absolute.
+
+    Args:
+        p: the parser (or argument group).
+        what: what the folder is, for the help.
+        example: appended to the help as ``(e.g. ...)``.
+    """
     tail = f" (e.g. {example})" if example else ""
     p.add_argument(
         "--data_dir", required=True, help=f"{what}, relative to --root_dir unless absolute{tail}"
@@ -114,9 +118,13 @@ def add_seed(p: _Parser, what: str) -> None:
 
 
 def add_cameras(p: _Parser, what: str, default: str) -> None:
-    """``--cam_names``: comma-separated camera names (``what``: which cameras, e.g.
-    "cameras to record") or ``none``; None when not given (``default`` describes what the
-    command then uses)."""
+    """``--cam_names``: comma-separated camera names or ``none``; None when not given.
+
+    Args:
+        p: the parser (or argument group).
+        what: which cameras, for the help (e.g. "cameras to record").
+        default: what the command uses when the flag is not given, for the help.
+    """
     p.add_argument(
         "--cam_names", default=None, help=f"comma-separated {what}, or 'none' (default: {default})"
     )
@@ -128,25 +136,50 @@ def add_image_size(
     default: str | None = DEFAULT_IMAGE_SIZE,
     default_text: str | None = None,
 ) -> None:
-    """``--image_size`` HEIGHTxWIDTH (pixels); ``default_text`` describes a None default."""
+    """``--image_size`` HEIGHTxWIDTH (pixels).
+
+    Args:
+        p: the parser (or argument group).
+        what: what the size is of, for the help.
+        default: the default text (``HxW``), or None (not given).
+        default_text: describes a None default, for the help.
+    """
     shown = default if default_text is None else default_text
     p.add_argument("--image_size", default=default, help=f"{what} HEIGHTxWIDTH (default: {shown})")
 
 
 def add_fps(p: _Parser, what: str, default: str) -> None:
-    """``--fps``: a rate in Hz (float, None when not given; ``default`` describes it)."""
+    """``--fps``: a rate in Hz (float, None when not given).
+
+    Args:
+        p: the parser (or argument group).
+        what: what the rate is, for the help.
+        default: what the command uses when the flag is not given, for the help.
+    """
     p.add_argument("--fps", type=float, default=None, help=f"{what} (default: {default})")
 
 
 def add_num_episodes(p: _Parser, what: str, default: int | None, default_text: str = "") -> None:
-    """``--num_episodes``: an int (``default_text`` describes a None default)."""
+    """``--num_episodes``: an int.
+
+    Args:
+        p: the parser (or argument group).
+        what: what the count is, for the help.
+        default: the default (None: not given).
+        default_text: describes a None default, for the help.
+    """
     shown = default_text or str(default)
     p.add_argument("--num_episodes", type=int, default=default, help=f"{what} (default: {shown})")
 
 
 def add_episode_len(p: _Parser, what: str, default: str) -> None:
-    """``--episode_len``: steps per episode (int, None when not given; ``default``
-    describes what the command then uses)."""
+    """``--episode_len``: steps per episode (int, None when not given).
+
+    Args:
+        p: the parser (or argument group).
+        what: what the length is, for the help.
+        default: what the command uses when the flag is not given, for the help.
+    """
     p.add_argument("--episode_len", type=int, default=None, help=f"{what} (default: {default})")
 
 
@@ -322,7 +355,14 @@ def dataset_folder(
     A file, a symlink loop or a link to a missing path on the way (naming ``--root_dir``
     when it lies in the root, else ``flag``, the flag that gave ``data_dir``), or a folder
     the file system will not let this process write in
-    (:func:`~trossen_arm_mujoco.fileio.check_writable_dir`), is a one-line UserError."""
+    (:func:`~trossen_arm_mujoco.fileio.check_writable_dir`), is a one-line UserError.
+
+    Args:
+        root: ``--root_dir``.
+        data_dir: the folder, relative to ``root`` unless absolute.
+        flag: the flag that gave ``data_dir``, for errors.
+        create: create the folder (False: nothing is left behind).
+    """
     from trossen_arm_mujoco.data.reader import resolve_data_dir
     from trossen_arm_mujoco.fileio import check_folder_path, check_writable_dir
 

@@ -1,17 +1,16 @@
-"""Export recorded episodes to another dataset format (also ``trossen-mujoco export``).
+r"""Export recorded episodes to another dataset format (also ``trossen-mujoco export``).
 
-    python trossen_arm_mujoco/scripts/export_dataset.py --format lerobot \\
+    python trossen_arm_mujoco/scripts/export_dataset.py --format lerobot \
         --data_dir sim_transfer_cube --output ~/datasets/transfer_cube --repo_id me/transfer_cube
 
-``--format lerobot`` writes a LeRobot v3.0 dataset (see ``trossen_arm_mujoco.export``) that
-``LeRobotDataset(repo_id, root=output)`` loads; it needs the ``lerobot`` extra
-(pyarrow, PyAV), not LeRobot itself. By default it is what ``lerobot-record`` writes with
-Trossen's LeRobot plugin: its robot type, 30 fps, its features and names. Joint values are
-written in the real kit's 14-value layout (``--layout kit14``, the default) or the files' 16
-(``--layout vendor16``); the Mobile AI's recordings in its own (``mobileai``: the arms' 14
-then ``x.vel``, ``theta.vel``), a single arm's in ``widowxai`` (7), each chosen by itself;
-resampled to ``--fps N``. ``--sim_features`` adds the simulation's features (joint
-velocities, object poses, reward, success).
+``--format lerobot`` writes a LeRobot v3.0 dataset (``trossen_arm_mujoco.export``) that
+``LeRobotDataset(repo_id, root=output)`` loads; it needs the ``lerobot`` extra (pyarrow,
+PyAV), not LeRobot itself. By default it is what ``lerobot-record`` writes with Trossen's
+LeRobot plugin, in the recording's layout (``kit14``, ``mobileai`` or ``widowxai``; or
+``--layout vendor16``), resampled to ``--fps N``; ``--sim_features`` adds the simulation's
+features.
+
+Docs: docs/cli/export.md, docs/datasets.md.
 """
 
 from __future__ import annotations

@@ -108,10 +108,18 @@ def play(
 ) -> bool:
     """Run ``plan``: per physics step, one ``set_ee_pose`` per arm, then ``mj_step``.
 
-    ``tick`` runs before each ``mj_step`` (other controllers: a mobile base's); ``after_step``
-    (the viewer's sync) returns False to stop early. ``orientations``: the arms' target
-    orientations at the start (default ``DOWNWARD``; a plan played on from another gives
-    that one's last). Returns whether the plan was played to its end.
+    Args:
+        model: compiled model.
+        data: the state, stepped here.
+        arms: arm name -> its ``Controller``.
+        plan: the waypoints (physics steps, tool positions m, world frame).
+        after_step: called after each step (the viewer's sync); returns False to stop early.
+        tick: runs before each ``mj_step`` (other controllers: a mobile base's).
+        orientations: the arms' target orientations at the start, quaternion wxyz (default
+            ``DOWNWARD``; a plan played on from another gives that one's last).
+
+    Returns:
+        Whether the plan was played to its end.
     """
     current = {name: arm.get_ee_pose()[0] for name, arm in arms.items()}
     start_quats = orientations or {}
@@ -144,10 +152,15 @@ def grasp(
     quat: Sequence[float] | None = None,
     steps: Sequence[int] = GRASP_STEPS,
 ) -> list[Waypoint]:
-    """Waypoints: the open gripper of ``arm`` over ``at`` (its tool frame position, m,
-    world) by ``clearance`` m, down to ``at``, closed, lifted back; each move in ``steps``
-    physics steps. ``quat``: the tool's orientation from the first waypoint on (default:
-    kept)."""
+    """Waypoints: the open gripper over ``at``, down to it, closed, lifted back.
+
+    Args:
+        arm: the arm's name.
+        at: (3,) the tool frame's position at the grasp (m, world).
+        clearance: the height above ``at`` the moves start and end at (m).
+        quat: the tool's orientation (wxyz) from the first waypoint on; None: kept.
+        steps: the physics steps of each move.
+    """
     up = np.array([0.0, 0.0, clearance])
     turn = {arm: quat} if quat is not None else {}
     over, down, close, lift = steps
@@ -166,9 +179,16 @@ def release(
     quat: Sequence[float] | None = None,
     steps: Sequence[int] = RELEASE_STEPS,
 ) -> list[Waypoint]:
-    """Waypoints: ``arm`` carries what it holds to ``clearance`` m over ``at`` (tool frame
-    position, m, world), lowers it to ``RELEASE_HEIGHT`` m above ``at``, opens and lifts
-    away; ``quat`` and ``steps`` as in ``grasp``."""
+    """Waypoints: ``arm`` carries what it holds over ``at``, lowers it to ``RELEASE_HEIGHT``
+    m above ``at``, opens and lifts away.
+
+    Args:
+        arm: the arm's name.
+        at: (3,) the tool frame's position at the release (m, world).
+        clearance: the height above ``at`` it arrives at and leaves to (m).
+        quat: as in :func:`grasp`.
+        steps: as in :func:`grasp`.
+    """
     up = np.array([0.0, 0.0, clearance])
     low = np.array([0.0, 0.0, RELEASE_HEIGHT])
     turn = {arm: quat} if quat is not None else {}
@@ -183,7 +203,13 @@ def release(
 
 def kit_arms(model: mujoco.MjModel, data: mujoco.MjData, robot_type: RobotType) -> dict:
     """One ``Controller`` per arm of a kit, by side ("left", "right"), as the vendor's demos
-    make them (``ik_scale`` 1.0, ``ik_damping`` 0.03)."""
+    make them (``ik_scale`` 1.0, ``ik_damping`` 0.03).
+
+    Args:
+        model: the kit's compiled model.
+        data: its state.
+        robot_type: the kit's robot type.
+    """
     return {
         side: Controller(
             model,
@@ -200,8 +226,14 @@ def kit_arms(model: mujoco.MjModel, data: mujoco.MjData, robot_type: RobotType) 
 def report_placement(cube: np.ndarray, target: np.ndarray, done: str, prefix: str = "") -> int:
     """Print how the demo ended; 0 when the cube (center ``cube``, m, world) rests within
     ``SUCCESS_DISTANCE`` of ``target`` in the table plane and within 0.01 m of its height,
-    else 1. Success: "``done`` <miss> m from the target"; failure: ``prefix`` then where
-    the cube ended."""
+    else 1.
+
+    Args:
+        cube: (3,) the cube's center (m, world).
+        target: (3,) the target (m, world).
+        done: the success line's start ("``done`` <miss> m from the target").
+        prefix: the failure line's start, before where the cube ended.
+    """
     miss = float(np.linalg.norm(cube[:2] - target[:2]))
     if miss <= SUCCESS_DISTANCE and abs(cube[2] - target[2]) < 0.01:
         print(f"{done} {miss:.3f} m from the target")
@@ -223,9 +255,20 @@ def run_demo(
     lookat: Sequence[float] = (0.3, 0.0, 0.1),
     distance: float = 1.2,
 ) -> int:
-    """Run ``demo(after_step)`` headless (``after_step`` None) or in the viewer (see
-    ``show``; ``hold`` keeps the arms still after it). ``demo`` returns its exit status,
-    or None when the viewer stopped it early (then one line says so, and the status is 0).
+    """Run ``demo(after_step)`` headless (``after_step`` None) or in the viewer.
+
+    Args:
+        headless: run without a viewer.
+        model: compiled model.
+        data: the state.
+        demo: the demo; returns its exit status, or None when the viewer stopped it early
+            (then one line says so, and the status is 0).
+        hold: keeps the arms still after the demo (see :func:`show`).
+        lookat: the viewer camera's target (m, world).
+        distance: the viewer camera's distance (m).
+
+    Returns:
+        The exit status.
     """
     if not use_viewer(headless):
         status = demo(None)
@@ -247,7 +290,16 @@ def show(
     distance: float = 1.2,
 ) -> None:
     """Open the passive viewer, ``run(after_step)`` in real time, then keep calling
-    ``hold()`` (one control tick, then a physics step) until the window is closed."""
+    ``hold()`` (one control tick, then a physics step) until the window is closed.
+
+    Args:
+        model: compiled model.
+        data: the state.
+        run: the demo, given the viewer's sync.
+        hold: one control tick and physics step with the arms still.
+        lookat: the viewer camera's target (m, world).
+        distance: the viewer camera's distance (m).
+    """
     import mujoco.viewer
 
     with mujoco.viewer.launch_passive(model, data) as viewer:

@@ -62,7 +62,13 @@ CLEARANCE = 0.1  # m above the cube while carrying
 class BaseDriver:
     """Drives the base to ``x`` (m, world) along its heading and holds it there: each
     ``tick`` gives the robot layer's base controller [x.vel, theta.vel] (a proportional
-    approach at most ``DRIVE_SPEED``, the heading held at its start)."""
+    approach at most ``DRIVE_SPEED``, the heading held at its start).
+
+    Args:
+        model: the Mobile AI scene's compiled model.
+        data: its state.
+        goal_x: where the base stops (m, world x).
+    """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, goal_x: float):
         full = mobile_ai_config()
@@ -94,7 +100,13 @@ class BaseDriver:
 
 def plan(cube: np.ndarray, target: np.ndarray, homes: dict) -> list[Waypoint]:
     """The left arm's pick-and-place to the middle and the right arm's to the target, each
-    arm back at its ``homes`` position after (2 ms physics steps)."""
+    arm back at its ``homes`` position after (2 ms physics steps).
+
+    Args:
+        cube: (3,) the cube's center (m, world).
+        target: (3,) the place target (m, world).
+        homes: arm name -> its tool frame's home position (m, world).
+    """
     pick, put = BRISK["grasp"], BRISK["release"]
     return [
         *grasp("left", cube, CLEARANCE, steps=pick),
@@ -108,7 +120,14 @@ def plan(cube: np.ndarray, target: np.ndarray, homes: dict) -> list[Waypoint]:
 
 def drive(model, data, driver: BaseDriver, after_step=None) -> bool:
     """``DRIVE_STEPS`` physics steps of the base driving to its goal, the arms holding their
-    joints; False when ``after_step`` stopped it."""
+    joints; False when ``after_step`` stopped it.
+
+    Args:
+        model: compiled model.
+        data: the state, stepped here.
+        driver: the base's driver.
+        after_step: called after each step (the viewer's sync); False stops.
+    """
     for _ in range(DRIVE_STEPS):
         driver.tick()
         mujoco.mj_step(model, data)

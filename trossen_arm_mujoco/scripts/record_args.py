@@ -142,7 +142,13 @@ def num_workers(args: argparse.Namespace) -> int | None:
 
 
 def check_numbers(args: argparse.Namespace, num_episodes: int, episode_len: int) -> None:
-    """Counts, length, seed and workers within their bounds."""
+    """Counts, length, seed and workers within their bounds (one-line UserErrors).
+
+    Args:
+        args: the parsed flags (``--seed``, ``--num_workers``).
+        num_episodes: the resolved episode count.
+        episode_len: the resolved episode length (steps).
+    """
     if not 1 <= num_episodes <= MAX_EPISODES:
         raise UserError(f"--num_episodes must be in 1 .. {MAX_EPISODES}, got {num_episodes}")
     if not 1 <= episode_len <= MAX_EPISODE_LEN:

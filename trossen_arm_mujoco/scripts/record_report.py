@@ -36,7 +36,13 @@ EXIT_FAILED_EPISODES = 1
 
 
 def say_plan(plan: RunPlan, folder: Path, num_episodes: int) -> None:
-    """One line on what a run that continues a dataset keeps and records."""
+    """One line on what a run that continues a dataset keeps and records.
+
+    Args:
+        plan: the run's plan (``collect.resume.plan_run``).
+        folder: the dataset folder.
+        num_episodes: the episodes the run should leave.
+    """
     if not (plan.existing or plan.failed):
         return
     parts = [f"keeping {format_indices(plan.existing)}"] if plan.existing else []
@@ -50,7 +56,13 @@ def say_plan(plan: RunPlan, folder: Path, num_episodes: int) -> None:
 
 
 def warn_short_episodes(task_name: str, episode_len: int, minimum_len: int) -> None:
-    """Warn when episodes end before the scripted policy of ``task_name`` can finish."""
+    """Warn when episodes end before the scripted policy of ``task_name`` can finish.
+
+    Args:
+        task_name: the registered task.
+        episode_len: the run's episode length (steps).
+        minimum_len: the steps its scripted policy needs.
+    """
     if episode_len < minimum_len:
         print(
             f"warning: --episode_len {episode_len} is shorter than the {minimum_len} steps "
@@ -61,7 +73,13 @@ def warn_short_episodes(task_name: str, episode_len: int, minimum_len: int) -> N
 
 
 def warn_disk_space(folder: Path, settings: RecordSettings, count: int) -> None:
-    """Warn when raw (uncompressed) episodes cannot fit in the free space."""
+    """Warn when raw (uncompressed) episodes cannot fit in the free space.
+
+    Args:
+        folder: the dataset folder.
+        settings: the run's settings (cameras, image size, episode length, compression).
+        count: the episodes to record.
+    """
     import shutil
 
     if settings.compression != "none":

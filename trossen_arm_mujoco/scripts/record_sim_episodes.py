@@ -4,17 +4,13 @@
 
 Phase 1 runs the scripted policy in the end-effector env (no rendering); phase 2 replays the
 joint trajectory in the joint env, rendering the requested cameras and streaming every step
-to ``<root_dir>/<data_dir>/episode_<k>.hdf5`` (images gzip-compressed unless
-``--compression none``). Unset flags come from ``SIM_TASK_CONFIGS[task_name]``.
+to ``<root_dir>/<data_dir>/episode_<k>.hdf5``. Unset flags come from
+``SIM_TASK_CONFIGS[task_name]``. One run writes to a folder at a time (``--wait`` waits); a
+rerun checks the episodes there and records the missing and the failed ones. The exit status
+is 1 when some failed; Ctrl-C or SIGTERM keeps every finished episode; a refused write ends
+the run with one ``error:`` line and no partial file.
 
-One run writes to a folder at a time: a second one refuses with the first one's pid, or
-waits for it with ``--wait``. A rerun continues the dataset: it checks every episode there
-(unreadable files and episodes recorded with other flags stop it with one line) and records
-the missing and the failed ones. The last line says how many episodes succeeded and, when
-some failed, why; the exit status is 1 when some failed (they are kept, and a rerun records
-them again). Ctrl-C or SIGTERM keeps every finished episode. A write the file system refuses
-(disk full, read-only folder, folder removed) ends the run with one ``error:`` line listing
-the complete episodes; no partial file is left.
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations

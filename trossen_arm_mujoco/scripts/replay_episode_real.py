@@ -1,35 +1,18 @@
-"""Replay a recorded episode on two real arms, or on their simulated twin.
+"""Replay a recorded episode on two real arms, or on their simulated twin (also
+``trossen-mujoco replay-real``).
 
-The whole trajectory is validated first (shape, finite values, joint limits, joint
-speeds at ``--fps``, which must be in [0.5, 1000] Hz: one command lasts at most 2 s);
-any violation is one line and exit status 2, before any driver is created. Gripper
-commands above ``--gripper_max`` (the controller's range, 0.04 m) are clamped and
-counted. Then both arms are configured with the ``--end_effector`` preset, move to the
-first action over 2 s, follow the actions at ``--fps``, and finally go home and to the
-sleep pose; any error, or Ctrl-C, SIGTERM, SIGHUP or SIGQUIT (at any moment, within
-0.05 s, even in the middle of a command period) stops streaming and still runs the
-home/sleep/cleanup sequence on every configured arm, and the exit status is non-zero
-(128 + the signal's number after a signal) with one line on stderr. Tracking results
-(CSV, JSON summary, PNG) go to ``<data folder>/replay/``, whatever stopped the replay;
-a signal arriving while the arms go home or the results are written is noted and
-changes nothing, so the files are always complete. A signal before any arm was
-configured ends the command at once. Also available as ``trossen-mujoco replay-real``.
+The whole trajectory is validated first (shape, finite values, joint limits, joint speeds at
+``--fps`` in [0.5, 1000] Hz); a violation is one line and exit status 2, before any driver
+is created. Gripper commands above ``--gripper_max`` (0.04 m) are clamped and counted. The
+arms are configured with the ``--end_effector`` preset, move to the first action over 2 s,
+follow the actions at ``--fps``, then go home and to sleep; an error or a stop signal stops
+streaming within 0.05 s and still runs home/sleep/cleanup on every configured arm (exit
+status non-zero, 128 + the signal's number after a signal). Tracking results (CSV, JSON,
+PNG) go to ``<data folder>/replay/``, always complete. Backends: ``--backend sim`` (the
+twin), ``wire`` (the real driver against the served kit), real arms by ``--left_ip`` /
+``--right_ip``; ``--dry_run`` moves nothing.
 
-Examples::
-
-    # check an episode and print what would be sent; nothing moves
-    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
-        --dry_run
-    # rehearse on the simulated twin (faster than real time; --realtime: at the arms' pace)
-    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
-        --backend sim
-    # the real trossen_arm driver against the simulated kit, served here on 127.0.0.2 and
-    # 127.0.0.3 in real time (needs: pip install 'trossen-arm-mujoco[twin]')
-    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \
-        --backend wire
-    # real arms (needs: pip install 'trossen-arm-mujoco[real]'); arms built in 2025
-    python trossen_arm_mujoco/scripts/replay_episode_real.py --data_dir sim_transfer_cube \\
-        --left_ip 192.168.1.5 --right_ip 192.168.1.4 --end_effector wxai_v0_follower_20250509
+Docs: docs/cli/replay-real.md.
 """
 
 from __future__ import annotations
@@ -196,17 +179,24 @@ def main(
     clock: Clock | None = None,
     on_served: Callable[[Any], None] | None = None,
 ) -> int:
-    """Validate, then replay; returns the exit status.
-
-    ``driver_factory`` (default :func:`make_drivers`) and ``clock`` are for tests and
-    embedding: ``driver_factory(backend, clock) -> (drivers, clock)``. ``on_served`` is
-    called with the served kit (``twin.served_kit.ServedKit``) of ``--backend wire`` once it
-    serves, before any arm is configured (tests change its arms' limits there).
+    """Validate, then replay.
 
     Stop signals are handled from start to end (:mod:`trossen_arm_mujoco.real.stop`):
     before any arm may move one raises :class:`~trossen_arm_mujoco.real.stop.Interrupted`
     (:func:`cli` turns it into one line); from then on it stops the replay cleanly, and
     once streaming is over it is only noted, so the results are always written whole.
+
+    Args:
+        argv: the command line (None: ``sys.argv[1:]``).
+        driver_factory: ``driver_factory(backend, clock) -> (drivers, clock)``; None:
+            :func:`make_drivers` (for tests and embedding).
+        clock: the clock to wait on; None: the backend's.
+        on_served: called with the served kit (``twin.served_kit.ServedKit``) of
+            ``--backend wire`` once it serves, before any arm is configured (tests change
+            its arms' limits there).
+
+    Returns:
+        The exit status.
     """
     flag = StopFlag(armed=False)
     with stop_on_signals(flag):
@@ -398,6 +388,12 @@ def cli(
 
     A stop signal before any arm was configured is one line too, with exit status
     128 + its number.
+
+    Args:
+        argv: as for :func:`main`.
+        driver_factory: as for :func:`main`.
+        clock: as for :func:`main`.
+        on_served: as for :func:`main`.
     """
 
     def guarded(args: Sequence[str] | None) -> int:

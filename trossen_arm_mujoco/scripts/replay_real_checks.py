@@ -119,6 +119,11 @@ def output_dir(args: argparse.Namespace, episode: Episode) -> Path:
 def end_effector_note(name: str, backend: str, dry_run: bool) -> str | None:
     """Check ``--end_effector`` against the installed trossen_arm; returns a note or None.
 
+    Args:
+        name: the preset name given.
+        backend: ``--backend`` (``sim``, ``trossen``, ``wire``).
+        dry_run: ``--dry_run`` (nothing connects: a missing trossen_arm is a note).
+
     Raises:
         UserError: an unknown preset (listing the valid ones), or the trossen backend
             without trossen_arm (install hint).

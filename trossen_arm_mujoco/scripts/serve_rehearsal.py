@@ -85,7 +85,14 @@ def build_rehearsal(
     args: argparse.Namespace, world: Any, recorder: Any, say: Callable[[str], None]
 ) -> tuple[Any, Any]:
     """The camera stream and the control channel the flags ask for (None where not asked;
-    not started). A bad camera name or a port in use is a one-line ``UserError``."""
+    not started). A bad camera name or a port in use is a one-line ``UserError``.
+
+    Args:
+        args: the parsed ``serve`` flags.
+        world: the served kit's world.
+        recorder: the ``--record`` recorder, or None.
+        say: prints one line.
+    """
     stream = control = None
     if args.cameras is not None:
         from trossen_arm_mujoco.scripts.common_options import image_size
@@ -110,7 +117,13 @@ def build_rehearsal(
 
 def stop_rehearsal(stream: Any, control: Any, say: Callable[[str], None]) -> None:
     """Stop the control channel and the camera stream (one line: its measured rate and
-    frame age; another if it had stopped early)."""
+    frame age; another if it had stopped early).
+
+    Args:
+        stream: the camera stream, or None.
+        control: the control channel, or None.
+        say: prints one line.
+    """
     if control is not None:
         control.stop()
     if stream is not None:

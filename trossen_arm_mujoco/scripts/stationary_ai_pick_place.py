@@ -113,7 +113,14 @@ def place_plan(held: np.ndarray) -> list[Waypoint]:
 class Transfer:
     """The moment the right gripper has closed: the cube's center height above the table
     (m), which arms touch it ("left", "right"), and the cube's center in the right tool
-    frame (``held``, m)."""
+    frame (``held``, m).
+
+    Args:
+        model: compiled model.
+        data: the state at that moment.
+        arms: side -> its ``Controller``.
+        cube_geom: the cube's geom id.
+    """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, arms: dict, cube_geom: int):
         cube = data.geom_xpos[cube_geom]

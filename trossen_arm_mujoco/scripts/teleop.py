@@ -1,27 +1,16 @@
 """Teleoperate the simulated kit from two leader arms, recording episodes (also
 ``trossen-mujoco teleop``).
 
-    trossen-mujoco teleop --leader_left_ip 192.168.1.3 --leader_right_ip 192.168.1.2 \\
-        --task_name sim_transfer_cube --data_dir teleop_demo --num_episodes 5
+The leader arms (real ones, or the simulated pair of ``trossen-mujoco serve --role leader``)
+are read through ``trossen_arm`` in external_effort mode; their joints drive the task's
+simulated followers at ``--fps`` (default 50 Hz) within the real arms' joint and speed
+limits, and every step is recorded as ``record`` records it, into
+``<root_dir>/<data_dir>/episode_<k>.hdf5`` (continuing the folder's numbering; object poses
+from ``--seed`` as ``record``'s episode ``k``). Keys on stdin: Enter starts an episode,
+``e`` ends and keeps it, ``d`` discards it, ``q`` stops. A failing leader ends the run with
+one ``error:`` line (exit 1); Ctrl-C or SIGTERM with 130 / 143; finished episodes are kept.
 
-The leader arms (real ones, or the simulated pair of ``trossen-mujoco serve --role leader
---replay EPISODE.hdf5``) are read through ``trossen_arm`` in external_effort mode; their
-joints drive the simulated followers of the task's joint env at the task's rate (``--fps``,
-default 50 Hz), within the real arms' joint and speed limits, and every step is recorded as
-``record`` records it, into ``<root_dir>/<data_dir>/episode_<k>.hdf5``. Episodes continue the
-numbering of the folder's existing ones, which are never overwritten; episode ``k``'s object
-poses come from ``--seed`` exactly as ``record``'s episode ``k`` (or from
-``--object_poses_from``).
-
-Keys (a terminal on stdin): Enter starts an episode, ``q`` + Enter stops; during an episode
-``e`` + Enter ends it and keeps it, ``d`` + Enter discards it (the same episode number is
-recorded again); an episode also ends after ``--episode_len`` steps. Without a terminal
-(stdin a pipe or a file) episodes start one after the other; ``e`` / ``d`` lines are still
-obeyed.
-
-A leader arm that fails (connection lost, controller error) ends the run with one
-``error:`` line and exit status 1; Ctrl-C or SIGTERM with one line and 130 / 143. Either
-way every finished episode is kept and the one in progress is discarded.
+Docs: docs/cli/teleop.md.
 """
 
 from __future__ import annotations

@@ -1,18 +1,15 @@
-"""Turn recorded episodes into videos and joint plots.
+"""Turn recorded episodes into videos and joint plots (also ``trossen-mujoco visualize``).
 
 For every ``episode_<k>.hdf5`` in the data folder: ``episode_<k>.mp4`` (all cameras in a
 labelled grid, H.264) when the episode has images, and ``episode_<k>_joints.png`` (qpos
-against action, one subplot per joint). Also available as ``trossen-mujoco visualize``.
-
-Each file appears under its name only once complete. Ctrl-C or SIGTERM stops after removing
-the file in progress (exit status 130 or 143) and keeps the finished ones; a run killed
-harder leaves hidden ``.episode_<k>.mp4.tmp`` files, which the next run removes. One run at
-a time writes into an output folder. An output folder it cannot write in (a file in the way,
-a read-only file system) stops it with one line before it reads any episode.
-
-Example::
+against action, one subplot per joint). Each file appears only once complete; Ctrl-C or
+SIGTERM removes the file in progress (exit 130 or 143) and keeps the finished ones; the next
+run removes the temporary files of a killed one. One run at a time writes into a folder, and
+an output folder it cannot write in stops it with one line before any episode is read::
 
     python trossen_arm_mujoco/scripts/visualize_eps.py --data_dir sim_transfer_cube
+
+Docs: docs/cli/visualize.md.
 """
 
 from __future__ import annotations

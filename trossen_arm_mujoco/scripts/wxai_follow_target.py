@@ -70,7 +70,14 @@ def track(robot: Controller, data: mujoco.MjData, mocap: int) -> float:
 
 
 def track_circle(model, data, robot: Controller, mocap: int) -> np.ndarray:
-    """Move the cube around the circle and track it; the position errors (m) after SETTLE."""
+    """Move the cube around the circle and track it; the position errors (m) after SETTLE.
+
+    Args:
+        model: compiled model.
+        data: the state, stepped here.
+        robot: the arm's ``Controller``.
+        mocap: the target cube's mocap id.
+    """
     dt = float(model.opt.timestep)
     steps = int(round(PERIODS * PERIOD / dt))
     errors = []

@@ -48,8 +48,13 @@ CLEARANCE = 0.12  # m above the cube while carrying
 
 
 def pick_place_plan(pick: np.ndarray, place: np.ndarray, arm: str = "arm") -> list[Waypoint]:
-    """Waypoints (2 ms physics steps) picking a cube at ``pick`` and placing it at ``place``
-    (its center, m, world), the tool pointing down."""
+    """Waypoints (2 ms physics steps) picking a cube and placing it, the tool pointing down.
+
+    Args:
+        pick: (3,) the cube's center where it is (m, world).
+        place: (3,) its center where it goes (m, world).
+        arm: the arm's name in the waypoints.
+    """
     return grasp(arm, pick, CLEARANCE) + release(arm, place, CLEARANCE)
 
 

@@ -1,19 +1,15 @@
 """The vendor's differential-IK controller API, as a thin layer over this project's robot layer.
 
 ``Controller(model, data, robot_type, ee_site_name, arm_joint_names, gripper_joint_names,
-ik_scale, ik_damping)`` drives one arm of a Trossen AI robot by its end-effector pose, like
-Trossen's ``trossen_arm_mujoco.src.controller.Controller``: call ``set_ee_pose`` once per
-physics step (the caller steps physics; the controller only writes ``data.ctrl``).
+ik_scale, ik_damping)`` drives one arm by its end-effector pose, like Trossen's
+``trossen_arm_mujoco.src.controller.Controller``: call ``set_ee_pose`` once per physics step
+(the caller steps physics; the controller only writes ``data.ctrl``). One step: the pose
+error e (m, and a rotation vector in rad, world frame) -> dq = ``ik_scale`` J^T (J J^T +
+``ik_damping``^2 I)^-1 e -> joint targets within the joint limits -> the project's ``Robot``
+(rate-limited, held above the safety floor). A target beyond the arm's reach is refused (one
+``note:`` line; ``out_of_reach``, ``out_of_reach_count``) and the last feasible one kept.
 
-One ``set_ee_pose`` step: the pose error e (position m, and with an orientation a rotation
-vector rad, world frame) -> joint step dq = ``ik_scale`` * J^T (J J^T + ``ik_damping``^2 I)^-1 e
-(``robot.kinematics``' damped least squares) -> joint targets q + dq within the joint limits
--> the project's ``Robot`` applies them: rate-limited to the arm's joint speed limits and held
-above the safety floor, like every other front door.
-
-A target farther from the arm's first joint than the arm can reach (the sum of its link
-lengths) is refused: one ``note:`` line on stderr when it first happens, and the arm keeps the
-last feasible target (``out_of_reach`` says so; ``out_of_reach_count`` counts the refused calls).
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations
@@ -192,7 +188,14 @@ class Controller:
         position_only: bool = False,
     ) -> np.ndarray:
         """Joint step dq (6,) rad toward the target pose (before joint limits and speed
-        limits): ``ik_scale`` times the damped-least-squares solution of J dq = e."""
+        limits): ``ik_scale`` times the damped-least-squares solution of J dq = e.
+
+        Args:
+            target_position: (3,) the tool frame's target (m, world).
+            target_orientation: (4,) target orientation, quaternion wxyz; None: position
+                only.
+            position_only: ignore ``target_orientation``.
+        """
         return self._ik_target(target_position, target_orientation, position_only, clip=False)
 
     def set_ee_pose(

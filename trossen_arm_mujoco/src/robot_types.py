@@ -90,6 +90,11 @@ def arm_config(
     Mobile AI's wheeled base is not among them: drive it with ``robot.configs.mobile_ai_config``
     and its ``base_velocity`` controller). A site that is no arm's tool frame is a one-line
     ``UserError`` listing the tool frames.
+
+    Args:
+        robot_type: the robot (``RobotType``).
+        model: its compiled model.
+        ee_site_name: the arm's tool frame site.
     """
     full = _ROBOTS[robot_type][0]()
     site = to_project_name(ee_site_name)
