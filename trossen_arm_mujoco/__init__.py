@@ -7,6 +7,8 @@ defaults to ``egl`` here; that only chooses the backend. dm_control, imported by
 dm_control front doors, would open its backend's display as soon as ``dm_control.mujoco`` is
 imported; when this package is imported first, that display is opened by dm_control's first
 rendering context instead (see ``_DeferredGLFinder``).
+
+Docs: docs/index.md, docs/concepts/index.md.
 """
 
 import os as _os

@@ -8,6 +8,8 @@ The values live in the layers that own them (``robot.layout``, ``assets``, ``tas
 module gathers them under their documented names. ``SIM_TASK_CONFIGS`` is derived from the
 task registry: one entry per task with a scripted policy. Importing this module reads no
 task config; ``SIM_TASK_CONFIGS[name]`` checks that task's YAML file (``RecordDefaults``).
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

@@ -6,6 +6,8 @@ With a display, a live MuJoCo viewer shows both arms following a smooth scripted
 real time (close the window or wait ``--seconds``). Without one (or with ``--headless``) a few
 steps run and one PNG per camera is written to ``--out_dir``. Offscreen rendering without a
 display needs ``MUJOCO_GL=egl`` (or ``osmesa``) in the environment.
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

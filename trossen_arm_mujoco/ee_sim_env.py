@@ -1,16 +1,14 @@
 """End-effector (mocap) simulation of the Stationary AI kit.
 
 Each arm's link_6 is welded to a mocap body; the action moves the mocap bodies (tool-frame
-poses) and the gripper actuators. Action, 16 values:
-``[left xyz (m), left quat wxyz, left gripper (m), right xyz, right quat wxyz, right gripper]``
-(world frame; gripper = finger travel, 0 closed .. 0.044 open).
+poses) and the gripper actuators: 16 values ``[left xyz (m), left quat wxyz, left gripper
+(m), right xyz, right quat wxyz, right gripper]`` (world frame; gripper = finger travel, 0
+closed .. 0.044 open). ``TrossenAIStationaryEETask`` is the base of custom tasks;
+``TransferCubeEETask`` the registered cube transfer; any registered task:
+``tasks.dm_tasks.dm_task_class(name, "ee")``. ``python trossen_arm_mujoco/ee_sim_env.py``
+runs a short demo.
 
-``TrossenAIStationaryEETask`` is the base of custom tasks; ``TransferCubeEETask`` is the
-registered cube transfer (``tasks/transfer_cube.py``) served through it. Any registered task:
-``tasks.dm_tasks.dm_task_class(name, "ee")``.
-
-Run ``python trossen_arm_mujoco/ee_sim_env.py`` for a short demo (live viewer with a display,
-camera PNGs without one).
+Docs: docs/reference/dm-control-envs.md, docs/vendor-api.md.
 """
 
 from __future__ import annotations

@@ -8,6 +8,8 @@ runs for them, and end with one ``interrupted (...)`` line and exit status 130 o
 (128 + the signal). A command says what an interruption kept with :func:`interrupt_note`.
 Python warnings raised meanwhile print as one ``note: ...`` line each (:func:`plain_warnings`,
 :func:`note`).
+
+Docs: docs/reference/errors.md.
 """
 
 from __future__ import annotations

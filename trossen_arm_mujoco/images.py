@@ -1,5 +1,8 @@
 """Camera images: PNG files (encoded by Pillow, written atomically) and how close two are
-(PSNR)."""
+(PSNR).
+
+Docs: docs/testing.md.
+"""
 
 from __future__ import annotations
 

@@ -1,4 +1,7 @@
-"""Model name lookup, done once at construction, with errors that list the valid names."""
+"""Model name lookup, done once at construction, with errors that list the valid names.
+
+Docs: docs/reference/robot-sim.md.
+"""
 
 from __future__ import annotations
 

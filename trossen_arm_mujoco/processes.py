@@ -5,6 +5,8 @@ kernel's signal when its parent dies (Linux's ``PR_SET_PDEATHSIG``).
   eval's workers and threads, the image compression threads).
 - :func:`parent_death_signal`: the one way a child asks for a signal when its parent ends
   (the collection workers, the ``serve`` child of ``eval --backend wire``).
+
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations

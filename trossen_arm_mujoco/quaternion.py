@@ -1,4 +1,7 @@
-"""A small unit-quaternion type (w, x, y, z) for scripted policies and user code."""
+"""A small unit-quaternion type (w, x, y, z) for scripted policies and user code.
+
+Docs: docs/vendor-api.md.
+"""
 
 from __future__ import annotations
 

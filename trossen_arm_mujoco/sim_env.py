@@ -1,17 +1,14 @@
 """Joint-position simulation of the Stationary AI kit, behaving like the real arms.
 
 Action, 16 values in the qpos layout: ``[left joint_0..5 (rad), left fingers x2 (m), right
-joint_0..5, right fingers x2]``. Each arm's 6 joints and its gripper (finger travel, the
-second finger value, index 7 / 15) go to position actuators; the coupled finger values at
-index 6 / 14 are not commanded separately.
+joint_0..5, right fingers x2]``; each arm's 6 joints and its gripper (the finger value at
+index 7 / 15) go to position actuators, the coupled finger values (6 / 14) are not
+commanded. ``TrossenAIStationaryTask`` is the base of custom tasks; ``TransferCubeTask`` the
+registered cube transfer (``BOX_POSE[0] = pose`` before ``env.reset()`` places its cube);
+any registered task: ``tasks.dm_tasks.dm_task_class(name, "joint")``. ``python
+trossen_arm_mujoco/sim_env.py`` runs a short demo.
 
-``TrossenAIStationaryTask`` is the base of custom tasks; ``TransferCubeTask`` is the
-registered cube transfer served through it; ``BOX_POSE[0] = pose`` before ``env.reset()``
-places its cube (vendor-compatible). Any registered task:
-``tasks.dm_tasks.dm_task_class(name, "joint")``.
-
-Run ``python trossen_arm_mujoco/sim_env.py`` for a short demo (live viewer with a display,
-camera PNGs without one).
+Docs: docs/reference/dm-control-envs.md, docs/vendor-api.md.
 """
 
 from __future__ import annotations

@@ -1,4 +1,7 @@
-"""Helpers of the documented public surface: sample_box_pose, make_sim_env, Quaternion."""
+"""Helpers of the documented public surface: sample_box_pose, make_sim_env, Quaternion.
+
+Docs: docs/vendor-api.md.
+"""
 
 from __future__ import annotations
 

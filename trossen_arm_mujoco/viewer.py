@@ -4,6 +4,8 @@ Without a display (no DISPLAY, or GLFW cannot open a window) ``LiveViewer.open``
 and says why once; callers carry on headless. Starting never hangs (a timeout guards
 ``launch_passive``) and closing waits for the viewer's threads, since exiting while the render
 thread still swaps buffers can crash Xlib.
+
+Docs: docs/troubleshooting.md.
 """
 
 from __future__ import annotations

@@ -4,6 +4,8 @@ On a terminal, :class:`Progress` is a tqdm bar that redraws in place. When the s
 file or a pipe (a log, CI, ``nohup``), a redrawn bar would leave one fragment per update;
 there it prints one plain line at most every ``interval`` seconds instead, e.g.
 ``episode 3: 120/600 step (20%), 4.8 step/s, 100 s left``.
+
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations

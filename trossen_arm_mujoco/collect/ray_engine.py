@@ -1,16 +1,14 @@
 """Recording a dataset on Ray (``trossen-mujoco record --engine ray``): one task per attempt.
 
-This process plans the run, submits attempts as Ray tasks, and publishes the finished files
+This process plans the run, submits attempts as Ray tasks and publishes the finished files
 in attempt order, exactly as :class:`~.parallel.DatasetRecorder` does for local workers
-(the folder's lock, resume, ``skip_failed``, staging and atomic renames, Ctrl-C are that
-class's; on Ctrl-C every attempt that finished is published). Each task
-calls the local workers' per-episode function (:func:`~.parallel.record_in_worker`), so the
-files, names, seeds and attributes are those of ``--engine local`` for the same run seed.
+(lock, resume, ``skip_failed``, staging, atomic renames, Ctrl-C). Each task calls
+:func:`~.parallel.record_in_worker`, so the files are those of ``--engine local`` for the
+same run seed. A dead worker loses only its attempt, which Ray runs again (``max_retries``).
+On a cluster every node must see the dataset folder at the same absolute path and have the
+same versions of this package and MuJoCo.
 
-A worker process that dies (killed, out of memory, node lost) loses only the attempt it was
-running: Ray runs that attempt again (``max_retries``) from the same seed into the same
-staging file. On a cluster every node must see the dataset folder at the same absolute path
-(a shared filesystem) and have the same versions of this package and MuJoCo installed.
+Docs: docs/cli/record.md (Recording on a Ray cluster).
 """
 
 from __future__ import annotations

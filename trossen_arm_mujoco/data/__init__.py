@@ -2,6 +2,8 @@
 
 Videos and plots (:mod:`.video`) need the ``video`` extra (PyAV, matplotlib), imported
 only when a video or plot is made.
+
+Docs: docs/datasets.md.
 """
 
 from trossen_arm_mujoco.data.io_errors import EpisodeIOError, EpisodeWriteError

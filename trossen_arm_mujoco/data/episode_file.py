@@ -1,16 +1,14 @@
 """The HDF5 file of one episode while it is written, and its atomic publication.
 
-``EpisodeFile`` creates a temporary sibling of the final file (``temp_files``) holding the
-datasets of the episode layout (:mod:`.schema`), preallocated for ``episode_len`` steps, so
-memory stays flat whatever the episode length; it writes one step's rows at a time (images
-gzip-compressed in background threads, :mod:`.chunk_compressor`, when asked). ``commit``
-writes the root attributes, flushes and closes the file, reads it back with the reader's
-validation and renames it onto the final name (``fileio.publish``: fsynced, never replacing
-a file that appeared meanwhile unless asked to). On any failure the temporary file is
-deleted (``discard``), so a folder never holds a half-written episode; a write the file
-system refuses raises a one-line :class:`~.io_errors.EpisodeIOError`.
+``EpisodeFile`` creates a temporary sibling of the final file (``temp_files``) with the
+datasets of the episode layout (:mod:`.schema`) preallocated for ``episode_len`` steps, and
+writes one step's rows at a time (images optionally gzip-compressed in background threads,
+:mod:`.chunk_compressor`). ``commit`` writes the root attributes, reads the file back with
+the reader's validation and renames it onto the final name (``fileio.publish``). On any
+failure the temporary file is deleted; a refused write raises a one-line
+:class:`~.io_errors.EpisodeIOError`. What is written is :class:`~.writer.EpisodeWriter`'s.
 
-What is written (checked values, attributes, counts) is :class:`~.writer.EpisodeWriter`'s.
+Docs: docs/datasets.md.
 """
 
 from __future__ import annotations

@@ -8,6 +8,8 @@ A full disk (ENOSPC), a read-only (EROFS) or unwritable (EACCES) folder, or a fo
 during a run surface from h5py as ``OSError`` (sometimes ``RuntimeError``) with HDF5's
 multi-line text; :func:`io_error` turns them into an :class:`EpisodeIOError` naming the file
 and the cause. :func:`discard_file` closes a file that HDF5 can no longer flush.
+
+Docs: docs/datasets.md, docs/troubleshooting.md.
 """
 
 from __future__ import annotations

@@ -5,6 +5,8 @@ checks the whole layout; images stay on disk and are read one frame at a time
 (:meth:`Episode.open_frames`, :meth:`Episode.iter_frames`) unless ``load_images=True``.
 Both files of this package and vendor files (float32, no extras, no attributes) load;
 every problem raises :class:`EpisodeError` with a one-line message.
+
+Docs: docs/datasets.md, docs/reference/data.md.
 """
 
 from __future__ import annotations

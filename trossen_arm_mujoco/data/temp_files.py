@@ -4,6 +4,8 @@ An episode is written to a hidden sibling of its final file, ``.<name>.<pid>-<ra
 (unique: two writers never share one), and renamed onto ``<name>`` only when complete (see
 ``episode_file``). A run that is killed leaves its temporary files behind;
 ``remove_stale_temp_files`` deletes them, except those of writers that still run.
+
+Docs: docs/troubleshooting.md.
 """
 
 from __future__ import annotations

@@ -4,6 +4,8 @@ Needs the ``video`` extra (PyAV and matplotlib), imported only when used.
 Videos are H.264 in yuv420p with even dimensions, so browsers play them; frames are read,
 composed and encoded one step at a time, and files appear under their final name only
 once complete.
+
+Docs: docs/cli/visualize.md.
 """
 
 from __future__ import annotations

@@ -1,4 +1,7 @@
-"""Optional dependencies of the exporters, imported only when an export runs."""
+"""Optional dependencies of the exporters, imported only when an export runs.
+
+Docs: docs/cli/export.md.
+"""
 
 from __future__ import annotations
 

@@ -7,6 +7,8 @@ written rate as ``lerobot_plan`` says (``FrameMap``). :func:`frame_values` gives
 episode, the simulation's additions included (what tests and the open-loop parity check
 compare against); :func:`frame_columns` the columns of a dataset's parquet rows, the
 simulation's additions only with the plan's ``sim_features``.
+
+Docs: docs/datasets.md (The LeRobot export).
 """
 
 from __future__ import annotations

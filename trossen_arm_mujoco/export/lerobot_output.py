@@ -10,6 +10,8 @@ it, published by rename.
 - :func:`publish`: the finished folder is renamed onto ``output``; a dataset already there
   is moved aside to ``.<output name>.old`` first and put back if the rename fails
   (:func:`recover_old` deals with the ``.old`` folder of a run killed in between).
+
+Docs: docs/cli/export.md.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ Every feature gets ``min``, ``max``, ``mean``, ``std``, ``count`` and the quanti
 
 Dataset statistics pool the episodes': count-weighted mean, pooled variance, overall
 min/max, and count-weighted means of the episode quantiles.
+
+Docs: docs/datasets.md (The LeRobot export).
 """
 
 from __future__ import annotations

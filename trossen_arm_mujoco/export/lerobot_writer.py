@@ -3,6 +3,8 @@ stream per camera, and ``meta/`` (episodes, tasks, stats, info with the dataset'
 
 The files and their layout are ``lerobot_format``'s; the values of each frame
 ``lerobot_frames``'; the statistics ``lerobot_stats``'; the videos ``lerobot_video``'s.
+
+Docs: docs/datasets.md (The LeRobot export).
 """
 
 from __future__ import annotations

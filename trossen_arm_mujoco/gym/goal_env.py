@@ -6,6 +6,8 @@ goal is within ``success_tolerance`` of the desired goal, then 0) or ``dense`` (
 ``compute_reward``, ``compute_terminated`` and ``compute_truncated`` accept single goals (3,)
 or batches (..., 3); ``step`` uses the same functions on the observation it returns, so the
 two always agree.
+
+Docs: docs/gym/index.md, docs/reference/gym.md.
 """
 
 from __future__ import annotations

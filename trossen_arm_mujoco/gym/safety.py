@@ -7,6 +7,8 @@ at reset) the env puts the robot's ``floor_report`` into ``info``:
 
 - ``safety_clipped`` (bool): the floor changed a control or a target during the step;
 - ``safety_links`` (str): the links it held up, comma-separated ("" when none).
+
+Docs: docs/gym/index.md (safety floor).
 """
 
 from __future__ import annotations

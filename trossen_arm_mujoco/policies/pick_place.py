@@ -10,6 +10,8 @@ arm's heading to the cube), goes ``APPROACH`` above the cube, descends until the
 are ``GRASP_DEPTH`` below the cube's centre, closes, lifts, carries the cube above the goal
 and lowers it until the cube's centre is on the goal. A goal resting on the table: the
 gripper opens and rises; a goal in the air: the gripper holds the cube there.
+
+Docs: docs/gym/WXAIPickPlace-v0.md, docs/cli/record.md (Single-arm tasks).
 """
 
 from __future__ import annotations

@@ -9,6 +9,8 @@ fingers closed and pointing down, turned so that their broad side faces the push
 (cube -> goal), the tool goes ``BACK`` behind the cube at ``HOVER_Z``, descends to
 ``PUSH_Z``, pushes the cube at ``PUSH_SPEED`` until the cube's centre is on the goal, then
 lifts away and holds.
+
+Docs: docs/gym/WXAIPush-v0.md, docs/cli/record.md (Single-arm tasks).
 """
 
 from __future__ import annotations

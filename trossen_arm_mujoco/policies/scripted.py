@@ -4,6 +4,8 @@ A waypoint is a dict ``{"t": step, "xyz": (3,) m, "quat": (4,) wxyz, "gripper": 
 poses of the arm's tool frame (``ee_site``) in the world frame and the gripper as finger
 travel (0 closed .. 0.044 open). Between waypoints, positions and gripper interpolate
 linearly and orientations by slerp.
+
+Docs: docs/writing-a-task.md, docs/reference/tasks.md.
 """
 
 from __future__ import annotations

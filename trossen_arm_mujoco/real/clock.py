@@ -8,6 +8,8 @@ advances ``now()``. Both arms of a bimanual replay share one clock, so they stay
 step, exactly as two real arms share the wall clock. ``SimClock(realtime=True)`` also
 lets each ``sleep(dt)`` take ``dt`` of wall-clock time (simulating, then sleeping the
 rest), so a rehearsal on the twin runs at the real arms' pace (``--realtime``).
+
+Docs: docs/cli/replay-real.md.
 """
 
 from __future__ import annotations

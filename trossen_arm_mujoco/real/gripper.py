@@ -6,6 +6,8 @@ and would clip larger commands silently. Replay therefore clamps every gripper c
 ``--gripper_max`` (default :data:`GRIPPER_MAX`) itself, and reports how many it clamped
 (console and JSON summary), so that the difference is never silent. The simulated twin
 gets the same clamped commands as the real arms.
+
+Docs: docs/cli/replay-real.md.
 """
 
 from __future__ import annotations

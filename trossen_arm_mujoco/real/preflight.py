@@ -1,6 +1,8 @@
 """What ``replay-real`` checks before anything connects or moves, besides the trajectory
 (:mod:`.validate`) and its outputs (:func:`.report.check_outputs`): the arms' addresses and
 the episode's step period. Each mistake is one line naming what to change.
+
+Docs: docs/cli/replay-real.md.
 """
 
 from __future__ import annotations

@@ -1,4 +1,7 @@
-"""What a robot is: move groups, the robot view, controllers, kinematics and the robot."""
+"""What a robot is: move groups, the robot view, controllers, kinematics and the robot.
+
+Docs: docs/concepts/architecture.md (the robot layer), docs/reference/robot-sim.md.
+"""
 
 from trossen_arm_mujoco.robot.arm_groups import (
     ArmMoveGroup,

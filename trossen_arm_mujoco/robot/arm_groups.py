@@ -5,6 +5,8 @@
 - ``ArmMoveGroup``: such a group with a tool frame (``mjcf_frame.MJCFFrameMixin``).
 - ``MocapArmGroup``: an arm pulled by a mocap body welded to its last link; the control is the
   mocap pose [x, y, z, qw, qx, qy, qz] (world frame, m), its quaternion normalized.
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

@@ -1,16 +1,14 @@
 """Base groups: where a robot stands. Their ``pose`` is the robot frame of its move groups.
 
-- ``ImmobileRobotBaseGroup``: a body fixed to the world in the MJCF (no joint, not mocap
-  above it); its pose cannot be set.
-- ``MocapRobotBaseGroup``: a mocap body (``mocap="true"``, a child of the worldbody) the
-  robot hangs from: fixed during physics, teleported by setting ``pose``.
-- ``FreeJointRobotBaseGroup``: a body on a free joint; ``pose`` reads and writes its 7 qpos.
-- ``CarriedRobotBaseGroup``: a body rigidly carried by another base (an arm's base plate on a
-  mobile base): its pose follows the carrier and is not set on its own.
-(``diff_drive.DiffDriveBaseGroup``: a free-joint base driven by two wheels.)
+``ImmobileRobotBaseGroup`` (a body fixed to the world; its pose cannot be set),
+``MocapRobotBaseGroup`` (a mocap body the robot hangs from, teleported by setting ``pose``),
+``FreeJointRobotBaseGroup`` (a body on a free joint; ``pose`` is its 7 qpos) and
+``CarriedRobotBaseGroup`` (a body carried by another base, e.g. an arm on a mobile base; its
+pose follows the carrier); ``diff_drive.DiffDriveBaseGroup`` drives a free-joint base on two
+wheels. Poses are 4x4 transforms of the base frame in the world (m); ``get_pose(data)``
+gives [x, y, z, qw, qx, qy, qz].
 
-Poses are 4x4 homogeneous transforms of the base frame in the world (m); the 7-value form
-[x, y, z, qw, qx, qy, qz] is available through ``get_pose(data)``.
+Docs: docs/concepts/architecture.md (the robot layer), docs/concepts/models.md.
 """
 
 from __future__ import annotations

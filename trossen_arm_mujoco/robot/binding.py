@@ -1,4 +1,7 @@
-"""State bound to one ``MjData``: what move groups and robot views share."""
+"""State bound to one ``MjData``: what move groups and robot views share.
+
+Docs: docs/concepts/architecture.md (the robot layer).
+"""
 
 from __future__ import annotations
 

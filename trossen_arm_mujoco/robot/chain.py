@@ -6,6 +6,8 @@ repeats what ``mj_kinematics`` does along the chain of bodies in between (each b
 fixed offset, then its joints: hinge rotations about their anchors and slide translations,
 both measured from ``qpos0``), with (N, 3, 3) rotation matrices instead of one body at a
 time, so the cost per configuration shrinks with N. Hinge and slide joints only.
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

@@ -1,6 +1,8 @@
 """Checks of the robot layer's inputs: model/data pairs, control vectors, velocity limits.
 
 Each raises a one-line ``UserError`` that says what is wrong.
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

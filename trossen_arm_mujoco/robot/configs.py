@@ -2,6 +2,8 @@
 joint speed limits.
 
 Configs are plain data; ``RobotConfig.build_view(model)`` looks every name up once.
+
+Docs: docs/concepts/models.md, docs/concepts/architecture.md.
 """
 
 from __future__ import annotations

@@ -5,6 +5,8 @@ rotation block ``T[:3, :3]`` holds ``a``'s axes in ``b``, its last column ``T[:3
 ``a``'s origin in ``b`` (m). ``leaf_frame_to_world`` is the pose of the leaf frame in the
 world. Every function takes leading batch dimensions (``(..., 4, 4)``) unless it says
 otherwise. Quaternions are [w, x, y, z]; 7-value poses are [x, y, z, qw, qx, qy, qz].
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

@@ -1,4 +1,7 @@
-"""GripperGroup: two coupled fingers on one position actuator, opened and closed by name."""
+"""GripperGroup: two coupled fingers on one position actuator, opened and closed by name.
+
+Docs: docs/concepts/architecture.md (the robot layer).
+"""
 
 from __future__ import annotations
 

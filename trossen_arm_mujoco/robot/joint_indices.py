@@ -5,6 +5,8 @@ and ``qvel`` and their position limits; ``actuator_ids`` turns actuator names in
 ``root_body_id`` finds the body a group's chain hangs from. An unknown name fails with the
 list of valid ones (``names.lookup_id``); a joint of a type the group does not take fails
 with the types it does.
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

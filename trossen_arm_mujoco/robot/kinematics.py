@@ -2,6 +2,8 @@
 
 Nothing here steps physics or writes the caller's ``MjData``: a private ``MjData`` is used
 for every evaluation. Poses are [x, y, z, qw, qx, qy, qz] in the world frame (m).
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

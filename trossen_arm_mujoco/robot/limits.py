@@ -1,4 +1,7 @@
-"""Read-only copies of the limits that move groups share with their hot paths."""
+"""Read-only copies of the limits that move groups share with their hot paths.
+
+Docs: docs/concepts/architecture.md (the robot layer).
+"""
 
 from __future__ import annotations
 

@@ -5,6 +5,8 @@ qw, qx, qy, qz] in the world, m), its position (also as a live view), and its Ja
 ((6, nv), rows [linear; angular], world frame, via ``mj_jacSite`` / ``mj_jacBody``). Poses
 and Jacobians read ``site_xpos``/``xpos``: valid after ``mj_kinematics`` / ``mj_forward``.
 Mixed into the arm groups of ``arm_groups.py`` (before the move group class).
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ configurations leave the batch as they converge. Nothing here touches the caller
 Frames and arguments follow ``RobotKinematics``: poses are 4x4 (or 7 values); world poses
 unless ``rel_to_base``; ``base_poses`` place the robot's primary base per configuration.
 Joints outside a group's chain (e.g. above its robot frame) come from the reference state.
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

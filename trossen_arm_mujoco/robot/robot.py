@@ -1,4 +1,7 @@
-"""Robot: a robot view with one controller per move group, and its kinematics."""
+"""Robot: a robot view with one controller per move group, and its kinematics.
+
+Docs: docs/reference/robot-sim.md, docs/concepts/architecture.md.
+"""
 
 from __future__ import annotations
 

@@ -8,6 +8,8 @@ Poses are 4x4 homogeneous transforms (``frames.py``; 7 values [x, y, z, qw, qx, 
 are accepted as input). World poses by default; ``base_pose`` puts the robot's primary base
 (its first base group) somewhere else (other bases keep their placement relative to it);
 ``rel_to_base`` gives or takes poses in each group's robot frame (``leaf_frame_to_robot``).
+
+Docs: docs/concepts/architecture.md (the robot layer).
 """
 
 from __future__ import annotations

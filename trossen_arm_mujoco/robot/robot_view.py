@@ -6,6 +6,8 @@
 data-explicit form, ``RobotView(model, groups)`` with ``get_qpos_dict(data)``,
 ``set_qpos_dict(data, qpos)``, ``get_jacobian(data, frame_group, groups)`` ..., still works:
 a call whose first argument is an ``MjData`` uses that data.
+
+Docs: docs/reference/robot-sim.md, docs/concepts/architecture.md.
 """
 
 from __future__ import annotations

@@ -1,5 +1,8 @@
 """Index selections into ``MjData`` arrays: consecutive indices become a slice, which numpy
-reads and writes through faster than an index array (and reads as a view)."""
+reads and writes through faster than an index array (and reads as a view).
+
+Docs: docs/concepts/architecture.md (the robot layer).
+"""
 
 from __future__ import annotations
 

@@ -8,6 +8,8 @@ moves in a straight line from where the previous waypoint left it to ``targets[a
 its target orientation turns (slerp) from the previous waypoint's to ``quats[arm]`` (kept
 when not given; ``DOWNWARD`` at the start); a gripper command is given at the waypoint's
 start. The controllers compute controls, ``play`` steps physics.
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

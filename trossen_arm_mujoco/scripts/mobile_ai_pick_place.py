@@ -9,6 +9,8 @@ one vendor-style IK ``Controller`` per arm, the left arm picks the 50 mm cube an
 down in the middle of the table, and the right arm picks it there and places it on the
 green target. Exit status 0 when the cube rests within ``SUCCESS_DISTANCE`` of the target,
 else 1.
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

@@ -5,6 +5,8 @@
 Adds to each checkpoint's saved processors the steps ``trossen_arm_mujoco.eval.prepare``
 describes (the images cut and scaled as trained, the pose encoder where the checkpoint has
 one, the arm controller's limits); a prepared checkpoint is left as it is.
+
+Docs: docs/cli/prepare.md.
 """
 
 from __future__ import annotations

@@ -5,6 +5,8 @@
 aliases, counts and seed within their bounds, cameras, image size, scene looks, workers and
 engine) and turns them into the run's ``RecordSettings``; unset flags come from
 ``SIM_TASK_CONFIGS[task_name]``. Every mistake is a one-line ``UserError`` naming the flag.
+
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations

@@ -4,6 +4,8 @@
 ``warn_short_episodes`` and ``warn_disk_space`` warn before recording; ``report_run`` prints
 the outcome (episodes saved, sizes, the success line and why episodes failed, or the one
 ``error:`` line of a refused write, or what an interrupt kept) and returns the exit status.
+
+Docs: docs/cli/record.md.
 """
 
 from __future__ import annotations

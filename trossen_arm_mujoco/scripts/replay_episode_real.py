@@ -1,16 +1,14 @@
 """Replay a recorded episode on two real arms, or on their simulated twin (also
 ``trossen-mujoco replay-real``).
 
-The whole trajectory is validated first (shape, finite values, joint limits, joint speeds at
-``--fps`` in [0.5, 1000] Hz); a violation is one line and exit status 2, before any driver
-is created. Gripper commands above ``--gripper_max`` (0.04 m) are clamped and counted. The
-arms are configured with the ``--end_effector`` preset, move to the first action over 2 s,
-follow the actions at ``--fps``, then go home and to sleep; an error or a stop signal stops
-streaming within 0.05 s and still runs home/sleep/cleanup on every configured arm (exit
-status non-zero, 128 + the signal's number after a signal). Tracking results (CSV, JSON,
-PNG) go to ``<data folder>/replay/``, always complete. Backends: ``--backend sim`` (the
-twin), ``wire`` (the real driver against the served kit), real arms by ``--left_ip`` /
-``--right_ip``; ``--dry_run`` moves nothing.
+The trajectory is validated first (shape, finite values, joint limits, joint speeds at
+``--fps`` in [0.5, 1000] Hz; a violation is one line, exit 2, before any driver exists);
+grippers above ``--gripper_max`` (0.04 m) are clamped. The arms (``--backend sim``: the twin;
+``wire``: the real driver against the served kit; else ``--left_ip`` / ``--right_ip``) move
+to the first action over 2 s, follow the actions at ``--fps``, then go home and to sleep; an
+error or a stop signal stops streaming within 0.05 s and still homes every configured arm
+(exit 128 + the signal's number after a signal). Tracking results go to
+``<data folder>/replay/``, always complete; ``--dry_run`` moves nothing.
 
 Docs: docs/cli/replay-real.md.
 """

@@ -2,6 +2,8 @@
 numbers in range, the arms' addresses (loopback for ``--backend wire``), the end-effector
 preset against the installed ``trossen_arm``, the episode file and the output folder. Each
 problem is one line (``UserError``) naming the flag; nothing has connected or moved yet.
+
+Docs: docs/cli/replay-real.md.
 """
 
 from __future__ import annotations

@@ -9,6 +9,8 @@ above the table. The right arm comes in level from its side, its fingers on the 
 faces below the left's, and closes: both grippers hold the cube in the air. The left arm
 lets go and moves away; the right arm turns its tool down and places the cube on the
 target. Exit status 0 when the cube rests within ``SUCCESS_DISTANCE`` of the target, else 1.
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

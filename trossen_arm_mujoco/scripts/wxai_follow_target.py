@@ -8,6 +8,8 @@ Ctrl + right-drag moves it (Ctrl + left-drag turns it); the arm's tool frame fol
 position and orientation. Headless, the cube travels a circle of ``RADIUS`` in the y-z plane
 for ``PERIODS`` turns; the run prints the tracking error after the first ``SETTLE`` s and
 exits 0 when its largest value stays below ``ERROR_BOUND``.
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

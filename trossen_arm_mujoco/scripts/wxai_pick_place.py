@@ -6,6 +6,8 @@
 The arm picks the 40 mm cube at (0.35, -0.15) m on the table and places it on the green
 marker at (0.35, 0.15) m, following waypoints with ``Controller.set_ee_pose`` every physics
 step. Exit status 0 when the cube rests within ``SUCCESS_DISTANCE`` of the target, else 1.
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

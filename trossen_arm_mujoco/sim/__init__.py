@@ -1,4 +1,7 @@
-"""What the world is: physics, robots, cameras and objects."""
+"""What the world is: physics, robots, cameras and objects.
+
+Docs: docs/concepts/architecture.md, docs/reference/robot-sim.md.
+"""
 
 from trossen_arm_mujoco.sim.cameras import CameraSet
 from trossen_arm_mujoco.sim.env import MujocoEnv

@@ -6,6 +6,8 @@ with "Exception ignored ... EGLError" tracebacks, and a viewer window whose rend
 still drawing at exit can crash Xlib. threading's exit hooks run before every ``atexit``
 callback (and before non-daemon threads are joined), so objects registered here are closed
 first, whether or not the user closed them.
+
+Docs: docs/troubleshooting.md.
 """
 
 from __future__ import annotations

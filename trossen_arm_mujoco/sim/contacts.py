@@ -1,6 +1,9 @@
 """ContactPartners: which geoms touch a given set of geoms, read from ``data.contact`` in
 one vector pass (rewards call it every step; a Python loop over the contacts costs about a
-microsecond per contact)."""
+microsecond per contact).
+
+Docs: docs/reference/robot-sim.md.
+"""
 
 from __future__ import annotations
 

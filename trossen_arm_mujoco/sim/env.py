@@ -8,6 +8,8 @@ regime advance time through it.
 No GL: the env works on a plain ``mujoco.MjModel``/``MjData`` and imports nothing that opens
 a GL context (dm_control is imported only by ``load_physics``, for the dm_control front
 doors); cameras create their renderer on the first image.
+
+Docs: docs/reference/robot-sim.md.
 """
 
 from __future__ import annotations

@@ -1,4 +1,7 @@
-"""Free-joint objects (e.g. the cube): pose get/set by name, looked up once."""
+"""Free-joint objects (e.g. the cube): pose get/set by name, looked up once.
+
+Docs: docs/reference/robot-sim.md.
+"""
 
 from __future__ import annotations
 

@@ -1,17 +1,17 @@
 """A task's own objects, composed into a shipped scene at load time (no model file is
 written or regenerated).
 
-A ``SceneEdit`` names bodies of the base scene to remove (e.g. the shipped kit scene's cube)
-and MJCF fragments to add to its ``<worldbody>``: each fragment is the text of one or more
-``<body>`` elements, optionally preceded by an ``<asset>`` block (materials, textures), or
-the path of a file holding such text. Keyframes keep the base scene's values of every joint
-that is still there (the arms' home pose); the added bodies start at the pose their MJCF
-gives (``pos``, ``quat``), as MuJoCo's ``qpos0``.
+A ``SceneEdit`` names bodies of the base scene to remove and MJCF fragments to add to its
+``<worldbody>`` (the text of ``<body>`` elements, optionally after an ``<asset>`` block, or a
+file holding it). Keyframes keep the base scene's values of every joint still there; added
+bodies start at the pose their MJCF gives::
 
     >>> edit = SceneEdit(add=('<body name="ball" pos="0 0 0.05"><freejoint name="ball_joint"/>'
     ...                       '<geom name="ball" type="sphere" size="0.02" mass="0.03"/></body>',),
     ...                  remove=("box",))
     >>> model = compose_model(Path("stationary_ai/trossen_ai_scene_joint.xml"), edit)
+
+Docs: docs/writing-a-task.md.
 """
 
 from __future__ import annotations

@@ -7,6 +7,8 @@ frame is the named site: the project's ``RobotConfig`` cut down to that arm's ba
 gripper groups. The vendor's names of the two-arm kits' sites and joints
 (``follower_left_ee_site``, ``follower_left_joint_0``) are accepted for this project's
 (``left/ee_site``, ``left/joint_0``).
+
+Docs: docs/vendor-api.md.
 """
 
 from __future__ import annotations

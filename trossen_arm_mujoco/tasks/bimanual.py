@@ -1,16 +1,14 @@
 """Shared parts of the Stationary AI (bimanual) tasks: the kit's robot, its two flavours,
 free objects on the table, and the observations every bimanual task gives.
 
-Flavours of one task: ``"joint"`` (14 position actuators, as the real arms; config key
-``scene``) and ``"ee"`` (each arm's link_6 welded to a mocap body; config key ``ee_scene``).
-The scripted policies act in the ``ee`` flavour; recordings are replayed in ``joint``.
+Flavours: ``"joint"`` (14 position actuators, as the real arms; config key ``scene``) and
+``"ee"`` (each link_6 welded to a mocap body; ``ee_scene``); scripted policies act in
+``ee``, recordings are replayed in ``joint``. Observations (float64, world frame): ``qpos``
+and ``qvel`` (16, ``robot.layout.VENDOR16_LAYOUT``: rad / m, rad/s / m/s), ``env_state`` (7
+per object: xyz m + quat wxyz) and ``env_vel`` (6 per object: m/s, rad/s);
+``policy_observation`` adds the tool poses ``mocap_pose_left`` / ``mocap_pose_right``.
 
-Observations (all float64, world frame): ``qpos`` (16) and ``qvel`` (16) in the kit layout
-(``robot.layout.VENDOR16_LAYOUT``, rad / m, rad/s / m/s), ``env_state`` (7 per object: position
-xyz m + quaternion wxyz, in ``objects`` order) and ``env_vel`` (6 per object: linear m/s,
-angular rad/s). ``policy_observation`` adds the tool poses ``mocap_pose_left`` /
-``mocap_pose_right`` ([xyz, quat wxyz]; the commanded mocap pose in ``ee``, the ``ee_site``
-pose in ``joint``), the names the scripted policies and the dm_control envs use.
+Docs: docs/writing-a-task.md, docs/reference/tasks.md.
 """
 
 from __future__ import annotations

@@ -1,16 +1,13 @@
 """Task configs: YAML files in ``trossen_arm_mujoco/config/``, overridable by keyword.
 
-A config is a flat dict of plain values (numbers, strings, booleans, lists of numbers), plus
-one nested section, ``randomization`` (domain randomization, see ``randomization_schema``).
-Every value is checked by one layer, ``tasks.config_schema``: the keys a file may have and
-what each accepts (kind, range; NaN and inf never), ``*_low <= *_high`` on every axis, no key
-given twice. An override may only name a key of the task's file, with a valid value (a list
-as long as the file's); ``randomization`` overrides are merged into the file's section kind
-by kind and validated with it. Every problem is a one-line ``UserError`` naming the file (or
-the task and the keyword argument), the key and what is valid.
+A config is a flat dict of plain values (numbers, strings, booleans, lists of numbers) plus
+one nested section, ``randomization``. Every value is checked by ``tasks.config_schema``;
+no key may be given twice; an override may only name a key of the task's file, with a valid
+value (a list as long as the file's); ``randomization`` overrides merge kind by kind. Every
+problem is a one-line ``UserError``. Configs are read when a task is used
+(``TaskEntry.load_config``), never at import: a broken file fails only its task's commands.
 
-Configs are read when a task is used (``TaskEntry.load_config``), never at import: a broken file
-fails only the commands that use its task.
+Docs: docs/writing-a-task.md; each task's keys: docs/gym/.
 """
 
 from __future__ import annotations

@@ -5,6 +5,8 @@ numbers of given lengths) and range (NaN and inf are never valid); ``Key.check``
 value or raises a one-line ``UserError`` saying what is valid. ``Source``: where values come
 from (a file, or a task's keyword arguments), for those messages. The keys themselves are in
 ``config_schema`` (``KEYS``) and ``randomization_schema``.
+
+Docs: docs/writing-a-task.md, docs/reference/tasks.md.
 """
 
 from __future__ import annotations

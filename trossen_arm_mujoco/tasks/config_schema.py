@@ -1,17 +1,14 @@
 """The one validation layer of task configs: every key of every YAML file and every keyword
 override (``TaskEntry.load_config``, ``registry.make_sampler``, the gym env's kwargs).
 
-A value is checked against its ``Key``: its kind (number, whole number, true/false, string,
-one of a few names, a list of numbers of a given length), its range (NaN and inf are never
-valid), and, for every pair of keys ``X_low`` / ``X_high`` (``range_pairs``), low <= high on
-every axis. A file may hold only the keys every config shares (``KEYS``) and its task's own
-(``TaskEntry.keys``), and must hold ``REQUIRED`` and its task's ``TaskEntry.required``.
-Every problem is one ``UserError`` line naming the file (or the task and the keyword
-argument), the key and what is valid. (Reading the files, keys given twice included, is
-``tasks.config``'s.)
+A value is checked against its ``Key`` (``config_key``): its kind, its range (NaN and inf
+never valid), and ``X_low <= X_high`` on every axis for each pair (``range_pairs``). A file
+may hold only the shared keys (``KEYS``) and its task's own (``TaskEntry.keys``), and must
+hold ``REQUIRED`` and ``TaskEntry.required``. Every problem is one ``UserError`` line naming
+the file (or the task and keyword argument), the key and what is valid. Reading the files is
+``tasks.config``'s; the ``randomization`` section is ``randomization_schema``'s.
 
-How one value is checked (``Key``, ``Source``) is ``config_key``'s; the ``randomization``
-section has its own table and checks, in ``randomization_schema``.
+Docs: docs/writing-a-task.md; each task's keys: docs/gym/.
 """
 
 from __future__ import annotations

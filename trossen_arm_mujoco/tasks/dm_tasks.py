@@ -10,6 +10,8 @@ Domain randomization: ``randomize=True`` randomizes every episode from this task
 (as the task config's ``randomization`` section says); ``randomization=record`` applies one
 record at every reset instead, e.g. the EE env's ``applied_randomization`` handed to the joint
 env that replays its trajectory (the two then see the same scene).
+
+Docs: docs/reference/dm-control-envs.md.
 """
 
 from __future__ import annotations

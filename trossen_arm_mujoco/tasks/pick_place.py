@@ -3,6 +3,8 @@
 Config: ``config/pick_place.yaml`` (cube_low/high (x, y m), goal_low/high (x, y, z m),
 air_goal_probability, lift_bonus, lift_height, ...). Achieved goal = cube centre, desired
 goal = goal (world frame, m). Observations are those of ``push``.
+
+Docs: docs/gym/WXAIPickPlace-v0.md.
 """
 
 from __future__ import annotations

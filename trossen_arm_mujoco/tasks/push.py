@@ -3,6 +3,8 @@
 Config: ``config/push.yaml`` (cube_low/high, goal_low/high (x, y m), min_goal_distance,
 success_tolerance, reach_coef, distance_coef, success_bonus, ...). Achieved goal = cube
 centre, desired goal = goal (world frame, m).
+
+Docs: docs/gym/WXAIPush-v0.md.
 """
 
 from __future__ import annotations

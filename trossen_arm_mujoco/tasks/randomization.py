@@ -10,6 +10,8 @@ Randomness: ``randomize(rng, data)`` draws from a child of ``rng`` (``Generator.
 which leaves ``rng``'s own stream untouched: a task's episode (object poses, goals, policy
 noise) is the same with and without randomization. Each kind has its own grandchild stream,
 so switching one kind off does not change the others. The child's seed is in the record.
+
+Docs: docs/concepts/randomization.md.
 """
 
 from __future__ import annotations

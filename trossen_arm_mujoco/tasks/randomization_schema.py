@@ -7,6 +7,8 @@ bound_hi; ``max`` = one number in [bound_lo, bound_hi]; ``names`` = a list of mo
 (checked by the sampler against its scene). A section given in a file or an override updates
 a complete one kind by kind; unknown kinds and parameters are refused with the valid ones.
 What the kinds do to a scene is ``tasks.randomization``'s.
+
+Docs: docs/concepts/randomization.md.
 """
 
 from __future__ import annotations

@@ -2,6 +2,8 @@
 
 Config: ``config/reach.yaml`` (target_low/high, success_tolerance, distance_coef,
 success_bonus, ...). Achieved goal = tool-frame position, desired goal = target (world, m).
+
+Docs: docs/gym/WXAIReach-v0.md.
 """
 
 from __future__ import annotations

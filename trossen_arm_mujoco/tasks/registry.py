@@ -1,12 +1,10 @@
 """Task registry: the ONE way every front door reaches a task.
 
-Every task is one ``TaskEntry`` (``tasks.task_entry``): its task class, sampler, config,
-scripted policy, recording defaults, stages and gymnasium ids. Entries come from the shipped
-task modules (each declaring a module-level ``TASKS`` tuple) and from installed packages
-(the entry-point group ``trossen_arm_mujoco.tasks``), gathered once on import. An installed
-task that cannot be used is left out and remembered (:func:`problems`): using it by name
-fails with that one line. Classes are imported and configs read only when a task is used,
-so listing is cheap and a broken config fails only the commands that use its task.
+Every task is one ``TaskEntry`` (``tasks.task_entry``), from the shipped task modules (a
+module-level ``TASKS`` tuple) or installed packages (entry-point group
+``trossen_arm_mujoco.tasks``), gathered once on import. An installed task that cannot be used
+is left out and remembered (:func:`problems`). Classes are imported and configs read only
+when a task is used: listing is cheap, a broken config fails only its task's commands.
 
     >>> from trossen_arm_mujoco.tasks import registry
     >>> from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings

@@ -1,17 +1,16 @@
 """SamplerSettings: how a task sampler builds its world, in one checked object.
 
 Every front door that builds a sampler (``tasks.registry.make_sampler``, the gym env, the
-record and teleop recorders, the eval env, the dm_control tasks) describes it with one
-``SamplerSettings`` instead of repeating the sampler's keyword arguments:
+recorders, the eval env, the dm_control tasks) describes it with one ``SamplerSettings``
+(command mode, cameras, image size, flavour, randomization, looks, safety floor), checked at
+construction (a one-line ``UserError`` naming the field). The seed and an existing
+dm_control ``Physics`` go to the sampler as their own arguments::
 
     >>> from trossen_arm_mujoco.tasks import registry
-    >>> from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
     >>> settings = SamplerSettings(camera_names=("cam_high",), height=240, width=320)
     >>> sampler = registry.make_sampler("sim_transfer_cube", settings)
 
-The values are checked at construction (a one-line ``UserError`` naming the field and what is
-valid). The seed and an existing dm_control ``Physics`` are not settings: they go to the
-sampler as their own arguments.
+Docs: docs/reference/tasks.md.
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@ and a sampler that builds the table scene and perturbs the initial joints.
 
 Frames and units: world frame with the arm base at the origin and the table top at
 ``table_height`` (m); goals and tool-frame (``ee_site``) positions in m.
+
+Docs: docs/gym/index.md, docs/writing-a-task.md.
 """
 
 from __future__ import annotations

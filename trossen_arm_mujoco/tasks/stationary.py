@@ -7,6 +7,8 @@ config, cameras, objects) over the dm_control ``Physics`` they are handed; dm_co
 A custom task subclasses one of them and overrides ``initialize_episode(physics)``,
 ``get_env_state(physics)`` and ``get_reward(physics)``. Registered tasks are served by the
 adapters in ``tasks/dm_tasks.py``; ``ee_sim_env.py`` and ``sim_env.py`` re-export all of them.
+
+Docs: docs/reference/dm-control-envs.md, docs/writing-a-task.md.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ Lifecycle: a ``TaskSampler`` resets the env, randomizes the scene and builds the
 calls ``task.reset()``; the caller then alternates ``step(action)`` and the queries
 (``is_done`` = ``is_terminal() or is_timed_out()``, ``judge_success``, ``get_reward``,
 ``get_observation``).
+
+Docs: docs/writing-a-task.md, docs/reference/tasks.md.
 """
 
 from __future__ import annotations

@@ -1,17 +1,14 @@
 """``TaskEntry``: everything the package knows about one task, declared in one place.
 
 A task module (shipped: a module of ``trossen_arm_mujoco/tasks/`` with a module-level
-``TASKS`` tuple; installed: a package's entry point in the group ``trossen_arm_mujoco.tasks``)
-declares its tasks as ``TaskEntry`` values. Every front door derives what it needs from them:
-the registry (names, aliases), the gymnasium ids (``gym_ids``), the config schema (``keys``,
-``required``), eval's stage-wise rates and rollout analysis (``stages``), the recorder and
-teleop (``policy``, ``record``), serve and the LeRobot env plugin (the kit tasks: a sampler
-derived from ``tasks.bimanual.BimanualSampler``). The task's reward and success live in its
-``Task`` class, its randomization and scene objects (``scene_objects``, ``removed_objects``:
-MJCF composed into the shipped scene at load time, ``sim.scene_edit``) in its sampler.
+``TASKS`` tuple; installed: an entry point in the group ``trossen_arm_mujoco.tasks``)
+declares its tasks as ``TaskEntry`` values, and every front door derives what it needs from
+them: names and aliases, gymnasium ids (``gym_ids``), config keys (``keys``, ``required``),
+stages (``stages``), the scripted policy and recording defaults (``policy``, ``record``),
+scene objects (``scene_objects``, ``removed_objects``). Classes may be given as import paths
+``"module:Class"``, imported on first use, so listing tasks stays cheap.
 
-Classes may be given as classes or as import paths ``"module:Class"`` (imported on first use,
-so listing tasks stays cheap).
+Docs: docs/writing-a-task.md, docs/reference/tasks.md.
 """
 
 from __future__ import annotations

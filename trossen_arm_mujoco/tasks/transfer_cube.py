@@ -4,6 +4,8 @@ The one implementation of this task for every front door (dm_control envs, gymna
 recorder): the reward (0-4), the cube's spawn distribution, the task (``TransferCube``) and
 its sampler (``TransferCubeSampler``). Config: ``config/transfer_cube.yaml``; scripted policy:
 ``policies/transfer_cube.py``; registered as ``sim_transfer_cube`` (alias ``transfer_cube``).
+
+Docs: docs/gym/StationaryAITransferCube-v0.md.
 """
 
 from __future__ import annotations
