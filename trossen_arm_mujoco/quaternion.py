@@ -20,7 +20,8 @@ class Quaternion:
     rotations (``a * b`` applies b first, then a), ``.elements`` gives the numpy array.
 
     Args:
-        elements: 4 values [w, x, y, z] (or a Quaternion to copy); None with an axis.
+        elements: 4 values [w, x, y, z] (or a Quaternion to copy); None: from ``axis``, or
+            the identity without one.
         axis: the rotation axis (3,), with ``degrees`` or ``radians``.
         degrees: the rotation angle about ``axis`` (degrees).
         radians: the rotation angle about ``axis`` (rad).
