@@ -49,17 +49,14 @@ ARM_LAYOUT = ArmLayout()
 
 
 def is_arm_task(task: str) -> bool:
-    """Whether ``task`` (a name or alias) is a single wxai arm's task (sampler derived from
-    ``tasks.single_arm.SingleArmSampler``)."""
-    from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler
-
-    entry = registry.TASKS.get(registry.ALIASES.get(task, task))
-    return entry is not None and issubclass(entry.sampler_class(), SingleArmSampler)
+    """Whether ``task`` (a name or alias) is a single wxai arm's task
+    (``tasks.registry.arm_names``)."""
+    return registry.ALIASES.get(task, task) in registry.arm_names()
 
 
 def arm_names() -> list[str]:
-    """The single-arm tasks (``is_arm_task``), sorted."""
-    return [n for n in registry.names() if is_arm_task(n)]
+    """The single-arm tasks (``tasks.registry.arm_names``), sorted."""
+    return registry.arm_names()
 
 
 def arm_object_count(task: str) -> int:

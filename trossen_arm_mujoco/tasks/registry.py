@@ -37,6 +37,7 @@ __all__ = [
     "TASKS",
     "RecordDefaults",
     "TaskEntry",
+    "arm_names",
     "canonical",
     "kit_names",
     "load",
@@ -199,6 +200,15 @@ def kit_names() -> list[str]:
     from trossen_arm_mujoco.tasks.bimanual import BimanualSampler
 
     return [n for n in names() if issubclass(TASKS[n].sampler_class(), BimanualSampler)]
+
+
+def arm_names() -> list[str]:
+    """Tasks of the single WidowX AI arm (sampler derived from ``tasks.single_arm.
+    SingleArmSampler``): the ones eval's single-arm env, a served arm and the LeRobot env
+    plugin take in the ``widowxai`` layout."""
+    from trossen_arm_mujoco.tasks.single_arm import SingleArmSampler
+
+    return [n for n in names() if issubclass(TASKS[n].sampler_class(), SingleArmSampler)]
 
 
 def stages(name: str) -> dict[str, float]:

@@ -28,10 +28,9 @@ ARM_SIDE = "follower"
 
 
 def is_arm_world_task(task: str) -> bool:
-    """Whether ``task`` (a name or alias) is a single arm's task (an ``ArmWorld`` holds it)."""
-    from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
-
-    return is_arm_task(task)
+    """Whether ``task`` (a name or alias) is a single arm's task (an ``ArmWorld`` holds it:
+    ``tasks.registry.arm_names``)."""
+    return registry.ALIASES.get(task, task) in registry.arm_names()
 
 
 class ArmWorld(KitWorld):
@@ -46,12 +45,10 @@ class ArmWorld(KitWorld):
 
     def check_task(self, entry: registry.TaskEntry) -> None:
         """A one-line ``UserError`` unless ``entry`` is a single arm's task."""
-        from trossen_arm_mujoco.eval.arm_tasks import arm_names
-
         if not is_arm_world_task(entry.name):
             raise UserError(
                 f"task '{entry.name}' is not a single-arm task; a served arm holds one of: "
-                f"{', '.join(arm_names())}"
+                f"{', '.join(registry.arm_names())}"
             )
 
     def mjcf_name(self, side: str, name: str) -> str:
