@@ -49,6 +49,8 @@ def test_the_single_arm_spaces_are_its_seven_values(env):
     obs, info = env.reset(seed=3)
     assert env.observation_space.contains(obs)
     assert obs["goal"].shape == (3,) and info["is_success"] is False
+    x, y, z = obs["goal"]  # the episode's goal in words: a checkpoint's instruction
+    assert env.task_description.endswith(f"({x:.3f}, {y:.3f}, {z:.3f}) m")
     again, _ = env.reset(seed=3)  # same seed, same episode
     for key in ("agent_pos", "environment_state", "goal"):
         np.testing.assert_array_equal(obs[key], again[key])

@@ -24,6 +24,7 @@ tests/scripts/test_serve_rehearsal.py         127.0.0.141 .. 127.0.0.149
 tests/eval/test_checkpoint_files.py           127.0.0.161 .. 127.0.0.169
 tests/twin/test_arm_world.py                  127.0.0.171 .. 127.0.0.179
 tests/eval/test_arm_wire.py                   127.0.0.181 .. 127.0.0.189
+tests/eval/test_lerobot_arm.py                127.0.0.191 .. 127.0.0.199
 ============================================  ===========================
 
 (tests/twin/test_kit_world.py, test_session_recorder.py, test_episode_spool.py,

@@ -72,7 +72,8 @@ class ArmPolicyEnv(gymnasium.Env):
     Args: as ``KitPolicyEnv`` (``task`` a single-arm task; ``layout`` only ``widowxai``;
     ``render()`` without observed cameras shows ``overview`` at 240x320).
 
-    Attributes: those of ``KitPolicyEnv`` (``task``, ``cameras``, ``task_description``,
+    Attributes: those of ``KitPolicyEnv`` (``task``, ``cameras``, ``task_description``: the
+    running episode's, which names its goal,
     ``episode_length``, ``episode``, ``controller``: a one-arm ``KitController`` whose
     values are labelled ``joint_0`` .. ``gripper``, ``layout``, ``layout_name``, ``fps``).
     """
@@ -230,6 +231,8 @@ class ArmPolicyEnv(gymnasium.Env):
         if seed is None:
             seed = int(self.np_random.integers(2**31))
         self.episode = self.sampler.next_task(episode_generator(seed), object_poses=poses)
+        # the episode's goal in words (the language instruction a checkpoint reads)
+        self.task_description = self.episode.get_task_description()
         self.n_steps = 0
         self._reached = False
         obs = self._observe()

@@ -62,6 +62,7 @@ class WireEnv:
         """The served kit's ``start`` fields (:func:`start_fields`) of the in-process eval's
         ``reset(seed=seed)``."""
         self.scenes.reset(seed=seed)
+        self.task_description = self.scenes.task_description  # a single arm's names its goal
         self._poses = {k: np.asarray(v).copy() for k, v in self.scenes.object_poses().items()}
         goal = getattr(self.scenes, "goal", None)
         self._goal = goal() if callable(goal) else None

@@ -8,7 +8,8 @@ LeRobot's own scripts (``lerobot-eval``, ``lerobot-train``) and registers ``Tros
         --eval.n_episodes=50 --eval.batch_size=2 --seed=1000
 
 Options: ``--env.task`` (a Stationary AI kit task, ``tasks.registry.kit_names()``: the shipped
-``sim_transfer_cube``, ``sim_insertion`` and those of installed task packages),
+``sim_transfer_cube``, ``sim_insertion`` and those of installed task packages; or a single
+WidowX AI arm's, ``push``, ``pick_place``, ``reach``: below),
 ``--env.cam_names`` (comma list or ``none``; default the four kit cameras), ``--env.image_size``
 (``HxW``, like ``record``), ``--env.fps`` (policy rate; 30 for a dataset exported with
 ``--fps 30``), ``--env.episode_length`` (steps; default the task's recording length at that
@@ -40,6 +41,16 @@ exported before that flag always had them), so a policy trained on an export run
 ``--rename_map``. The env itself is ``trossen_arm_mujoco.eval.env.KitPolicyEnv``; vector envs
 are built from it directly (picklable, so ``--eval.use_async_envs=true`` works with any start
 method).
+
+A single arm's task (``--env.task=pick_place``, ``push``, ``reach``) steps the single WidowX AI
+arm (``trossen_arm_mujoco.eval.arm_env.ArmPolicyEnv``) in its 7-value layout ``widowxai``
+(``observation.state`` and ``action``: ``joint_0`` .. ``joint_5`` rad, then the gripper's
+``left_carriage_joint`` travel m; ``observation.environment_state`` the cube's pose), through
+the same arm controller model and checks; its cameras are ``overview`` and ``cam`` (the
+default ``--env.cam_names`` and ``--env.layout`` become ``overview,cam`` and ``widowxai`` for
+it; another layout is refused).
+
+    lerobot-eval --policy.path=... --env.type=trossen --env.task=pick_place --env.cam_names=cam
 """
 
 from __future__ import annotations
@@ -53,6 +64,8 @@ from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.eval.arm_env import ArmPolicyEnv
+from trossen_arm_mujoco.eval.arm_tasks import ARM_LAYOUT_NAME, arm_names, is_arm_task
 from trossen_arm_mujoco.eval.camera_pose_step import register as register_camera_pose
 from trossen_arm_mujoco.eval.controller_limits_step import register as register_controller_limits
 from trossen_arm_mujoco.eval.env import KitPolicyEnv, feature_spec
@@ -72,6 +85,8 @@ register_camera_pose()
 
 #: The kit's cameras, in the order ``record`` renders them.
 KIT_CAMERAS = "cam_high,cam_low,cam_left_wrist,cam_right_wrist"
+#: A single arm's cameras (``tasks.single_arm.SingleArmSampler.cameras``).
+ARM_CAMERAS = "overview,cam"
 
 
 @EnvConfig.register_subclass("trossen")
@@ -95,12 +110,25 @@ class TrossenEnvConfig(EnvConfig):
     def __post_init__(self) -> None:
         # the --env.cam_names / image_size / crop texts, parsed once here (a bad one fails
         # here, with its format); the object goes on to every env
+        name = registry.canonical(self.task or "")
+        self.single_arm = is_arm_task(name)
+        if self.single_arm:  # the kit's defaults become the single arm's
+            if self.cam_names == KIT_CAMERAS:
+                self.cam_names = ARM_CAMERAS
+            if self.layout == "kit14":
+                self.layout = ARM_LAYOUT_NAME
         self.cameras = self._adopt_checkpoint_settings()
         name = registry.canonical(self.task or "")
-        if name not in registry.kit_names():
+        self.single_arm = is_arm_task(name)
+        if name not in registry.kit_names() and not self.single_arm:
             raise ValueError(
-                f"--env.task={self.task} is not a Stationary AI kit task; "
-                f"valid: {', '.join(registry.kit_names())}"
+                f"--env.task={self.task} is neither a Stationary AI kit task nor a single "
+                f"arm's; valid: {', '.join(registry.kit_names() + arm_names())}"
+            )
+        if self.single_arm and self.layout != ARM_LAYOUT_NAME:
+            raise ValueError(
+                f"--env.task={name} is a single arm's task: it takes --env.layout="
+                f"{ARM_LAYOUT_NAME} (one arm's 7 values), not {self.layout}"
             )
         self.task = name
         # --env.randomize=LEVEL (true: train) and --env.randomization=FILE, read and checked
@@ -190,9 +218,11 @@ class TrossenEnvConfig(EnvConfig):
     def create_envs(
         self, n_envs: int, use_async_envs: bool = False
     ) -> dict[str, dict[int, gym.vector.VectorEnv]]:
-        """``{"trossen": {0: VectorEnv of n_envs KitPolicyEnv}}``; async envs start their
-        workers with ``spawn`` (each builds its own world; nothing is inherited)."""
-        make = functools.partial(KitPolicyEnv, **self.gym_kwargs)
+        """``{"trossen": {0: VectorEnv of n_envs KitPolicyEnv}}`` (a single arm's task:
+        ``ArmPolicyEnv``); async envs start their workers with ``spawn`` (each builds its own
+        world; nothing is inherited)."""
+        env_cls = ArmPolicyEnv if self.single_arm else KitPolicyEnv
+        make = functools.partial(env_cls, **self.gym_kwargs)
         if use_async_envs and n_envs > 1:
             vec = gym.vector.AsyncVectorEnv(
                 [make] * n_envs,
