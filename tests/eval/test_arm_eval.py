@@ -98,7 +98,8 @@ def test_scripted_policy_through_the_cli_is_scored_by_the_task(task, tmp_path, c
     peak = info["controller"]["peak_speed_fraction"]
     assert list(peak) == LABELS and 0 < max(peak.values()) < 1
     rollouts = json.loads((out_dir / "rollouts.json").read_text())
-    assert rollouts["episodes"][0]["success"] and "end" in rollouts["episodes"][0]
+    end = rollouts["episodes"][0]["end"]
+    assert rollouts["episodes"][0]["success"] and list(end) == ["gripper_gap_m"]
 
 
 def test_a_function_policy_acts_in_the_seven_values(tmp_path, capsys, monkeypatch):

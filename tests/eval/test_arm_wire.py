@@ -112,4 +112,5 @@ def test_a_jump_faults_the_served_arm_and_names_its_joint(tmp_path, monkeypatch)
     row = info["per_episode"][0]
     assert not row["success"] and row["fault"] is not None
     assert row["fault"]["joint"] == "joint_1", row["fault"]
+    assert row["max_reward"] < 0  # the shaped reward of a cube far from its goal, not 0
     assert info["controller"]["faulted_episodes"] == 1

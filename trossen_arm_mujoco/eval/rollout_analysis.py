@@ -17,6 +17,7 @@ Per episode (``RolloutRecorder.summary``)::
     transfer:  release {step, time_s, left_gap_m, right_gap_m, left_touching} | null: the
                step at which the right fingers began opening after the cube was lifted
     insertion: end {left_gap_m, right_gap_m}: the finger openings at the last step
+    a single arm's task (push, pick_place): end {gripper_gap_m}: its one gripper's opening
 
 Aggregated (``rollouts_report``): failed episodes counted by the furthest stage they reached
 (``"none"`` for none), controller faults counted by joint and kind, and the median left-gap
@@ -69,6 +70,7 @@ class RolloutRecorder:
         self.gaps: list[tuple[float, float]] = []  # (left, right) finger opening, m
         self.left_touch: list[bool] = []
         self._readers: tuple[Any, Any, Any, Any] | None = None  # looked up once an episode
+        self.one_gripper = False  # a single arm's env (its gripper read as both)
 
     def record(self, env: Any, reward: float) -> None:
         """Read the state after one ``env.step`` (``env``: a ``KitPolicyEnv``; ``reward``: the
@@ -77,6 +79,7 @@ class RolloutRecorder:
             task = env.episode
             gripper = task.robot.view.get_move_group("gripper")
             self._readers = (gripper, gripper, lambda: False, task.data)
+            self.one_gripper = True
         if self._readers is None:  # the episode's grippers and contact check, found once
             task = env.episode
             view = task.robot.view
@@ -141,6 +144,9 @@ class RolloutRecorder:
                     "left_touching": self.left_touch[k],
                 }
             )
+        elif self.one_gripper:
+            gap = self.gaps[-1][0] if self.gaps else None
+            out["end"] = {"gripper_gap_m": None if gap is None else round(gap, 6)}
         else:
             left, right = self.gaps[-1] if self.gaps else (None, None)
             out["end"] = {

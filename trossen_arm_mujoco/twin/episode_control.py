@@ -106,6 +106,9 @@ class EpisodeTracker:
         """Start counting an episode from the world's current state."""
         self._reset_counts()
         self.reward = float(self.world.task.get_reward())
+        # the best so far is the start's (a single arm's shaped reward is negative until its
+        # goal is near; a kit task's starts at 0)
+        self.max_reward = self.reward
         self.running = True
 
     def on_frame(self, frame: Frame) -> None:
