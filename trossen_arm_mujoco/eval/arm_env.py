@@ -84,7 +84,7 @@ class ArmPolicyEnv(gymnasium.Env):
 
     def __init__(
         self,
-        task: str = "pick_place",
+        task: str = registry.DEFAULT_ARM_TASK,
         *,
         cameras: CameraSettings | None = None,
         fps: float | None = None,

@@ -35,12 +35,12 @@ def is_arm_world_task(task: str) -> bool:
 
 class ArmWorld(KitWorld):
     """One arm and a single-arm task's objects; see the module doc. Arguments as
-    ``KitWorld`` (``task_name`` a single arm's task, default ``pick_place``)."""
+    ``KitWorld`` (``task_name`` a single arm's task, default ``registry.DEFAULT_ARM_TASK``)."""
 
     sides: tuple[str, ...] = (ARM_SIDE,)
     groups: tuple[str, ...] = ("arm", "gripper")
 
-    def __init__(self, task_name: str = "pick_place", **kwargs) -> None:
+    def __init__(self, task_name: str = registry.DEFAULT_ARM_TASK, **kwargs) -> None:
         super().__init__(task_name, **kwargs)
 
     def check_task(self, entry: registry.TaskEntry) -> None:
