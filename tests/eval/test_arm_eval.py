@@ -173,3 +173,12 @@ def test_other_layouts_and_a_task_without_a_scripted_policy_are_one_line(tmp_pat
         capsys,
     )
     assert rc == 2 and out == "" and "takes the layout widowxai" in err
+
+
+def test_wire_takes_one_address_for_the_single_arm(tmp_path, capsys):
+    rc, out, err = _eval(
+        ["--task_name", TASK, "--policy", "scripted", "--backend", "wire"]
+        + ["--right_ip", "127.0.0.188", "--output_dir", str(tmp_path / "e")],
+        capsys,
+    )
+    assert rc == 2 and out == "" and "give it with --left_ip" in err

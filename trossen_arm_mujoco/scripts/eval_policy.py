@@ -340,6 +340,14 @@ def _kit_link(args: argparse.Namespace, workers: int):
         )
     if not 0.05 <= args.action_timeout <= 600:
         raise UserError(f"--action_timeout must be in [0.05, 600] s, got {args.action_timeout}")
+    from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
+
+    defaults = build_parser().parse_args(["--policy", "x"])
+    if args.right_ip != defaults.right_ip and is_arm_task(args.task_name or ""):
+        raise UserError(
+            f"--right_ip: task '{args.task_name}' is a single arm's, served on one address: "
+            "give it with --left_ip"
+        )
     f = args.speed_limit_fraction
     if f is not None and not 0.0 < f <= 1.0:
         raise UserError(
