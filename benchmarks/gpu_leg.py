@@ -5,7 +5,9 @@ deadline, then each run's last checkpoint packed for the trip back.
 
 For a GPU machine that has Python >= 3.12 and torch but neither this project's simulator nor
 (maybe) LeRobot: install LeRobot there from the wheels ``tools/offline_wheelhouse.sh`` made
-(``--wheels``), then run this with ``python3``. Nothing here imports the project.
+(``--wheels``), then run this with ``python3``. Nothing here imports the project; the
+``train_eval.py`` it runs (``trossen-mujoco train``) does, which needs the ``mujoco`` wheel
+there too (``tools/offline_wheelhouse.sh --with-sim``), though nothing is simulated.
 
 The plan is a JSON list of runs, each ``{"name": ..., "args": [train_eval.py flags]}`` with
 its own ``--work_dir`` holding an exported ``dataset/`` (``train_eval.py --phase

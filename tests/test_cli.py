@@ -25,7 +25,7 @@ def test_unknown_subcommand_is_one_error_line(capsys):
     assert out == ""
     assert err == (
         "error: unknown subcommand 'recrod'; valid subcommands: eval, export, prepare, record, "
-        "replay-real, serve, teleop, visualize (see 'trossen-mujoco --help')\n"
+        "replay-real, serve, teleop, train, visualize (see 'trossen-mujoco --help')\n"
     )
 
 

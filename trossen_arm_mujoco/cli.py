@@ -4,7 +4,7 @@ Subcommands: ``record`` (scripts/record_sim_episodes.py), ``visualize``
 (scripts/visualize_eps.py), ``replay-real`` (scripts/replay_episode_real.py), ``export``
 (scripts/export_dataset.py), ``eval`` (scripts/eval_policy.py), ``prepare``
 (scripts/prepare_checkpoint.py), ``serve``
-(scripts/serve.py), ``teleop`` (scripts/teleop.py).
+(scripts/serve.py), ``teleop`` (scripts/teleop.py), ``train`` (scripts/train.py).
 """
 
 from __future__ import annotations
@@ -26,11 +26,12 @@ SUBCOMMANDS = {
     "prepare": "trossen_arm_mujoco.scripts.prepare_checkpoint",
     "serve": "trossen_arm_mujoco.scripts.serve",
     "teleop": "trossen_arm_mujoco.scripts.teleop",
+    "train": "trossen_arm_mujoco.scripts.train",
 }
 
 USAGE = (
-    "usage: trossen-mujoco {record,visualize,replay-real,export,eval,prepare,serve,teleop} "
-    "[flags]\n"
+    "usage: trossen-mujoco {record,visualize,replay-real,export,eval,prepare,serve,teleop,"
+    "train} [flags]\n"
     "  record       scripted rollouts -> HDF5 episodes\n"
     "  visualize    HDF5 episodes -> mp4 camera grid + joint plots\n"
     "  replay-real  replay an episode on two arms (or their simulated twin)\n"
@@ -39,6 +40,7 @@ USAGE = (
     "  prepare      make LeRobot checkpoints deployable by any runner (images, limits)\n"
     "  serve        serve the simulated kit over the arms' wire protocol (loopback), record it\n"
     "  teleop       leader arms drive the simulated kit, recording HDF5 episodes\n"
+    "  train        record, export, train ACT over seeds, score each checkpoint (resumes)\n"
     "Run 'trossen-mujoco <subcommand> --help' for its flags."
 )
 

@@ -2,7 +2,7 @@
 leaves the camera out, everywhere LeRobot would look for it, and keeps the rest.
 
 The whole derivation (episodes, encoder, copy, a LeRobot training run on it) is exercised by
-``tests/test_train_eval_benchmark.py``'s camera_pose test."""
+``tests/train/test_train_command.py``'s camera_pose test."""
 
 from __future__ import annotations
 

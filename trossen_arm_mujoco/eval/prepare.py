@@ -32,7 +32,7 @@ from trossen_arm_mujoco.eval.processor_files import (
 )
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings, checkpoint_settings
 from trossen_arm_mujoco.sim.camera_crop import FRAME
-from trossen_arm_mujoco.train.pose_dataset import ENCODER_FILE
+from trossen_arm_mujoco.train.pose_files import ENCODER_FILE
 
 __all__ = [
     "ENCODER_FILE",

@@ -1,3 +1,6 @@
-"""Training helpers that run before a policy is trained: the pose encoder and its dataset."""
+"""Training: what a policy trains on beyond the export (a pose encoder and the dataset of its
+estimates) and ``trossen-mujoco train``, the whole loop over several training seeds (one
+module per part: ``command``, ``workspace``, ``recipes``, ``flags``, ``recording``,
+``encoding``, ``training``, ``scoring``, ``report``). Docs: Train and evaluate."""
 
 __all__: list[str] = []

@@ -11,9 +11,9 @@ never sees the images, and LeRobot's loader would decode every camera's frame fo
 sample all the same. The training batches are otherwise the same (docs Benchmarks). The
 dataset's settings (``info.json``'s ``trossen_arm_mujoco``) still name the camera, which is
 what a checkpoint trained on the copy observes. The encoder is saved beside it
-(:data:`ENCODER_FILE`) with its report (:data:`REPORT_FILE`). A policy trained on the copy
-and given the encoder in its preprocessor (``eval.camera_pose_step``) observes the joints and
-the camera only.
+(``pose_files.ENCODER_FILE``) with its report (``pose_files.REPORT_FILE``). A policy trained
+on the copy and given the encoder in its preprocessor (``eval.camera_pose_step``) observes
+the joints and the camera only.
 
 Command line (``[train]`` extra: torch)::
 
@@ -38,12 +38,9 @@ from trossen_arm_mujoco.export.lerobot_plan import frame_map
 from trossen_arm_mujoco.export.lerobot_stats import array_stats, to_lists
 from trossen_arm_mujoco.robot.lerobot_keys import ENV_STATE_KEY, image_camera
 from trossen_arm_mujoco.train.pose_encoder import EPOCHS, save_encoder, train_encoder
+from trossen_arm_mujoco.train.pose_files import ENCODER_FILE, REPORT_FILE
 
-__all__ = ["ENCODER_FILE", "REPORT_FILE", "derive_dataset", "main"]
-
-#: Where the derived dataset keeps its encoder and the encoder's report.
-ENCODER_FILE = "meta/pose_encoder.safetensors"
-REPORT_FILE = "meta/pose_encoder.json"
+__all__ = ["derive_dataset", "main"]
 
 
 def _info(dataset: Path) -> dict[str, Any]:

@@ -1,25 +1,35 @@
-"""``benchmarks/train_eval.py`` on a tiny run: the phases one at a time (record,export here,
-then train, then eval, as on two machines), two training seeds at once, and the spread.
+"""``trossen-mujoco train`` end to end on tiny runs: the phases one at a time (record,export
+here, then train, then eval, as on two machines), two training seeds at once, the spread, the
+recipes' runs, the README's command as written, and its one-line refusals (flags, summary,
+work folder, lock) and interruptions.
 
-Needs LeRobot (``TROSSEN_LEROBOT_PYTHON``, set by ``.ci/run``).
+Needs LeRobot (``TROSSEN_LEROBOT_PYTHON``, set by ``tools/run_tests.sh``).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
+import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import tarfile
+import time
 from pathlib import Path
 
 import pytest
 
+from trossen_arm_mujoco.export.dataset_settings import CHECKPOINT_FILE as SETTINGS_FILE
+from trossen_arm_mujoco.export.dataset_settings import INFO_KEY as SETTINGS_KEY
+
 pytestmark = pytest.mark.once  # LeRobot runs in TROSSEN_LEROBOT_PYTHON whatever runs pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "train_eval.py"
-SETTINGS_KEY, SETTINGS_FILE = "trossen_arm_mujoco", "trossen_settings.json"
+REPO = Path(__file__).resolve().parents[2]
+COMMAND = [sys.executable, "-m", "trossen_arm_mujoco.cli", "train"]
+GPU_LEG = REPO / "benchmarks" / "gpu_leg.py"
 TINY = [
     "--steps",
     "2",
@@ -41,13 +51,15 @@ TINY = [
 def _python() -> str:
     python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
     if not python or not Path(python).is_file():
-        pytest.skip("TROSSEN_LEROBOT_PYTHON is not set to a Python with LeRobot (.ci/run sets it)")
+        pytest.skip(
+            "TROSSEN_LEROBOT_PYTHON is not set to a Python with LeRobot (run_tests.sh sets it)"
+        )
     return python
 
 
 def _bench(work: Path, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, str(SCRIPT), "--work_dir", str(work), *args],
+        [*COMMAND, "--work_dir", str(work), *args],
         capture_output=True,
         text=True,
         timeout=600,
@@ -132,6 +144,16 @@ def test_phases_run_apart_and_the_spread_covers_every_training_seed(tmp_path):
     assert spread["worst_pc_success"] == min(rates)
     assert spread["mean_pc_success"] == pytest.approx(sum(rates) / 2)
     assert "over 2 training runs (in-process): mean" in scored.stdout
+    assert re.search(
+        r"cost: record \d+ s wall, \d+ s CPU; encode not measured here; train \d+ s "
+        r"wall, \d+ s CPU; evaluate \d+ s wall, \d+ s CPU",
+        scored.stdout,
+    ), scored.stdout
+    for seed in (5, 6):
+        ckpt = (
+            work.resolve() / "train" / f"seed_{seed}" / "checkpoints" / "last" / "pretrained_model"
+        )
+        assert f"checkpoint seed {seed}: {ckpt}\n" in scored.stdout
     for run in summary["runs"].values():  # checks on, and off beside it; what it asked for
         assert run["controller"]["checks"] is True and run["unconstrained"]["n_episodes"] == 2
         assert set(run["controller"]["peak_speed_fraction"]) >= {"left_joint_0", "right_gripper"}
@@ -184,9 +206,9 @@ def test_bad_phases_and_missing_inputs_are_one_line(tmp_path):
 
 
 def _bench_without_lerobot(work: Path, *args: str) -> subprocess.CompletedProcess:
-    """The benchmark up to its first phase: TROSSEN_LEROBOT_PYTHON only has to be set."""
+    """The command up to its first phase: TROSSEN_LEROBOT_PYTHON only has to be set."""
     return subprocess.run(
-        [sys.executable, str(SCRIPT), "--work_dir", str(work), "--phase", "train", *args],
+        [*COMMAND, "--work_dir", str(work), "--phase", "train", *args],
         capture_output=True,
         text=True,
         timeout=120,
@@ -200,9 +222,9 @@ def _bench_without_lerobot(work: Path, *args: str) -> subprocess.CompletedProces
         (b'{"settings": {}, "runs": {"5": {"train": ', "summary.json cannot be read as JSON ("),
         (b"", "summary.json cannot be read as JSON (Expecting value"),
         (b"\xff\xfe{}", "summary.json cannot be read as JSON ("),
-        (b"[1, 2]", "summary.json is not a summary of this benchmark"),
-        (b'{"runs": []}', "summary.json is not a summary of this benchmark"),
-        (b'{"runs": {"5": 3}}', "summary.json is not a summary of this benchmark"),
+        (b"[1, 2]", "summary.json is not a summary of trossen-mujoco train"),
+        (b'{"runs": []}', "summary.json is not a summary of trossen-mujoco train"),
+        (b'{"runs": {"5": 3}}', "summary.json is not a summary of trossen-mujoco train"),
     ],
 )
 def test_a_broken_summary_is_one_line_and_left_as_it_is(tmp_path, summary, expected):
@@ -220,8 +242,11 @@ def test_a_file_as_work_dir_is_one_line(tmp_path):
     given = tmp_path / "notes.txt"
     given.write_text("mine\n")
     for work, expected in (
-        (given, f"error: --work_dir {given} is a file; give a folder"),
-        (given / "sub", f"error: --work_dir {given / 'sub'}: cannot create it ("),
+        (given, f"error: cannot write to --work_dir {given}: it is a file; give a folder"),
+        (
+            given / "sub",
+            f"error: cannot write to --work_dir {given / 'sub'}: a file is in the way ({given})",
+        ),
     ):
         run = _bench_without_lerobot(work)
         assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
@@ -244,7 +269,7 @@ def test_gpu_leg_trains_the_plan_and_packs_each_checkpoint_for_the_trip(tmp_path
     leg = subprocess.run(
         [
             python,
-            str(SCRIPT.with_name("gpu_leg.py")),
+            str(GPU_LEG),
             "--plan",
             str(plan),
             "--deadline_s",
@@ -295,7 +320,7 @@ def test_gpu_leg_stand_in_for_pyav_lets_lerobot_train_import_and_refuses_to_deco
     stand-in first on the path, LeRobot's dataset and training modules import, and any use of
     PyAV raises ImportError naming the fix instead of decoding nothing."""
     python = _python()
-    sys.path.insert(0, str(SCRIPT.parent))
+    sys.path.insert(0, str(GPU_LEG.parent))
     try:
         import gpu_leg
     finally:
@@ -324,23 +349,6 @@ def test_gpu_leg_stand_in_for_pyav_lets_lerobot_train_import_and_refuses_to_deco
     assert "refused: PyAV is not installed here" in run.stdout
     assert "carry the av wheel" in run.stdout
     assert "version 0.0.0" in run.stdout  # LeRobot's own check sees the stand-in
-
-
-def test_the_settings_names_agree_with_the_package():
-    """train_eval writes the checkpoint settings in plain JSON (its train phase may run
-    without the simulator): its names are the package's."""
-    import importlib.util
-
-    from trossen_arm_mujoco.export import dataset_settings
-
-    spec = importlib.util.spec_from_file_location("train_eval_script", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    assert module.SETTINGS_KEY == dataset_settings.INFO_KEY
-    assert module.SETTINGS_FILE == dataset_settings.CHECKPOINT_FILE == SETTINGS_FILE
-    from trossen_arm_mujoco.train import pose_dataset
-
-    assert _recipe_module("train_eval_pose").ENCODER_FILE == pose_dataset.ENCODER_FILE
 
 
 def test_the_camera_recipe_runs_small_and_reports_its_cost(tmp_path):
@@ -416,7 +424,7 @@ def test_the_camera_pose_recipe_runs_small_through_the_gpu_route_and_deploys(tmp
     leg = subprocess.run(
         [
             python,
-            str(SCRIPT.with_name("gpu_leg.py")),
+            str(GPU_LEG),
             "--plan",
             str(plan),
             "--deadline_s",
@@ -476,112 +484,12 @@ def test_a_train_only_machine_without_the_derived_copy_is_told_what_to_carry(tmp
     ), lines
 
 
-def _recipe_module(name: str):
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(name, SCRIPT.with_name(f"{name}.py"))
-    module = importlib.util.module_from_spec(spec)
-    sys.path.insert(0, str(SCRIPT.parent))
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.pop(0)
-    return module
-
-
-@pytest.mark.parametrize(
-    ("flags", "crop"),
-    [
-        (["--recipe", "camera_pose"], "cam_high:217,243,150,200"),
-        (["--recipe", "camera_pose", "--task", "sim_insertion"], "cam_high:170,211,180,240"),
-        (["--recipe", "camera", "--task", "insertion"], "cam_high:170,211,180,240"),
-        (
-            ["--recipe", "camera_pose", "--task", "sim_insertion", "--crop", "cam_high:0,0,48,64"],
-            "cam_high:0,0,48,64",
-        ),
-        (["--task", "sim_insertion"], None),
-    ],
-)
-def test_the_cropped_recipes_take_their_tasks_crop(flags, crop):
-    assert _recipe_module("train_eval").parse_args(flags).crop == crop
-
-
-@pytest.mark.parametrize(
-    ("flags", "static"),
-    [
-        (["--recipe", "camera_pose", "--task", "sim_insertion"], 1000),
-        (["--recipe", "camera_pose"], 0),
-        (["--recipe", "camera_pose", "--task", "insertion", "--static_frames", "5"], 5),
-        (["--task", "sim_insertion"], 0),
-    ],
-)
-def test_the_pose_recipe_takes_its_tasks_static_frames(flags, static):
-    assert _recipe_module("train_eval").parse_args(flags).static_frames == static
-
-
-def test_the_pose_encoder_takes_images_resnet_could_not():
-    args = _recipe_module("train_eval").parse_args(
-        ["--recipe", "camera_pose", "--image_size", "24x32"]
-    )
-    assert args.image_size == "24x32" and args.pose_encoder
-
-
 def test_a_cropped_recipe_on_a_task_it_knows_no_crop_for_is_one_line(tmp_path):
     run = _bench_without_lerobot(tmp_path / "w", "--recipe", "camera_pose", "--task", "my_task")
     assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and "knows no crop of cam_high for task 'my_task'" in lines[0], lines
     assert "give --crop cam_high:TOP,LEFT,HEIGHT,WIDTH" in lines[0]
-
-
-def test_each_task_crop_holds_its_objects_spawn_region():
-    """The tasks' ``TaskEntry.camera_crop`` contain the projection into cam_high of each
-    task's object spawn region (and, for the insertion, the lift to where they meet)."""
-    import mujoco
-    import numpy as np
-
-    from trossen_arm_mujoco.assets import asset_path
-    from trossen_arm_mujoco.tasks import insertion, transfer_cube
-    from trossen_arm_mujoco.tasks.registry import load
-
-    crops = {
-        name: load(name).camera_crop
-        for name in ("sim_transfer_cube", "transfer_cube", "sim_insertion", "insertion")
-    }
-    scenes = {
-        "sim_transfer_cube": "trossen_ai_scene_joint.xml",
-        "sim_insertion": "trossen_ai_insertion_scene_joint.xml",
-    }
-    corners = {
-        "sim_transfer_cube": [
-            (x, y, z)
-            for x in transfer_cube.BOX_X_RANGE
-            for y in transfer_cube.BOX_Y_RANGE
-            for z in (0.02, 0.05)
-        ],
-        "sim_insertion": [
-            (x, y, z)
-            for x in insertion.PEG_X_RANGE
-            for y in (
-                insertion.PEG_Y_RANGE[0] - insertion.PEG_HALF[1],
-                insertion.SOCKET_Y_RANGE[1] + insertion.SOCKET_HALF_LENGTH,
-            )
-            for z in (0.02, 0.25)
-        ],
-    }
-    for task, points in corners.items():
-        model = mujoco.MjModel.from_xml_path(str(asset_path(f"stationary_ai/{scenes[task]}")))
-        data = mujoco.MjData(model)
-        mujoco.mj_forward(model, data)
-        cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "cam_high")
-        focal = 240 / np.tan(np.deg2rad(model.cam_fovy[cam]) / 2)  # pixels, 480-row frame
-        top, left, height, width = (int(v) for v in crops[task].split(":")[1].split(","))
-        for point in points:
-            rel = data.cam_xmat[cam].reshape(3, 3).T @ (np.array(point) - data.cam_xpos[cam])
-            row, col = 240 - focal * rel[1] / -rel[2], 320 + focal * rel[0] / -rel[2]
-            assert top <= row <= top + height and left <= col <= left + width, (task, point)
-    assert crops["transfer_cube"] == crops["sim_transfer_cube"]
-    assert crops["insertion"] == crops["sim_insertion"]
 
 
 @pytest.mark.parametrize(
@@ -619,92 +527,159 @@ def test_camera_settings_are_checked_before_anything_runs(tmp_path, flags, expec
     assert not (tmp_path / "w").exists()  # refused before the work folder was made
 
 
-def _bench_module(name: str):
-    """A module of ``benchmarks/`` (not a package), loaded from its file."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(name, SCRIPT.with_name(f"{name}.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_the_recipe_knows_the_kit_cameras():
-    from trossen_arm_mujoco.assets import STATIONARY_CAMERAS
-
-    assert _bench_module("train_eval_recipes").KIT_CAMERAS == STATIONARY_CAMERAS
-
-
-def test_the_spread_over_every_run_pools_only_runs_trained_and_scored_alike(tmp_path, capsys):
-    rep = _bench_module("train_eval_report")
-    flags = {
-        "work_dir": "w",
-        "phase": "train",
-        "train_seed": 5,
-        "train_jobs": 2,
-        "steps": 7000,
-        "lr": 1e-4,
-        "eval_episodes": 50,
-        "controller_checks": "on",
-    }
-    made = rep.recipe_flags(flags)
-    assert made == {"steps": 7000, "lr": 1e-4}  # where, which seeds, how fast, how scored: out
-    info = {
-        "aggregated": {"pc_success": 80.0},
-        "run": {
-            "task": "t",
-            "num_episodes": 50,
-            "seed": 0,
-            "episode_length": None,
-            "policy": "p",
-            "num_workers": 2,
-        },
-    }
-    (tmp_path / "eval_info.json").write_text(json.dumps(info))
-    scored = rep.results(tmp_path / "eval_info.json")["scored_on"]
-    assert scored == {"task": "t", "num_episodes": 50, "seed": 0, "episode_length": None}
-
-    def run(pc: float, **other) -> dict:
-        result = {"pc_success": pc, "pc_success_ci95": [0.0, 100.0], "n_episodes": 50, "stages": {}}
-        return {"result": result, "trained_with": {**made, **other}, "scored_on": scored}
-
-    runs = {
-        "5": run(80.0),
-        "6": run(90.0),
-        "7": run(70.0, steps=2000),  # another recipe
-        "8": {**run(60.0), "scored_on": {**scored, "seed": 1}},  # other episodes
-        "10": {**run(40.0), "scored_on": {**scored, "randomize": True, "randomization": None}},
-        "9": {"train": {"cpu_s": 1.0}, "trained_with": made},  # trained, not scored
-        "4": {k: v for k, v in run(50.0).items() if k != "trained_with"},  # an older summary
-    }
-    assert set(rep.alike(runs, ["6"])) == {"5", "6"}
-    assert set(rep.alike(runs, ["6", "9"])) == {"5", "6"}
-    assert set(rep.alike(runs, ["8"])) == {"8"}
-    assert set(rep.alike(runs, ["10"])) == {"10"}  # scored on randomized scenes
-    assert rep.alike(runs, ["6", "7"]) == {}  # this call's runs differ among themselves
-    assert rep.alike(runs, ["4"]) == {} and rep.alike(runs, ["9"]) == {}
-    spread = rep.report(rep.alike(runs, ["6"]), "every alike run", each=False)
-    assert spread["runs"] == 2 and spread["mean_pc_success"] == 85.0
-    assert spread["worst_pc_success"] == 80.0
-    out = capsys.readouterr().out
-    assert out.startswith("over 2 training runs (every alike run): mean 85.0%, worst 80.0%")
-    assert "training seed" not in out
-
-
-def test_the_robust_recipe_records_randomized_scenes_and_augments_the_encoder():
-    bench = _recipe_module("train_eval")
-    args = bench.parse_args(["--recipe", "camera_pose_robust"])
-    assert args.randomize is True and args.augment and args.pose_encoder
-    assert args.crop == "cam_high:217,243,150,200" and args.eval_randomize == "nominal"
-    pose = _recipe_module("train_eval_pose")
-    static = pose.static_job(["trossen-mujoco"], args, Path("static"))
-    assert "--randomize" in static and static[static.index("--randomize") + 1].startswith("--")
-    job = pose.encode_job("py", Path("d"), Path("e"), Path("o"), 2, 0, augment=True)
-    assert job[-1] == "--augment"
-
-
 def test_augment_without_the_pose_encoder_is_one_line(tmp_path):
     run = _bench_without_lerobot(tmp_path / "w", "--augment")
     assert run.returncode != 0 and "Traceback" not in run.stderr, run.stderr
     lines = run.stderr.strip().splitlines()
     assert len(lines) == 1 and "--augment changes the pose encoder's" in lines[0], lines
+
+
+def test_the_former_script_runs_the_same_command(tmp_path):
+    """``benchmarks/train_eval.py`` (named by gpu_leg.py and the benchmarks) is the command."""
+    run = subprocess.run(
+        [sys.executable, str(REPO / "benchmarks" / "train_eval.py"), "--phase", "record,fly"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
+    assert run.returncode == 2 and run.stderr.startswith("error: --phase 'record,fly'"), run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1
+
+
+def test_a_second_run_in_the_same_folder_is_one_line_naming_the_first(tmp_path):
+    from trossen_arm_mujoco.train.workspace import Workspace
+
+    ws = Workspace.open(tmp_path / "w")
+    with ws.locked():
+        run = _bench_without_lerobot(ws.root)
+    assert run.returncode == 2 and "Traceback" not in run.stderr, run.stderr
+    assert run.stderr == (
+        f"error: --work_dir {ws.root} is in use by process {os.getpid()} (another "
+        "trossen-mujoco train); wait for it to end, or choose another --work_dir\n"
+    )
+    after = _bench_without_lerobot(ws.root)  # released: it goes on to its first phase
+    assert "run --phase record,export first" in after.stderr, after.stderr
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes in a read-only folder")
+def test_a_read_only_work_folder_is_one_line(tmp_path):
+    work = tmp_path / "w"
+    work.mkdir()
+    work.chmod(0o555)
+    try:
+        run = _bench_without_lerobot(work)
+    finally:
+        work.chmod(0o755)
+    assert run.returncode == 2 and "Traceback" not in run.stderr, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: cannot write to --work_dir {work}")
+
+
+def test_a_write_refused_midway_is_one_line(tmp_path, monkeypatch, capsys):
+    """The folder turns read-only (or the disk fills up) while the command runs."""
+    import errno
+
+    from trossen_arm_mujoco.train import command
+    from trossen_arm_mujoco.train.workspace import Workspace
+
+    def refuse(self):
+        raise OSError(errno.EROFS, "Read-only file system", str(self.summary_path))
+
+    monkeypatch.setattr(Workspace, "save", refuse)
+    monkeypatch.setenv("TROSSEN_LEROBOT_PYTHON", sys.executable)
+    work = tmp_path / "w"
+    assert command.cli(["--work_dir", str(work), "--phase", "train"]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        f"error: cannot write {work / 'summary.json'}: Read-only file system (EROFS); the file "
+        "system is read-only; choose another --work_dir\n"
+    )
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie waiting for its parent does not)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.mark.parametrize(
+    ("signum", "status", "name"),
+    [(signal.SIGINT, 130, "Ctrl-C"), (signal.SIGTERM, 143, "SIGTERM")],
+)
+def test_a_signal_stops_the_run_and_its_children_in_one_line(tmp_path, signum, status, name):
+    """A child (here a stand-in for LeRobot's Python that starts a worker and waits) and its
+    worker end with the command, which says so in one line and how to resume."""
+    pids = tmp_path / "pids"
+    fake = tmp_path / "python"
+    fake.write_text(f'#!/bin/sh\necho $$ >> "{pids}"\nsleep 300 &\necho $! >> "{pids}"\nwait\n')
+    fake.chmod(0o755)
+    work = tmp_path / "w"
+    proc = subprocess.Popen(
+        [*COMMAND, "--work_dir", str(work), "--phase", "record", "--episodes", "2"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TROSSEN_LEROBOT_PYTHON": str(fake)},
+    )
+    deadline = time.monotonic() + 120
+    while not (pids.exists() and len(pids.read_text().split()) == 2):
+        assert time.monotonic() < deadline and proc.poll() is None, proc.communicate()
+        time.sleep(0.1)
+    proc.send_signal(signum)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == status, err
+    assert err == (
+        f"interrupted ({name}): stopped; rerun the same command to resume in {work.resolve()}\n"
+    )
+    for pid in map(int, pids.read_text().split()):
+        deadline = time.monotonic() + 10
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _alive(pid), f"process {pid} outlived the command"
+
+
+def _readme_train_commands() -> list[list[str]]:
+    """The flags of each ``trossen-mujoco train`` command in the README's bash blocks."""
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    found = []
+    for block in re.findall(r"```bash\n(.*?)```", text, re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            if line.startswith("trossen-mujoco train "):
+                found.append(shlex.split(line, comments=True)[2:])
+    return found
+
+
+def test_the_readme_training_commands_run_as_written_and_reach_training(tmp_path):
+    """Each README training command, as written, with a tiny episode count and run (and no
+    TROSSEN_LEROBOT_PYTHON: it finds the venv tools/run_tests.sh builds), trains a
+    checkpoint."""
+    python = Path(_python())
+    commands = _readme_train_commands()
+    assert commands, "the README shows no trossen-mujoco train command"
+    env = {k: v for k, v in os.environ.items() if k != "TROSSEN_LEROBOT_PYTHON"}
+    if python.parent.name == "bin":
+        env["TROSSEN_LEROBOT_VENV"] = str(python.parent.parent)
+    else:
+        env["TROSSEN_LEROBOT_PYTHON"] = str(python)
+    entry = shutil.which("trossen-mujoco")
+    for k, flags in enumerate(commands):
+        where = tmp_path / f"readme_{k}"
+        where.mkdir()
+        run = subprocess.run(
+            [*([entry, "train"] if entry else COMMAND), *flags]
+            + ["--episodes", "2", "--train_seeds", "1", "--phase", "record,export,encode,train"]
+            + TINY,
+            capture_output=True,
+            text=True,
+            timeout=900,
+            cwd=where,
+            env=env,
+        )
+        assert run.returncode == 0, (flags, run.stdout + run.stderr)
+        work = next(where.iterdir())  # the command's --work_dir, relative to where it ran
+        assert (work / "train" / "seed_1000" / "checkpoints" / "last" / "pretrained_model").is_dir()
+        assert "lerobot-train seed 1000:" in run.stdout and "cost: record" in run.stdout

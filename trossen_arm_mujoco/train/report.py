@@ -1,13 +1,26 @@
-"""What ``train_eval.py`` reports: each run's success with its 95 % Wilson interval, its
-faults and largest asked speeds, the spread over the runs, and the loss curve of a log."""
+"""What ``trossen-mujoco train`` reports: each run's success with its 95 % Wilson interval,
+its faults and largest asked speeds, the spread over the runs, the loss curve of a log, the
+whole cost of the loop and where each checkpoint landed. Docs: Train and evaluate
+(docs/train-eval.md), docs/benchmarks.md ("The whole loop")."""
 
 from __future__ import annotations
 
 import json
 import math
 from pathlib import Path
+from typing import Any
 
-__all__ = ["alike", "losses", "recipe_flags", "report", "results", "wilson"]
+__all__ = [
+    "RUN_FLAGS",
+    "alike",
+    "cost",
+    "losses",
+    "print_cost",
+    "recipe_flags",
+    "report",
+    "results",
+    "wilson",
+]
 
 #: the flags that say where, with which seeds, how fast and how it is scored a run was made:
 #: two runs that differ only in these (and in ``eval_*``) learned the same recipe
@@ -42,7 +55,7 @@ def losses(log: Path) -> list[float]:
     """The ``loss:`` values lerobot-train logged, in order."""
     return [
         float(part.split(":")[1])
-        for line in log.read_text().splitlines()
+        for line in log.read_text(errors="replace").splitlines()
         for part in line.split()
         if part.startswith("loss:")
     ]
@@ -52,7 +65,7 @@ def results(path: Path) -> dict:
     """What a summary keeps of one ``eval_info.json``: the score with the controller's checks
     (``result``), without them (``unconstrained``, when run), the controller block (faults,
     largest asked speeds) and whether the policy deploys."""
-    info = json.loads(path.read_text())
+    info = json.loads(path.read_text(encoding="utf-8"))
     out = {
         "result": info["aggregated"],
         "controller": info.get("controller"),
@@ -78,7 +91,7 @@ def results(path: Path) -> dict:
 
 
 def recipe_flags(args: dict) -> dict:
-    """The flags of ``args`` (``train_eval.py``'s, as a dict) that shape what a run learns:
+    """The flags of ``args`` (``trossen-mujoco train``'s, as a dict) that shape what a run learns:
     all but ``RUN_FLAGS`` and the ``eval_*`` ones."""
     return {k: v for k, v in args.items() if k not in RUN_FLAGS and not k.startswith("eval_")}
 
@@ -153,3 +166,43 @@ def report(runs: dict[str, dict], label: str = "in-process", each: bool = True) 
         f"(all {n} episodes pooled: 95% CI {lo:.1f}-{hi:.1f})"
     )
     return spread
+
+
+#: The phases whose cost is printed, and the summary entries each sums.
+COST_PARTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    # name: (entries of the summary, entries of each run)
+    "record": (("record", "record_static", "export"), ()),
+    "encode": (("encode",), ()),
+    "train": ((), ("train",)),
+    "evaluate": ((), ("eval", "wire_eval")),
+}
+
+
+def cost(summary: dict[str, Any], seeds: list[str]) -> dict[str, dict[str, float]]:
+    """Wall and CPU seconds of each part of the loop as measured in ``summary`` (record with
+    the export and the static frames, encode, train and evaluate of the runs ``seeds``);
+    a part never measured is left out."""
+    out = {}
+    for part, (top, per_run) in COST_PARTS.items():
+        took = [summary.get(k) for k in top]
+        took += [summary.get("runs", {}).get(s, {}).get(k) for s in seeds for k in per_run]
+        took = [t for t in took if isinstance(t, dict) and "wall_s" in t]
+        if took:
+            out[part] = {
+                "wall_s": round(sum(t.get("wall_s") or 0.0 for t in took), 1),
+                "cpu_s": round(sum(t.get("cpu_s") or 0.0 for t in took), 1),
+            }
+    return out
+
+
+def print_cost(parts: dict[str, dict[str, float]]) -> None:
+    """One line: each part's wall and CPU seconds (``not measured here`` for the others)."""
+    said = []
+    for part in COST_PARTS:
+        took = parts.get(part)
+        said.append(
+            f"{part} {took['wall_s']:.0f} s wall, {took['cpu_s']:.0f} s CPU"
+            if took
+            else f"{part} not measured here"
+        )
+    print("cost: " + "; ".join(said))
