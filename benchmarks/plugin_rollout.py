@@ -31,8 +31,18 @@ from pathlib import Path
 PROBE = Path(__file__).with_name("rollout_probe.py")
 
 
-def rollout_args(policy: Path, cams: list[str], link, duration: float, fps: int) -> list[str]:
-    """``lerobot-rollout``'s flags for the served kit at ``link``."""
+def rollout_args(
+    policy: Path,
+    cams: list[str],
+    link,
+    duration: float,
+    fps: int,
+    multiplier: float = 3.0,
+    return_to_initial: bool = True,
+) -> list[str]:
+    """``lerobot-rollout``'s flags for the served kit at ``link``; ``multiplier``: the
+    plugin's ``min_time_to_move_multiplier`` (each goal's time is ``multiplier / fps``);
+    ``return_to_initial``: LeRobot's ``--return_to_initial_position``."""
     cameras = ", ".join(
         f"{c}: {{type: zmq, server_address: {link.host}, port: {link.camera_port}, "
         f"camera_name: {c}, width: 640, height: 480, fps: {fps}}}"
@@ -45,10 +55,12 @@ def rollout_args(policy: Path, cams: list[str], link, duration: float, fps: int)
         "--robot.type=bi_widowxai_follower_robot",
         f"--robot.left_arm_ip_address={link.left_ip}",
         f"--robot.right_arm_ip_address={link.right_ip}",
+        f"--robot.min_time_to_move_multiplier={multiplier:g}",
         f"--robot.cameras={{{cameras}}}",
         "--task=Transfer the cube",
         f"--duration={duration:g}",
         f"--fps={fps}",
+        f"--return_to_initial_position={str(return_to_initial).lower()}",
     ]
 
 
@@ -74,8 +86,22 @@ def main(argv=None) -> int:
     )
     p.add_argument("--fps", type=int, default=30, help="the plugin's loop rate")
     p.add_argument("--randomize", default=None, choices=("nominal", "train", "hard"))
+    p.add_argument(
+        "--min_time_to_move_multiplier",
+        type=float,
+        default=3.0,
+        help="the plugin's goal time in control periods (its default 3: 0.1 s at 30 fps, "
+        "which the driver interpolates linearly and leaves its last velocity behind; above "
+        "6 at 30 fps, > 0.2 s, the driver's quintic ends each goal at rest)",
+    )
     p.add_argument("--camera_port", type=int, default=5591)
     p.add_argument("--control_port", type=int, default=5592)
+    p.add_argument(
+        "--no_return_to_initial",
+        action="store_true",
+        help="lerobot-rollout --return_to_initial_position=false: the arms stay where the "
+        "policy left them until the plugin's disconnect moves them (docs/rehearsal.md)",
+    )
     args = p.parse_args(argv)
     python = os.environ.get("TROSSEN_LEROBOT_PYTHON", "")
     if not python or not Path(python).is_file():
@@ -109,7 +135,19 @@ def main(argv=None) -> int:
             before = len(kit.lines)
             began = time.monotonic()
             proc = subprocess.run(
-                [python, str(PROBE), *rollout_args(policy, cams, link, duration, args.fps)],
+                [
+                    python,
+                    str(PROBE),
+                    *rollout_args(
+                        policy,
+                        cams,
+                        link,
+                        duration,
+                        args.fps,
+                        args.min_time_to_move_multiplier,
+                        not args.no_return_to_initial,
+                    ),
+                ],
                 env=env,
                 capture_output=True,
                 text=True,

@@ -388,6 +388,7 @@ def test_trossens_plugin_rolls_out_a_prepared_checkpoint_on_the_served_kit(train
             "1",
             "--duration",
             "3",
+            "--no_return_to_initial",  # the plugin's shutdown, docs/rehearsal.md
             "--camera_port",
             env_ports[0],
             "--control_port",
