@@ -5,6 +5,8 @@ A checkpoint whose weights are damaged (overwritten with NaN, or trained into Na
 with NaN at every step. In the sim the arm controller's checks would refuse each such setpoint
 as a fault and the run would score it as a policy that fails, exit status 0; through the wire
 the driver refuses it. Both now stop the evaluation with the same one line, exit status 2.
+
+Docs: docs/cli/eval.md.
 """
 
 from __future__ import annotations
@@ -21,7 +23,17 @@ __all__ = ["check_action"]
 def check_action(policy: str, action: Any, index: int, when: str) -> None:
     """A one-line ``UserError`` when the ``action`` ``policy`` returned at episode ``index``
     ``when`` (``"step 3"``) holds NaN or inf, naming both and how many of its values; an action
-    that is not numbers is left to the env (the policy's own error)."""
+    that is not numbers is left to the env (the policy's own error).
+
+    Args:
+        policy: the ``--policy`` text, named in the error.
+        action: what the policy returned: the env's layout, (n_values,) (rad; gripper m).
+        index: the episode index.
+        when: where in the episode, for the error (e.g. ``"step 3"``).
+
+    Raises:
+        UserError: the action holds NaN or inf.
+    """
     try:
         values = np.asarray(action, dtype=float).reshape(-1)
     except (TypeError, ValueError):

@@ -1,31 +1,14 @@
 """ArmPolicyEnv: a single WidowX AI arm's task (``push``, ``pick_place``, ``reach``) in the
-joint flavour, observed and acted on in the arm's 7-value layout (``widowxai``), so a policy
-trained on a single arm's recordings runs in the sim unchanged. The single arm's counterpart
-of ``eval.env.KitPolicyEnv``, with the same interface (what ``eval.runner`` and
-``eval.policies`` read).
+joint flavour, observed and acted on in the arm's 7-value layout (``widowxai``).
 
-- observation: ``agent_pos`` (7,) the measured ``joint_0`` .. ``joint_5`` (rad) and the
-  gripper (``left_carriage_joint`` travel, m), as the recordings' ``qpos``; ``velocity``
-  (7,) (rad/s, m/s); ``environment_state`` the object poses (xyz m + quat wxyz per object,
-  the recordings' ``env_state``); ``goal`` (3,) m, world, for a goal-conditioned task (the
-  recordings' ``goal`` attribute; not a LeRobot feature); with cameras, ``pixels`` =
-  ``{camera: uint8 (H, W, 3)}`` (``overview``, ``cam``). Vectors are float32, clipped into
-  the observation space's bounds.
-- action: the 7 joint goals (rad; gripper m), sent to the arm as the real arm receives them
-  from Trossen's LeRobot plugin (``widowxai_follower_robot``): the driver's trajectory toward
-  the goal over ``3 / fps`` s, its setpoints fed to the position actuators every physics step
-  (``real.arm_controller.KitController`` with one arm).
-- the controller's checks (``controller_checks=True``, the default): every setpoint passes
-  the real arm controller's checks (finite, inside the joint range, no faster than the
-  joint's speed limit); the first refused one is a fault that ends the episode, failed
-  (``info["fault"]``). Off: nothing refused (the unconstrained score).
-- reward: the task's reward (push, pick_place: the shaped reward, higher is better);
-  ``info["stage"]`` the same; ``info["is_success"]``: with the checks on, True at the
-  episode's last step when the task judged it a success at some step and the controller
-  accepted every command; with the checks off, the task's success now.
+The single arm's counterpart of ``eval.env.KitPolicyEnv``, with the same interface: the
+observation's ``agent_pos`` and ``velocity`` are (7,) (``joint_0`` .. ``joint_5`` rad, the
+gripper's carriage travel m), ``environment_state`` the object poses (xyz m + quat wxyz,
+world), ``goal`` (3,) m for a goal-conditioned task and ``pixels`` the cameras; the action is
+the 7 joint goals, sent as Trossen's ``widowxai_follower_robot`` sends them, through the real
+arm controller's checks (a refused setpoint ends the episode, failed).
 
-Rates and seeds as ``KitPolicyEnv`` (``eval.env``): ``reset(seed=s)`` draws the episode
-from ``episode_generator(s)``, never a recording seed's stream.
+Docs: docs/cli/eval.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -69,8 +52,24 @@ ARM_RENDER_CAMERA = "overview"
 class ArmPolicyEnv(gymnasium.Env):
     """A policy's view of a single arm's task (see the module docstring).
 
-    Args: as ``KitPolicyEnv`` (``task`` a single-arm task; ``layout`` only ``widowxai``;
-    ``render()`` without observed cameras shows ``overview`` at 240x320).
+    Args:
+        task: a single-arm task's registered name (or alias).
+        cameras: what the cameras observe (``sim.camera_settings.CameraSettings``: names,
+            (H, W) pixels, crops); default none (state only).
+        fps: policy rate (Hz); default the task's own.
+        episode_length: steps per episode; default the task's recording length at ``fps``.
+        layout: only ``widowxai`` (7 values: ``joint_0`` .. ``joint_5`` rad, gripper m).
+        render_mode: ``rgb_array`` (``render()`` without observed cameras shows
+            ``overview`` at 240x320) or None.
+        controller_checks: apply the real arm controller's checks to every setpoint (a
+            fault ends the episode, failed); False: the unconstrained score.
+        cam_names: the cameras as the command line gives them; not with ``cameras``.
+        image_size: (H, W) or ``"HxW"`` as the command line gives it; not with ``cameras``.
+        crops: ``--crop`` texts; not with ``cameras``.
+        randomize: each episode's scene randomized as the task's ``randomization`` section
+            says, from the episode's seed.
+        randomization: a ``randomization`` section replacing the task's; implies
+            ``randomize``.
 
     Attributes: those of ``KitPolicyEnv`` (``task``, ``cameras``, ``task_description``: the
     running episode's, which names its goal,

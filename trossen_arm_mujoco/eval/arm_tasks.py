@@ -2,7 +2,10 @@
 tasks are a single arm's (``is_arm_task``: sampler derived from
 ``tasks.single_arm.SingleArmSampler``), their 7-value layout (``widowxai``: ``joint_0`` ..
 ``joint_5`` rad, then the gripper's ``left_carriage_joint`` travel m) and their LeRobot
-features (``arm_feature_spec``). The env itself is ``eval.arm_env.ArmPolicyEnv``."""
+features (``arm_feature_spec``). The env itself is ``eval.arm_env.ArmPolicyEnv``.
+
+Docs: docs/cli/eval.md.
+"""
 
 from __future__ import annotations
 
@@ -78,7 +81,14 @@ def arm_feature_spec(
     n_objects: int, cam_names: tuple[str, ...], image_size: tuple[int, int]
 ) -> dict[str, tuple[str, str, tuple[int, ...]]]:
     """What an ``ArmPolicyEnv`` with ``n_objects`` objects observes and takes, as LeRobot
-    features (``eval.env.feature_spec``'s form: env key -> (LeRobot key, kind, shape))."""
+    features (``eval.env.feature_spec``'s form: env key -> (LeRobot key, kind, shape)).
+
+    Args:
+        n_objects: the number of task objects (7 values each in ``environment_state``: xyz m, quat
+            wxyz, world).
+        cam_names: the observed cameras (images (H, W, 3) uint8).
+        image_size: (H, W) of each image, pixels.
+    """
     h, w = image_size
     spec: dict[str, tuple[str, str, tuple[int, ...]]] = {
         "action": (ACTION_KEY, "ACTION", (ARM_LAYOUT.size,)),

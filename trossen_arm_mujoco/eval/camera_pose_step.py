@@ -1,21 +1,14 @@
 """The pose encoder as a step of a checkpoint's saved preprocessor: the policy then observes
 the joints and one camera, and the objects' poses it was trained on come from that camera.
 
-A policy trained on a dataset that ``train.pose_dataset`` derived (its
-``observation.environment_state`` is the encoder's estimate from the camera, not the
-simulation's exact poses) needs the same estimate at run time. :func:`add_to_checkpoint`
-puts the frozen encoder in the checkpoint: a preprocessor step ``trossen_camera_pose``
-(:data:`REGISTRY_NAME`), before the normalizer, that reads the camera's image
-(``observation.images.<camera>``, (B, 3, H, W) in [0, 1], as LeRobot's
-``preprocess_observation`` gives it) and writes ``observation.environment_state`` from it,
-replacing whatever the env gave (the simulation offers the exact poses; they never reach
-the policy). Its weights are the step's state file, so every runner of the checkpoint's
-processors (``trossen-mujoco eval`` in-process and through the wire, LeRobot's tools where
-the env plugin ``lerobot_env_trossen`` is installed) runs it.
-
-Editing the JSON needs no LeRobot; running the step does::
+:func:`add_to_checkpoint` puts the frozen encoder of a ``train.pose_dataset`` dataset in the
+checkpoint: a preprocessor step ``trossen_camera_pose`` (:data:`REGISTRY_NAME`) before the
+normalizer, which reads ``observation.images.<camera>`` ((B, 3, H, W) in [0, 1]) and writes
+``observation.environment_state``. Editing the JSON needs no LeRobot; running the step does::
 
     python -m trossen_arm_mujoco.eval.camera_pose_step CHECKPOINT ENCODER.safetensors CAMERA
+
+Docs: docs/cli/prepare.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -97,7 +90,13 @@ def copy_encoder(folder: str | Path, encoder: str | Path) -> bool:
 def add_to_checkpoint(folder: str | Path, encoder: str | Path, camera: str) -> bool:
     """Put the encoder saved at ``encoder`` (``train.pose_encoder.save_encoder``) in the
     checkpoint ``folder``'s preprocessor, reading ``camera``; again replaces it. False when
-    that very encoder and step were there already."""
+    that very encoder and step were there already.
+
+    Args:
+        folder: the checkpoint folder (``.../pretrained_model``).
+        encoder: the encoder's ``.safetensors`` file.
+        camera: the camera whose image (``observation.images.<camera>``) the step reads.
+    """
     procs = SavedProcessors.load(folder, post=False)
     copied = copy_encoder(folder, encoder)
     add_pose(procs, camera)

@@ -1,16 +1,11 @@
 """A LeRobot checkpoint's files, checked before any episode runs (no LeRobot, no torch).
 
-``trossen-mujoco eval`` loads a checkpoint folder with LeRobot: the weights
-(``model.safetensors``), the saved processors (``policy_preprocessor.json``,
-``policy_postprocessor.json``) and the state files their steps name (the normalizer's
-statistics, ``*.safetensors``). A file that is missing, empty, truncated or not what it should
-be ended in a traceback from deep inside LeRobot, after the env was built. Here each one is a
-one-line ``UserError`` naming the file and what is wrong with it.
+The weights (``model.safetensors``), the saved processors and the state files their steps
+name: each file that is missing, empty, truncated or not what it should be is a one-line
+``UserError`` naming the file, instead of a traceback from deep inside LeRobot. A
+safetensors file is checked from its header and size, without reading its tensors.
 
-A safetensors file is checked without reading its tensors: its 8-byte header length, its JSON
-header (each tensor's dtype, shape and byte range) and its size, which must be the header's
-plus the bytes of every tensor it describes (a file cut short is found; one whose numbers
-were overwritten is not: ``eval`` stops at the first non-finite action instead).
+Docs: docs/cli/eval.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -1,46 +1,16 @@
 """The arm controller's limits as steps of a checkpoint's saved processors, so that every
 runner of the checkpoint sends only goals the real controller accepts.
 
-A learned policy's actions scatter around its training targets, and now and then one
-lands where the real controller refuses it and stops the arm in its error state:
-
-- around a gripper closed to 2 mm on the cube it asks for -1.1 mm (the position check
-  allows 1 mm below the range);
-- at an episode's first step, for a cube at the edge of its spawn region, the state
-  recipe's checkpoints asked ``right_joint_1`` for a 0.26 rad jump, 4.4 rad/s over the
-  plugin's goal time of 3/fps against the joint's 3.375 rad/s (its training data start
-  with the action equal to the state).
-
-The fix travels with the checkpoint. :func:`add_to_checkpoint` adds two steps:
-
-- ``trossen_arm_controller_limits`` (:data:`REGISTRY_NAME`) to ``policy_postprocessor.json``,
-  after the unnormalizer: it clips each value into the range the controller accepts
-  (:func:`controller_bounds`: each joint's range, each gripper 0 .. ``GRIPPER_MAX``, 0.04 m)
-  and, when the measured joints of this observation are known, keeps each joint within
-  :func:`joint_steps` of them: :data:`SPEED_MARGIN` of its velocity limit over the goal
-  time ``GOAL_TIME_FACTOR / fps`` at the checkpoint's rate. Grippers are not held to their
-  measured width (a gripper closed on the cube measures the cube's width while its goal is
-  narrower, which is how it grips): each gripper goal stays within :func:`gripper_rates` of
-  the one before (through the wire, one checkpoint's gripper goal once jumped 6 mm in a
-  period, 0.102 m/s asked against 0.0875, and the served arm faulted).
-- ``trossen_arm_measured_joints`` (:data:`MEASURED_NAME`) to ``policy_preprocessor.json``,
-  before the normalizer: it notes ``observation.state`` (the measured joints, unchanged)
-  for the postprocessor step with the same ``link``.
-
-Like Trossen's plugin's ``max_relative_target`` (which the kit's config leaves off), the
-limit is relative to the measured joints, so it acts at the first step of an episode and
-wherever the policy asks for a jump; in normal motion (the recorded actions lead the state
-by at most 0.08 rad at 50 fps, 0.20 rad allowed for joints 0-2) it does nothing.
-
-LeRobot's tools (``lerobot-eval``, ``lerobot-rollout`` with Trossen's
-``bi_widowxai_follower_robot``, ``lerobot-record``) load the steps wherever the env plugin
-``lerobot_env_trossen`` is installed (LeRobot imports every ``lerobot_env_*`` package at
-start, which registers them); ``trossen-mujoco eval`` registers them itself
-(:func:`register`).
-
-Editing the JSON needs no LeRobot (:func:`add_to_checkpoint`); running the steps does::
+:func:`add_to_checkpoint` adds ``trossen_arm_measured_joints`` (:data:`MEASURED_NAME`) to
+``policy_preprocessor.json`` and ``trossen_arm_controller_limits`` (:data:`REGISTRY_NAME`)
+to ``policy_postprocessor.json``: each action is clipped into the controller's ranges
+(:func:`controller_bounds`), each joint kept within :func:`joint_steps` of its measured
+position and each gripper goal within :func:`gripper_rates` of the one before. Editing the
+JSON needs no LeRobot; running the steps does::
 
     python -m trossen_arm_mujoco.eval.controller_limits_step CHECKPOINT_FOLDER
+
+Docs: docs/cli/prepare.md, docs/train-eval.md; why: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -127,7 +97,13 @@ def joint_steps(size: int, fps: float, layout: str | None = None) -> list[float]
     """Largest distance (rad) of each value's goal from its measured position, per action
     at ``fps``: :data:`SPEED_MARGIN` x the joint's velocity limit x ``GOAL_TIME_FACTOR /
     fps``; 0 for the grippers and the Mobile AI's base velocities (not limited). Same
-    layouts as :func:`controller_bounds`."""
+    layouts as :func:`controller_bounds`.
+
+    Args:
+        size: the number of action values (14 or 16).
+        fps: the checkpoint's action rate (Hz).
+        layout: ``"mobileai"`` for the Mobile AI's 16 values; None: the kit's or the vendor's.
+    """
     if not (math.isfinite(fps) and fps > 0):
         raise UserError(f"fps must be a positive finite number, got {fps}")
     goal_time = GOAL_TIME_FACTOR / float(fps)
@@ -147,7 +123,13 @@ def gripper_rates(size: int, fps: float, layout: str | None = None) -> list[floa
     value. The driver starts each goal from its setpoint, which covers a third of the way
     to the last goal in a period, so goals that change by at most ``d`` per period ask at
     most ``d * fps``: the grippers then never ask more than 0.9 of their limit, whatever the
-    policy gives. Same layouts as :func:`controller_bounds`."""
+    policy gives. Same layouts as :func:`controller_bounds`.
+
+    Args:
+        size: the number of action values (14 or 16).
+        fps: the checkpoint's action rate (Hz).
+        layout: ``"mobileai"`` for the Mobile AI's 16 values; None: the kit's or the vendor's.
+    """
     steps = joint_steps(size, fps, layout)  # checks size and fps
     rate = GRIPPER_RATE_MARGIN * controller_limits()[6].velocity_max / float(fps)
     grippers = {6, 13} if size == 14 or layout == MOBILEAI else {6, 7, 14, 15}
@@ -186,7 +168,14 @@ def _link_of(folder: Path) -> str:
 def add_limits(procs: SavedProcessors, size: int, fps: float | None, layout: str | None) -> None:
     """Put (or bring up to date) the two steps in ``procs`` (in memory): the range for
     ``size`` action values of ``layout``; with ``fps``, the joint steps and gripper rates
-    at that rate and the measured-joints step sharing the limits step's ``link``."""
+    at that rate and the measured-joints step sharing the limits step's ``link``.
+
+    Args:
+        procs: the checkpoint's saved processors, edited in memory.
+        size: the number of action values (14 or 16).
+        fps: the checkpoint's action rate (Hz); None: the ranges only.
+        layout: ``"mobileai"`` for the Mobile AI's 16 values; None: the kit's or the vendor's.
+    """
     if fps is not None and not (isinstance(fps, int | float) and math.isfinite(fps) and fps > 0):
         raise UserError(
             f"the checkpoint's rate must be a positive number of frames per second, got {fps!r}"

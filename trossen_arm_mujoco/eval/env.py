@@ -1,49 +1,15 @@
 """KitPolicyEnv: a bimanual task in the joint flavour, observed and acted on in a dataset's
 layout, so a policy trained on an export runs in the sim unchanged.
 
-One env = one registered bimanual task (``sim_transfer_cube``, ``sim_insertion``) in the
-joint flavour (position actuators, like the real arms), at a chosen rate; or a Mobile AI
-task (``mobile_pick_place``) in the ``mobileai`` layout: the arms as below, then the base's
-``x.vel``, ``theta.vel`` (measured in the state, commanded in the action; clipped to the real
-base's limits and counted, never a fault: ``eval.mobile_base``):
+One env is one registered Stationary AI task (or a Mobile AI task in the ``mobileai``
+layout) at a chosen rate ``fps``. Observations are LeRobot's gym dict (``agent_pos``,
+``velocity``, ``environment_state``, ``pixels``; float32 in the ``kit14`` or ``vendor16``
+layout: rad, gripper m, world-frame object poses); actions are joint goals in the same layout,
+sent as Trossen's LeRobot plugin sends them, through the real arm controller's checks (the
+first refused setpoint ends the episode, failed: ``info["fault"]``). ``reset(seed=s)`` draws
+from a stream of its own (``episode_generator``), never a recording seed's.
 
-- observation (a dict, as LeRobot's gym envs give it): ``agent_pos`` (joint positions),
-  ``velocity`` (joint velocities), ``environment_state`` (object poses: xyz m + quat wxyz
-  per object) and, with cameras, ``pixels`` = ``{camera: uint8 (H, W, 3)}``. Vectors are
-  float32 in the layout's order: ``kit14`` (the real kit's 14 values, default) or
-  ``vendor16`` (the HDF5 files' 16), clipped into the observation space's bounds (joint
-  ranges, velocity caps, the workspace box) as the gym env's state is.
-- action: joint goals in the same layout (rad; gripper m), sent to the arms as the real
-  kit receives them from Trossen's LeRobot plugin: ``set_all_positions(goal, goal_time =
-  3 / fps)``, the driver's trajectory from the current setpoint toward the goal, its
-  setpoints fed to the position actuators every physics step (``real.arm_controller``).
-- the controller's checks (``controller_checks=True``, the default): every setpoint passes
-  the real arm controller's checks (``real.controller_checks``: finite, inside the joint
-  range, no faster than the joint's speed limit), the same code the served kit runs. The
-  first refused setpoint is a fault, as on the real arm: the episode terminates, failed;
-  ``info["fault"]`` says which joint, why, the speed or position asked, the limit and the
-  step. With the checks off nothing is refused (goals outside the joint range are clipped
-  to it, NaN or a wrong length is an error): the unconstrained score of the same motion.
-- reward: the task's (0-4); ``info["stage"]``: the reward stage reached now;
-  ``info["is_success"]``: with the checks on, True at the episode's last step when the
-  task succeeded at some step and the controller accepted every command (so LeRobot's
-  any-step rule scores a faulted episode as failed); with the checks off, the task's
-  success now. ``truncated`` after ``episode_length`` steps; the episode never terminates
-  early but on a fault (an episode's score is the best it reached, as in the ACT paper's
-  evaluation).
-
-Rates: at ``fps`` F the policy acts every 1/F s; physics runs ``ceil((1/F) / 2 ms)`` steps
-per period (the scene's 2 ms at 50 fps, 1/510 s at 30 fps), so every rate is a whole number
-of physics steps, and the controllers tick every physics step (the served kit's rate).
-
-Seeds: ``reset(seed=s)`` draws the episode (object poses) from a generator of its own
-stream (``episode_generator``), never one of the recording seeds ``record`` uses, so an
-evaluation with base seed S never replays a training episode recorded with ``--seed S``.
-
-LEROBOT_KEYS maps each vector observation key to the LeRobot feature it stands for
-(``observation.state``, ``observation.velocity``, ``observation.environment_state``; each
-camera of ``pixels`` is ``observation.images.<cam>``); ``feature_spec`` lists them with their
-shapes, the names the export writes.
+Docs: docs/cli/eval.md, docs/train-eval.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -136,7 +102,15 @@ def feature_spec(
     """What the env observes and takes, as LeRobot features: env key -> (LeRobot key, kind,
     shape), kind one of ``STATE``, ``ENV``, ``VISUAL``, ``ACTION``. Images are (H, W, 3)
     (``cam_names`` and ``image_size``: a ``CameraSettings``' ``names`` and ``size``). A
-    single arm's task (layout ``widowxai``): ``eval.arm_env.arm_feature_spec``."""
+    single arm's task (layout ``widowxai``): ``eval.arm_env.arm_feature_spec``.
+
+    Args:
+        task: registered task name (or alias).
+        cam_names: the observed cameras.
+        image_size: (H, W) of each image, pixels.
+        layout: ``kit14``, ``vendor16`` or ``mobileai``: the order and units of the vectors (rad;
+            gripper m; base m/s, rad/s).
+    """
     from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
 
     if is_arm_task(task):

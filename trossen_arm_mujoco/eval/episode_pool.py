@@ -3,17 +3,10 @@ time, results yielded in episode order.
 
 Each process builds its runner once (``make_runner()``: anything with ``run(index)`` and
 ``close()``) and then takes the next unclaimed episode index from a shared counter until none
-is left, so a process that is slow to start (importing torch and LeRobot, loading the
-policy: about 5 s of CPU each) takes fewer episodes instead of leaving the others idle at
-the end. The calling process is one of the workers: it starts the others first, then builds
-its own runner while they start (torch and LeRobot already imported in it cost nothing
-again), and runs episodes between collecting theirs.
+is left, so a process slow to start takes fewer episodes. Children are spawned, never forked,
+and send each result (or the error that stopped them) through a queue.
 
-Spawned, never forked: the caller may hold torch's thread pools or an EGL context, which a
-forked child would inherit in a broken state. A child sends each result, or the error that
-stopped it, through a queue; once the counter is exhausted it closes its runner and leaves
-without the interpreter's teardown of torch and LeRobot (``os._exit`` after flushing the
-queue and the standard streams), which the caller would otherwise wait for.
+Docs: docs/cli/eval.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -121,7 +114,17 @@ def run_episodes(
     callable or a ``functools.partial`` of one). The spawned ones inherit this process's
     environment as it is when this generator starts. A worker's UserError is one UserError
     here; another error is raised again here with the worker's traceback as its cause; a
-    worker ending without its result is a UserError (``WORKER_DIED``)."""
+    worker ending without its result is a UserError (``WORKER_DIED``).
+
+    Args:
+        make_runner: builds a process's runner (``run(index)``, ``close()``); pickled to the spawned
+            workers.
+        n: the number of episodes.
+        workers: the number of processes, this one included.
+
+    Raises:
+        UserError: a worker's UserError, or a worker that ended without its result.
+    """
     ctx = multiprocessing.get_context("spawn")
     counter, results = ctx.Value("i", 0), ctx.Queue()
     children = [

@@ -1,14 +1,12 @@
 """A LeRobot ``PreTrainedPolicy`` checkpoint (ACT, diffusion, ...) driving a ``KitPolicyEnv``.
 
 The checkpoint folder is what ``lerobot-train`` saves (``.../checkpoints/last/
-pretrained_model``: ``config.json``, the weights and the saved pre/post-processors; the
-``checkpoints/<step>`` folder above it is accepted too). Before anything runs, the policy's
-input features are held against the env's (names and shapes: cameras, image size, the
-14- or 16-value layout, the objects' poses): a mismatch is one line naming the features
-that differ. Each step runs LeRobot's own path: ``preprocess_observation``, the task
-description, the saved preprocessor, ``select_action``, the saved postprocessor.
+pretrained_model``, or the ``checkpoints/<step>`` folder above it). The policy's input
+features are held against the env's before anything runs (a mismatch is one line); each step
+runs LeRobot's own path: ``preprocess_observation``, the saved preprocessor,
+``select_action``, the saved postprocessor. LeRobot (Python >= 3.12) is imported only here.
 
-LeRobot (Python >= 3.12) is imported only here.
+Docs: docs/cli/eval.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -226,7 +224,13 @@ def _lerobot_version() -> str:
 
 
 class LeRobotPolicy:
-    """A checkpoint loaded for one env (see the module docstring)."""
+    """A checkpoint loaded for one env (see the module docstring).
+
+    Args:
+        path: the checkpoint folder (``.../pretrained_model`` or ``checkpoints/<step>``).
+        env: the env it drives; its features are checked against the policy's.
+        device: torch device (``"cpu"``, ``"cuda"``).
+    """
 
     def __init__(self, path: str | Path, env: KitPolicyEnv, device: str = "cpu"):
         import_lerobot()

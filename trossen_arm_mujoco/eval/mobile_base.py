@@ -1,19 +1,12 @@
 """The Mobile AI's base in eval's kit env (``eval.env.KitPolicyEnv``, layout ``mobileai``).
 
-A Mobile AI task (its sampler drives the robot ``mobile_ai``; ``mobile_names``) is observed
-and acted on in the ``mobileai`` layout (``robot.layout.MOBILEAI_LAYOUT``), as Trossen's
-``mobileai_robot`` reads and commands the real robot: the arms' 14 values as on the
-Stationary AI kit (they go through the same arm controller model and its checks), then the
-base's ``x.vel`` (m/s) and ``theta.vel`` (rad/s): measured in ``agent_pos`` and
-``velocity``, commanded in the action.
+A Mobile AI task is observed and acted on in the ``mobileai`` layout, as Trossen's
+``mobileai_robot`` reads and commands the real robot: the arms' 14 values, then the base's
+``x.vel`` (m/s) and ``theta.vel`` (rad/s). Base commands are clipped to the real base's
+limits (+-1.0 m/s, +-1.0 rad/s) and counted, never a fault; a non-finite one is a fault with
+the checks on and a ``UserError`` with them off.
 
-What the arm controller's checks mean for the base: the base has no joint-range or speed
-fault. Its commands go to the robot's ``base_velocity`` controller, which clips them to the
-real base's limits (+-1.0 m/s, +-1.0 rad/s), as trossen_slate's ``set_cmd_vel`` does, and
-counts them (``clipped``; docs: Models, "The base in the robot layer"); a clipped command is
-no fault and does not fail the episode. A command that is not a finite number is a fault
-with the checks on (the real ``set_cmd_vel`` would turn a NaN into full reverse speed) and a
-``UserError`` with them off, as for the arms.
+Docs: docs/cli/eval.md, docs/concepts/models.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

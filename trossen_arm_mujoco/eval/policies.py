@@ -1,20 +1,13 @@
 """The policies ``trossen-mujoco eval`` runs: what ``--policy`` names, made ready for one env.
 
-- ``scripted``: the task's scripted policy, as ``record`` runs it (a mocap rollout from the
-  episode's object poses, its joint trajectory replayed at the env's rate with the export's
-  action rule, ``export.lerobot_plan.frame_map``): the reference row. A scripted policy
-  that acts in a joint layout (``mobile_pick_place``'s, in ``mobileai``) runs closed-loop on
-  the env's episode, as ``record`` records it (``ClosedLoopScriptedPolicy``). A single
-  arm's scripted policy (``action_layout = "arm_ee"``: push, pick_place) is planned as
-  ``record``'s phase 1 runs it (``collect.single_arm``: the arm's ``ee_pose`` controller
-  within the real speed limits) on the env's episode (its objects' poses and goal), and
-  its 7 joint targets are replayed at the env's rate (``ArmScriptedPolicy``).
-- ``module:function``: a plain Python callable ``function(observation) -> action`` (the
-  env's observation dict; an action in the env's layout); an optional ``reset()``
-  attribute is called at every episode start.
+- ``scripted``: the task's scripted policy, as ``record`` runs it (the reference row);
+- ``module:function``: a plain callable ``function(observation) -> action`` in the env's
+  layout (an optional ``reset()`` attribute is called at every episode start);
 - a path: a LeRobot ``PreTrainedPolicy`` checkpoint (``eval.lerobot_policy``).
 
 Every policy has ``reset(env)`` (called after ``env.reset``) and ``act(observation)``.
+
+Docs: docs/cli/eval.md; the scripted variants: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -218,7 +211,13 @@ def is_function_spec(spec: str) -> bool:
 
 
 def make_policy(spec: str, env: KitPolicyEnv, device: str = "cpu") -> Policy:
-    """The policy ``--policy spec`` names, checked against ``env``'s features."""
+    """The policy ``--policy spec`` names, checked against ``env``'s features.
+
+    Args:
+        spec: ``scripted``, ``module:function`` or a checkpoint folder.
+        env: the env the policy acts in (``KitPolicyEnv`` or ``ArmPolicyEnv``).
+        device: torch device of a checkpoint's policy.
+    """
     if spec == "scripted":
         from trossen_arm_mujoco.tasks import registry
 

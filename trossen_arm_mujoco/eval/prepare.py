@@ -1,20 +1,13 @@
 """Make a LeRobot checkpoint trained on this project's export deployable by any runner.
 
-``trossen-mujoco prepare CHECKPOINT`` puts in the checkpoint's saved processors every step
-a runner needs to give the policy what training gave it and the arms only what their
-controller accepts (the step classes: ``eval.steps``):
+``trossen-mujoco prepare CHECKPOINT`` puts in the checkpoint's saved processors every step a
+runner needs (the step classes: ``eval.steps``): the image step (``trossen_camera_image``)
+when its cameras were cropped or resized, the pose encoder (``trossen_camera_pose``) when it
+was trained on a ``train.pose_dataset`` dataset, and always the controller's limits. What it
+was trained with comes from ``export.dataset_settings.checkpoint_settings``. Preparing twice
+leaves the checkpoint as once; plain JSON (LeRobot is needed to run the steps, not to add).
 
-- the image step (``trossen_camera_image``), when its cameras were cropped or recorded at
-  another size than the whole 480x640 frame: a whole frame becomes the trained images;
-- the pose encoder (``trossen_camera_pose``), when the checkpoint was trained on a dataset
-  that ``train.pose_dataset`` derived (its encoder lies in the dataset's
-  ``meta/pose_encoder.safetensors``; ``--encoder`` names another);
-- the controller's limits (``trossen_arm_measured_joints`` and
-  ``trossen_arm_controller_limits``).
-
-What the checkpoint was trained with comes from its settings
-(``export.dataset_settings.checkpoint_settings``). Preparing twice leaves the checkpoint as
-once. Plain JSON: LeRobot is needed to run the steps, not to add them.
+Docs: docs/cli/prepare.md.
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 written all or none (``trossen-mujoco prepare``, ``eval.prepare``).
 
 Plain JSON: no LeRobot import, so a checkpoint is prepared where only the simulator runs.
+
+Docs: docs/cli/prepare.md.
 """
 
 from __future__ import annotations
@@ -144,7 +146,15 @@ def place_step(
     """Put ``step`` (a saved processor step, ``registry_name`` ``name``) in ``steps``: in
     place of the step of that name when there is one, else right after the step named
     ``after``, else right before the one named ``before``, else last. True when ``steps``
-    changed (False: that very step was there already)."""
+    changed (False: that very step was there already).
+
+    Args:
+        steps: a saved processor's steps, edited in place.
+        name: the step's ``registry_name``.
+        step: the step as saved (``registry_name``, ``config``, ``state_file``).
+        after: put it right after the step of this name (when there is one).
+        before: else right before the step of this name.
+    """
     for i, s in enumerate(steps):
         if s.get("registry_name") == name:
             if s == step:

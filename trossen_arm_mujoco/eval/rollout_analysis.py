@@ -2,26 +2,12 @@
 were doing, written as ``rollouts.json`` next to ``eval_info.json``.
 
 A :class:`RolloutRecorder` is fed the env after every step of an episode (``EpisodeRunner``
-does it); it reads the sim through the running task (``env.episode``): the task's reward,
-the task's own contact check (``BimanualTask.left_touches_object``) and the grippers' finger
-opening (``GripperGroup.inter_finger_dist``, m: 0 closed, about 0.088 fully open). Steps are
-0-based action indices: step ``k`` is the state after the policy's ``k``-th action, at
-``(k + 1) / fps`` s after the reset.
+does it) and reads the running task: its reward, its contact check and the grippers' finger
+opening (m). Step ``k`` is the state after the policy's ``k``-th action, ``(k + 1) / fps`` s
+after the reset. :meth:`RolloutRecorder.summary` gives one episode's record,
+:func:`rollouts_report` the aggregate over episodes.
 
-Per episode (``RolloutRecorder.summary``)::
-
-    stage_steps {stage: first step it was reached | null}, stage_times_s {stage: s | null},
-    stopped {reached: furthest stage | null, missed: the next stage} (failed episodes only),
-    fault {joint, kind, asked, limit, reason, step}: the arm controller's fault that ended
-               the episode (only when one did),
-    transfer:  release {step, time_s, left_gap_m, right_gap_m, left_touching} | null: the
-               step at which the right fingers began opening after the cube was lifted
-    insertion: end {left_gap_m, right_gap_m}: the finger openings at the last step
-    a single arm's task (push, pick_place): end {gripper_gap_m}: its one gripper's opening
-
-Aggregated (``rollouts_report``): failed episodes counted by the furthest stage they reached
-(``"none"`` for none), controller faults counted by joint and kind, and the median left-gap
-at release of failed and successful episodes.
+Docs: docs/cli/eval.md; the record's fields: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -176,7 +162,13 @@ def _median(values: list[float]) -> float | None:
 def rollouts_report(task: str, scores: Sequence[EpisodeScore], fps: float) -> dict[str, Any]:
     """The content of ``rollouts.json``: each episode's analysis (``EpisodeScore.analysis``)
     and the aggregate (failed episodes by the furthest stage reached; the median left-finger
-    gap at release, m, of failed and successful episodes)."""
+    gap at release, m, of failed and successful episodes).
+
+    Args:
+        task: the task's registered name (its stages).
+        scores: the episodes' scores, each with its ``analysis``.
+        fps: the policy rate (Hz).
+    """
     failed: dict[str, int] = {}
     faults: dict[str, int] = {}
     gaps: dict[str, list[float]] = {"failed": [], "succeeded": []}

@@ -1,26 +1,14 @@
 """Run a policy over evaluation seeds in the sim, on local worker processes or Ray.
 
 Episode ``i`` of a run with base seed S is ``env.reset(seed=S + i)``, the seeds
-``lerobot-eval --seed S`` uses, so both tools score the same episodes (and, through
-``eval.env.episode_generator``, none of them is a recording episode). Each worker builds
-its env and policy once; episodes come back in order; the first ``videos`` rollouts are
-written as mp4 (``videos/eval_episode_<i>.mp4``). The scores go to ``eval_info.json``
-(``eval.scores``); what happened in each rollout (stage times, the grippers) rides on each
-score as ``EpisodeScore.analysis`` (``eval.rollout_analysis``).
+``lerobot-eval --seed S`` uses, so both tools score the same episodes (none of them a
+recording episode). Each worker builds its env and policy once; episodes come back in order;
+the first ``videos`` rollouts are written as mp4. The scores go to ``eval_info.json``
+(``eval.scores``), each rollout's analysis to ``rollouts.json`` (``eval.rollout_analysis``).
+Local workers share episodes through ``eval.episode_pool``, each with its share of the CPU
+threads (``threads_per_worker``).
 
-N > 1 local workers are this process and N - 1 spawned ones (``eval.episode_pool``): the
-spawned ones start first, this one builds its runner while they do (a torch and LeRobot it
-imported before cost nothing again), and every worker takes the next episode when it is
-free, so one slow to start (importing torch and LeRobot: about 5 s of CPU) runs fewer
-episodes instead of idling the others at the end. Which process runs an episode does not
-change its score.
-
-Threads: with N local workers on C usable cores (``processes.available_cpus``), each
-worker's torch and its OpenMP / MKL / OpenBLAS pools get ``max(1, C // N)`` threads
-(``threads_per_worker``): the variables are in a spawned worker's environment before it
-imports numpy or torch, and ``torch.set_num_threads`` runs before the policy is built (in
-this process too, whose torch thread count is put back afterwards). Without the limit every
-worker's torch would use every core, and two workers ran slower than one.
+Docs: docs/cli/eval.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -322,6 +310,15 @@ def evaluate(
     """Run the evaluation; returns the ``eval_info.json`` content (not written here).
 
     ``on_episode`` is called with each episode's score as it arrives (a progress bar).
+
+    Args:
+        settings: what every episode shares (task, policy, seeds, cameras, rate, layout).
+        num_workers: worker processes (this one included with ``local``).
+        engine: ``local`` or ``ray``.
+        on_episode: called with each episode's score as it arrives.
+
+    Raises:
+        UserError: an unknown engine, or a worker's one-line error.
     """
     if engine not in ENGINES:
         from trossen_arm_mujoco.errors import unknown_name_error

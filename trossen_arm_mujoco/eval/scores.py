@@ -2,19 +2,11 @@
 written as ``eval_info.json`` in ``lerobot-eval``'s layout.
 
 An episode's success is whether the task judged it a success at any step (LeRobot's rule,
-and the ACT paper's: the best reward reached); its stages are the reward levels it reached
-(``STAGES``: the ACT paper's stage-wise rates). ``eval_info.json`` holds::
+and the ACT paper's); its stages are the reward levels it reached (``STAGES``). The file
+holds ``per_episode`` rows (each with its controller ``fault``, or null), ``aggregated``
+(with ``pc_success_ci95``), ``overall``, ``video_paths`` and ``controller``.
 
-    per_episode:  [{episode_ix, seed, sum_reward, max_reward, success, stages{...}}]
-    aggregated:   {avg_sum_reward, avg_max_reward, pc_success, pc_success_ci95 [lo, hi],
-                   n_episodes, stages {name: pc}, eval_s, eval_ep_s}
-    overall:      the aggregated numbers as lerobot-eval 0.6 names them at its top level
-    video_paths:  the rollout videos
-    controller:   {checks, faulted_episodes, faults_by_joint, faults_by_reason,
-                   peak_speed_fraction {value: largest asked speed / its limit}}
-
-Each ``per_episode`` row also carries ``fault`` (the arm controller's fault that ended it:
-joint, kind, asked, limit, reason, step; null when none).
+Docs: docs/cli/eval.md; the file's fields: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -65,7 +57,13 @@ STAGES: Mapping[str, dict[str, float]] = _Stages()
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
-    """95% Wilson score interval of a success rate, in percent (0, 0 for n = 0)."""
+    """95% Wilson score interval of a success rate, in percent (0, 0 for n = 0).
+
+    Args:
+        successes: the number of successful episodes.
+        n: the number of episodes.
+        z: the normal quantile (1.96: 95 %).
+    """
     if n <= 0:
         return 0.0, 0.0
     p = successes / n
@@ -105,7 +103,13 @@ def stages_reached(task: str, max_reward: float) -> dict[str, bool]:
 
 
 def aggregate(task: str, episodes: Sequence[EpisodeScore], seconds: float) -> dict[str, Any]:
-    """The ``aggregated`` block of ``eval_info.json``."""
+    """The ``aggregated`` block of ``eval_info.json``.
+
+    Args:
+        task: the task's registered name (its stages).
+        episodes: the episodes' scores.
+        seconds: the evaluation's wall time (s).
+    """
     n = len(episodes)
     wins = sum(e.success for e in episodes)
     lo, hi = wilson_interval(wins, n)
@@ -159,7 +163,16 @@ def eval_info(
     video_paths: Sequence[str] = (),
     run: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """The content of ``eval_info.json`` (see the module docstring)."""
+    """The content of ``eval_info.json`` (see the module docstring).
+
+    Args:
+        task: the task's registered name (its stages).
+        episodes: the episodes' scores.
+        seconds: the evaluation's wall time (s).
+        video_paths: the rollout videos written.
+        run: how the run was made (settings), kept as ``run``; its ``controller_checks`` says
+            whether the checks were on.
+    """
     agg = aggregate(task, episodes, seconds)
     overall = {
         k: agg[k]

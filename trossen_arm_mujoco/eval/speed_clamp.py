@@ -1,19 +1,12 @@
 """The real arms' speed limits applied to a stream of position goals (``eval --backend wire
 --speed_limit_fraction F``).
 
-A learned policy's consecutive actions can jump (ACT's chunk boundaries, a missed control
-period): sent to an arm controller as a goal to reach within ``goal_time``, such a jump asks
-for more than the joint's speed limit and the controller faults (the served kit, like the
-real one, reports "feedforward velocity ... exceeds the velocity limit"). The driver moves
-toward each new goal along a smooth profile whose peak speed is up to ``PEAK_TO_MEAN`` times
-the mean. ``SpeedClamp`` keeps each goal within ``F * limit * goal_time / PEAK_TO_MEAN`` of
-the arm's measured position and counts the goals it had to shorten.
+A policy's consecutive actions can jump, and a goal to reach within ``goal_time`` then asks
+for more than a joint's speed limit (the controller faults). ``SpeedClamp`` keeps each goal
+within ``F * limit * goal_time / PEAK_TO_MEAN`` of the arm's measured position and counts
+the goals it had to shorten.
 
-Measured (docs/rehearsal.md, "Measured"): with ``F`` 0.9 no arm faulted, where the same
-policy sent as is faulted in 19 of 20 episodes; the price is motion: a gripper squeezing an
-object sits millimetres short of its goal, so the squeeze is capped too, and success stayed
-below the in-process score. Basing the step on the previous goal instead did not stop the
-faults (the driver's trajectory carries its velocity into the next goal).
+Docs: docs/rehearsal.md (Measured); why: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

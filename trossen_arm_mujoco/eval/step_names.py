@@ -1,7 +1,10 @@
 """The registry names of this project's steps in a LeRobot checkpoint's saved processors
 (``policy_preprocessor.json``, ``policy_postprocessor.json``): shared by the JSON side
 (``eval.prepare`` and the modules it calls, no LeRobot) and the step classes
-(``eval.steps``)."""
+(``eval.steps``).
+
+Docs: docs/cli/prepare.md.
+"""
 
 from __future__ import annotations
 

@@ -1,33 +1,14 @@
 """``eval --backend wire``: a policy driven through the served kit, in wall-clock time.
 
-The rehearsal of a deployment: the policy reads the joints through the ``trossen_arm``
-driver and the images from the kit's ZeroMQ camera stream, and sends its actions through
-the driver, at its own rate (``fps``) by the wall clock, while the served kit steps in real
-time in its own process (``serve``, started here, or one already running: ``connect``) and
-scores the episode (``twin.episode_control``). The policies are ``eval``'s
-(``eval.policies.make_policy``: scripted, ``module:function``, LeRobot checkpoints).
+The rehearsal of a deployment: the policy (``eval.policies.make_policy``) reads the joints
+through the ``trossen_arm`` driver and the images from the kit's ZeroMQ camera stream, and
+sends its actions through the driver at its own rate by the wall clock, while the served kit
+(``serve``, started here or already running) steps in real time and scores the episode.
+Episode ``i`` is the scene of the in-process eval's ``env.reset(seed=S + i)``. Per episode it
+measures observation age and action latency (ms) and missed control periods; an episode
+fails on an action timeout, a stale camera stream or an arm fault.
 
-Seeds: episode ``i`` is the scene of the in-process eval's ``env.reset(seed=S + i)``: the
-objects' poses are drawn here by a ``KitPolicyEnv`` reset with that seed (never stepped)
-and sent with ``start``; the two scores of the same seeds sit side by side.
-
-Per episode: the policy is reset (a scripted plan is made) before ``start``; then per step
-``k`` (deadline ``t0 + k / fps``): read the arms (positions, velocities), the newest image of
-each camera and the sim-only ``environment_state`` (the control channel's ``status``), call
-the policy, send the action (``set_all_positions(goal, GOAL_TIME_FACTOR / fps,
-blocking=False)`` per arm, as ``replay-real`` streams). Measured per episode: observation
-age (ms: action send time minus the time of the state the images show, or of the joint read
-without cameras), action latency (ms: observation read start to action sent), missed
-control periods (deadlines passed with no action sent: the loop skips to the next one, as a
-real control loop drops frames). An episode fails, with its reason in ``rollouts.json``,
-when the policy sends no action for ``action_timeout`` s, the camera stream stops (no image
-newer than ``STALE_S``) or an arm controller goes into its error state (only a driver call
-that raises counts as that fault); a policy still stuck when the next episode starts ends the
-run with one line. A policy that raises (or returns something that is not numbers) ends the
-run as under ``--backend sim``: a ``PolicyCallError`` naming the policy, episode and step
-(``eval`` prints it as one ``error:`` line, then the policy's traceback; exit status 1).
-With ``speed_fraction`` each goal is first shortened to that share of the real speed limits
-(``eval.speed_clamp``); the number of shortened goals is in the timing block.
+Docs: docs/rehearsal.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -126,7 +107,15 @@ class _Timing:
 
 class WireEpisodeRunner:
     """The served kit (started unless ``link.connect``), its links, and the policy; runs
-    episodes by index like ``runner.EpisodeRunner``."""
+    episodes by index like ``runner.EpisodeRunner``.
+
+    Args:
+        settings: what every episode shares (as ``runner.evaluate``).
+        link: the served kit's addresses and ports.
+        action_timeout: seconds without an action from the policy before the episode fails.
+        speed_fraction: shorten each goal to this share of the real speed limits
+            (``eval.speed_clamp``); None: goals as sent.
+    """
 
     def __init__(
         self,
@@ -378,7 +367,16 @@ def evaluate_wire(
     """Run the evaluation through the served kit; returns ``eval_info.json``'s content
     (as ``runner.evaluate``) with a ``timing`` block: per episode and over all actions
     (observation age and action latency, median and p95 ms; missed control periods; goals
-    shortened to ``speed_fraction`` of the speed limits, None when not asked)."""
+    shortened to ``speed_fraction`` of the speed limits, None when not asked).
+
+    Args:
+        settings: what every episode shares (as ``runner.evaluate``).
+        link: the served kit's addresses and ports.
+        action_timeout: seconds without an action from the policy before the episode fails.
+        on_episode: called with each episode's score as it arrives.
+        speed_fraction: shorten each goal to this share of the real speed limits; None: goals as
+            sent.
+    """
     start = time.perf_counter()
     runner = WireEpisodeRunner(settings, link, action_timeout, speed_fraction)
     scores: list[EpisodeScore] = []

@@ -6,6 +6,8 @@ and, for the scripted policy, the episode's object poses (and a single arm's goa
 single arm's ``ArmPolicyEnv``, that only draws scenes: reset with a seed, never stepped,
 never rendered) and converts between the env's layout and the driver's values (per arm: 6
 joints rad, gripper m; the kit's 14, a single arm's 7).
+
+Docs: docs/rehearsal.md.
 """
 
 from __future__ import annotations

@@ -1,19 +1,13 @@
 """The client side of a served kit, for ``eval --backend wire``: the ``serve`` process, its
-episode control channel, its camera stream and its two arms through the ``trossen_arm``
-driver. Every address is checked to be IPv4 loopback (127.0.0.0/8) before it is used.
+episode control channel, its camera stream and its arms through the ``trossen_arm`` driver.
 
-- :class:`KitLink` settings (addresses, ports) and :func:`start_kit` (``serve`` in a child
-  process with ``--cameras`` and ``--control_port``; ``connect`` uses one already running).
-  The child dies with this process: on Linux the kernel sends it SIGTERM when its parent
-  ends (``PR_SET_PDEATHSIG``, even after a SIGKILL), and everywhere it watches its parent
-  (``serve --parent_pid``) and stops once it is gone. :func:`stop_kit` stops it with
-  SIGTERM, which its ``serve`` always handles (SIGINT may be ignored: a background job).
-- :class:`ControlClient`: the JSON-lines channel of ``twin.episode_control``.
-- :class:`CameraReader`: a ZeroMQ SUB socket on the stream of ``twin.camera_stream``; keeps
-  the latest image per camera and its timestamp (wall-clock s of the state shown).
-- :class:`ArmPair`: both arms through ``trossen_arm`` (a single arm's task: its one arm, on
-  the left arm's address): position mode, 7 values per arm (6 joints rad, gripper m), read
-  (positions, velocities) and command.
+:class:`KitLink` (addresses, ports, all IPv4 loopback) and :func:`start_kit` / :func:`stop_kit`
+(``serve`` as a child that dies with this process); :class:`ControlClient` (the JSON-lines
+channel of ``twin.episode_control``); :class:`CameraReader` (the newest image per camera and
+its wall-clock timestamp, s); :class:`ArmPair` (both arms, or a single arm's one, in position
+mode: 7 values per arm, 6 joints rad then the gripper m).
+
+Docs: docs/rehearsal.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -86,7 +80,18 @@ def start_kit(
     """``serve`` in a child process for ``link``, publishing ``cams`` at ``size`` and ``fps``;
     returns once it serves. A child that exits first is a ``UserError`` with its last line.
     The child ends with this process (see the module doc); on Linux with the thread that
-    called this one, so call it from the thread that will :func:`stop_kit` it."""
+    called this one, so call it from the thread that will :func:`stop_kit` it.
+
+    Args:
+        link: the addresses and ports to serve on (loopback).
+        task: the registered task to serve.
+        cams: the cameras to publish.
+        size: (H, W) of the images, pixels.
+        fps: the camera stream's rate (Hz).
+
+    Raises:
+        UserError: the child exits before it serves (with its last line).
+    """
     from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
 
     # a single arm's task: its one arm on the left arm's address
@@ -184,7 +189,13 @@ def stop_kit(proc: subprocess.Popen | None) -> list[str]:
 
 
 class ControlClient:
-    """The kit's episode control channel (``twin.episode_control``)."""
+    """The kit's episode control channel (``twin.episode_control``).
+
+    Args:
+        host: the channel's loopback address.
+        port: its TCP port.
+        timeout: seconds to wait for a reply.
+    """
 
     def __init__(self, host: str, port: int, timeout: float = 15.0) -> None:
         host = check_loopback(host, "--kit_host")
@@ -267,7 +278,13 @@ class CameraReader:
             return dict(self.latest)
 
     def wait_newer(self, names: tuple[str, ...], after: float, timeout: float) -> bool:
-        """Wait until every camera of ``names`` has an image stamped after ``after``."""
+        """Wait until every camera of ``names`` has an image stamped after ``after``.
+
+        Args:
+            names: the cameras to wait for.
+            after: wall-clock time (s, ``time.time()``) the images must be stamped after.
+            timeout: seconds to wait; False when they are not all newer by then.
+        """
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             got = self.frames()
@@ -300,7 +317,13 @@ def _side_of_error(side: str, errors: tuple[type[BaseException], ...]) -> Iterat
 class ArmPair:
     """Both arms through ``trossen_arm`` (``configure`` with the follower preset, position
     mode); :meth:`read` gives 14 values (left then right: 6 joints rad, gripper m).
-    ``right_ip`` None: one arm (a single arm's task), 7 values, its errors side ``""``."""
+    ``right_ip`` None: one arm (a single arm's task), 7 values, its errors side ``""``.
+
+    Args:
+        left_ip: the left arm's loopback address (a single arm's one arm).
+        right_ip: the right arm's; None: one arm.
+        timeout: the driver's timeout (s).
+    """
 
     def __init__(self, left_ip: str, right_ip: str | None, timeout: float = 10.0) -> None:
         from trossen_arm_mujoco.real.driver import (

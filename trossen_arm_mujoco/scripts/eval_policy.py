@@ -4,21 +4,12 @@
     trossen-mujoco eval --policy outputs/train/act/checkpoints/last/pretrained_model \\
         --task_name sim_transfer_cube --num_episodes 50 --num_workers 2 --videos 2
 
-``--policy`` is ``scripted`` (the task's scripted policy: the reference row), a
-``module:function`` (a callable observation -> action), or a LeRobot checkpoint folder
-(ACT, diffusion, ...: its saved processors are used; the cameras, image size and layout
-default to the ones it was trained on). Episode ``i`` is ``env.reset(seed=S + i)``, as
-``lerobot-eval --seed S``; no evaluation episode is a recording episode. Writes
-``--output_dir/eval_info.json`` (``trossen_arm_mujoco.eval.scores``), ``rollouts.json`` (stage
-times and what the grippers did, per episode: ``trossen_arm_mujoco.eval.rollout_analysis``)
-and the mp4 of the first ``--videos`` rollouts. An ``--output_dir`` that cannot be written is
-refused before the first episode; a ``module:function`` policy that raises is one ``error:``
-line naming the policy, episode and step, then the policy's traceback (exit status 1).
+``--policy`` is ``scripted``, a ``module:function`` or a LeRobot checkpoint folder. Episode
+``i`` is ``env.reset(seed=S + i)``, as ``lerobot-eval --seed S``. Writes
+``--output_dir/eval_info.json``, ``rollouts.json`` and the first ``--videos`` rollouts' mp4;
+``--backend wire`` runs the same through the served kit in wall-clock time.
 
-``--backend wire`` runs the same policies and seeds through the served kit instead, in
-wall-clock time: joints and actions through the ``trossen_arm`` driver, images from the
-kit's ZeroMQ camera stream, the kit scoring; ``eval_info.json`` gains a ``timing`` block
-(``trossen_arm_mujoco.eval.wire_backend``; docs/rehearsal.md).
+Docs: docs/cli/eval.md, docs/rehearsal.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -2,16 +2,11 @@
 checkpoint's preprocessor.
 
 A policy trained on ``record --crop`` episodes saw a rectangle of the camera's 480x640 frame
-at a small size (the camera recipes: a 150x200 crop of ``cam_high`` at 60x80). A runner that
-hands the policy the camera's whole frame (Trossen's LeRobot plugin does) must cut and scale
-it the same way; with this step in the checkpoint's preprocessor every runner does. The cut
-and the scaling are ``sim.camera_crop.crop_frame``'s, the function the wire backend used
-before, on the frame as 8-bit pixels: what the policy sees from a served or real frame is
-what the trained images were made from.
+at a small size; this step cuts and scales any runner's whole frame the same way
+(``sim.camera_crop.crop_frame``, on 8-bit pixels). A frame already at the trained size passes;
+any other size of the 4:3 frame is taken as the whole frame; another shape is a ``ValueError``.
 
-A frame already at the trained size passes unchanged (the in-process env renders the crop
-straight at that size). Any other size of the 4:3 frame is taken as the whole frame (the
-rectangle is scaled to it); any other shape is a ``ValueError`` naming both.
+Docs: docs/cli/prepare.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

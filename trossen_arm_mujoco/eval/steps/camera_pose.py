@@ -4,6 +4,8 @@ The checkpoint's step (``eval.camera_pose_step.add_to_checkpoint`` puts it there
 camera's image (``observation.images.<camera>``, float (B, 3, H, W) in [0, 1] at the trained
 size: :mod:`.camera_image` runs before it) and writes the objects' poses the frozen encoder
 of the step's state file estimates, replacing whatever the env gave.
+
+Docs: docs/cli/prepare.md.
 """
 
 from __future__ import annotations

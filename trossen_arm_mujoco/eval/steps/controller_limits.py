@@ -7,6 +7,8 @@ accepts, near those joints. The two steps of one loaded policy are paired when L
 builds them: each step waits for the first unpaired step of the other kind with the same
 ``link`` (the checkpoint's token), so two policies loaded from one checkpoint in one process
 (pre, post, pre, post, or both pre first) keep their own measured joints.
+
+Docs: docs/cli/prepare.md.
 """
 
 from __future__ import annotations
