@@ -4,41 +4,14 @@
     trossen-mujoco serve --record demo --cam_names cam_high --image_size 240x320
     trossen-mujoco serve --task_name pick_place --ip 127.0.0.2   # the single WidowX AI arm
 
-A single arm's task (``push``, ``pick_place``, ``reach``) serves its one WidowX AI arm
-(``twin.arm_world``) on ``--ip`` (or ``--left_ip``; default 127.0.0.2), driven like a real
-WidowX AI (Trossen's ``widowxai_follower_robot``), with the task's cube and goal; ``--cameras``
-(``overview``, ``cam``) and ``--control_port`` as for the kit (its ``start`` also takes the
-episode's ``goal``); ``--record`` is the kit's only.
+One kit world (or a single arm's task's one arm) steps in real time; each arm answers the
+``trossen_arm`` driver on its own loopback address (127.0.0.0/8 only) as a real arm
+controller does. ``--record DIR`` writes the clients' sessions as episodes; ``--cameras``
+and ``--control_port`` rehearse a deployment (ZeroMQ cameras, an episode control channel);
+``--role leader --replay EPISODE.hdf5`` serves two leader arms replaying an episode. Ctrl-C,
+SIGTERM or SIGHUP stops serving cleanly (exit 0), the episode under way written.
 
-One kit world (both arms and the task's objects, placed as ``record --seed S`` places its
-episode 0) steps in real time; each arm answers the ``trossen_arm`` driver (and anything
-built on it, e.g. Trossen's LeRobot plugin) on its own loopback address, as a real arm
-controller does on the network: ``configure``, modes, position / velocity / effort commands,
-joint limits, faults (a command past the joint limits or speed limits puts that arm in the
-controller's error state; ``configure(..., clear_error=True)`` clears it). Addresses must be
-in 127.0.0.0/8: the served kit never listens beyond this machine.
-
-``--record DIR`` writes what the clients do as episodes of this project's schema: one per
-client session (the first ``configure`` to the last ``cleanup``), or per ``--episode_len``
-frames; cameras rendered at ``--fps``, the task's reward per step, one line per episode with
-its success. Ctrl-C, SIGTERM or SIGHUP stops serving: the episode under way is written and
-serve exits 0, however many more signals arrive meanwhile (they are reported, never cut the
-writing short); so does the end of the process ``--parent_pid`` names (``eval --backend
-wire`` starts serve with its own: a killed eval leaves no kit behind). Every recorded step
-is on disk as it is recorded: an episode that a killed serve (SIGKILL, a crash) could not
-write is left in a hidden ``.serve_spool.<pid>-<id>.tmp`` file, which the next ``serve
---record`` into the folder publishes as its next episode.
-
-``--cameras cam_high,... --control_port P`` rehearses a deployment (docs/rehearsal.md): the
-named cameras published over ZeroMQ in LeRobot's ZMQ camera protocol (``--camera_port``,
-default 5555, at ``--image_size`` and ``--camera_fps``; ``twin.camera_stream``), and an
-episode control channel of JSON lines (start with a seed, end, status: reward, success,
-stages; ``twin.episode_control``); with ``--record``, one episode file per start .. end.
-
-``--role leader --replay EPISODE.hdf5`` serves two leader arms replaying a recorded episode
-instead (default addresses 127.0.0.4 and 127.0.0.5), for ``teleop`` (or LeRobot's
-``lerobot-teleoperate`` with Trossen's leader plugin: ``--lead_in 8`` keeps them still until
-its followers have connected).
+Docs: docs/cli/serve.md, docs/rehearsal.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -1,32 +1,14 @@
 """One arm of the shared kit world, as the object ``trossen_arm_sim``'s server drives.
 
-The server of one arm (:mod:`.arm_server`) hands every robot input to :meth:`ArmAdapter.
-handle_input` and reads :meth:`ArmAdapter.read_joint_outputs` for every answer. The 7 values
-are the driver's: ``joint_0`` .. ``joint_5`` (rad) and the gripper, the travel of one
-carriage from closed (m, 0 .. 0.044; see ``real.driver``); the world moves the coupled finger
-with it.
+The server of one arm (:mod:`.arm_server`) hands every robot input to
+:meth:`ArmAdapter.handle_input` and reads :meth:`ArmAdapter.read_joint_outputs` for every
+answer. The 7 values are the driver's: ``joint_0`` .. ``joint_5`` (rad) and the gripper
+carriage's travel from closed (m, 0 .. 0.044). Modes per joint (``trossen_arm.Mode``):
+``position``, ``velocity``, ``external_effort``, ``effort`` (N m; N for the gripper) and
+``idle`` (the joints hold still). Also the upstream interface, so that
+``trossen_arm_sim.TrossenArmSimServer`` itself can serve it.
 
-Modes, per joint (``trossen_arm.Mode``):
-
-- ``position``: the command is the joint's position target (clipped to the joint range;
-  the gripper to the controller's 0.04 m, ``real.gripper.GRIPPER_MAX``, as the real
-  controller clips it); the feedforward velocity is checked, not used (the robot layer
-  rate-limits every target at the joint's speed limit).
-- ``velocity``: the target moves at the commanded speed, integrated over the time between
-  robot inputs; driving it past a joint limit by more than the limit's tolerance is a fault
-  (the gripper stops at the controller's 0.04 m).
-- ``external_effort``: limp, gravity compensated: the position servo follows the measured
-  joint (no stiffness; the actuator's damping, ``kv`` of 5 to 10 N m s/rad, and the joint
-  friction remain) and the command is applied as a generalized force (N m; N for the
-  gripper) on top; ``0`` leaves the joint free to be moved.
-- ``effort``: as ``external_effort`` without gravity compensation (the command minus the
-  model's gravity compensation force is applied).
-- ``idle``: the joints stop where their rate-limited setpoint is and hold there (a
-  deliberate difference: a real idle joint is limp and sags; the served arm keeps still, so
-  that an arm that faulted, or whose client left, stays where it was).
-
-Also the upstream interface (``num_joints``, ``joint_limits``, ``apply_joint_commands``,
-``read_joint_outputs``), so ``trossen_arm_sim.TrossenArmSimServer`` itself can serve it.
+Docs: docs/cli/serve.md; the modes in full: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -1,23 +1,12 @@
 """The arm controller's wire protocol for one served arm: ``trossen_arm_sim``'s server, completed.
 
-:class:`ArmServer` subclasses ``trossen_arm_sim.TrossenArmSimServer`` (TCP 50001 for the
-handshake and configuration, UDP 50000 for the realtime cycle, on the server's own
-address) through :class:`~.serving.LoopbackArmServer` (loopback only, a stop that ends its
-threads, no thread dying on a bad request) and fills what it lacks for a served kit:
+:class:`ArmServer` subclasses ``trossen_arm_sim.TrossenArmSimServer`` (TCP 50001, UDP
+50000) through :class:`~.serving.LoopbackArmServer` and adds what a served kit needs: every
+mode goes to the arm (:class:`~.arm_adapter.ArmAdapter`); faults like hardware
+(:mod:`.faults`), cleared only by ``configure(..., clear_error=True)``; joint limits read
+and replaced; and session events (``on_event("connect" / "disconnect", ...)``).
 
-- **Every mode**: robot inputs go whole (mode, position, velocity, effort) to the arm
-  (:class:`~.arm_adapter.ArmAdapter`); upstream applies position commands only and drops
-  the others silently.
-- **Faults like hardware** (:mod:`.faults`): joint limits (position, velocity, effort, with
-  tolerances), non-finite values, an unknown mode, command or configuration address. The
-  error state idles the joints, every answer carries it, the driver raises on its next
-  call; inputs are ignored until a client clears it (``configure(..., clear_error=True)``):
-  unlike upstream, a handshake alone does not, as on the real controller. Where upstream
-  ends a thread with a traceback (``ValueError``, ``NotImplementedError``), the arm faults.
-- **Joint limits**: ``get_joint_limits()`` reads the served arm's, ``set_joint_limits()``
-  replaces them (upstream reports fixed values and ignores sets).
-- **Sessions**: ``on_event("connect" / "disconnect", ...)`` when a client's TCP connection
-  opens and closes (``configure`` .. ``cleanup``), e.g. for recording.
+Docs: docs/cli/serve.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ the model's equality constraint. Episode ``k`` of a world made with ``base_seed=
 scene ``record --seed S`` records as its episode ``k`` (the cube and the goal), and frames
 hold the arm's 7 values (``qpos``, ``qvel``, ``action``: the recordings' ``widowxai``
 layout).
+
+Docs: docs/cli/serve.md (The single arm).
 """
 
 from __future__ import annotations

@@ -1,27 +1,13 @@
 """The served kit's cameras over ZeroMQ, in LeRobot's ZMQ camera protocol (``type: zmq``).
 
 A :class:`CameraStream` publishes the named cameras of a :class:`~.kit_world.KitWorld` on a
-ZeroMQ PUB socket bound to ``tcp://HOST:PORT`` (HOST in 127.0.0.0/8 only). Each message is
-one JSON text, as LeRobot 0.6.1's ``ZMQCamera`` reads it::
+ZeroMQ PUB socket bound to ``tcp://HOST:PORT`` (HOST in 127.0.0.0/8 only), as LeRobot
+0.6.1's ``ZMQCamera`` reads it: one JSON text per message with every camera's base64 JPEG
+and the wall-clock time (s) of the state it shows. Its own thread renders a snapshot of the
+state, so rendering never holds up the arms; :func:`decode_image` reads a message without
+OpenCV and :class:`StreamStats` measures the publish rate and frame age.
 
-    {"timestamps": {"cam_high": 1790000000.123, ...},
-     "images":     {"cam_high": "<base64 JPEG>", ...}}
-
-every camera in every message; ``timestamps`` are the wall-clock time (``time.time()``, s)
-at which the world state the images show was taken. One LeRobot ``ZMQCamera`` per camera
-(``camera_name`` picks it) reads them all from the one port.
-
-Colours: LeRobot's own publisher (``lerobot.cameras.zmq.image_server``) encodes an RGB array
-with ``cv2.imencode``, which takes it for BGR, and ``ZMQCamera`` returns what
-``cv2.imdecode`` gives back: the RGB array. The JPEGs here carry the channels the same way
-(the RGB image is written with red and blue swapped), so ``ZMQCamera.read()`` gives RGB;
-:func:`decode_image` is the matching reader without OpenCV.
-
-Threads: rendering never holds up the arms. The stream's own thread takes a snapshot of the
-state (``qpos``, mocap poses) under the world's lock (a copy, microseconds), then renders it
-into its own ``MjData`` with its own renderer (``sim.cameras.CameraSet``, GL opened in that
-thread), encodes and publishes, at most ``fps`` times a second. :class:`StreamStats` measures
-the publish rate and the frame age (publish time minus snapshot time).
+Docs: docs/rehearsal.md (Cameras over ZeroMQ); details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

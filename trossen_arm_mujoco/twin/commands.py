@@ -3,6 +3,8 @@
 The arm adapter (:mod:`.arm_adapter`) writes an :class:`ArmState` from the robot inputs;
 the world (:mod:`.kit_world`) reads it every control tick. Driver values: ``joint_0`` ..
 ``joint_5`` (rad) and the gripper carriage (m).
+
+Docs: docs/cli/serve.md.
 """
 
 from __future__ import annotations

@@ -1,51 +1,15 @@
 """Episodes on the served kit: a small loopback control channel (JSON lines over TCP).
 
 ``serve --control_port P`` listens on ``127.0.0.1:P`` (``--control_host``, in 127.0.0.0/8
-only). A client sends one JSON object per line and gets one JSON object per line back,
-``{"ok": true, ...}`` or ``{"ok": false, "error": "..."}``::
+only). A client sends one JSON object per line (``{"cmd": "start", "seed": 7}`` with optional
+``episode``, ``object_poses`` (m, quat wxyz, world), ``randomization`` and ``goal`` (m,
+world); ``{"cmd": "end"}``; ``{"cmd": "status"}``) and gets one back, ``{"ok": true, ...}``
+or ``{"ok": false, "error": "..."}``. ``start`` resets the world to the episode's scene;
+replies carry the episode's reward, success and stage times. Oversized, too deeply nested or
+invalid requests are refused with one line, and the channel serves the next.
 
-    {"cmd": "start", "seed": 7}             the scene record --seed 7 records as its episode 0
-    {"cmd": "start", "seed": 7, "episode": 3}          ... as its episode 3
-    {"cmd": "start", "seed": 7, "object_poses": {"box": [x, y, z, qw, qx, qy, qz]}}
-                                            objects placed at these poses (m, quat wxyz);
-                                            eval --backend wire sends the poses of the
-                                            in-process eval's env.reset(seed=7)
-    {"cmd": "start", "seed": 7, "randomization": {...}}
-                                            the scene randomized by this record (a start
-                                            reply's), not drawn: eval --backend wire
-                                            --randomize sends the in-process eval's
-    {"cmd": "start", "seed": 7, "goal": [x, y, z]}
-                                            a goal-conditioned task's goal (m, world; a
-                                            single arm's push, pick_place): eval --backend
-                                            wire sends the in-process eval's
-    {"cmd": "end"}                          ends the episode; replies its score
-    {"cmd": "status"}                       the episode now (and the sim-only ground truth)
-
-A request line longer than ``MAX_LINE`` (64 KiB) is refused as soon as that much of it has
-arrived (the rest of it is read on to its newline and dropped, never held), one nested deeper
-than ``MAX_DEPTH`` before it is parsed; an object pose must be 7 finite numbers, its position
-in the task's workspace (``workspace_low`` .. ``workspace_high``), its quaternion non-zero
-(``gym.inputs.object_pose``). Each refusal is one ``{"ok": false, "error": "..."}`` line and
-the channel serves the next request.
-
-``start`` puts both arms back at the task's initial pose (sim only: the world is reset,
-the clients stay connected; their next position command moves them on) and the objects at
-the episode's poses; scoring runs from the next frame. Replies of ``start``, ``end`` and
-``status`` carry::
-
-    task, episode (record index), seed (run seed), running, frames (world frames scored),
-    sim_time (s), reward (now), max_reward, sum_reward (over the frames), task_max_reward,
-    success (the task judged success at any frame), stages {"1": s, "2": s, ...}: the first
-    time (s after start) each reward level was reached (eval.scores.STAGES names them),
-    object_names, env_state (sim-only: object poses now, 7 values each, the
-    ``observation.environment_state`` of state-based checkpoints), goal (a goal-conditioned
-    task's, m, world), randomization (what
-    the scene was randomized by, ``tasks.randomization``'s record; only when it was:
-    ``serve --randomize`` or a start that sent one)
-
-With ``serve --record``, each ``start`` .. ``end`` is one episode file (client connections
-then no longer delimit episodes). Requests are applied by the stepping thread between two
-frames (at most one per frame), so a start and the recording it begins see the same scene.
+Docs: docs/rehearsal.md (Episodes: the control channel); the full protocol:
+docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

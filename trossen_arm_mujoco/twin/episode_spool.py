@@ -1,28 +1,14 @@
 """The steps of one episode, kept on disk until it ends, then published as an episode file.
 
-A served or teleoperated episode lasts until its clients leave or its operator ends it, so
-its length is known only at its end, while
-:class:`~trossen_arm_mujoco.data.writer.EpisodeWriter` (the one writer of episode files:
-schema, atomic publish, read-back check) wants it up front. An :class:`EpisodeSpool`
-therefore keeps the steps meanwhile, in a temporary file in the dataset folder, so memory
-stays flat whatever the length, and a process that dies keeps its episode:
+An :class:`EpisodeSpool` keeps a served or teleoperated episode's steps in an append-only
+temporary file in the dataset folder (memory stays flat; a process that dies keeps every
+whole step), named ``.serve_spool.<pid>-<random>.tmp`` or, with ``anonymous=True``, unnamed.
+:meth:`EpisodeSpool.publish` streams the steps through the
+:class:`~trossen_arm_mujoco.data.writer.EpisodeWriter` and deletes the spool;
+:meth:`EpisodeSpool.discard` deletes it unpublished; :mod:`.spool_recovery` publishes a dead
+process's spool.
 
-- The file is append-only: a header (what every step holds, and the episode's attributes
-  as far as they are known when it begins), then one fixed-size record per step (qpos,
-  qvel, action, reward, env_state as float64, then each camera's uint8 frame), each written
-  with plain ``os.write`` calls. A step is in the operating system's cache as soon as
-  :meth:`EpisodeSpool.append_step` returns, so a process killed at any instant (SIGKILL,
-  a crash) leaves every whole step readable; a torn last record is ignored.
-- A serve spool is named ``.serve_spool.<pid>-<random>.tmp``. A spool whose process no
-  longer runs is an episode that was never published: :mod:`.spool_recovery` (the next
-  ``serve --record`` into that folder, under the dataset lock) publishes it as the folder's
-  next episode, validated by the writer, and only then deletes it. With ``anonymous=True``
-  (teleop) the file has no name at all (gone when the process ends).
-
-:meth:`EpisodeSpool.publish` streams every step through an ``EpisodeWriter`` and deletes
-the spool once the episode file exists; when the write fails, a named spool is kept (its
-path says where the steps are) and an anonymous one is deleted.
-:meth:`EpisodeSpool.discard` deletes it unpublished.
+Docs: docs/cli/serve.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -144,7 +130,17 @@ class EpisodeSpool:
     ) -> None:
         """One step: observation (``qpos``, ``qvel``, ``env_state``) before the action,
         the action, the reward after it, and the camera images (all copied, on disk when
-        this returns)."""
+        this returns).
+
+        Args:
+            qpos: joint positions before the action, (nq,) float (rad; gripper m).
+            qvel: joint velocities before the action, (nv,) float (rad/s; m/s).
+            action: the action of the step, (n_action,) float (rad; gripper m).
+            reward: the task's reward after the action.
+            env_state: the object poses before the action, (7 * n_objects,) float (xyz m, quat wxyz,
+                world).
+            images: camera name -> (H, W, 3) uint8 frame, every camera of the spool.
+        """
         if not self._open:
             raise ValueError("the spool was already published or discarded")
         values = {
@@ -196,7 +192,13 @@ class EpisodeSpool:
         """Write the episode to ``path`` through ``EpisodeWriter`` (never overwriting; the
         file appears only complete and read back), then delete the spool. Raises what the
         writer raises: then a named spool is kept (closed; :attr:`path` holds the steps for
-        ``spool_recovery.recover_spools``), an anonymous one deleted."""
+        ``spool_recovery.recover_spools``), an anonymous one deleted.
+
+        Args:
+            path: the episode file to write (never overwritten).
+            attrs: the episode's attributes (as ``EpisodeWriter`` takes them).
+            compression: the image compression (``gzip``, ``lzf`` or ``none``).
+        """
         if not self._open:
             raise ValueError("the spool was already published or discarded")
         try:
@@ -296,7 +298,14 @@ def _header(layout: SpoolLayout, meta: Mapping[str, Any]) -> bytes:
 
 
 def read_step_images(fd: int, layout: SpoolLayout, t: int, offset: int) -> dict[str, np.ndarray]:
-    """Camera frames of step ``t`` (the records start at ``offset``)."""
+    """Camera frames of step ``t`` (the records start at ``offset``).
+
+    Args:
+        fd: the spool's open file descriptor.
+        layout: what one record holds.
+        t: the step index.
+        offset: byte offset of the first record (the header's end).
+    """
     start = offset + t * layout.record_bytes + 8 * layout.numbers
     out = {}
     for i, cam in enumerate(layout.camera_names):
@@ -319,7 +328,18 @@ def write_episode(
 ) -> Path:
     """Publish spooled steps as the episode file ``path`` through ``EpisodeWriter``:
     ``rows`` by part of ``NUMERIC``, ``images(t)`` the frames of step ``t``. Returns the
-    file's path."""
+    file's path.
+
+    Args:
+        path: the episode file to write (never overwritten).
+        rows: the numeric steps by part of ``NUMERIC`` (qpos, qvel, action, reward, env_state).
+        images: ``images(t)``: camera name -> (H, W, 3) uint8 frame of step ``t``.
+        camera_names: the cameras, in the file's order.
+        height: H of every frame, pixels.
+        width: W of every frame, pixels.
+        attrs: the episode's attributes.
+        compression: the image compression (``gzip``, ``lzf`` or ``none``).
+    """
     n = len(rows["reward"])
     env_dim = len(rows["env_state"][0]) if n else 7
     with EpisodeWriter(

@@ -2,25 +2,13 @@
 of the motion itself. The arm controller's input checks are ``real.controller_checks``
 (shared with in-process evaluation).
 
-A real arm controller refuses robot inputs it must not follow: it enters an error state,
-idles its joints and answers every request with that state, so the ``trossen_arm`` driver
-raises on its next call, until ``configure(..., clear_error=True)`` clears it. The served
-arm does the same, for the inputs ``real.controller_checks.InputChecker`` refuses (see that
-module; velocity mode's integrated position is checked by the arm,
-see :mod:`.arm_adapter`).
+A served arm enters the controller's error state as a real one does, until
+``configure(..., clear_error=True)``. :func:`lag_fault`, run by the world every control
+tick, faults a target running ahead of its rate-limited setpoint by more than
+:data:`SETPOINT_LAG_S` of motion at the speed limit, measured in simulated time and only
+while the world keeps real time.
 
-The check of the motion (:func:`lag_fault`, run by the world every control tick): the robot
-layer moves each joint's setpoint toward its target at most at the joint's speed limit; a
-target running ahead of it by more than :data:`SETPOINT_LAG_S` of motion at ``velocity_max
-+ velocity_tolerance`` (a ``goal_time=0`` jump, a trajectory faster than the limit) is
-``JOINT_LIMIT_EXCEEDED``, as the real arm faults on the speed it would reach. It is measured
-in simulated time, not from when commands arrive, and only while the world keeps real time
-(``pacer.Pacer.on_time``): a world running late sees every trajectory of the client's wall
-clock too fast, so a busy machine does not trip it.
-
-The driver reads the limits (``real.controller_checks.controller_limits``) with
-``get_joint_limits()``; a client may replace them with ``set_joint_limits()``, as on the
-real controller, and the checks then use its values.
+Docs: docs/cli/serve.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -81,7 +69,13 @@ def unpack_limits(payload: bytes, num_joints: int) -> list[JointLimit]:
 
 
 def lag_fault(j: int, gap: float, limit: JointLimit) -> Fault | None:
-    """The fault of a target ``gap`` (rad, m) ahead of joint ``j``'s setpoint, or None."""
+    """The fault of a target ``gap`` (rad, m) ahead of joint ``j``'s setpoint, or None.
+
+    Args:
+        j: the driver value's index (0-5 joints, 6 the gripper).
+        gap: |target - setpoint| of that value (rad; gripper m).
+        limit: its limits (``velocity_max``, ``velocity_tolerance``).
+    """
     allowed = (limit.velocity_max + limit.velocity_tolerance) * SETPOINT_LAG_S
     if gap <= allowed:
         return None
@@ -100,7 +94,14 @@ def lag_fault(j: int, gap: float, limit: JointLimit) -> Fault | None:
 def lag_fault_of(
     modes: np.ndarray, target: np.ndarray, setpoint: np.ndarray, limits: Sequence[JointLimit]
 ) -> Fault | None:
-    """The first :func:`lag_fault` of an arm's joints in position or velocity mode."""
+    """The first :func:`lag_fault` of an arm's joints in position or velocity mode.
+
+    Args:
+        modes: each driver value's ``trossen_arm.Mode``, (7,).
+        target: the commanded targets, (7,) (rad; gripper m).
+        setpoint: the rate-limited setpoints, (7,) (rad; gripper m).
+        limits: each value's limits, 7 of them.
+    """
     moving = (modes == POSITION) | (modes == VELOCITY)
     if not moving.any():
         return None

@@ -1,4 +1,7 @@
-"""One frame of the served world: what a recorder stores of it."""
+"""One frame of the served world: what a recorder stores of it.
+
+Docs: docs/cli/serve.md.
+"""
 
 from __future__ import annotations
 

@@ -1,23 +1,14 @@
 """The served kit's world: both arms and the task's objects, stepping in real time in a thread.
 
-One :class:`KitWorld` holds the joint flavour of a registered Stationary AI task (both arms,
-the objects, the task's reward), built through ``tasks.registry`` like every front door.
-Episode ``k`` of a world made with ``base_seed=S`` is the scene ``record --seed S`` records
-as its episode ``k``: the sampler is seeded with ``collect.pipeline.episode_seed(S, k)``,
-which places the objects exactly as the recorder's rollout does.
+One :class:`KitWorld` holds the joint flavour of a registered Stationary AI task; episode
+``k`` of a world made with ``base_seed=S`` is the scene ``record --seed S`` records as its
+episode ``k``. Every control tick (``ctrl_dt``, the 2 ms physics step) each arm's
+:class:`ArmState` (6 joints rad, the gripper carriage m) goes to the robot layer and physics
+steps once; a frame (``frame_dt``, default the task's ``policy_dt``) is what a recorder sees
+(:class:`Frame`). :meth:`start` steps in a paced thread, :meth:`advance` without pacing; all
+access to model and data goes through :attr:`lock`.
 
-What the arms do comes from :class:`ArmState` (one per arm, written by the arm adapters,
-:mod:`.arm_adapter`): per driver value (6 joints in rad, the gripper carriage in m) a mode
-and a position target, and for the effort modes a generalized force. Every control tick
-(``ctrl_dt`` = the physics step, 2 ms) the targets go to the robot layer, which rate-limits
-them at the joint speed limits, and physics steps once. The coupled finger follows the
-actuated carriage through the model's equality constraint.
-
-Time: ``frame_dt`` (1 / recording rate, default the task's ``policy_dt``, 0.02 s) is one
-frame of ``frame_dt / ctrl_dt`` ticks; frames are what a recorder sees (:class:`Frame`:
-the state before the frame, the commanded targets, the reward after it). :meth:`start`
-steps frames in a thread paced to wall-clock time; :meth:`advance` steps without pacing
-(tests). All access to model and data goes through :attr:`lock`.
+Docs: docs/cli/serve.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -180,6 +171,15 @@ class KitWorld:
         state and targets (a new episode while clients are connected). ``randomization``: a
         record (``tasks.randomization``) applied to the scene instead of drawing one (a
         client's scene, e.g. ``eval --backend wire --randomize``'s).
+
+        Args:
+            episode_index: the index of ``record``'s episode whose scene it is.
+            keep_arms: only the objects move to the new episode's poses; the arms keep their state
+                and targets.
+            object_poses: object name -> pose (7,) [x, y, z, qw, qx, qy, qz] (m, world) placed
+                instead of the sampled ones.
+            randomization: a ``tasks.randomization`` record applied to the scene instead of drawing
+                one.
         """
         with self.lock:
             saved = None

@@ -12,6 +12,8 @@ arms idle (a real leader arm then goes limp: rest it first).
 
 The driver prints its own log lines to stderr; :class:`DriverLog` routes them instead (kept,
 or printed with ``verbose``), so that a fault is one line.
+
+Docs: docs/cli/teleop.md.
 """
 
 from __future__ import annotations

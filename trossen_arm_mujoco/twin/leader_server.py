@@ -10,6 +10,8 @@ The arm behind the server is any object with ``num_joints``, ``joint_limits`` (l
 ``(low, high)``: rad for the 6 joints, m for the gripper), ``apply_joint_commands(modes,
 positions)`` and ``read_joint_outputs()`` (a list of ``trossen_arm_sim.protocol.JointOutput``),
 as upstream's server takes.
+
+Docs: docs/cli/serve.md, docs/cli/teleop.md.
 """
 
 from __future__ import annotations

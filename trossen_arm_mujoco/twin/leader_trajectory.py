@@ -4,6 +4,8 @@ time (``twin.leaders`` serves them).
 :func:`load_leader_trajectory` reads an episode file (this package's or a vendor recording)
 in the real kit's layout, 7 values per arm (rad x6, gripper m), clipped to the driver's joint
 ranges; :meth:`LeaderTrajectory.sample` gives position and velocity at any time.
+
+Docs: docs/cli/serve.md, docs/cli/teleop.md.
 """
 
 from __future__ import annotations

@@ -2,48 +2,14 @@
 
 A pair of leader arms (left, right), each served on its own loopback address by a
 :class:`~trossen_arm_mujoco.twin.leader_server.LeaderArmServer`, reports the joint positions
-of a recorded episode as if a person were moving them: any client that speaks the arm
-controller's protocol (the unmodified ``trossen_arm`` driver, ``trossen-mujoco teleop``,
-LeRobot's leader teleoperator) reads them with ``get_all_positions()``, 7 values per arm
-(6 joints in rad, then the gripper in m: one finger's travel, 0 closed .. 0.044 open).
+of a recorded episode as if a person were moving them: any ``trossen_arm`` client reads them
+with ``get_all_positions()``, 7 values per arm (6 joints rad, then the gripper m: one
+finger's travel, 0 closed .. 0.044 open). ``source`` picks the episode's actions (default)
+or its ``qpos``; the replay starts once a client put both arms in ``external_effort`` mode
+(or on :meth:`LeaderPair.trigger`), after ``lead_in`` s, at ``speed``; :func:`serve_leaders`
+serves a pair.
 
-What is played (``source``):
-    ``"action"`` (default): the episode's actions, i.e. what the operator's hands commanded.
-    In an ALOHA-style recording the action *is* the leader arm's reading, and its gripper
-    value is the hand's command (closed on a grasp), not the follower finger's measured
-    travel, which a grasped object blocks half open; a follower commanded with the blocked
-    travel would barely squeeze. ``"qpos"``: the recorded follower joint positions instead
-    (the measured fingers included). Per arm the 7 values are the real kit's layout
-    (``KIT14_LAYOUT``: joints 0..5, then the ``left_carriage_joint`` finger), clipped to
-    the arm's joint ranges.
-
-When it is played (deterministic for ``teleop``):
-    The arms hold the episode's first pose until a client has put **both** arms in
-    ``external_effort`` mode (what a leader teleoperator does right after connecting:
-    gravity-compensated, free to move by hand), then for ``lead_in`` seconds more; the
-    episode then plays over wall-clock time at ``speed`` (1.0 = as recorded) and, at its
-    end, the arms hold the last pose (:attr:`LeaderPair.finished` is set; a new replay needs
-    a new pair, e.g. restarting ``serve``). :meth:`LeaderPair.trigger` starts the replay at
-    once, without waiting for a client. ``teleop`` connects to the leaders right before its
-    first episode, so that episode starts within a few milliseconds of the replay's trigger
-    and ``lead_in`` later the arms move.
-
-Staging before the replay (Trossen's LeRobot leader teleoperator):
-    Until the replay is triggered, position-mode commands move a played arm as its motors
-    would: it reports the commanded positions (the driver's interpolated trajectory), so
-    ``set_all_positions(staged, 2.0)`` leaves it at the staged pose, and there it stays
-    (its rest pose) through ``external_effort`` mode and the lead-in. When the replay starts
-    the arms first move from their rest poses to the episode's first pose (a smooth
-    approach, both arms together, at most half of each joint's speed limit: about 1.5 s for
-    an open gripper), then play the episode. A follower that copies the leaders from their
-    rest pose on never sees a jump. An arm no client put in position mode (``teleop``,
-    ``trossen_arm_mujoco.twin.leader_arms``) rests at the episode's first pose and has no
-    approach, as before.
-
-Other commands are ignored:
-    After the trigger, and in any other mode, whatever a client sends (external efforts,
-    positions, velocities) never moves a played arm, as a person's hand would overpower a
-    leader's motors. The modes are watched for the trigger.
+Docs: docs/cli/serve.md, docs/cli/teleop.md; the replay's rules: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -86,7 +52,14 @@ DEFAULT_LEADER_IPS: tuple[str, str] = ("127.0.0.4", "127.0.0.5")
 class PlayedLeaderArm:
     """One leader arm that plays its part of a :class:`LeaderTrajectory`: the object a
     :class:`LeaderArmServer` serves (``num_joints``, ``joint_limits``,
-    ``apply_joint_commands``, ``read_joint_outputs``)."""
+    ``apply_joint_commands``, ``read_joint_outputs``).
+
+    Args:
+        trajectory: the episode's joint values per arm.
+        side: ``"left"`` or ``"right"``: its part of the trajectory.
+        clock: the replay clock both arms read.
+        limits: the arm's joint ranges (rad; gripper m) and speed limits.
+    """
 
     num_joints = 7
 
@@ -273,6 +246,17 @@ def serve_leaders(
     Raises:
         UserError: a non-loopback or repeated address, a bad speed, an unreadable episode,
             an address already served (one line each).
+
+    Args:
+        episode_path: the episode file to replay (this package's or a vendor recording).
+        left_ip: the left leader's loopback address.
+        right_ip: the right leader's loopback address.
+        stop_event: serving ends when it is set.
+        speed: replay speed (1.0: as recorded).
+        lead_in: seconds between both arms' ``external_effort`` mode and the replay.
+        source: ``"action"`` (the recorded actions) or ``"qpos"`` (the follower joints).
+        say: gets one line per event (default: stderr; None: silent).
+        on_ready: called with the running :class:`LeaderPair`.
     """
     trajectory = load_leader_trajectory(episode_path, source)
     speak = say or (lambda line: None)

@@ -6,6 +6,8 @@ catches up by not sleeping; once :data:`MAX_LAG_S` behind it gives up (the lost 
 dropped, counted in ``resyncs``) rather than spiral. :attr:`Pacer.on_time` says whether the
 simulation keeps real time now: at most :data:`ON_TIME_S` late, and not within
 :data:`UNSURE_AFTER_LAG_S` of giving up.
+
+Docs: docs/cli/serve.md.
 """
 
 from __future__ import annotations

@@ -3,6 +3,8 @@
 The replay starts once every arm's client is ready (both in ``external_effort`` mode) or on
 :meth:`ReplayClock.trigger`, after a lead-in and an optional approach, and plays at a speed
 (:func:`check_speed`).
+
+Docs: docs/cli/serve.md, docs/cli/teleop.md.
 """
 
 from __future__ import annotations
@@ -32,6 +34,14 @@ class ReplayClock:
     by :meth:`poll`). ``approach``, when given, is called once at the trigger and returns
     the seconds the arms take from their rest poses to the episode's first pose
     (:attr:`approach_s`), spent right after the lead-in at wall-clock speed.
+
+    Args:
+        duration: the episode's length (s).
+        speed: replay speed (1.0: as recorded).
+        lead_in: seconds from the trigger to the replay (or its approach).
+        sides: the arms whose clients must be ready.
+        now: the clock (s), ``time.monotonic`` by default.
+        approach: called once at the trigger; returns the approach's seconds.
     """
 
     def __init__(

@@ -11,6 +11,8 @@ ends every thread it started.
 
     >>> with ServedKit(KitWorld(), {"left": "127.0.0.2", "right": "127.0.0.3"}) as kit:
     ...     ...  # any trossen_arm client drives the arms meanwhile
+
+Docs: docs/cli/serve.md.
 """
 
 from __future__ import annotations
@@ -41,7 +43,16 @@ def check_kit_ips(
 ) -> dict[str, str]:
     """The arms' addresses (the kit's two; ``sides``: those of another world, e.g. the
     single arm's ``("follower",)``), checked: IPv4 loopback and different (one-line
-    ``UserError`` otherwise). ``flags``: the flag naming each address, for messages."""
+    ``UserError`` otherwise). ``flags``: the flag naming each address, for messages.
+
+    Args:
+        ips: side -> address.
+        flags: side -> the flag that gave its address, for messages.
+        sides: the sides to check (the kit's two, or another world's).
+
+    Raises:
+        UserError: an address that is not IPv4 loopback, or one given twice.
+    """
     flags = flags or {side: f"{side} arm address" for side in sides}
     out = {side: check_loopback(ips[side], flags[side]) for side in sides}
     if tuple(sides) == SIDES and out["left"] == out["right"]:
@@ -59,7 +70,14 @@ def kit_for_episode(
     (``task_name`` when it is a kit task, else ``sim_transfer_cube``) with the objects at
     the episode's recorded start (``initial_env_state`` and ``object_names``, when present
     and matching the task), e.g. to replay the episode through the wire. Only faults and
-    their clearing are reported through ``say``."""
+    their clearing are reported through ``say``.
+
+    Args:
+        attrs: the episode file's attributes (``task_name``, ``initial_env_state``,
+            ``object_names``).
+        ips: side -> loopback address.
+        say: gets a line per fault and its clearing (None: silent).
+    """
     from trossen_arm_mujoco.tasks import registry
 
     task = str(attrs.get("task_name", ""))

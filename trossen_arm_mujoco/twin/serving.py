@@ -2,30 +2,13 @@
 sockets that wake the threads blocked on them when shut, and the server both kinds of served
 arm build on.
 
-:class:`LoopbackArmServer` subclasses ``trossen_arm_sim.TrossenArmSimServer`` (the arm
-controller's wire protocol: TCP 50001 for the handshake and configuration, UDP 50000 for the
-realtime cycle, both on the server's own address) with what every served arm needs, so that
-servers can be started and stopped many times in one process (tests, ``serve``, leaders):
+:class:`LoopbackArmServer` subclasses ``trossen_arm_sim.TrossenArmSimServer`` (TCP 50001,
+UDP 50000, on the server's own address) with loopback addresses only (:func:`check_loopback`),
+a stop that ends its threads, no thread dying on bad input and listeners that outlast a
+burst of clients (:class:`Acceptor`). :class:`~.arm_server.ArmServer` and
+:class:`~.leader_server.LeaderArmServer` specialise it.
 
-- **Loopback only**: the address must be IPv4 in 127.0.0.0/8 (:func:`check_loopback`, a
-  one-line ``UserError`` otherwise); an address that is taken is a one-line ``UserError``
-  too (the UDP socket is never shared: no ``SO_REUSEADDR`` on it).
-- **A stop that ends its threads**: upstream's ``stop()`` only closes the sockets, which on
-  Linux wakes neither a thread blocked in ``accept`` nor one blocked in ``recvfrom``, nor
-  the thread serving a connected client. Here the sockets are shut down first (that wakes
-  them), the UDP loop also polls with a timeout, and :meth:`~LoopbackArmServer.stop` joins
-  every thread.
-- **No thread dies on bad input**: a TCP client whose request cannot be served is
-  disconnected; a datagram whose handling raises is dropped (logged) and serving goes on;
-  only the newest waiting datagram is answered (the driver gave up on older ones).
-- **Listeners that outlast a burst and a shortage**: every TCP listener queues
-  ``LISTEN_BACKLOG`` connections (the kernel's ``SOMAXCONN``), so a burst of clients waits to
-  be accepted instead of being dropped; an ``accept`` that fails for want of file descriptors
-  or memory (EMFILE, ENFILE, ENOBUFS, ENOMEM) refuses that one connection, logs one line,
-  pauses ``ACCEPT_PAUSE_S`` and accepts again (:class:`Acceptor`): the listener stays.
-
-:class:`~.arm_server.ArmServer` (a follower arm of the served kit) and
-:class:`~.leader_server.LeaderArmServer` (a simulated leader arm) specialise it.
+Docs: docs/cli/serve.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

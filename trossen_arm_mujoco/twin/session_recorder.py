@@ -1,27 +1,13 @@
 """What the clients of a served kit do, recorded as episodes of this project's schema.
 
-One episode per client session: it begins at the first frame after a client connects to
-either arm while none was connected (``configure``), and ends when the last one disconnects
-(``cleanup``), or after ``episode_len`` frames (then the next one begins at once, the
-objects moved to the next episode's sampled poses and the arms left where they are). After
-a session ends the world is reset to the next episode (:meth:`KitWorld.reset`), so the next
-session starts from ``record``'s scene of the next index. Every frame of an episode is
-a step of the file: qpos, qvel and env_state at its start, the arms' commanded targets as
-the 16-value action, the task's reward after it, and the cameras rendered from its start.
+One episode per client session (first ``configure`` to last ``cleanup``) or per
+``episode_len`` frames: per frame the state at its start, the arms' commanded targets as the
+16-value action, the task's reward after it and the cameras. The stepping thread only queues
+the frame's state; a worker renders, spools (:mod:`.episode_spool`) and publishes each
+episode atomically, so slow rendering delays the files, never the arms, and a spool that
+could not be published is kept for the next ``serve --record``.
 
-The stepping thread only copies the frame's state into a queue; a worker thread renders
-the cameras (from its own ``MjData`` set to that state), spools the steps
-(:mod:`.episode_spool`) and publishes each finished episode with the project's writer
-(atomic, never overwriting: indices continue after the folder's last episode). So slow
-rendering delays the files, never the arms; a backlog is reported, and :meth:`stop` writes
-everything still queued. Each episode is reported in one line (steps, why it ended, reward,
-success); episodes that end with no step are not written.
-
-Nothing recorded is lost to a failure or a stop: every step is on disk in the episode's
-spool as soon as the worker has it, and a spool that could not be published (a failed
-write, a worker that ended early, a process that was killed) is kept, with a line saying
-where; the next ``serve --record`` into the folder publishes it
-(:func:`~.spool_recovery.recover_spools`).
+Docs: docs/cli/serve.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

@@ -7,6 +7,8 @@ writer (validated) and only then deletes it; one whose episode was already publi
 same ``recording_id``) or that holds no step is deleted, and one that cannot be published is
 kept, with a line saying why and how to recover it. :func:`read_spool` reads a spool's whole
 steps (a torn last record is ignored).
+
+Docs: docs/cli/serve.md.
 """
 
 from __future__ import annotations
@@ -155,7 +157,13 @@ def recover_spools(
     writer (validated); the spool is deleted only then. A spool that holds no step, or
     whose episode was already published (same ``recording_id``), is deleted; one that
     cannot be published is kept, with one line through ``say`` saying why and how to
-    recover it. Returns one :class:`Recovery` per spool found."""
+    recover it. Returns one :class:`Recovery` per spool found.
+
+    Args:
+        folder: the dataset folder (its lock held by the caller).
+        next_index: gives the folder's next episode index.
+        say: gets one line per spool recovered or kept.
+    """
     from trossen_arm_mujoco.data.reader import episode_path
 
     done = []

@@ -1,25 +1,12 @@
 """Stop signals as requests: a long-running command (``serve``) that stops cleanly however
 many signals arrive, in whatever order.
 
-Python runs a signal handler in the main thread between two bytecodes, wherever that thread
-is. A handler that raises (Python's own for SIGINT, ``errors.run_cli``'s for SIGTERM) unwinds
-whatever code the signal happens to interrupt: a second signal while the first one's cleanup
-runs abandons that cleanup half way (a ``join`` of the thread still writing the recording,
-a ``finally`` closing a file), and the interpreter then finalizes while worker threads
-still run inside C extensions. CPython ends such daemon threads when they next take the GIL,
-with ``pthread_exit``, whose forced unwinding through the C++ frames of MuJoCo's renderer
-crashes the process (SIGSEGV) or leaves a lock held (a hang), and the episode in progress
-is lost.
+:class:`StopSignals` never raises (except inside :meth:`StopSignals.interruptible`): SIGINT,
+SIGTERM and SIGHUP are recorded, the command polls :attr:`StopSignals.requested` and runs its
+shutdown to the end; a repeated signal is reported (:meth:`StopSignals.new_repeats`).
+:meth:`StopSignals.watch_parent` also stops a child once its parent is gone.
 
-:class:`StopSignals` therefore never raises (except inside :meth:`StopSignals.interruptible`,
-for a blocking wait that only an exception can end): SIGINT, SIGTERM and SIGHUP are recorded,
-the command polls :attr:`StopSignals.requested` and runs its shutdown to the end; a repeated
-signal is reported (:meth:`StopSignals.new_repeats`) and changes nothing else.
-
-A process started by another one to serve it (``eval --backend wire`` starts ``serve``) can
-also be asked to stop once that parent is gone (:meth:`StopSignals.watch_parent`): a parent
-killed with SIGKILL sends no signal, and its child would otherwise serve on, holding its
-addresses and ports.
+Docs: docs/cli/serve.md; why: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations

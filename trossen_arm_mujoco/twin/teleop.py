@@ -1,33 +1,13 @@
 """Teleoperation: two leader arms drive the simulated followers of a kit task, recording
 demonstrations (``trossen-mujoco teleop``; the command line is ``scripts/teleop.py``).
 
-Leaders
-    A :class:`~trossen_arm_mujoco.twin.leader_arms.LeaderArms` pair, read through the
-    unmodified ``trossen_arm`` driver in external_effort mode (real leader arms, or the
-    served ones of ``trossen-mujoco serve --role leader``); a driver error is a
-    ``LeaderFault`` (one line) that discards the episode in progress.
+The leaders (:class:`~trossen_arm_mujoco.twin.leader_arms.LeaderArms`, real or served) are
+read in external_effort mode; each step's reading is the kit's 14-value joint action (rad,
+gripper m) of the task's joint flavour, clipped to the joint ranges and to the real arm's
+speed limits at the recording rate. Steps are recorded as ``record`` records them, spooled
+(:class:`~.episode_spool.EpisodeSpool`) and written only when an episode ends and is kept.
 
-Followers
-    The task's joint flavour (the env ``record`` replays its trajectories in, built by the
-    task registry's sampler) takes each step's leader reading as the kit's 14-value joint
-    action (left 7, right 7; the second finger follows the first), after two protections:
-    every value is clipped to its joint range, and its change per step to the real arm's
-    speed limit at the recording rate (``real.validate.VELOCITY_LIMITS``: 3.375 rad/s for
-    joints 0-2, 7 rad/s for 3-5, 0.0875 m/s for the gripper), so the recorded motion
-    replays on the real arms. The first steps of an episode are the ramp from the
-    followers' start pose to the leaders' pose, at the speed limits; every clipped value is
-    counted (``speed_limited_values``) and the ramp's length kept (``ramp_steps``).
-
-Recording
-    One episode = the object poses the caller gives (or the sampler draws from the
-    caller's seed), then up to ``episode_len`` steps paced to the wall clock at the task's
-    rate; each step records (observation before the action, action, reward after it) as
-    ``record`` does. Steps are spooled (:class:`~.episode_spool.EpisodeSpool`:
-    low-dimensional values in memory, images in an unnamed temporary file in the dataset
-    folder, gone when the process ends however it ends) and written with the package's
-    :class:`~trossen_arm_mujoco.data.writer.EpisodeWriter` only when the episode ends and
-    is kept, so an episode the operator ends early is as
-    long as it ran and a discarded or interrupted one leaves nothing behind.
+Docs: docs/cli/teleop.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -212,7 +192,18 @@ class TeleopRecorder:
         extra_attrs: Mapping[str, Any] | None = None,
     ) -> TeleopOutcome | None:
         """Teleoperate and record episode ``index`` into ``path``; None when the operator
-        discarded it. A :class:`LeaderFault` or an interrupt discards it too (and passes)."""
+        discarded it. A :class:`LeaderFault` or an interrupt discards it too (and passes).
+
+        Args:
+            index: the episode's index in the folder.
+            seed: the run seed (the scene of ``record``'s episode ``index``).
+            path: the episode file to write.
+            leaders: the leader arms read.
+            control: the operator's commands (``end``, ``discard``); None: none.
+            object_poses: object name -> pose (7,) [x, y, z, qw, qx, qy, qz] (m, world) instead of
+                the sampled ones.
+            extra_attrs: more attributes of the episode file.
+        """
         task = self.start_episode(seed, object_poses)
         poses = task.object_poses()
         s = self.settings
