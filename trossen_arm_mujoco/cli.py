@@ -5,6 +5,8 @@ Subcommands: ``record`` (scripts/record_sim_episodes.py), ``visualize``
 (scripts/export_dataset.py), ``eval`` (scripts/eval_policy.py), ``prepare``
 (scripts/prepare_checkpoint.py), ``serve``
 (scripts/serve.py), ``teleop`` (scripts/teleop.py), ``train`` (scripts/train.py).
+
+Docs: docs/cli/index.md.
 """
 
 from __future__ import annotations

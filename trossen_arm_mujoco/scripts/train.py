@@ -1,10 +1,12 @@
 """Record, export, train LeRobot's ACT over several seeds and score each checkpoint (also
-``trossen-mujoco train``); a rerun resumes. Docs: Train and evaluate (docs/train-eval.md).
+``trossen-mujoco train``); a rerun resumes.
 
     trossen-mujoco train --inject_noise --train_seeds 3 --train_jobs 3
     trossen-mujoco train --recipe camera_pose --train_seeds 3 --train_jobs 3
 
 The loop itself lives in :mod:`trossen_arm_mujoco.train.command` (one module per phase).
+
+Docs: docs/cli/train.md, docs/train-eval.md.
 """
 
 from __future__ import annotations

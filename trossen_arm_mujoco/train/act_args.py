@@ -1,7 +1,10 @@
 """The ``lerobot-train`` command line of ``trossen-mujoco train``: ACT with the settings of
 its flags, the rate decayed with ``--lr_schedule cosine``, and the policy's inputs (every
 ``observation.*`` feature of the dataset, less the object poses with ``--no_env_state``; the
-joints and the estimated poses only with ``--pose_encoder``). Docs: Train and evaluate."""
+joints and the estimated poses only with ``--pose_encoder``).
+
+Docs: docs/cli/train.md, docs/train-eval.md.
+"""
 
 from __future__ import annotations
 
@@ -67,7 +70,15 @@ def _schedule(args: argparse.Namespace) -> list[str]:
 def train_args(
     args: argparse.Namespace, python: str, dataset: Path, out: Path, seed: int
 ) -> list[str]:
-    """``lerobot-train`` run by ``python`` on ``dataset`` into ``out`` with ``seed``."""
+    """``lerobot-train`` run by ``python`` on ``dataset`` into ``out`` with ``seed``.
+
+    Args:
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        dataset: the LeRobot dataset folder to train on.
+        out: ``lerobot-train``'s output folder.
+        seed: the training seed.
+    """
     n_action = args.n_action_steps or args.chunk_size
     extra = []
     if args.temporal_ensemble_coeff:

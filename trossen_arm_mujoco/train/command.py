@@ -1,6 +1,5 @@
 """``trossen-mujoco train``: the whole loop, measured over several training runs: record ->
 export -> (encode) -> lerobot-train (ACT) -> trossen-mujoco eval (-> the wire, when asked).
-Docs: Train and evaluate (docs/train-eval.md); measured in docs/benchmarks.md.
 
     trossen-mujoco train --inject_noise --train_seeds 3 --train_jobs 3
     trossen-mujoco train --recipe camera_pose --train_seeds 3 --train_jobs 3
@@ -12,6 +11,8 @@ folder at a time (its lock); Ctrl-C and SIGTERM stop the children with their wor
 end: each run's success with its 95 % Wilson interval, the mean and the worst, the cost of
 each part (wall and CPU seconds) and where each checkpoint landed; everything is merged into
 ``summary.json``. LeRobot runs in the Python :func:`.lerobot_python.lerobot_python` finds.
+
+Docs: docs/cli/train.md, docs/train-eval.md; measured: docs/benchmarks.md.
 """
 
 from __future__ import annotations
@@ -40,7 +41,13 @@ __all__ = ["build_parser", "cli", "main", "run_phases"]
 
 
 def run_phases(ws: Workspace, args: argparse.Namespace, python: str) -> None:
-    """Run the phases ``--phase`` names, in the loop's order, in the locked ``ws``."""
+    """Run the phases ``--phase`` names, in the loop's order, in the locked ``ws``.
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+    """
     phases = phases_of(args)
     env = child_env()
     seeds = [args.train_seed + k for k in range(args.train_seeds)]

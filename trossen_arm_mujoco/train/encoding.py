@@ -2,7 +2,10 @@
 recipes): the exported dataset derived once into ``dataset_pose``, whose object poses are a
 pose encoder's estimates from the camera (``train.pose_dataset``). Every run trains on it;
 before scoring, each checkpoint gets the encoder in its preprocessor (``prepare``), so it
-observes the joints and the camera only. Docs: Train and evaluate (docs/train-eval.md)."""
+observes the joints and the camera only.
+
+Docs: docs/cli/train.md, docs/train-eval.md.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +22,16 @@ def encode_job(
     python: str, ws: Workspace, threads: int, seed: int, static: bool, augment: bool = False
 ) -> list[str]:
     """The command deriving ``dataset_pose`` from ``dataset`` and its episodes (and the
-    static episodes' first frames; ``augment``: the encoder's training images changed)."""
+    static episodes' first frames; ``augment``: the encoder's training images changed).
+
+    Args:
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        ws: the locked work folder (``train.workspace``).
+        threads: CPU threads of the job.
+        seed: the encoder's seed.
+        static: also train on the static episodes' first frames.
+        augment: train on frames with the light, colour and place changed.
+    """
     return [
         python,
         "-m",
@@ -40,7 +52,15 @@ def encode(
     ws: Workspace, args: argparse.Namespace, python: str, env: dict[str, str], asked: bool
 ) -> None:
     """Derive ``dataset_pose`` unless it is whole (``asked``: the phase was named, so a
-    whole one is said in a line; the train phase derives it too when missing)."""
+    whole one is said in a line; the train phase derives it too when missing).
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        env: the children's environment variables (threads, paths).
+        asked: the phase was named (a whole dataset is then said in a line).
+    """
     if ws.derived_ready():
         if asked:
             print(f"encode: {ws.pose_dataset} already derived")

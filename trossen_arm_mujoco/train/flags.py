@@ -1,5 +1,8 @@
 """The flags of ``trossen-mujoco train``, over the defaults of ``--recipe``, checked before
-anything runs (one line each). Docs: Train and evaluate (docs/train-eval.md)."""
+anything runs (one line each).
+
+Docs: docs/cli/train.md.
+"""
 
 from __future__ import annotations
 

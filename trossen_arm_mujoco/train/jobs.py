@@ -1,11 +1,13 @@
 """The child processes of ``trossen-mujoco train`` (recording, export, the encoder,
 training, evaluation): each one's own wall and CPU time, its log, its one-line failure, and
-its end with the command's. Docs: Train and evaluate (docs/train-eval.md).
+its end with the command's.
 
 Each child starts in a process group of its own (its workers with it) and asks the kernel
 for SIGTERM when this process dies; a Ctrl-C or SIGTERM of the command (a
 ``KeyboardInterrupt`` under ``errors.run_cli``) sends SIGTERM to every running child's
 group, then SIGKILL to what is left after :data:`GRACE_S`.
+
+Docs: docs/cli/train.md, docs/train-eval.md.
 """
 
 from __future__ import annotations
@@ -107,7 +109,13 @@ class Job:
 
 def run_jobs(jobs: Sequence[JobSpec], env: dict[str, str], at_once: int = 1) -> list[dict]:
     """Run the jobs, ``at_once`` at a time; their timings in order. A Ctrl-C or SIGTERM (or a
-    job's failure) stops every running job's process group before it passes on."""
+    job's failure) stops every running job's process group before it passes on.
+
+    Args:
+        jobs: the jobs (name, command line, log).
+        env: the children's environment variables (threads, paths).
+        at_once: how many run at a time.
+    """
     results: dict[int, dict] = {}
     pending, running = list(enumerate(jobs)), []
     try:

@@ -1,9 +1,11 @@
 """Which Python runs LeRobot for ``trossen-mujoco train`` (Python >= 3.12 with LeRobot
-0.6.1, while the project may run on 3.11). Docs: Train and evaluate (docs/train-eval.md).
+0.6.1, while the project may run on 3.11).
 
 In order: this Python when it imports ``lerobot``; ``TROSSEN_LEROBOT_PYTHON``; the venv
 ``tools/run_tests.sh`` builds (``$TROSSEN_LEROBOT_VENV``, by default
 ``~/.cache/trossen-arm-mujoco/lerobot-venv``); else one line saying how to make one.
+
+Docs: docs/cli/train.md, docs/train-eval.md.
 """
 
 from __future__ import annotations

@@ -1,24 +1,16 @@
 """A LeRobot dataset whose ``observation.environment_state`` is what a pose encoder sees in
 the camera, not the simulation's exact poses: what a policy that deploys is trained on.
 
-``derive_dataset`` takes an exported dataset and the episode files it was exported from
-(their camera frames as rendered, not the dataset's compressed video), trains a
-:mod:`.pose_encoder` on them once, and writes a copy of the dataset in which each frame's
-``observation.environment_state`` is the encoder's estimate from that frame's camera image;
-its statistics (``meta/stats.json`` and the per-episode ones) are those of the estimates.
-The copy leaves the camera videos out (``keep_images`` keeps them): a policy trained on it
-never sees the images, and LeRobot's loader would decode every camera's frame for each
-sample all the same. The training batches are otherwise the same (docs Benchmarks). The
-dataset's settings (``info.json``'s ``trossen_arm_mujoco``) still name the camera, which is
-what a checkpoint trained on the copy observes. The encoder is saved beside it
-(``pose_files.ENCODER_FILE``) with its report (``pose_files.REPORT_FILE``). A policy trained
-on the copy and given the encoder in its preprocessor (``eval.camera_pose_step``) observes
-the joints and the camera only.
-
-Command line (``[train]`` extra: torch)::
+:func:`derive_dataset` trains a :mod:`.pose_encoder` once on an exported dataset's episode
+files (their rendered frames) and writes a copy of the dataset whose object poses (xyz m +
+quat wxyz per object, world) are the encoder's estimates, with their statistics, the camera
+videos left out unless ``keep_images``; the encoder and its report lie beside it
+(``pose_files``). Command line (``[train]`` extra: torch)::
 
     python -m trossen_arm_mujoco.train.pose_dataset DATASET EPISODES OUTPUT [--camera cam_high]
         [--keep_images]
+
+Docs: docs/train-eval.md, docs/cli/prepare.md; details: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -234,7 +226,22 @@ def derive_dataset(
     wall seconds). ``static_episodes``: a folder of short episodes of the same task and camera
     settings whose first frames (the arms at home, the objects sampled) the encoder also
     trains on (``pose_encoder.train_encoder``'s ``static``); ``augment``: train on frames with
-    the light, colour and place changed (``pose_encoder.augment_batch``)."""
+    the light, colour and place changed (``pose_encoder.augment_batch``).
+
+    Args:
+        dataset: the exported LeRobot dataset folder.
+        episodes: the folder of the episode files it was exported from.
+        output: the derived dataset's folder.
+        camera: the camera the encoder reads (None: the dataset's only one).
+        seed: the encoder's initial weights and frame order.
+        epochs: training epochs.
+        threads: torch threads (None: torch's default).
+        overwrite: replace an existing ``output``.
+        keep_images: keep the camera videos in the copy.
+        static_episodes: a folder of short episodes whose first frames the encoder also trains on.
+        augment: train on frames with the light, colour and place changed.
+        progress: gets progress lines.
+    """
     from trossen_arm_mujoco.export.lerobot_output import build_folder, check_output, publish
 
     dataset, episodes = Path(dataset).expanduser(), Path(episodes).expanduser()

@@ -1,24 +1,14 @@
 """A small image encoder that finds the objects in one camera: trained once on a recorded
 dataset, then frozen and reused by every policy trained on that dataset.
 
-Why. An image policy trained end to end (ACT with ResNet-18 from scratch, on the CPU) learns
-what is large and moves in the camera: the arms. At an episode's start the arms are at home
-and say nothing of where the cube is, so such a policy starts towards the middle of the
-spawn region (docs Benchmarks, "the pose-encoder recipe"). This encoder is taught the one
-thing a policy needs from the camera, the objects' poses, with the simulation's exact poses
-as labels, and the frames where the arms have not moved yet weigh more
-(:data:`EARLY_FRAMES`, :data:`EARLY_REPEAT`), so it must find the object itself.
+:class:`PoseEncoder` (about 25 k parameters; ``torch`` is imported inside the functions):
+three small convolutions, a spatial soft-argmax over :data:`KEYPOINTS` feature maps and a
+two-layer head giving the objects' poses (xyz m + quat wxyz per object, world, the layout
+of ``observation.environment_state``) from (B, 3, H, W) float images in [0, 1]. It is trained
+with the simulation's exact poses as labels, early frames weighted up (:data:`EARLY_FRAMES`,
+:data:`EARLY_REPEAT`); at deployment ``eval.camera_pose_step`` runs it in the checkpoint.
 
-The network (:class:`PoseEncoder`, about 25 k parameters; ``torch`` is imported inside the
-functions): three small convolutions, a spatial soft-argmax (where each of
-:data:`KEYPOINTS` feature maps peaks, in [-1, 1] image coordinates, and how strongly), and
-a two-layer head that gives the objects' poses (xyz m + quat wxyz per object, the layout of
-``observation.environment_state``). It runs on (B, 3, H, W) float images in [0, 1], as
-LeRobot's ``preprocess_observation`` gives them.
-
-At deployment only the camera is needed: ``eval.camera_pose_step`` runs the frozen encoder
-in the checkpoint's preprocessor, so the policy observes the joints and the camera, and
-nothing a real kit lacks.
+Docs: docs/train-eval.md; why: docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -162,7 +152,13 @@ def _tensor(images: np.ndarray) -> Any:
 
 
 def predict(encoder: Any, images: np.ndarray, batch: int = 512) -> np.ndarray:
-    """Poses (N, D) float32 for frames (N, H, W, 3) uint8."""
+    """Poses (N, D) float32 for frames (N, H, W, 3) uint8.
+
+    Args:
+        encoder: a trained :class:`PoseEncoder`.
+        images: frames (N, H, W, 3) uint8.
+        batch: frames per forward pass.
+    """
     import torch
 
     _check(images)
@@ -196,7 +192,13 @@ def object_errors(
 ) -> list[dict[str, float]]:
     """Per object (each 7 columns of the poses (N, D), xyz first, m): the mean and the largest
     |error| of x and y at the episodes' first frames (``frame_index`` at its minimum), and
-    the mean |error| of xyz over all frames; mm."""
+    the mean |error| of xyz over all frames; mm.
+
+    Args:
+        pred: predicted poses (N, D), 7 columns per object (xyz m, quat wxyz, world).
+        targets: the exact poses (N, D).
+        frame_index: each row's index in its episode, (N,).
+    """
     first = frame_index == frame_index.min()
     out = []
     for k in range(0, targets.shape[1] - 2, 7):
@@ -269,7 +271,20 @@ def train_encoder(
     shown :func:`static_repeat` times as often, and are never held out.
 
     ``augment``: every training batch changed by :func:`augment_batch` (light, colour,
-    a small shift), drawn from ``seed``; the held-out report reads the frames unchanged."""
+    a small shift), drawn from ``seed``; the held-out report reads the frames unchanged.
+
+    Args:
+        images: frames (N, H, W, 3) uint8.
+        targets: their poses (N, D), 7 columns per object (xyz m, quat wxyz, world).
+        episode: each frame's episode, (N,).
+        frame_index: each frame's index in its episode, (N,).
+        seed: the initial weights and the order of the frames.
+        epochs: training epochs.
+        threads: torch threads (None: torch's default).
+        static: more frames (M, H, W, 3) and poses (M, D) of scenes at their start.
+        augment: change every training batch by :func:`augment_batch`.
+        progress: gets progress lines.
+    """
     import torch
     import torch.nn.functional as F
 

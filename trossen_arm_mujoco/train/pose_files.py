@@ -1,6 +1,9 @@
 """Where a derived pose dataset (:mod:`.pose_dataset`) keeps its encoder and the encoder's
 report: plain names, read where torch and the simulator are absent (the train phase of
-``trossen-mujoco train`` on a train-only machine). Docs: Train and evaluate."""
+``trossen-mujoco train`` on a train-only machine).
+
+Docs: docs/cli/train.md, docs/train-eval.md.
+"""
 
 from __future__ import annotations
 

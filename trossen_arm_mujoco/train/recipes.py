@@ -1,26 +1,16 @@
 """The recipes of ``trossen-mujoco train`` (``--recipe``) and the checks of their camera
-settings. Docs: Train and evaluate (docs/train-eval.md), measured in docs/benchmarks.md.
+settings.
 
-A recipe is a set of flag defaults: ``--recipe camera`` is the camera recipe, and any flag
-given on the command line still wins over it (``--recipe camera --steps 9000``).
+A recipe is a set of flag defaults; any flag given on the command line still wins over it
+(``--recipe camera --steps 9000``). ``state``: the command's own defaults (the 14 joint
+values plus the object poses, 50 fps); ``camera``: the 14 joint values and ``cam_high``'s
+crop at 60x80, 30 fps, ACT with ResNet-18 from scratch; ``camera_pose``: the same
+observation, a pose encoder trained once finds the objects; ``camera_pose_robust``:
+``camera_pose`` on randomized scenes. The camera settings are checked before anything runs,
+one line each. Plain Python at import (the train phase may run without the simulator).
 
-- ``state``: the command's own defaults (the 14 joint values plus the object poses, 50 fps).
-- ``camera``: what a real kit gives, nothing more: the 14 joint values and ``cam_high`` at
-  the kit's layout and rate (30 fps), no object pose; the task's crop of ``cam_high`` rendered
-  at 60x80; ACT with ResNet-18 trained from scratch (backbone at the policy's rate), 200 noisy
-  episodes, 4,500 steps. Measured 2026-11-28: 2 %, 18 % and 14 % (ResNet-18 learns the arms,
-  not the cube); kept as the end-to-end row.
-- ``camera_pose``: the same observation and data; a pose encoder trained once on the recorded
-  frames finds the objects in ``cam_high``, each run trains the state recipe's ACT (7,000
-  steps) on the joints and the encoder's estimates, and each checkpoint carries the frozen
-  encoder in its preprocessor. Measured 2026-11-29: 100 %, 90 % and 90 %; on the insertion
-  80 %, 82 % and 96 %.
-- ``camera_pose_robust``: ``camera_pose`` on episodes whose scenes are randomized at the
-  task's train level, with the encoder trained on augmented frames.
-
-The camera recipes look at their task's crop of ``cam_high`` (its ``TaskEntry.camera_crop``;
-``--crop`` wins). The camera settings are checked before anything runs, one line each.
-Plain Python at import: the train phase may run where the simulator is not installed.
+Docs: docs/cli/train.md, docs/train-eval.md; measured: docs/benchmarks.md; details:
+docs/concepts/design-notes.md.
 """
 
 from __future__ import annotations
@@ -143,6 +133,13 @@ def camera_settings_error(
     ``crop``: ``CAMERA:TOP,LEFT,HEIGHT,WIDTH`` or None. With ``pose_encoder`` the images feed
     the pose encoder, whose smallest image is :data:`POSE_ENCODER_MIN` (ResNet-18's is
     :data:`ENCODER_STRIDE`).
+
+    Args:
+        cam_names: comma-separated camera names or ``none``.
+        image_size: ``HxW`` pixels.
+        crop: ``CAMERA:TOP,LEFT,HEIGHT,WIDTH`` (pixels of the 480x640 frame) or None.
+        pose_encoder: the images feed the pose encoder (its smallest image:
+            :data:`POSE_ENCODER_MIN`).
     """
     names = [n.strip() for n in cam_names.split(",") if n.strip()]
     if names == ["none"]:

@@ -1,6 +1,9 @@
 """The data phases of ``trossen-mujoco train``: ``record`` (the scripted episodes, and the
 pose encoder's static frames) and ``export`` (the LeRobot dataset, with the sim's features).
-A phase whose output is already whole is skipped with a line. Docs: Train and evaluate."""
+A phase whose output is already whole is skipped with a line.
+
+Docs: docs/cli/train.md, docs/train-eval.md.
+"""
 
 from __future__ import annotations
 
@@ -32,7 +35,13 @@ def static_job(cli: list[str], args: argparse.Namespace, ws: Workspace) -> list[
     the dataset's camera settings: each starts with the arms at home and the objects where
     the task's sampler puts them, so their first frames show the objects and nothing that
     moves. Their seeds are a stream of their own (``--seed`` + :data:`STATIC_SEED`). The
-    episodes end long before the task could succeed: the recorder keeps them and exits 1."""
+    episodes end long before the task could succeed: the recorder keeps them and exits 1.
+
+    Args:
+        cli: the command that runs ``trossen-mujoco`` (the Python and its module).
+        args: the parsed flags of ``trossen-mujoco train``.
+        ws: the locked work folder (``train.workspace``).
+    """
     return [
         *cli,
         "record",
@@ -53,7 +62,14 @@ def static_job(cli: list[str], args: argparse.Namespace, ws: Workspace) -> list[
 
 
 def record(ws: Workspace, args: argparse.Namespace, python: str, env: dict[str, str]) -> None:
-    """Record ``--episodes`` scripted episodes (and the static frames), unless there."""
+    """Record ``--episodes`` scripted episodes (and the static frames), unless there.
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        env: the children's environment variables (threads, paths).
+    """
     cli = cli_command(python)
     if (ws.episodes / f"episode_{args.episodes - 1}.hdf5").exists():
         print(f"record: {ws.episodes} already holds {args.episodes} episodes")
@@ -92,7 +108,14 @@ def record(ws: Workspace, args: argparse.Namespace, python: str, env: dict[str, 
 
 
 def export(ws: Workspace, args: argparse.Namespace, python: str, env: dict[str, str]) -> None:
-    """Export the episodes as a LeRobot dataset with the sim's features, unless done."""
+    """Export the episodes as a LeRobot dataset with the sim's features, unless done.
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        env: the children's environment variables (threads, paths).
+    """
     if ws.exported(ws.dataset):
         print(f"export: {ws.dataset} already exported")
         return

@@ -1,7 +1,9 @@
 """What ``trossen-mujoco train`` reports: each run's success with its 95 % Wilson interval,
 its faults and largest asked speeds, the spread over the runs, the loss curve of a log, the
-whole cost of the loop and where each checkpoint landed. Docs: Train and evaluate
-(docs/train-eval.md), docs/benchmarks.md ("The whole loop")."""
+whole cost of the loop and where each checkpoint landed.
+
+Docs: docs/cli/train.md, docs/train-eval.md, docs/benchmarks.md ("The whole loop").
+"""
 
 from __future__ import annotations
 
@@ -42,7 +44,13 @@ RUN_FLAGS = frozenset(
 
 
 def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
-    """95 % Wilson interval of a rate, in percent."""
+    """95 % Wilson interval of a rate, in percent.
+
+    Args:
+        successes: the number of successful episodes.
+        n: the number of episodes.
+        z: the normal quantile (1.96: 95 %).
+    """
     if n <= 0:
         return 0.0, 0.0
     p, denom = successes / n, 1.0 + z * z / n
@@ -127,7 +135,14 @@ def _training(train: dict) -> str:
 
 def report(runs: dict[str, dict], label: str = "in-process", each: bool = True) -> dict:
     """Each run's success and interval, faults and largest asked speed (printed when
-    ``each``), the mean and the worst (printed and returned)."""
+    ``each``), the mean and the worst (printed and returned).
+
+    Args:
+        runs: training seed -> that run's summary entry (``result``, ``controller``,
+            ``unconstrained``, ``train``).
+        label: what the scores are of, for the lines (``in-process``, ``wire``).
+        each: print each run's line too.
+    """
     rates, total, n = [], 0, 0
     for seed, run in sorted(runs.items(), key=lambda kv: int(kv[0])):
         res = run.get("result")

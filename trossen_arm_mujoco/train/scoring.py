@@ -4,7 +4,9 @@ cut as trained, the pose encoder, the controller's limits) and scored by ``tross
 eval``, in the sim (``eval``: ``--eval_workers`` processes, the controller's checks on and,
 with ``--controller_checks both``, off beside it) or through the served kit in wall-clock
 time (``wire``). One function, :func:`score`, does both; a score that already covers the
-checkpoint as this call would make it is kept. Docs: Train and evaluate (docs/train-eval.md).
+checkpoint as this call would make it is kept.
+
+Docs: docs/cli/train.md, docs/train-eval.md.
 """
 
 from __future__ import annotations
@@ -29,7 +31,14 @@ BACKENDS = {"eval": "sim", "wire": "wire"}
 def already_scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: bool) -> bool:
     """Whether ``info_path`` already scores ``ckpt`` as this call would (the same episodes,
     seed and level, newer than the checkpoint's weights and postprocessor, with the
-    unconstrained score when ``both``)."""
+    unconstrained score when ``both``).
+
+    Args:
+        info_path: the run's ``eval_info.json``.
+        ckpt: the checkpoint folder it should score.
+        args: the parsed flags of ``trossen-mujoco train``.
+        both: the unconstrained score is asked for too.
+    """
     try:
         info = json.loads(info_path.read_text(encoding="utf-8"))
         run = info["run"]
@@ -55,7 +64,14 @@ def already_scored(info_path: Path, ckpt: Path, args: argparse.Namespace, both: 
 def prepare(ws: Workspace, args: argparse.Namespace, python: str, seed: int) -> Path:
     """The run's last checkpoint, made deployable before it is scored: the dataset's
     settings beside its weights (when the train phase ran elsewhere), then ``trossen-mujoco
-    prepare`` (with the derived dataset's encoder for the camera_pose recipes)."""
+    prepare`` (with the derived dataset's encoder for the camera_pose recipes).
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        seed: the training seed of the run.
+    """
     ckpt = ws.checkpoint(seed)
     if not ckpt.is_dir():
         raise UserError(f"no checkpoint at {ckpt}: run --phase train first")
@@ -88,7 +104,16 @@ def score(
 ) -> None:
     """Score the last checkpoint of ``seed`` with ``trossen-mujoco eval`` on ``backend``
     (``sim`` or ``wire``) over ``--eval_episodes`` evaluation seeds; its results into the
-    summary's run (``wire`` under its own key)."""
+    summary's run (``wire`` under its own key).
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        env: the children's environment variables (threads, paths).
+        seed: the training seed of the run.
+        backend: ``sim`` or ``wire``.
+    """
     ckpt = prepare(ws, args, python, seed)
     out = ws.eval_dir(seed, backend)
     wire = backend == "wire"
@@ -144,7 +169,16 @@ def score_all(
     backend: str,
 ) -> None:
     """Score every run of ``seeds`` on ``backend``, then the spread over them (in the sim,
-    also over every run of the folder trained and scored alike: ``spread_all``)."""
+    also over every run of the folder trained and scored alike: ``spread_all``).
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        env: the children's environment variables (threads, paths).
+        seeds: the training seeds of the runs.
+        backend: ``sim`` or ``wire``.
+    """
     for seed in seeds:
         score(ws, args, python, env, seed, backend)
     mine = [str(seed) for seed in seeds]

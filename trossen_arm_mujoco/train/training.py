@@ -1,7 +1,10 @@
 """The ``train`` phase of ``trossen-mujoco train``: LeRobot's own ``lerobot-train`` with ACT
 once per training seed, ``--train_jobs`` at a time, each given its share of the CPU threads;
 each run's cost, loss curve and recipe flags into the summary, and the dataset's settings
-written beside every checkpoint's weights. Docs: Train and evaluate (docs/train-eval.md)."""
+written beside every checkpoint's weights.
+
+Docs: docs/cli/train.md, docs/train-eval.md.
+"""
 
 from __future__ import annotations
 
@@ -44,7 +47,15 @@ def train(
     ws: Workspace, args: argparse.Namespace, python: str, env: dict[str, str], seeds: list[int]
 ) -> None:
     """Train every seed without a checkpoint; a run stopped before its first checkpoint is
-    removed, so the next call trains it again."""
+    removed, so the next call trains it again.
+
+    Args:
+        ws: the locked work folder (``train.workspace``).
+        args: the parsed flags of ``trossen-mujoco train``.
+        python: the Python that runs LeRobot and the project's commands (``lerobot_python``).
+        env: the children's environment variables (threads, paths).
+        seeds: the training seeds.
+    """
     dataset = ws.training_dataset(args.pose_encoder)
     if not ws.exported(dataset):
         raise UserError(f"no dataset in {dataset}: run --phase record,export first")

@@ -1,5 +1,4 @@
 """The work folder of ``trossen-mujoco train``: its layout, its lock and its summary.
-Docs: Train and evaluate (docs/train-eval.md).
 
 Layout (every phase reads what the earlier ones left)::
 
@@ -15,6 +14,8 @@ Layout (every phase reads what the earlier ones left)::
     <phase>.log          each child process's output
 
 Plain Python: the train phase may run where the simulator is not installed.
+
+Docs: docs/cli/train.md, docs/train-eval.md.
 """
 
 from __future__ import annotations
