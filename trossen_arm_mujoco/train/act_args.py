@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 
 from trossen_arm_mujoco.errors import UserError
+from trossen_arm_mujoco.robot.lerobot_keys import ENV_STATE_KEY, IMAGE_KEY_PREFIX, STATE_KEY
 
 __all__ = ["input_features", "train_args"]
 
@@ -28,21 +29,18 @@ def input_features(args: argparse.Namespace, dataset: Path) -> list[str]:
     if args.pose_encoder:
         feats = _features(dataset)
         inputs = {
-            "observation.state": {"type": "STATE", "shape": feats["observation.state"]["shape"]},
-            "observation.environment_state": {
-                "type": "ENV",
-                "shape": feats["observation.environment_state"]["shape"],
-            },
+            STATE_KEY: {"type": "STATE", "shape": feats[STATE_KEY]["shape"]},
+            ENV_STATE_KEY: {"type": "ENV", "shape": feats[ENV_STATE_KEY]["shape"]},
         }
     elif args.no_env_state:
         inputs = {}
         for key, ft in _features(dataset).items():
-            if key == "observation.state":
+            if key == STATE_KEY:
                 inputs[key] = {"type": "STATE", "shape": ft["shape"]}
-            elif key.startswith("observation.images."):
+            elif key.startswith(IMAGE_KEY_PREFIX):
                 h, w, c = ft["shape"]  # LeRobot stores video features (H, W, C); policies: CHW
                 inputs[key] = {"type": "VISUAL", "shape": [c, h, w]}
-        if not any(k.startswith("observation.images.") for k in inputs):
+        if not any(k.startswith(IMAGE_KEY_PREFIX) for k in inputs):
             raise UserError("--no_env_state needs a camera: pass --cam_names (e.g. cam_high)")
     else:
         return []

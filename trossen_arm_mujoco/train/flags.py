@@ -10,6 +10,7 @@ import argparse
 from collections.abc import Sequence
 
 from trossen_arm_mujoco.errors import ArgumentParser, UserError
+from trossen_arm_mujoco.tasks.registry import DEFAULT_TASK
 from trossen_arm_mujoco.train.recipes import (
     CROPPED,
     RECIPES,
@@ -27,7 +28,7 @@ DEFAULT_PHASES = ("record", "export", "encode", "train", "eval")
 
 def _data_flags(p: argparse.ArgumentParser) -> None:
     """What is recorded and exported."""
-    p.add_argument("--task", default="sim_transfer_cube")
+    p.add_argument("--task", default=DEFAULT_TASK)
     p.add_argument(
         "--episodes",
         type=int,
