@@ -33,6 +33,7 @@ from trossen_arm_mujoco.eval.env import (
     _cameras,
     controller_timing,
     episode_generator,
+    episode_length_of,
 )
 from trossen_arm_mujoco.gym.inputs import reset_options
 from trossen_arm_mujoco.real.arm_controller import ARM_SIDES, GOAL_TIME_FACTOR, KitController
@@ -127,13 +128,7 @@ class ArmPolicyEnv(gymnasium.Env):
         self.randomize = bool(randomize) or randomization is not None
         if randomization is not None:
             overrides[RANDOMIZATION_KEY] = dict(randomization)
-        record_len = int(entry.record.get("episode_len") or config.get("max_episode_steps"))
-        if episode_length is None:
-            episode_length = max(1, round(record_len * self.fps / native))
-        if isinstance(episode_length, bool) or int(episode_length) != episode_length:
-            raise UserError(f"episode_length must be a whole number, got {episode_length!r}")
-        if not 1 <= int(episode_length) <= 100_000:
-            raise UserError(f"episode_length must be in [1, 100000], got {episode_length}")
+        episode_length = episode_length_of(entry, config, self.fps, native, episode_length)
         self.task = entry.name
         cams = self.cameras
         settings = SamplerSettings(

@@ -48,6 +48,7 @@ __all__ = [
     "RENDER_CAMERA",
     "KitPolicyEnv",
     "episode_generator",
+    "episode_length_of",
     "feature_spec",
     "parse_cameras",
     "parse_image_size",
@@ -161,6 +162,23 @@ def task_layouts(task: str) -> tuple[str, ...]:
     )
 
 
+def episode_length_of(
+    entry: Any, config: Mapping[str, Any], fps: float, native: float, asked: Any
+) -> int:
+    """Steps per evaluation episode: ``asked``, or the task's recording length (its
+    ``TaskEntry.record`` ``episode_len``, else the config's ``max_episode_steps``, in steps
+    at the ``native`` rate) at ``fps``; a value that is not a whole number in [1, 100000]
+    is a one-line UserError."""
+    if asked is None:
+        record_len = int(entry.record.get("episode_len") or config.get("max_episode_steps"))
+        asked = max(1, round(record_len * fps / native))
+    if isinstance(asked, bool) or int(asked) != asked:
+        raise UserError(f"episode_length must be a whole number, got {asked!r}")
+    if not 1 <= int(asked) <= 100_000:
+        raise UserError(f"episode_length must be in [1, 100000], got {asked}")
+    return int(asked)
+
+
 def _cameras(
     cameras: CameraSettings | None,
     cam_names: str | Sequence[str] | None,
@@ -256,13 +274,7 @@ class KitPolicyEnv(gymnasium.Env):
         self.randomize = bool(randomize) or randomization is not None
         if randomization is not None:
             overrides[RANDOMIZATION_KEY] = dict(randomization)
-        record_len = int(entry.record.get("episode_len") or config.get("max_episode_steps"))
-        if episode_length is None:
-            episode_length = max(1, round(record_len * self.fps / native))
-        if isinstance(episode_length, bool) or int(episode_length) != episode_length:
-            raise UserError(f"episode_length must be a whole number, got {episode_length!r}")
-        if not 1 <= int(episode_length) <= 100_000:
-            raise UserError(f"episode_length must be in [1, 100000], got {episode_length}")
+        episode_length = episode_length_of(entry, config, self.fps, native, episode_length)
         self.task = entry.name
         cams = self.cameras
         settings = SamplerSettings(
