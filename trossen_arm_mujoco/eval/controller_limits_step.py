@@ -68,20 +68,29 @@ SPEED_MARGIN = 0.75
 #: The Mobile AI's layout name (``robot.layout``): 16 values that are not the vendor's 16.
 MOBILEAI = "mobileai"
 
+#: What an action of another size is told (the layouts the steps know).
+_SIZE_ERROR = (
+    "the actions have {size} values; the controller's limits know a single arm's 7, the "
+    "kit's 14 and the vendor's or the Mobile AI's 16"
+)
+
 #: Fraction of a gripper's velocity limit its goals may change by per period (the recorded
 #: grippers move at up to 0.8 of it).
 GRIPPER_RATE_MARGIN = 0.9
 
 
 def controller_bounds(size: int, layout: str | None = None) -> tuple[list[float], list[float]]:
-    """(low, high) of each action value the controller accepts as is, for the kit's 14
-    values (per arm: 6 joints rad, the gripper m), the vendor's 16 (the gripper twice) or,
-    with ``layout`` ``"mobileai"``, the Mobile AI's 16 (the kit's 14, then the base's
-    ``x.vel`` m/s and ``theta.vel`` rad/s within the base's limits, which it clips to)."""
+    """(low, high) of each action value the controller accepts as is, for a single arm's 7
+    values (6 joints rad, the gripper m), the kit's 14 (the same per arm), the vendor's 16
+    (the gripper twice) or, with ``layout`` ``"mobileai"``, the Mobile AI's 16 (the kit's
+    14, then the base's ``x.vel`` m/s and ``theta.vel`` rad/s within the base's limits,
+    which it clips to)."""
     lims = controller_limits()
     low = [lim.position_min for lim in lims]
     high = [controller_target(lim.position_max, j, lim) for j, lim in enumerate(lims)]
     low[6], high[6] = 0.0, min(high[6], GRIPPER_MAX)
+    if size == 7:
+        return low, high
     if size == 14:
         return low * 2, high * 2
     if size == 16 and layout == MOBILEAI:
@@ -90,7 +99,7 @@ def controller_bounds(size: int, layout: str | None = None) -> tuple[list[float]
     if size == 16:
         arm_low, arm_high = low[:6] + [low[6]] * 2, high[:6] + [high[6]] * 2
         return arm_low * 2, arm_high * 2
-    raise UserError(f"the kit's actions have 14 or 16 values, not {size}")
+    raise UserError(_SIZE_ERROR.format(size=size))
 
 
 def joint_steps(size: int, fps: float, layout: str | None = None) -> list[float]:
@@ -100,7 +109,7 @@ def joint_steps(size: int, fps: float, layout: str | None = None) -> list[float]
     layouts as :func:`controller_bounds`.
 
     Args:
-        size: the number of action values (14 or 16).
+        size: the number of action values (7, 14 or 16).
         fps: the checkpoint's action rate (Hz).
         layout: ``"mobileai"`` for the Mobile AI's 16 values; None: the kit's or the vendor's.
     """
@@ -108,13 +117,13 @@ def joint_steps(size: int, fps: float, layout: str | None = None) -> list[float]
         raise UserError(f"fps must be a positive finite number, got {fps}")
     goal_time = GOAL_TIME_FACTOR / float(fps)
     joints = [SPEED_MARGIN * lim.velocity_max * goal_time for lim in controller_limits()[:6]]
-    if size == 14:
-        return (joints + [0.0]) * 2
+    if size in (7, 14):
+        return (joints + [0.0]) * (size // 7)
     if size == 16 and layout == MOBILEAI:
         return (joints + [0.0]) * 2 + [0.0, 0.0]
     if size == 16:
         return (joints + [0.0, 0.0]) * 2
-    raise UserError(f"the kit's actions have 14 or 16 values, not {size}")
+    raise UserError(_SIZE_ERROR.format(size=size))
 
 
 def gripper_rates(size: int, fps: float, layout: str | None = None) -> list[float]:
@@ -126,13 +135,13 @@ def gripper_rates(size: int, fps: float, layout: str | None = None) -> list[floa
     policy gives. Same layouts as :func:`controller_bounds`.
 
     Args:
-        size: the number of action values (14 or 16).
+        size: the number of action values (7, 14 or 16).
         fps: the checkpoint's action rate (Hz).
         layout: ``"mobileai"`` for the Mobile AI's 16 values; None: the kit's or the vendor's.
     """
     steps = joint_steps(size, fps, layout)  # checks size and fps
     rate = GRIPPER_RATE_MARGIN * controller_limits()[6].velocity_max / float(fps)
-    grippers = {6, 13} if size == 14 or layout == MOBILEAI else {6, 7, 14, 15}
+    grippers = {6, 13} if size in (7, 14) or layout == MOBILEAI else {6, 7, 14, 15}
     return [rate if i in grippers else 0.0 for i in range(len(steps))]
 
 
@@ -172,7 +181,7 @@ def add_limits(procs: SavedProcessors, size: int, fps: float | None, layout: str
 
     Args:
         procs: the checkpoint's saved processors, edited in memory.
-        size: the number of action values (14 or 16).
+        size: the number of action values (7, 14 or 16).
         fps: the checkpoint's action rate (Hz); None: the ranges only.
         layout: ``"mobileai"`` for the Mobile AI's 16 values; None: the kit's or the vendor's.
     """

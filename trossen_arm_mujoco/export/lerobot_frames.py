@@ -17,6 +17,7 @@ import numpy as np
 
 from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.export import lerobot_format as fmt
+from trossen_arm_mujoco.export.goal_state import episode_goal
 from trossen_arm_mujoco.export.lerobot_plan import (
     MOBILEAI,
     ExportPlan,
@@ -116,7 +117,11 @@ def _values(
         VELOCITY_KEY: frames.observations(fmt.layout_values(layout, episode.qvel)),
     }
     if episode.env_state is not None:
-        out[ENV_STATE_KEY] = frames.poses(episode.env_state)
+        poses = frames.poses(episode.env_state)
+        goal = episode_goal(episode)
+        if goal is not None:  # a goal-conditioned task: the goal after the poses
+            poses = np.hstack([poses, np.broadcast_to(goal, (len(poses), 3))])
+        out[ENV_STATE_KEY] = poses
     out = {key: values.astype(np.float32) for key, values in out.items()}
     if episode.reward is not None:
         out["next.reward"] = episode.reward[frames.reward_index].astype(np.float32)
@@ -144,6 +149,9 @@ def frame_columns(
     image_index = cols.pop("image_index")
     if not plan.sim_features:
         cols = {key: values for key, values in cols.items() if key not in fmt.SIM_FEATURES}
+    elif (judge := plan.goal_judges[i] if plan.goal_judges else None) is not None:
+        goal = episode_goal(ep)
+        cols["next.success"] = judge.success(cols[ENV_STATE_KEY], goal)
     elif plan.with_reward:
         cols["next.success"] = ep.reward[frames.reward_index] >= plan.max_reward[i]
     n = frames.length

@@ -24,6 +24,7 @@ from trossen_arm_mujoco.data.reader import Episode
 from trossen_arm_mujoco.data.schema import ENV_STATE_DIM
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.export.dataset_settings import DatasetSettings
+from trossen_arm_mujoco.export.goal_state import GOAL_NAMES, GoalJudge, episode_goal, goal_judge
 from trossen_arm_mujoco.export.lerobot_state import check_state_extras
 from trossen_arm_mujoco.robot.layout import EXPORT_LAYOUTS
 from trossen_arm_mujoco.sim.camera_crop import CameraCrop, parse_crops
@@ -91,6 +92,8 @@ class ExportPlan:
             ``observation.environment_state``, ``next.reward``, ``next.success``).
         base_action: the Mobile AI's base action, one of :data:`BASE_ACTIONS` (None for
             the other layouts).
+        goal_judges: per episode, how its goal-conditioned task judges ``next.success``
+            from the object poses (``export.goal_state``; None: by ``max_reward``).
     """
 
     episodes: list[Episode]
@@ -111,6 +114,7 @@ class ExportPlan:
     state_extras: tuple[str, ...] = ()  # "vel", "eff", "ext_eff": added to observation.state
     sim_features: bool = False
     base_action: str | None = None
+    goal_judges: list[GoalJudge | None] | None = None  # per episode (None: none judged)
 
     def settings(self) -> DatasetSettings:
         """What the dataset is made with (``export.dataset_settings``), for its info.json."""
@@ -297,12 +301,11 @@ def source_fps(episode: Episode) -> int:
     return fps
 
 
-def env_state_names(episode: Episode) -> list[str] | None:
-    """Names of the episode's env_state values, ``<object>_x`` .. ``<object>_qz`` per object
-    (objects from the ``object_names`` attribute, else ``obj0``, ``obj1``...); None without
-    env_state."""
+def _object_names(episode: Episode) -> list[str]:
+    """The episode's objects in env_state order: its ``object_names`` attribute, else
+    ``obj0``, ``obj1``... (none without env_state)."""
     if episode.env_state is None:
-        return None
+        return []
     count = episode.env_state.shape[1] // ENV_STATE_DIM
     objects = episode.attrs.get("object_names")
     objects = [objects] if isinstance(objects, str) else objects
@@ -312,7 +315,18 @@ def env_state_names(episode: Episode) -> list[str] | None:
         and all(isinstance(o, str) and o for o in objects)
     ):
         objects = [f"obj{i}" for i in range(count)]
-    return [f"{obj}_{part}" for obj in objects for part in POSE_COMPONENTS]
+    return list(objects)
+
+
+def env_state_names(episode: Episode) -> list[str] | None:
+    """Names of the episode's env_state values, ``<object>_x`` .. ``<object>_qz`` per object
+    (objects from the ``object_names`` attribute, else ``obj0``, ``obj1``...), then
+    ``goal_x``, ``goal_y``, ``goal_z`` for a goal-conditioned episode (``export.goal_state``);
+    None without env_state."""
+    if episode.env_state is None:
+        return None
+    names = [f"{obj}_{part}" for obj in _object_names(episode) for part in POSE_COMPONENTS]
+    return names + (list(GOAL_NAMES) if episode_goal(episode) is not None else [])
 
 
 def recorded_layout(episode: Episode) -> str:
@@ -413,6 +427,7 @@ def plan_export(
     tasks: list[str] = []
     task_index: list[int] = []
     max_reward: list[float | None] = []
+    judges: list[GoalJudge | None] = []
     lengths: list[int] = []
     for ep in episodes:
         if source_fps(ep) != rate:
@@ -466,7 +481,9 @@ def plan_export(
                 f"valid task names: {', '.join(registry.names())}"
             )
         best = _max_reward(entry)
-        if sim_features and ep.reward is not None and best is None:
+        judge = goal_judge(entry, _object_names(ep)) if episode_goal(ep) is not None else None
+        judges.append(judge)
+        if sim_features and ep.reward is not None and best is None and judge is None:
             raise UserError(
                 f"{ep.path.name}: task {entry.name} has no maximum reward to judge next.success "
                 "with; export it without --sim_features"
@@ -491,6 +508,7 @@ def plan_export(
         state_extras=state_extras,
         sim_features=bool(sim_features),
         base_action=base_action,
+        goal_judges=judges,
     )
 
 
@@ -550,5 +568,5 @@ def _describe_env(ep: Episode) -> str:
     names = env_state_names(ep)
     if names is None:
         return "none"
-    objects = [names[i][: -len("_x")] for i in range(0, len(names), ENV_STATE_DIM)]
-    return f"of {len(names)} values ({', '.join(objects)})"
+    parts = _object_names(ep) + (["goal"] if episode_goal(ep) is not None else [])
+    return f"of {len(names)} values ({', '.join(parts)})"
