@@ -36,6 +36,8 @@ from pathlib import Path
 
 import yaml
 
+from trossen_arm_mujoco.fileio import write_text
+
 #: The randomization kinds, each condition "kind alone" turns on.
 KINDS = (
     "lights",
@@ -108,7 +110,7 @@ def run_condition(
     if not info_path.is_file():
         out.mkdir(parents=True, exist_ok=True)
         if section is not None:
-            (out / "randomization.yaml").write_text(yaml.safe_dump(section), encoding="utf-8")
+            write_text(out / "randomization.yaml", yaml.safe_dump(section))
             flags = ["--randomization", str(out / "randomization.yaml")]
         cmd = [
             shutil.which("trossen-mujoco") or "trossen-mujoco",
@@ -134,7 +136,7 @@ def run_condition(
         if proc.returncode != 0 or not info_path.is_file():
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["(no output)"]
             raise SystemExit(f"error: {label}: eval exited {proc.returncode}: {tail[0]}")
-        (out / "cost.json").write_text(json.dumps({"wall_s": wall, "cpu_s": cpu}))
+        write_text(out / "cost.json", json.dumps({"wall_s": wall, "cpu_s": cpu}))
     elif (out / "cost.json").is_file():
         cost = json.loads((out / "cost.json").read_text())
         wall, cpu = cost["wall_s"], cost["cpu_s"]
@@ -214,9 +216,7 @@ def main(argv: list[str] | None = None) -> int:
         "rows": rows,
     }
     args.out.mkdir(parents=True, exist_ok=True)
-    tmp = args.out / "robustness.json.tmp"
-    tmp.write_text(json.dumps(report, indent=2), encoding="utf-8")
-    tmp.replace(args.out / "robustness.json")
+    write_text(args.out / "robustness.json", json.dumps(report, indent=2))
     return 0
 
 
