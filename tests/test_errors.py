@@ -20,11 +20,17 @@ from trossen_arm_mujoco.errors import (
     describe_os_error,
     interrupt_note,
     os_error_hint,
-    raise_terminated,
     report_error,
     run_cli,
     unknown_name_error,
 )
+from trossen_arm_mujoco.stopping import RAISE, StopSignals, stops_handling
+
+
+def raises_here(sig: int) -> bool:
+    """Whether ``sig`` is handled now by stop signals that raise (``run_cli``'s)."""
+    stops = stops_handling(sig)
+    return stops is not None and stops.mode == RAISE
 
 
 def test_report_error_prints_one_line_and_returns_the_status(capsys):
@@ -71,7 +77,7 @@ def test_sigterm_unwinds_main_like_ctrl_c(capsys):
     cleaned = []
 
     def main(argv):
-        assert signal.getsignal(signal.SIGTERM) is raise_terminated
+        assert raises_here(signal.SIGTERM)
         with interrupt_note(lambda: "kept 2 file(s) in /x"):
             try:
                 os.kill(os.getpid(), signal.SIGTERM)
@@ -245,7 +251,7 @@ def test_sighup_is_handled_like_sigterm_and_a_handler_in_place_is_kept(capsys):
     try:
 
         def main(argv):
-            assert signal.getsignal(signal.SIGHUP) is raise_terminated
+            assert raises_here(signal.SIGHUP)
             os.kill(os.getpid(), signal.SIGUSR1)  # the handler in place runs, no interrupt
             for _ in range(1000):
                 pass
@@ -268,35 +274,25 @@ def test_sighup_is_handled_like_sigterm_and_a_handler_in_place_is_kept(capsys):
 def test_signal_in_a_finalizer_is_delivered_after_it(monkeypatch):
     """SIGTERM arriving while a ``__del__`` runs is not lost as "Exception ignored in": it
     is raised once the finalizer has returned."""
-    import signal as _signal
-
-    from trossen_arm_mujoco import errors as _errors
-
     seen = []
 
     class Finalized:
         def __del__(self):
-            _signal.raise_signal(_signal.SIGTERM)  # the handler runs inside __del__
+            signal.raise_signal(signal.SIGTERM)  # the handler runs inside __del__
             seen.append("finalizer done")
 
-    old = _signal.signal(_signal.SIGTERM, _errors.raise_terminated)
-    try:
-        with pytest.raises(_errors.Terminated):
-            Finalized()  # collected at once: __del__ runs here
-            deadline = time.monotonic() + 5.0
-            while time.monotonic() < deadline:  # the signal comes again a moment later
-                time.sleep(0.001)
-    finally:
-        _signal.signal(_signal.SIGTERM, old)
-        _errors._received.clear()
-    assert seen and seen[0] == "finalizer done"
+    stops = StopSignals(RAISE, (signal.SIGTERM,))
+    with stops.handling(), pytest.raises(Terminated):
+        Finalized()  # collected at once: __del__ runs here
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline:  # the signal comes again a moment later
+            time.sleep(0.001)
+    assert seen and seen[0] == "finalizer done" and stops.received == [signal.SIGTERM]
 
 
 def test_ctrl_c_in_a_finalizer_is_delivered_after_it():
     """Commands run by ``run_cli`` get a SIGINT handler that does the same for Ctrl-C
     (Python's own raised inside the finalizer: "Exception ignored", and the run went on)."""
-    from trossen_arm_mujoco import errors as _errors
-
     seen, handlers = [], []
 
     class Finalized:
@@ -305,7 +301,7 @@ def test_ctrl_c_in_a_finalizer_is_delivered_after_it():
             seen.append("finalizer done")
 
     def command(argv=None) -> int:
-        handlers.append(signal.getsignal(signal.SIGINT))
+        handlers.append(raises_here(signal.SIGINT))
         Finalized()
         deadline = time.monotonic() + 5.0
         while time.monotonic() < deadline:
@@ -314,8 +310,8 @@ def test_ctrl_c_in_a_finalizer_is_delivered_after_it():
 
     before = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        assert _errors.run_cli(command) == 130
+        assert run_cli(command) == 130
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
     finally:
         signal.signal(signal.SIGINT, before)
-    assert handlers == [_errors.raise_interrupt] and seen == ["finalizer done"]
+    assert handlers == [True] and seen == ["finalizer done"]

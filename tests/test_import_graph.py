@@ -38,7 +38,9 @@ PACKAGE_DIR = Path(__file__).resolve().parent.parent / PACKAGE
 
 #: Units (subpackages and top-level modules, by their name under the package), lowest first.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    # helpers that know nothing of robots, worlds or tasks
+    # helpers that know nothing of robots, worlds or tasks: stop signals, then the errors
+    # and the command-line wrapper built on them
+    ("stopping",),
     ("errors",),
     ("names", "clip", "fileio", "quaternion", "assets", "viewer", "processes"),
     ("images",),

@@ -3,11 +3,11 @@
 :func:`run_cli` runs a command's ``main``: a :class:`UserError` becomes one ``error: ...``
 line and exit status 2; Ctrl-C (SIGINT) and SIGTERM both unwind the command as a
 ``KeyboardInterrupt`` (SIGTERM as its subclass :class:`Terminated`, and so do SIGHUP and
-the other signals that would end the process), so every cleanup written for Ctrl-C also
-runs for them, and end with one ``interrupted (...)`` line and exit status 130 or 143
-(128 + the signal). A command says what an interruption kept with :func:`interrupt_note`.
-Python warnings raised meanwhile print as one ``note: ...`` line each (:func:`plain_warnings`,
-:func:`note`).
+the other signals that would end the process; handled by :mod:`trossen_arm_mujoco.stopping`),
+so every cleanup written for Ctrl-C also runs for them, and end with one ``interrupted (...)``
+line and exit status 130 or 143 (128 + the signal). A command says what an interruption kept
+with :func:`interrupt_note`. Python warnings raised meanwhile print as one ``note: ...`` line
+each (:func:`plain_warnings`, :func:`note`).
 
 Docs: docs/reference/errors.md.
 """
@@ -19,17 +19,27 @@ import errno
 import os
 import signal
 import sys
-import threading
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
+# TERMINATING_SIGNALS and redeliver_if_in_finalizer: for the modules that still import them
+# from here (fileio, collect, worker_pool); new code imports them from stopping
+from trossen_arm_mujoco.stopping import (
+    RAISE,
+    TERMINATING_SIGNALS,
+    StopSignals,
+    Terminated,
+    interrupt_signal,
+    signal_name,
+)
+from trossen_arm_mujoco.stopping import redeliver_if_in_finalizer as redeliver_if_in_finalizer
+
 __all__ = [
     "EXIT_INTERRUPTED",
     "EXIT_TERMINATED",
     "EXIT_USER_ERROR",
-    "TERMINATING_SIGNALS",
     "ArgumentParser",
     "Terminated",
     "UserError",
@@ -38,9 +48,6 @@ __all__ = [
     "note",
     "os_error_hint",
     "plain_warnings",
-    "raise_interrupt",
-    "raise_terminated",
-    "redeliver_if_in_finalizer",
     "report_error",
     "run_cli",
     "show_warning_as_note",
@@ -87,105 +94,6 @@ class UserError(Exception):
         if getattr(self, "cli_hint", None) is None:
             return str(self)
         return f"{self.what} ({self.cli_hint})"
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM (or another signal that would end the process), raised in the main thread
-    while :func:`run_cli` runs a command.
-
-    A ``KeyboardInterrupt``, so code that cleans up after Ctrl-C cleans up after SIGTERM
-    alike; :func:`run_cli` exits with status 128 + :attr:`signum` (143 for SIGTERM).
-    """
-
-    def __init__(self, signum: int = signal.SIGTERM) -> None:
-        super().__init__(_signal_name(signum))
-        self.signum = int(signum)
-
-    def __reduce__(self):  # the signal number survives pickling (worker pools)
-        return (type(self), (self.signum,))
-
-
-def _signal_name(signum: int) -> str:
-    try:
-        return signal.Signals(signum).name
-    except ValueError:
-        return f"signal {signum}"
-
-
-def raise_terminated(signum: int, frame: Any) -> None:
-    """Signal handler raising :class:`Terminated`: SIGTERM handled like Ctrl-C.
-
-    :func:`run_cli` installs it; a command that installs a SIGTERM handler of its own can
-    install this one and keep exit status 143.
-    """
-    if redeliver_if_in_finalizer(signum, frame):
-        return
-    _received.append(signum)
-    raise Terminated(signum)
-
-
-#: Modules whose functions run as finalizers (weakref callbacks).
-_FINALIZER_FILES = ("weakref.py", "_weakrefset.py")
-
-
-def redeliver_if_in_finalizer(signum: int, frame: Any) -> bool:
-    """For a signal handler that raises: when the interrupted ``frame`` runs inside a
-    finalizer (``__del__``, a weakref callback), an exception raised there is printed as
-    "Exception ignored in ..." with a traceback and then lost. Then this signals the process
-    again a moment later (a timer thread; Python runs the handler in the main thread, once
-    the finalizer has returned) and returns True: the handler returns without raising."""
-    if not _in_finalizer(frame):
-        return False
-    timer = threading.Timer(0.002, os.kill, (os.getpid(), signum))
-    timer.daemon = True
-    timer.start()
-    return True
-
-
-def _in_finalizer(frame: Any, depth: int = 64) -> bool:
-    """Whether ``frame`` (the one a signal interrupted) runs inside a finalizer."""
-    while frame is not None and depth > 0:
-        code = frame.f_code
-        if code.co_name == "__del__" or code.co_filename.endswith(_FINALIZER_FILES):
-            return True
-        frame, depth = frame.f_back, depth - 1
-    return False
-
-
-#: Signals :func:`raise_terminated` turned into exceptions during the current command.
-_received: list[int] = []
-
-#: Signals whose default action ends the process, handled like SIGTERM by :func:`run_cli`
-#: (SIGTERM always, unless ignored; the others where no handler is installed). Not SIGKILL
-#: (it cannot be caught), nor the faults (SIGSEGV, SIGABRT...): after those nothing can run.
-TERMINATING_SIGNALS: tuple[signal.Signals, ...] = tuple(
-    getattr(signal, name)
-    for name in (
-        "SIGTERM",
-        "SIGHUP",
-        "SIGQUIT",
-        "SIGUSR1",
-        "SIGUSR2",
-        "SIGALRM",
-        "SIGVTALRM",
-        "SIGPROF",
-        "SIGXCPU",
-    )
-    if hasattr(signal, name)
-)
-
-
-def _default_sigterm_in_child() -> None:
-    """A process forked while a command runs (a worker pool) is not the command: SIGTERM
-    and the others end it at once, as before, instead of unwinding a copy of the command."""
-    for sig in TERMINATING_SIGNALS:
-        if signal.getsignal(sig) is raise_terminated:
-            signal.signal(sig, signal.SIG_DFL)
-    _received.clear()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_default_sigterm_in_child)
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -323,43 +231,8 @@ def interrupt_note(describe: Callable[[], str]) -> Iterator[None]:
         raise
 
 
-def _install_handlers() -> dict[int, Any]:
-    """Make SIGTERM and the other :data:`TERMINATING_SIGNALS` raise :class:`Terminated`
-    (main thread only; an ignored signal stays ignored, a handler already installed for one
-    of the others stays). Returns the handlers replaced."""
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-    previous = {}
-    for sig in TERMINATING_SIGNALS:
-        old = signal.getsignal(sig)
-        if old in (signal.SIG_IGN, None) or (sig != signal.SIGTERM and old != signal.SIG_DFL):
-            continue  # ignored, a handler not from Python (faulthandler), or one in place
-        signal.signal(sig, raise_terminated)
-        previous[sig] = old
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-        # Python's own Ctrl-C handler raises even inside a finalizer, where the exception is
-        # printed as "Exception ignored" and lost (the run then went on to finish)
-        signal.signal(signal.SIGINT, raise_interrupt)
-        previous[signal.SIGINT] = signal.default_int_handler
-    return previous
-
-
-def raise_interrupt(signum: int, frame: Any) -> None:
-    """SIGINT handler: ``KeyboardInterrupt``, as Python's own, except inside a finalizer,
-    where the signal is delivered again once the finalizer has returned."""
-    if redeliver_if_in_finalizer(signum, frame):
-        return
-    raise KeyboardInterrupt
-
-
-def _restore_handlers(previous: dict[int, Any]) -> None:
-    for sig, old in previous.items():
-        signal.signal(sig, old)
-    previous.clear()
-
-
 def _interrupt_line(exc: KeyboardInterrupt, signum: int) -> str:
-    name = "Ctrl-C" if signum == signal.SIGINT else _signal_name(signum)
+    name = "Ctrl-C" if signum == signal.SIGINT else signal_name(signum)
     kept = getattr(exc, "kept", None)
     return f"interrupted ({name}): {_one_line(kept)}" if kept else f"interrupted ({name})"
 
@@ -369,33 +242,31 @@ def run_cli(
 ) -> int:
     """Run a CLI ``main`` and map user errors to a one-line message and exit code 2.
 
-    For the duration of ``main``, SIGTERM raises :class:`Terminated` (a
-    ``KeyboardInterrupt``) in the main thread, and so do the other signals that would end
-    the process (:data:`TERMINATING_SIGNALS`) where no handler is installed; a handler
-    ``main`` installs itself replaces that one, and the previous handlers are restored
-    afterwards. An interrupt that reaches here, after the callee has cleaned up, prints one
-    line (with the callee's :func:`interrupt_note`) and exits with 130 after Ctrl-C, 143
-    after SIGTERM (128 + the signal's number).
+    For the duration of ``main``, SIGINT and SIGTERM raise (``KeyboardInterrupt``,
+    :class:`Terminated`) in the main thread, and so do the other signals that would end the
+    process (:data:`~trossen_arm_mujoco.stopping.TERMINATING_SIGNALS`) where no handler is
+    installed (a ``StopSignals`` in mode ``RAISE``); a handler ``main`` installs itself
+    replaces that one, and the previous handlers are restored afterwards. An interrupt that
+    reaches here, after the callee has cleaned up, prints one line (with the callee's
+    :func:`interrupt_note`) and exits with 130 after Ctrl-C, 143 after SIGTERM (128 + the
+    signal's number).
     """
-    previous = _install_handlers()
-    _received.clear()
+    stops = StopSignals(RAISE, (signal.SIGINT, *TERMINATING_SIGNALS)).install(
+        over=(signal.SIGTERM,)
+    )
     try:
         try:
             with plain_warnings():
                 rc = main(argv)
         except UserError as exc:
             message = exc.cli_message
-            _restore_handlers(previous)
+            stops.restore()
             return report_error(message)
         return int(rc or 0)
     except KeyboardInterrupt as exc:
-        if isinstance(exc, Terminated):
-            signum = exc.signum
-        else:  # a handler's exception caught and raised again as a plain one
-            signum = _received[0] if _received else signal.SIGINT
-        _restore_handlers(previous)
+        stops.restore()
+        signum = interrupt_signal(exc, stops)
         print(_interrupt_line(exc, signum), file=sys.stderr)
         return 128 + int(signum)
     finally:
-        _restore_handlers(previous)
-        _received.clear()
+        stops.restore()

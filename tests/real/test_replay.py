@@ -17,6 +17,7 @@ from trossen_arm_mujoco.real.replay import (
     MAX_COMMAND_PERIOD,
     MAX_FPS,
     MIN_FPS,
+    WAIT_SLICE,
     ReplayConfig,
     check_fps,
     make_drivers,
@@ -24,14 +25,8 @@ from trossen_arm_mujoco.real.replay import (
     wait,
 )
 from trossen_arm_mujoco.real.sim_driver import SimArmDriver
-from trossen_arm_mujoco.real.stop import (
-    STOP_SIGNALS,
-    WAIT_SLICE,
-    Interrupted,
-    StopFlag,
-    stop_on_signals,
-)
 from trossen_arm_mujoco.real.validate import validate_actions
+from trossen_arm_mujoco.stopping import STOP_SIGNALS, StopSignals
 
 
 class SignalClock(SimClock):
@@ -180,17 +175,17 @@ def test_sim_replay_runs_much_faster_than_real_time(smooth) -> None:
     assert clock.now() > 17.0 and wall < clock.now() / 5
 
 
-def test_stop_on_signals_restores_handlers_and_keeps_first_reason() -> None:
+def test_stop_signals_restore_handlers_and_keep_the_first_reason() -> None:
     before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
-    flag = StopFlag()
-    with stop_on_signals(flag):
+    stops = StopSignals()
+    with stops.handling():
         assert signal.getsignal(signal.SIGINT) is not before[0]
         os.kill(os.getpid(), signal.SIGTERM)
         time.sleep(0.01)
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(0.01)
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
-    assert flag.reason == "interrupted by SIGTERM" and flag.exit_code == 143
+    assert stops.reason == "SIGTERM" and stops.exit_code == 143 and stops.by_signal
 
 
 @pytest.fixture
@@ -275,22 +270,7 @@ def test_a_signal_while_the_arms_go_home_is_only_noted(smooth, leak_guard) -> No
     assert_asleep(result, drivers)
 
 
-def test_an_unarmed_flag_raises_and_a_closed_one_only_notes() -> None:
-    flag = StopFlag(armed=False)
-    with pytest.raises(Interrupted) as exc:
-        flag.on_signal(signal.SIGTERM)
-    assert exc.value.exit_code == 143 and str(exc.value) == "interrupted by SIGTERM"
-    assert isinstance(exc.value, KeyboardInterrupt) and not flag
-    flag.arm()
-    flag.on_signal(signal.SIGINT)
-    flag.on_signal(signal.SIGTERM)
-    assert flag.reason == "interrupted by SIGINT" and flag.exit_code == 130
-    flag.close()
-    flag.on_signal(signal.SIGHUP)
-    assert flag.late == ["SIGHUP"] and flag.reason == "interrupted by SIGINT"
-
-
-def test_waits_are_sliced_and_end_once_the_flag_is_set() -> None:
+def test_waits_are_sliced_and_end_once_a_stop_is_requested() -> None:
     class Counting(SimClock):
         def __init__(self) -> None:
             super().__init__()
@@ -300,9 +280,9 @@ def test_waits_are_sliced_and_end_once_the_flag_is_set() -> None:
             self.slices.append(seconds)
             super().sleep(seconds)
 
-    clock, flag = Counting(), StopFlag()
-    wait(clock, 1.0, flag)
+    clock, stops = Counting(), StopSignals()
+    wait(clock, 1.0, stops)
     assert clock.now() == pytest.approx(1.0) and max(clock.slices) <= WAIT_SLICE
-    flag.set("stop", 1)
-    wait(clock, 1e9, flag)  # returns at once
+    stops.request("stop", 1)
+    wait(clock, 1e9, stops)  # returns at once
     assert clock.now() == pytest.approx(1.0)

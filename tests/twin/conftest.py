@@ -27,9 +27,9 @@ tests/eval/test_arm_wire.py                   127.0.0.181 .. 127.0.0.189
 tests/eval/test_lerobot_arm.py                127.0.0.191 .. 127.0.0.199
 ============================================  ===========================
 
-(tests/twin/test_kit_world.py, test_session_recorder.py, test_episode_spool.py,
-test_stop_signals.py and test_faults.py serve nothing; test_camera_stream.py and
-test_episode_control.py serve only on 127.0.0.1, on free ports.)
+(tests/twin/test_kit_world.py, test_session_recorder.py, test_episode_spool.py and
+test_faults.py serve nothing; test_camera_stream.py and test_episode_control.py serve only
+on 127.0.0.1, on free ports.)
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ The parts: :mod:`.driver` (the :class:`ArmDriver` protocol, the ``trossen_arm`` 
 time), :mod:`.validate` (trajectory checks), :mod:`.preflight` (addresses and step period,
 checked before anything connects), :mod:`.gripper` (gripper commands clamped and counted),
 :mod:`.replay` (the rate-limited loop), :mod:`.shutdown` (one-line driver errors, the safe
-exit), :mod:`.stop` (signals as a stop flag), :mod:`.report` (tracking CSV, JSON, plot).
+exit), :mod:`.report` (tracking CSV, JSON, plot).
 The command line is ``scripts/replay_episode_real.py`` (``trossen-mujoco replay-real``).
 
 Docs: docs/cli/replay-real.md.

@@ -6,8 +6,9 @@
 ``set_all_positions(cmd, goal_time_factor / fps, blocking=False)``, waits until
 ``t0 + (k + 1) / fps``, logs commanded vs measured); and always, after any exception or a
 stop signal, recovers an arm in error where it can, moves every configured arm home and to
-sleep, and cleans up (:func:`.shutdown.shutdown`). Stop signals (main thread only) set a flag
-checked every :data:`~.stop.WAIT_SLICE` s; all waiting goes through a ``Clock`` (real or
+sleep, and cleans up (:func:`.shutdown.shutdown`). Stop signals (main thread only) are
+recorded as stop requests (a ``stopping.StopSignals``) checked every :data:`WAIT_SLICE` s;
+once streaming ends they are only noted. All waiting goes through a ``Clock`` (real or
 simulated time). ``fps`` is bounded by :func:`check_fps` (a command lasts 1 ms ..
 :data:`MAX_COMMAND_PERIOD`).
 
@@ -45,8 +46,8 @@ from trossen_arm_mujoco.real.shutdown import (
     shutdown,
 )
 from trossen_arm_mujoco.real.sim_driver import SimArmDriver
-from trossen_arm_mujoco.real.stop import WAIT_SLICE, StopFlag, stop_on_signals
 from trossen_arm_mujoco.real.validate import ARMS, ArmLimits, Trajectory, safe_move_time
+from trossen_arm_mujoco.stopping import NOTE, REQUEST, StopSignals, signal_name
 
 __all__ = [
     "BACKENDS",
@@ -56,6 +57,7 @@ __all__ = [
     "DriverFactory",
     "ReplayConfig",
     "ReplayResult",
+    "WAIT_SLICE",
     "check_fps",
     "make_drivers",
     "replay",
@@ -76,6 +78,8 @@ MAX_COMMAND_PERIOD: float = 2.0
 MIN_FPS: float = 1.0 / MAX_COMMAND_PERIOD
 #: Highest command rate (Hz): one command per millisecond.
 MAX_FPS: float = 1000.0
+#: Longest single wait (s) between two checks for a stop.
+WAIT_SLICE: float = 0.05
 
 
 def check_fps(fps: float, flag: str = "--fps") -> None:
@@ -196,16 +200,22 @@ class ReplayResult:
         return not self.shutdown_errors
 
 
-def wait(clock: Clock, seconds: float, flag: StopFlag, chunk: float = WAIT_SLICE) -> None:
-    """Wait ``seconds`` (s) in slices of at most ``chunk``, returning early once ``flag`` is set.
+def wait(clock: Clock, seconds: float, stops: StopSignals, chunk: float = WAIT_SLICE) -> None:
+    """Wait ``seconds`` (s) in slices of at most ``chunk``, returning early once a stop is
+    requested.
 
-    A signal handler runs between two slices at the latest, and sets the flag: however
+    A signal handler runs between two slices at the latest, and records the request: however
     long the wait, a stop takes effect within ``chunk`` (plus the time one slice takes to
     simulate, on the twin).
     """
     end = clock.now() + seconds
-    while not flag and (left := end - clock.now()) > 1e-9:
+    while not stops.requested and (left := end - clock.now()) > 1e-9:
         clock.sleep(min(chunk, left))
+
+
+def _why(stops: StopSignals) -> str:
+    """The first stop in words: ``interrupted by SIGTERM``, or the error."""
+    return f"interrupted by {stops.reason}" if stops.by_signal else stops.reason
 
 
 def _say(text: str) -> None:
@@ -240,12 +250,12 @@ def _stream(
     clock: Clock,
     config: ReplayConfig,
     limits: ArmLimits,
-    flag: StopFlag,
+    stops: StopSignals,
     states: ArmStates,
     result: ReplayResult,
 ) -> None:
     for side in ARMS:
-        if flag:
+        if stops.requested:
             return
         drv = drivers[side]
         args = (config.ips[side], config.model, config.end_effector, True)
@@ -254,10 +264,10 @@ def _stream(
         states.configured.append(side)
         call(side, "set_all_modes_position", drv.set_all_modes_position)
         states.position_mode.append(side)
-    if flag:
+    if stops.requested:
         return
-    wait(clock, _move_to_start(drivers, commands[0], config.start_time, limits), flag)
-    wait(clock, config.settle_time, flag)
+    wait(clock, _move_to_start(drivers, commands[0], config.start_time, limits), stops)
+    wait(clock, config.settle_time, stops)
     period, goal_time = 1.0 / config.fps, config.goal_time
     bar = tqdm(
         total=len(commands),
@@ -270,14 +280,16 @@ def _stream(
     with bar:
         t0 = clock.now()
         for k, cmd in enumerate(commands):
-            if flag:
+            if stops.requested:
                 return
             for a, side in enumerate(ARMS):
                 send = drivers[side].set_all_positions
                 call(side, f"set_all_positions (step {k})", send, cmd[a], goal_time, False)
             deadline = t0 + (k + 1) * period
-            wait(clock, deadline - clock.now(), flag)
-            if flag:  # stopped within the period: its measurement would be early, not logged
+            wait(clock, deadline - clock.now(), stops)
+            if (
+                stops.requested
+            ):  # stopped within the period: its measurement would be early, not logged
                 return
             if clock.now() > deadline + 0.5 * period:
                 result.late_steps += 1
@@ -320,7 +332,7 @@ def replay(
     clock: Clock,
     config: ReplayConfig | None = None,
     limits: ArmLimits | None = None,
-    flag: StopFlag | None = None,
+    stops: StopSignals | None = None,
 ) -> ReplayResult:
     """Replay ``trajectory`` on ``drivers`` (``{"left", "right"}``); see the module doc.
 
@@ -329,32 +341,32 @@ def replay(
     to stdout, so that stderr holds only the caller's one-line error.
 
     Args:
-        flag: the caller's stop flag (armed here, closed when streaming ends), so that
-            the caller keeps handling signals the same way after replay (while it writes
-            the results); a fresh one when None.
+        stops: the caller's stop signals (mode ``REQUEST`` here, ``NOTE`` once streaming
+            ends), so that the caller keeps handling signals the same way after replay
+            (while it writes the results); fresh ones when None.
     """
     config = config if config is not None else ReplayConfig(fps=trajectory.fps)
     limits = limits if limits is not None else ArmLimits.from_mjcf()
     result = ReplayResult(log=TrackingLog(), steps_total=trajectory.num_steps)
     commands, result.gripper = clamp_gripper(trajectory.commands, config.gripper_max, ARMS)
-    flag, states = flag if flag is not None else StopFlag(), ArmStates()
-    with stop_on_signals(flag):
-        flag.arm()
+    stops, states = stops if stops is not None else StopSignals(), ArmStates()
+    with stops.handling():
+        stops.mode = REQUEST  # an arm may move from here on: a signal stops streaming
         try:
-            _stream(commands, drivers, clock, config, limits, flag, states, result)
+            _stream(commands, drivers, clock, config, limits, stops, states, result)
         except KeyboardInterrupt:
-            flag.set("interrupted by SIGINT (KeyboardInterrupt)", 128 + signal.SIGINT)
+            stops.request("interrupted by SIGINT (KeyboardInterrupt)", 128 + signal.SIGINT)
         except Exception as exc:
-            flag.set(one_line(exc), 1)
+            stops.request(one_line(exc), 1)
         finally:
-            flag.close()  # from here on a signal is only noted: the exit runs to its end
-            if flag:
+            stops.mode = NOTE  # from here on a signal is only noted: the exit runs to its end
+            if stops.requested:
                 _say(
-                    f"stopping: {flag.reason}; moving the arms home, then to sleep "
+                    f"stopping: {_why(stops)}; moving the arms home, then to sleep "
                     "(further signals are noted but ignored until they are asleep; only "
                     "SIGKILL ends this at once, leaving the arms where they are)"
                     if states.configured
-                    else f"stopping: {flag.reason}; no arm was configured, none moved"
+                    else f"stopping: {_why(stops)}; no arm was configured, none moved"
                 )
             recover_errors = _recover(drivers, states, result)
             result.final_positions, shutdown_errors = shutdown(
@@ -368,11 +380,11 @@ def replay(
             )
             shutdown_errors = recover_errors + shutdown_errors
     result.configured, result.shutdown_errors = list(states.configured), shutdown_errors
-    result.late_signals = list(flag.late)
+    result.late_signals = [signal_name(s) for s in stops.late]
     at = f"at step {result.steps_done}/{result.steps_total}"
-    if flag:
-        result.status = "failed" if flag.exit_code == 1 else "interrupted"
-        result.reason, result.exit_code = f"replay stopped {at}: {flag.reason}", flag.exit_code
+    if stops.requested:
+        result.status = "failed" if stops.exit_code == 1 else "interrupted"
+        result.reason, result.exit_code = f"replay stopped {at}: {_why(stops)}", stops.exit_code
     if shutdown_errors:
         head = result.reason or f"replay streamed {result.steps_done}/{result.steps_total} steps"
         result.reason = f"{head}; shutdown errors: {'; '.join(shutdown_errors)}"

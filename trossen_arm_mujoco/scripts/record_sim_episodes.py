@@ -36,9 +36,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from trossen_arm_mujoco.collect.resume import format_indices
-from trossen_arm_mujoco.errors import redeliver_if_in_finalizer, run_cli
+from trossen_arm_mujoco.errors import run_cli
 from trossen_arm_mujoco.scripts.common_options import dataset_folder
 from trossen_arm_mujoco.scripts.record_args import build_parser, record_options
+from trossen_arm_mujoco.stopping import redeliver_if_in_finalizer
 
 if TYPE_CHECKING:
     import argparse
@@ -167,16 +168,16 @@ def _engine(
 
 
 def _live_view_hook(settings):
-    """A step hook that shows the joint env and its camera images in a live viewer; the
+    """A step hook that shows the joint scene and its camera images in a live viewer; the
     viewer is tried once (without a display, one line says so and the run goes on)."""
     from trossen_arm_mujoco.viewer import LiveViewer
 
     holder: list = [None, False]  # the viewer, whether it was tried
 
-    def hook(t: int, observation: dict, env) -> None:
+    def hook(t: int, observation: dict, scene) -> None:
         if not holder[1]:
             holder[1] = True
-            holder[0] = LiveViewer.open(env.model, env.data)
+            holder[0] = LiveViewer.open(scene.model, scene.data)
         if holder[0] is not None:
             holder[0].update(observation.get("images"))
 

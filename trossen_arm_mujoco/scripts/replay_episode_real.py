@@ -74,7 +74,6 @@ from trossen_arm_mujoco.real.report import (
     format_error_table,
     write_outputs,
 )
-from trossen_arm_mujoco.real.stop import Interrupted, StopFlag, stop_on_signals
 from trossen_arm_mujoco.real.validate import format_trajectory_report, validate_actions
 from trossen_arm_mujoco.scripts.replay_real_checks import (
     MAX_CONNECT_TIMEOUT_S,
@@ -84,6 +83,7 @@ from trossen_arm_mujoco.scripts.replay_real_checks import (
     find_episode,
     output_dir,
 )
+from trossen_arm_mujoco.stopping import RAISE, StopSignals, interrupt_signal, signal_name
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -179,10 +179,10 @@ def main(
 ) -> int:
     """Validate, then replay.
 
-    Stop signals are handled from start to end (:mod:`trossen_arm_mujoco.real.stop`):
-    before any arm may move one raises :class:`~trossen_arm_mujoco.real.stop.Interrupted`
-    (:func:`cli` turns it into one line); from then on it stops the replay cleanly, and
-    once streaming is over it is only noted, so the results are always written whole.
+    Stop signals are handled from start to end (a ``stopping.StopSignals``): before any arm
+    may move one ends the command at once (one ``error:`` line, exit status 128 + its
+    number); from then on it stops the replay cleanly, and once streaming is over it is
+    only noted, so the results are always written whole.
 
     Args:
         argv: the command line (None: ``sys.argv[1:]``).
@@ -196,16 +196,25 @@ def main(
     Returns:
         The exit status.
     """
-    flag = StopFlag(armed=False)
-    with stop_on_signals(flag):
-        return _run(build_parser().parse_args(argv), driver_factory, clock, flag, on_served)
+    stops = StopSignals(RAISE)  # nothing may move yet: a stop signal ends the command
+    try:
+        with stops.handling():
+            return _run(build_parser().parse_args(argv), driver_factory, clock, stops, on_served)
+    except KeyboardInterrupt as exc:
+        if stops.mode != RAISE:  # not ours: replay() handles every signal from its start
+            raise
+        signum = interrupt_signal(exc, stops)
+        return report_error(
+            f"interrupted by {signal_name(signum)} before any arm was configured; nothing moved",
+            128 + signum,
+        )
 
 
 def _run(
     args: argparse.Namespace,
     driver_factory: DriverFactory | None,
     clock: Clock | None,
-    flag: StopFlag,
+    stops: StopSignals,
     on_served: Callable[[Any], None] | None = None,
 ) -> int:
     limits = check_numbers(args)
@@ -260,9 +269,8 @@ def _run(
     try:
         drivers, run_clock = factory(args.backend, clock)
         # from here on a signal never raises: it stops streaming, or (once streaming is
-        # over, flag closed) is only noted, so the arms always go home and the results
-        # are whole
-        result = replay(trajectory, drivers, run_clock, config, limits, flag=flag)
+        # over) is only noted, so the arms always go home and the results are whole
+        result = replay(trajectory, drivers, run_clock, config, limits, stops=stops)
     finally:
         served = _stop_kit(kit)
 
@@ -306,8 +314,8 @@ def _run(
     print(f"wrote {written}")
     if paths["plot"] is None and result.steps_done:
         print(f"note: no plot: matplotlib is not installed ({PLOT_HINT})")
-    if flag.late:
-        names = ", ".join(dict.fromkeys(flag.late))
+    if stops.late:  # also those while the results were written
+        names = ", ".join(dict.fromkeys(signal_name(s) for s in stops.late))
         print(
             f"note: {names} arrived after streaming had ended; noted and ignored: the arms "
             f"finished their home/sleep moves and the results were written in full"
@@ -384,26 +392,17 @@ def cli(
 ) -> int:
     """Entry point: like :func:`main`, with user errors as one line and exit status 2.
 
-    A stop signal before any arm was configured is one line too, with exit status
-    128 + its number.
-
     Args:
         argv: as for :func:`main`.
         driver_factory: as for :func:`main`.
         clock: as for :func:`main`.
         on_served: as for :func:`main`.
     """
-
-    def guarded(args: Sequence[str] | None) -> int:
-        try:
-            return main(args, driver_factory=driver_factory, clock=clock, on_served=on_served)
-        except Interrupted as exc:
-            return report_error(
-                f"{exc} before any arm was configured; nothing moved", exc.exit_code
-            )
-
+    command = functools.partial(
+        main, driver_factory=driver_factory, clock=clock, on_served=on_served
+    )
     try:
-        return run_cli(guarded, argv)
+        return run_cli(command, argv)
     finally:
         # drivers and the driver's Python log backend go before the interpreter does (the
         # backend left installed ends the process with SIGSEGV at exit); atexit does it too

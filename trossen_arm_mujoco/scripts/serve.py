@@ -9,7 +9,7 @@ One kit world (or a single arm's task's one arm) steps in real time; each arm an
 controller does. ``--record DIR`` writes the clients' sessions as episodes; ``--cameras``
 and ``--control_port`` rehearse a deployment (ZeroMQ cameras, an episode control channel);
 ``--role leader --replay EPISODE.hdf5`` serves two leader arms replaying an episode. Ctrl-C,
-SIGTERM or SIGHUP stops serving cleanly (exit 0), the episode under way written.
+SIGTERM, SIGHUP or SIGQUIT stops serving cleanly (exit 0), the episode under way written.
 
 Docs: docs/cli/serve.md, docs/rehearsal.md; details: docs/concepts/design-notes.md.
 """
@@ -57,7 +57,7 @@ from trossen_arm_mujoco.scripts.serve_rehearsal import (
     check_rehearsal_flags,
     stop_rehearsal,
 )
-from trossen_arm_mujoco.twin.stop_signals import StopSignals
+from trossen_arm_mujoco.stopping import StopSignals
 
 #: Default addresses of served leader arms (``--role leader``).
 LEADER_IPS: dict[str, str] = {"left": "127.0.0.4", "right": "127.0.0.5"}
