@@ -188,6 +188,7 @@ QUICK: dict[str, tuple[str, ...]] = {
         "tests/test_images.py",
         "tests/test_names.py",
         "tests/test_processes.py",
+        "tests/test_worker_pool.py::test_every_result_comes_back_with_its_position",
         "tests/test_quaternion.py",
         "tests/test_viewer.py",
         "tests/test_demo.py::test_headless_demo_writes_four_pngs",

@@ -43,6 +43,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("stopping",),
     ("errors",),
     ("names", "clip", "fileio", "quaternion", "assets", "viewer", "processes"),
+    # the one pool of local worker processes (record's and eval's; on processes)
+    ("worker_pool",),
     ("images",),
     # what a robot is: move groups -> robot view -> robot (+ controllers, kinematics, layouts)
     ("robot",),

@@ -4,7 +4,8 @@ kernel's signal when its parent dies (Linux's ``PR_SET_PDEATHSIG``).
 - :func:`available_cpus`: the one CPU count of the package (record's ``--num_workers`` cap,
   eval's workers and threads, the image compression threads).
 - :func:`parent_death_signal`: the one way a child asks for a signal when its parent ends
-  (the collection workers, the ``serve`` child of ``eval --backend wire``).
+  (the workers of :mod:`~trossen_arm_mujoco.worker_pool`, record's and eval's; the ``serve``
+  child of ``eval --backend wire``).
 
 Docs: docs/cli/record.md.
 """

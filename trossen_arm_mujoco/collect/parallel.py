@@ -4,10 +4,11 @@ A run holds the folder's lock (:mod:`~trossen_arm_mujoco.data.dataset_lock`) thr
 records what :func:`.resume.plan_run` says: without ``skip_failed`` each planned index is
 one attempt (seed derived from the run seed and ``k``), so the files are the same whatever
 the number of workers; with ``skip_failed`` attempts continue until the planned indices hold
-successes. Files are written atomically (via ``.staging/``, published in attempt order). A
-dead worker loses only its attempt (:mod:`.local_pool`). On SIGINT/SIGTERM, or a refused
-write (:attr:`RunReport.io_error`), partial episodes are discarded and finished ones
-published; rerunning the command continues. :mod:`.ray_engine` runs the same attempts on Ray.
+successes. Files are written atomically (via ``.staging/``, published in attempt order). The
+workers are a :class:`~trossen_arm_mujoco.worker_pool.WorkerPool`'s: a dead one loses only its
+attempt. On SIGINT/SIGTERM, or a refused write (:attr:`RunReport.io_error`), partial episodes
+are discarded and finished ones published; rerunning the command continues.
+:mod:`.ray_engine` runs the same attempts on Ray.
 
 Docs: docs/cli/record.md.
 """
@@ -23,10 +24,10 @@ import threading
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 from trossen_arm_mujoco.collect.joint_policy import JointPolicyRecorder, make_recorder
-from trossen_arm_mujoco.collect.local_pool import WorkerPool
 from trossen_arm_mujoco.collect.pipeline import EpisodeOutcome, EpisodeRecorder, RecordSettings
 from trossen_arm_mujoco.collect.progress import Progress
 from trossen_arm_mujoco.collect.resume import RunPlan, plan_run
@@ -36,6 +37,7 @@ from trossen_arm_mujoco.data.reader import EpisodeError, episode_path, load_epis
 from trossen_arm_mujoco.data.temp_files import remove_stale_temp_files
 from trossen_arm_mujoco.errors import Terminated, UserError
 from trossen_arm_mujoco.fileio import publish
+from trossen_arm_mujoco.worker_pool import WorkerPool
 
 __all__ = [
     "STAGING",
@@ -153,35 +155,36 @@ def format_size(nbytes: float) -> str:
     return f"{int(nbytes)} B"
 
 
-def _ignore_sigint() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
 _WORKER: EpisodeRecorder | JointPolicyRecorder | None = None
 
 
-def _worker_init(settings: RecordSettings) -> None:
-    global _WORKER
-    _ignore_sigint()
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    _WORKER = make_recorder(settings)
+class _PoolRecorder:
+    """A pool worker's runner: one recorder, each job an ``(attempt, path, overwrite)``."""
 
+    def __init__(self, settings: RecordSettings) -> None:
+        self.recorder = make_recorder(settings)
 
-def _worker_record(job: tuple[int, str, bool]) -> EpisodeOutcome:
-    attempt, path, overwrite = job
-    assert _WORKER is not None
-    return _WORKER.record(attempt, Path(path), overwrite=overwrite, create_folder=False)
+    def run(self, job: tuple[int, str, bool]) -> EpisodeOutcome:
+        attempt, path, overwrite = job
+        return self.recorder.record(attempt, Path(path), overwrite=overwrite, create_folder=False)
+
+    def close(self) -> None:
+        self.recorder.close()
 
 
 def record_in_worker(settings: RecordSettings, job: tuple[int, str, bool]) -> EpisodeOutcome:
     """Record one ``(attempt, path, overwrite)`` job in a worker process that was not set up
     by the pool (a Ray task): the process's recorder is built on first use and kept for the
     next job with the same settings."""
+    global _WORKER
     if _WORKER is None or _WORKER.settings != settings:
         if _WORKER is not None:
             _WORKER.close()
-        _worker_init(settings)
-    return _worker_record(job)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        os.environ.setdefault("MUJOCO_GL", "egl")
+        _WORKER = make_recorder(settings)
+    attempt, path, overwrite = job
+    return _WORKER.record(attempt, Path(path), overwrite=overwrite, create_folder=False)
 
 
 def _describe(payload: tuple[int, str, bool]) -> str:
@@ -428,9 +431,7 @@ class DatasetRecorder:
         self._staging()
         pool = WorkerPool(
             min(self.num_workers, len(jobs)),
-            _worker_init,
-            (self.settings,),
-            _worker_record,
+            partial(_PoolRecorder, self.settings),
             window=MAX_BUFFERED * self.num_workers,
             describe=_describe,
             warn=self.warn,

@@ -5,8 +5,8 @@ Episode ``i`` of a run with base seed S is ``env.reset(seed=S + i)``, the seeds
 recording episode). Each worker builds its env and policy once; episodes come back in order;
 the first ``videos`` rollouts are written as mp4. The scores go to ``eval_info.json``
 (``eval.scores``), each rollout's analysis to ``rollouts.json`` (``eval.rollout_analysis``).
-Local workers share episodes through ``eval.episode_pool``, each with its share of the CPU
-threads (``threads_per_worker``).
+Local workers are this process and a ``worker_pool.WorkerPool``'s, each with its share of the
+CPU threads (``threads_per_worker``).
 
 Docs: docs/cli/eval.md; details: docs/concepts/design-notes.md.
 """
@@ -28,17 +28,18 @@ import numpy as np
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.eval.action_check import check_action
 from trossen_arm_mujoco.eval.env import KitPolicyEnv
-from trossen_arm_mujoco.eval.episode_pool import run_episodes
 from trossen_arm_mujoco.eval.rollout_analysis import RolloutRecorder
 from trossen_arm_mujoco.eval.scores import EpisodeScore, eval_info, stages_reached
 from trossen_arm_mujoco.processes import available_cpus
 from trossen_arm_mujoco.sim.camera_settings import CameraSettings
 from trossen_arm_mujoco.tasks.registry import DEFAULT_TASK
+from trossen_arm_mujoco.worker_pool import WorkerPool, in_order
 
 __all__ = [
     "ENGINES",
     "THREAD_VARS",
     "VIDEO_DIR",
+    "WORKERS_DIED_ADVICE",
     "EpisodeRunner",
     "EvalSettings",
     "PolicyCallError",
@@ -48,6 +49,8 @@ __all__ = [
     "threads_per_worker",
 ]
 
+#: The end of the one line when a worker died on the same episode each time.
+WORKERS_DIED_ADVICE = "rerun with fewer --num_workers"
 #: Where the rollout videos go, in the output folder.
 VIDEO_DIR = "videos"
 #: Environment variables sizing the thread pools of numpy's BLAS, OpenMP (torch) and MKL.
@@ -277,10 +280,18 @@ def _local(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore,
             runner.close()
         return
     threads = threads_per_worker(workers)
-    make_runner = partial(EpisodeRunner, settings, threads)
-    with _torch_threads_kept(), thread_env(threads):
-        for _, result in run_episodes(make_runner, settings.num_episodes, workers):
-            yield result
+    pool = WorkerPool(
+        workers - 1,
+        partial(EpisodeRunner, settings, threads),
+        describe=lambda index: f"episode {index}",
+        advice=WORKERS_DIED_ADVICE,
+    )
+    with _torch_threads_kept(), thread_env(threads):  # the spawned workers inherit it
+        try:
+            for _, result in in_order(pool.results(range(settings.num_episodes), here=True)):
+                yield result
+        finally:
+            pool.shutdown()
 
 
 def _ray(settings: EvalSettings, workers: int) -> Iterator[tuple[EpisodeScore, str | None]]:

@@ -1,4 +1,4 @@
-"""Workers of the local pool end quietly whatever happens to their parent.
+"""Workers of the local pool (``worker_pool``) end quietly whatever happens to their parent.
 
 Each test runs a small program in its own process group and session, with the workers'
 stderr (inherited from it) captured, so that anything a worker prints is seen even after
@@ -116,56 +116,53 @@ def programs() -> Iterator[list[Program]]:
         program.kill_group()
 
 
-#: The program: a pool of ``workers`` workers over module-level functions (a spawned worker
-#: imports this file as ``__mp_main__``, so they can be pickled by reference).
+#: The program: a pool of ``workers`` workers over a module-level runner (a spawned worker
+#: imports this file as ``__mp_main__``, so it can be pickled by reference).
 POOL_PROGRAM = """
-import atexit, os, signal, sys, time
+import os, signal, sys, threading, time
+from functools import partial
 if __name__ == "__mp_main__" and os.environ.get("SLOW_WORKER_START"):
     time.sleep(float(os.environ["SLOW_WORKER_START"]))  # a worker still starting up
 
-from trossen_arm_mujoco.collect import local_pool
-from trossen_arm_mujoco.collect.local_pool import WorkerPool
+from trossen_arm_mujoco import worker_pool
+from trossen_arm_mujoco.worker_pool import WorkerPool
 
 if __name__ == "__mp_main__" and os.environ.get("NO_PDEATHSIG"):
-    local_pool.parent_death_signal = lambda signum: None  # as where the kernel cannot signal it
+    worker_pool.parent_death_signal = lambda signum: None  # as where the kernel cannot signal it
 
 
-def late_sigterm():
-    # the worker is done (told to stop); a SIGTERM reaches it while it exits
-    os.kill(os.getpid(), signal.SIGTERM)
-    time.sleep(2.0)
-    print(f"worker {os.getpid()} survived a SIGTERM at exit", flush=True)
+class Runner:
+    def __init__(self, mode):
+        self.mode = mode
+
+    def run(self, payload):
+        os.write(1, f"job {payload} in {os.getpid()}\\n".encode())  # one write: lines stay whole
+        if self.mode in ("orphan", "starting"):
+            time.sleep(60)
+        return payload
+
+    def close(self):
+        if self.mode == "late_sigterm":  # the worker is done (told to stop); a SIGTERM comes
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(2.0)
+            print(f"worker {os.getpid()} survived a SIGTERM at exit", flush=True)
 
 
-def init(mode):
-    if mode == "late_sigterm":
-        atexit.register(late_sigterm)
-
-
-def task(payload):
-    os.write(1, f"job {payload} in {os.getpid()}\\n".encode())  # one write: lines stay whole
-    if mode_of_run() == "orphan":
-        time.sleep(60)
-    return payload
-
-
-def mode_of_run():
-    return os.environ.get("POOL_MODE", "")
+def say_started(pool, workers):
+    while len(pool.pids) < workers:
+        time.sleep(0.01)
+    print("STARTED " + " ".join(map(str, pool.pids)), flush=True)
 
 
 if __name__ == "__main__":
     mode, workers = sys.argv[1], int(sys.argv[2])
-    os.environ["POOL_MODE"] = mode  # the workers inherit it
-    pool = WorkerPool(workers, init, (mode,), task)
+    pool = WorkerPool(workers, partial(Runner, mode))
     try:
         if mode == "starting":
-            for _ in range(workers):
-                pool._start()
-            print("STARTED " + " ".join(str(s.process.pid) for s in pool._slots), flush=True)
-            time.sleep(60)
+            threading.Thread(target=say_started, args=(pool, workers), daemon=True).start()
         results = dict(pool.results(range(workers)))
         print("RESULTS", sorted(results), flush=True)
-        print("PIDS " + " ".join(str(s.process.pid) for s in pool._slots), flush=True)
+        print("PIDS " + " ".join(map(str, pool.pids)), flush=True)
     except KeyboardInterrupt:
         print("PARENT INTERRUPTED", flush=True)
     finally:
@@ -178,8 +175,8 @@ def test_a_sigterm_while_a_finished_worker_exits_is_quiet(
     tmp_path: Path, programs: list[Program]
 ) -> None:
     """Deterministic form of the race of an orphaned worker: its loop ends (its parent's
-    pipe closed, or the parent told it to stop), then a SIGTERM arrives while the
-    interpreter shuts down; it used to raise ``KeyboardInterrupt`` in the exit handlers."""
+    pipe closed, or the parent told it to stop), then a SIGTERM arrives while it closes its
+    runner; it used to raise ``KeyboardInterrupt`` in the exit handlers."""
     script = tmp_path / "pool_program.py"
     script.write_text(textwrap.dedent(POOL_PROGRAM))
     program = Program([str(script), "late_sigterm", "2"], REPO)
