@@ -41,7 +41,7 @@ def raw_floor_seconds(settings: RecordSettings, frames: int = 60, repeats: int =
     joint scene, plus one render per step and camera (best of ``repeats`` over ``frames``
     frames, scaled to the episode)."""
     recorder = EpisodeRecorder(settings)
-    model = recorder.joint_env.model
+    model = recorder.joint_scene.model
     substeps = round(recorder.policy_dt / model.opt.timestep)
     recorder.close()
     data = mujoco.MjData(model)

@@ -104,7 +104,7 @@ class RawFloor:
         for i, a in enumerate(actions):  # untimed: the controls the env applies
             env.step(a)
             self.ctrls[i] = scene.data.ctrl
-        self.ticks = int(env.episode.n_ctrl_steps)
+        self.ticks = int(env.task.n_ctrl_steps)
         self.substeps = int(scene.n_substeps)
         self.cams = cams
         self.env_image = scene.render_images()[cams[-1]].copy() if cams else None

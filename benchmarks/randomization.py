@@ -63,12 +63,12 @@ def episode_row(name: str, args, clock) -> str:
     off = registry.make_sampler(name)
     view = on.robot_view
     on.sample_task(0)
-    t_rand = best(lambda i: on.randomize_scene(on.env, view), args.episodes, args.repeats, clock)
+    t_rand = best(lambda i: on.randomize_scene(on.scene, view), args.episodes, args.repeats, clock)
     t_on = best(lambda i: on.sample_task(i), args.episodes, args.repeats, clock)
     t_off = best(lambda i: off.sample_task(i), args.episodes, args.repeats, clock)
     probe = on.make_task()
-    steps = int(probe.max_episode_steps) * round(probe.policy_dt / on.env.sim_dt)
-    physics = mj_step_time(on.env.model, 2000, args.repeats, clock) * steps
+    steps = int(probe.max_episode_steps) * round(probe.policy_dt / on.scene.sim_dt)
+    physics = mj_step_time(on.scene.model, 2000, args.repeats, clock) * steps
     on.close()
     off.close()
     return (

@@ -97,16 +97,16 @@ def _writer(
 
 
 class RawFloor:
-    """A bare ``mujoco.Renderer`` + ``mj_step`` loop on the joint env's model: same initial
+    """A bare ``mujoco.Renderer`` + ``mj_step`` loop on the joint scene's model: same initial
     state, the controls phase 2 applied, the same cameras and size; nothing else."""
 
     def __init__(self, recorder: EpisodeRecorder, actions, poses) -> None:
-        env = recorder.joint_env
+        scene = recorder.joint_scene
         ctrls: list[np.ndarray] = []
         recorder.joint_sampler.sample_task(0, object_poses=poses)
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-        self.state = np.empty(mujoco.mj_stateSize(env.model, spec))
-        mujoco.mj_getState(env.model, env.data, self.state, spec)
+        self.state = np.empty(mujoco.mj_stateSize(scene.model, spec))
+        mujoco.mj_getState(scene.model, scene.data, self.state, spec)
         hook, recorder.step_hook = (
             recorder.step_hook,
             lambda t, obs, e: ctrls.append(e.data.ctrl.copy()),
@@ -116,7 +116,7 @@ class RawFloor:
         finally:
             recorder.step_hook = hook
         self.ctrls = ctrls
-        self.model, self.substeps = env.model, env.n_substeps
+        self.model, self.substeps = scene.model, scene.n_substeps
         s = recorder.settings
         self.cams, self.size = list(s.cam_names), (s.height, s.width)
 

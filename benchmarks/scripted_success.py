@@ -46,7 +46,7 @@ def main() -> None:
 
     measured = np.zeros(16)
 
-    def track(_t: int, obs: dict, _env) -> None:
+    def track(_t: int, obs: dict, _scene) -> None:
         np.maximum(measured, np.abs(obs["qvel"]) / ACTION_SPEED_LIMITS, out=measured)
 
     from trossen_arm_mujoco.tasks import registry

@@ -195,7 +195,7 @@ QUICK: dict[str, tuple[str, ...]] = {
     ),
     "assets": ("tests/assets/test_models.py", "tests/assets/test_mobile_ai.py"),
     "robot": ("tests/robot/test_robot.py",),
-    "sim": ("tests/sim/test_env.py",),
+    "sim": ("tests/sim/test_scene.py",),
     "data": ("tests/data/test_writer.py", "tests/data/test_reader.py"),
     "real": ("tests/real/test_replay.py", "tests/real/test_validate.py"),
     "tasks": ("tests/tasks/test_transfer_cube.py",),

@@ -193,8 +193,8 @@ class TipHeightTask(Task):
     robot_name: ClassVar[str] = "wxai"
     goal_conditioned: ClassVar[bool] = True
 
-    def __init__(self, env, config, target: float = 0.2):
-        super().__init__(env, config)
+    def __init__(self, scene, config, target: float = 0.2):
+        super().__init__(scene, config)
         self.arm = self.robot.view.get_move_group("arm")
         self.target = np.array([target])  # (1,) m
         self.tolerance = float(self.config["success_tolerance"])
@@ -233,9 +233,9 @@ class TipHeightSampler(ReachSampler):
 
     task_cls = TipHeightTask
 
-    def _sample_task(self, env):
+    def _sample_task(self, scene):
         self.perturb_arm(self.rng)
-        return self.task_cls(env, self.config, target=uniform(self.rng, 0.1, 0.3))
+        return self.task_cls(scene, self.config, target=uniform(self.rng, 0.1, 0.3))
 
 
 TIP_IDS = {

@@ -2,7 +2,7 @@
 
 A GL context, or even an initialized EGL display, loads the GL driver (Mesa: swrast_dri and
 its libLLVM), after which loading triton's LLVM (torch.compile, SB3's optimizer) segfaults.
-So importing the package, making and stepping state-only envs, ``MujocoEnv`` without
+So importing the package, making and stepping state-only envs, ``Scene`` without
 renders, and the real replay must load no driver and import nothing that does.
 
 What "GL-free" means here, in each scenario's own process:
@@ -139,10 +139,10 @@ def test_import_and_state_envs_open_no_gl(baseline):
 
         from trossen_arm_mujoco.assets import ASSETS_DIR
         from trossen_arm_mujoco.robot.configs import wxai_config
-        from trossen_arm_mujoco.sim.env import MujocoEnv
-        scene = MujocoEnv(os.path.join(ASSETS_DIR, "wxai/scene_reach.xml"),
-                          robots={"wxai": wxai_config()}, ctrl_dt=0.02,
-                          camera_names=["overview"])  # cameras, but no image asked for
+        from trossen_arm_mujoco.sim.scene import Scene
+        scene = Scene(os.path.join(ASSETS_DIR, "wxai/scene_reach.xml"),
+                      robots={"wxai": wxai_config()}, ctrl_dt=0.02,
+                      camera_names=["overview"])  # cameras, but no image asked for
         scene.reset()
         scene.step(5)
         scene.close()

@@ -29,7 +29,7 @@ def main() -> None:
     for t in range(args.step):
         task.step(VENDOR16_LAYOUT.joint_commands(actions[t]))
     os.makedirs(args.out, exist_ok=True)
-    for cam, img in rec.joint_env.render_images().items():
+    for cam, img in rec.joint_scene.render_images().items():
         path = os.path.join(args.out, f"{cam}.png")
         write_png(path, img)  # atomic, as every image the package writes
         print(path)

@@ -14,8 +14,8 @@ from trossen_arm_mujoco.assets import asset_path
 from trossen_arm_mujoco.constants import DT, SIM_TASK_CONFIGS
 from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.quaternion import Quaternion
-from trossen_arm_mujoco.sim.env import load_physics
 from trossen_arm_mujoco.sim.looks import SceneLooks
+from trossen_arm_mujoco.sim.scene import load_physics
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.dm_tasks import RegisteredTaskMixin
 from trossen_arm_mujoco.tasks.transfer_cube import sample_cube_pose

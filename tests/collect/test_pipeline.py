@@ -194,7 +194,7 @@ def test_both_phases_see_the_same_randomized_scene():
         record = recorder.last_randomization
         recorder.replay(actions[:1], poses)
         assert recorder.joint_sampler.randomization == record
-        ee, joint = recorder.ee_env.model, recorder.joint_env.model
+        ee, joint = recorder.ee_scene.model, recorder.joint_scene.model
         for kind, (obj, attrs) in _COMPARED.items():
             assert record[kind]
             for name in record[kind]:
@@ -207,7 +207,7 @@ def test_both_phases_see_the_same_randomized_scene():
         # initial joints: phase 1's start (sampled again) equals phase 2's start
         recorder.ee_sampler.sample_task(np.random.default_rng(5))
         recorder.joint_sampler.sample_task(0, object_poses=poses, randomization=record)
-        ee_data, joint_data = recorder.ee_env.data, recorder.joint_env.data
+        ee_data, joint_data = recorder.ee_scene.data, recorder.joint_scene.data
         for name, v in record["joint_noise"].items():
             q_ee = ee_data.qpos[ee.joint(name).qposadr[0]]
             q_joint = joint_data.qpos[joint.joint(name).qposadr[0]]
@@ -235,7 +235,7 @@ def test_stored_record_re_renders_the_episode_exactly(tmp_path):
             for t in range(len(ep.action)):
                 qpos = task.get_observation()["qpos"].astype(np.float32)  # as stored
                 np.testing.assert_array_equal(qpos, ep.qpos[t].astype(np.float32))
-                image = sampler.env.render_images()["cam_high"]
+                image = sampler.scene.render_images()["cam_high"]
                 np.testing.assert_array_equal(image, frames.read("cam_high", t))
                 task.step(VENDOR16_LAYOUT.joint_commands(ep.action[t]))
     finally:

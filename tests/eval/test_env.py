@@ -38,7 +38,7 @@ def make_env():
 
 
 def _qpos(env: KitPolicyEnv) -> np.ndarray:
-    return np.asarray(env.episode.get_observation()["qpos"], dtype=float).copy()
+    return np.asarray(env.task.get_observation()["qpos"], dtype=float).copy()
 
 
 # -- spaces ---------------------------------------------------------------------------------
@@ -211,10 +211,10 @@ def test_30_fps_rates_and_default_length(make_env):
     assert rate_timing(50) == pytest.approx({"policy_dt": 0.02, "ctrl_dt": 0.02, "sim_dt": 0.002})
     env = make_env(fps=30)
     env.reset(seed=0)
-    assert env.episode.policy_dt == pytest.approx(1 / 30)
+    assert env.task.policy_dt == pytest.approx(1 / 30)
     assert env.scene.model.opt.timestep == pytest.approx(1 / 510)
     assert env.scene.n_substeps == 1  # the controllers tick every physics step
-    assert env.episode.n_ctrl_steps == 17
+    assert env.task.n_ctrl_steps == 17
     assert env.episode_length == 360  # the transfer's 12 s
     assert env._max_episode_steps == 360  # the same, under the name LeRobot's eval reads
     assert env.metadata["render_fps"] == 30
@@ -309,9 +309,9 @@ def test_the_env_draws_the_frames_as_the_camera_settings_say(make_env):
 def test_task_name_and_description(make_env):
     for task in ("sim_transfer_cube", "sim_insertion"):
         env = make_env(task)
-        assert env.task == task
+        assert env.task_name == task
         assert isinstance(env.task_description, str) and env.task_description.strip()
-    assert make_env("transfer_cube").task == "sim_transfer_cube"  # an alias
+    assert make_env("transfer_cube").task_name == "sim_transfer_cube"  # an alias
 
 
 def test_single_arm_task_is_refused_with_its_layout():

@@ -103,7 +103,7 @@ def replay(env: KitPolicyEnv, actions: np.ndarray, poses: dict, seed: int) -> li
     for action in actions:
         _, _, terminated, _, info = env.step(action)
         assert not terminated
-        obs = env.episode.get_observation()
+        obs = env.task.get_observation()
         trace.append({"qpos": obs["qpos"].copy(), "env_state": obs["env_state"].copy()})
     trace[-1]["info"] = info
     return trace

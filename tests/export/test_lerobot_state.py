@@ -46,15 +46,15 @@ def recording(tmp_path_factory):
     root.mkdir()
     live: dict[int, np.ndarray] = {}
 
-    def hook(t, obs, env):  # the observation of step t + 1: forces at that state
-        data = copy.copy(env.data)  # the recording's own data stays untouched
-        mujoco.mj_forward(env.model, data)
+    def hook(t, obs, scene):  # the observation of step t + 1: forces at that state
+        data = copy.copy(scene.data)  # the recording's own data stays untouched
+        mujoco.mj_forward(scene.model, data)
         live[t + 1] = data.qfrc_actuator.copy()
 
     recorder = EpisodeRecorder(RecordSettings(episode_len=STEPS), step_hook=hook)
     try:
         recorder.record(0, root / "episode_0.hdf5")
-        model = recorder.joint_env.model
+        model = recorder.joint_scene.model
     finally:
         recorder.close()
     names = [

@@ -43,13 +43,13 @@ def test_paused_sleeps_the_remainder():
         policy_dt = 0.02
         n_ctrl_steps = 1
 
-        class env:  # noqa: N801
+        class scene:  # noqa: N801
             @staticmethod
             def step(n):
                 pass
 
         def advance(self, commands):
-            self.env.step(self.n_ctrl_steps)
+            self.scene.step(self.n_ctrl_steps)
 
     stepper.step(FakeTask(), {})
     assert slept == [pytest.approx(0.015)]
@@ -95,7 +95,7 @@ def test_unknown_stepping_lists_modes(make_env):
 
 @pytest.mark.parametrize("stepping", ["fast", "paused"])
 def test_regimes_advance_time_through_the_env_step_loop(make_env, stepping):
-    """One gym step = Task.advance = policy_dt / ctrl_dt ticks of MujocoEnv.step."""
+    """One gym step = Task.advance = policy_dt / ctrl_dt ticks of Scene.step."""
     env = make_env(REACH, stepping=stepping, ctrl_dt=0.01)
     env.reset(seed=0)
     scene = env.unwrapped.scene

@@ -22,7 +22,7 @@ from trossen_arm_mujoco.robot.configs import (
     stationary_ai_joint_config,
     stationary_ai_mocap_config,
 )
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.insertion import MAX_REWARD, InsertionReward, sample_insertion_poses
 
 STATIONARY = Path(ASSETS_DIR) / "stationary_ai"
@@ -37,32 +37,35 @@ class TimeStep:
         self.observation = observation
 
 
-def start_env(xml: str, config, peg, socket) -> MujocoEnv:
-    env = MujocoEnv(STATIONARY / xml, robots={ROBOT: config}, objects=OBJECTS, ctrl_dt=0.02)
-    env.reset()
-    env.objects["peg"].set_pose(env.data, peg)
-    env.objects["socket"].set_pose(env.data, socket)
-    env.forward()
-    env.robots[ROBOT].hold(env.data)
-    return env
+def start_scene(xml: str, config, peg, socket) -> Scene:
+    scene = Scene(STATIONARY / xml, robots={ROBOT: config}, objects=OBJECTS, ctrl_dt=0.02)
+    scene.reset()
+    scene.objects["peg"].set_pose(scene.data, peg)
+    scene.objects["socket"].set_pose(scene.data, socket)
+    scene.forward()
+    scene.robots[ROBOT].hold(scene.data)
+    return scene
 
 
-def observation(env: MujocoEnv) -> dict:
-    view = env.robots[ROBOT].view
+def observation(scene: Scene) -> dict:
+    view = scene.robots[ROBOT].view
     return {
         "env_state": np.concatenate(
-            [env.objects["peg"].get_pose(env.data), env.objects["socket"].get_pose(env.data)]
+            [
+                scene.objects["peg"].get_pose(scene.data),
+                scene.objects["socket"].get_pose(scene.data),
+            ]
         ),
-        "mocap_pose_left": view.get_move_group("left_arm").get_ctrl(env.data),
-        "mocap_pose_right": view.get_move_group("right_arm").get_ctrl(env.data),
+        "mocap_pose_left": view.get_move_group("left_arm").get_ctrl(scene.data),
+        "mocap_pose_right": view.get_move_group("right_arm").get_ctrl(scene.data),
     }
 
 
 def first_step(seed: int = 0) -> TimeStep:
     """The first observation of the mocap scene with the objects of ``seed``."""
     peg, socket = sample_insertion_poses(np.random.default_rng(seed))
-    env = start_env("trossen_ai_insertion_scene.xml", stationary_ai_mocap_config(), peg, socket)
-    return TimeStep(observation(env))
+    scene = start_scene("trossen_ai_insertion_scene.xml", stationary_ai_mocap_config(), peg, socket)
+    return TimeStep(observation(scene))
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +77,7 @@ def episode():
     policy = InsertionPolicy(inject_noise=True, rng=rng)
     T = InsertionPolicy.minimum_episode_len
     # phase 1: scripted mocap rollout; arm joints recorded, fingers = gripper command
-    ee = start_env("trossen_ai_insertion_scene.xml", stationary_ai_mocap_config(), peg, socket)
+    ee = start_scene("trossen_ai_insertion_scene.xml", stationary_ai_mocap_config(), peg, socket)
     robot, view = ee.robots[ROBOT], ee.robots[ROBOT].view
     layout = view.qpos_indices(GROUPS)
     actions = np.empty((T, 16))
@@ -94,16 +97,18 @@ def episode():
         actions[t] = ee.data.qpos[layout]
         actions[t, 6:8], actions[t, 14:16] = a[7], a[15]
     # phase 2: replay as joint targets in the joint scene
-    env = start_env(
+    scene = start_scene(
         "trossen_ai_insertion_scene_joint.xml", stationary_ai_joint_config(), peg, socket
     )
-    ranges = np.concatenate([env.robots[ROBOT].view.get_move_group(g).joint_range for g in GROUPS])
+    ranges = np.concatenate(
+        [scene.robots[ROBOT].view.get_move_group(g).joint_range for g in GROUPS]
+    )
     assert np.all(actions >= ranges[:, 0] - 1e-3) and np.all(actions <= ranges[:, 1] + 1e-3)
     np.clip(actions, ranges[:, 0], ranges[:, 1], out=actions)
-    reward = InsertionReward(env.model)
+    reward = InsertionReward(scene.model)
     rewards = np.empty(T, dtype=int)
     for t, a in enumerate(actions):
-        env.robots[ROBOT].update_control(
+        scene.robots[ROBOT].update_control(
             {
                 "left_arm": a[0:6],
                 "left_gripper": a[7:8],
@@ -111,9 +116,9 @@ def episode():
                 "right_gripper": a[15:16],
             }
         )
-        env.step(1)
-        rewards[t] = reward(env.data)
-    assert env.warnings() == [] and ee.warnings() == []
+        scene.step(1)
+        rewards[t] = reward(scene.data)
+    assert scene.warnings() == [] and ee.warnings() == []
     return actions, rewards
 
 

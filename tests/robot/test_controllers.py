@@ -1,4 +1,4 @@
-"""Controllers reach their targets when a MujocoEnv steps them (single arm and the kit)."""
+"""Controllers reach their targets when a Scene steps them (single arm and the kit)."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ from trossen_arm_mujoco.robot.controllers import (
 )
 from trossen_arm_mujoco.robot.kinematics import orientation_error
 from trossen_arm_mujoco.robot.robot import Robot
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 
 ASSETS = Path(ASSETS_DIR)
 WXAI = ASSETS / "wxai/wxai_follower.xml"
@@ -38,131 +38,131 @@ CTRL_DT = 0.02
 TWO_SECONDS = int(2.0 / CTRL_DT)
 
 
-def wxai_env(mode: str) -> MujocoEnv:
-    env = MujocoEnv(WXAI, robots={"wxai": wxai_config(mode)}, ctrl_dt=CTRL_DT)
-    env.reset()
-    return env
+def wxai_scene(mode: str) -> Scene:
+    scene = Scene(WXAI, robots={"wxai": wxai_config(mode)}, ctrl_dt=CTRL_DT)
+    scene.reset()
+    return scene
 
 
 def test_joint_position_reaches_target():
-    env = wxai_env("joint_position")
-    robot = env.robots["wxai"]
+    scene = wxai_scene("joint_position")
+    robot = scene.robots["wxai"]
     target = np.array([0.5, 0.8, 0.6, -0.3, 0.4, 1.0])
     robot.update_control({"arm": target, "gripper": [0.01]})
-    env.step(TWO_SECONDS)
+    scene.step(TWO_SECONDS)
     arm, grip = robot.view.get_move_group("arm"), robot.view.get_move_group("gripper")
-    np.testing.assert_allclose(arm.get_qpos(env.data), target, atol=1e-2)
-    np.testing.assert_allclose(grip.get_qpos(env.data), [0.01, 0.01], atol=1e-3)  # coupled
-    np.testing.assert_allclose(arm.get_qvel(env.data), 0.0, atol=1e-2)
-    assert env.warnings() == []
+    np.testing.assert_allclose(arm.get_qpos(scene.data), target, atol=1e-2)
+    np.testing.assert_allclose(grip.get_qpos(scene.data), [0.01, 0.01], atol=1e-3)  # coupled
+    np.testing.assert_allclose(arm.get_qvel(scene.data), 0.0, atol=1e-2)
+    assert scene.warnings() == []
 
 
 def test_joint_position_clips_to_limits():
-    env = wxai_env("joint_position")
-    robot = env.robots["wxai"]
+    scene = wxai_scene("joint_position")
+    robot = scene.robots["wxai"]
     robot.update_control({"arm": [0, -1.0, 0, 0, 0, 0]})  # joint_1 lower limit is 0
-    out = robot.compute_control(env.data)
+    out = robot.compute_control(scene.data)
     assert out["arm"][1] == pytest.approx(np.pi / 12 - 3.375 * CTRL_DT)  # on its way down
-    env.step(10)
-    assert robot.compute_control(env.data)["arm"][1] == 0.0
+    scene.step(10)
+    assert robot.compute_control(scene.data)["arm"][1] == 0.0
 
 
 def test_joint_rel_position_reaches_target_once():
     """A relative command is relative to the joints when it is applied, and then held:
     it must not be added again at every control tick."""
-    env = wxai_env("joint_rel_position")
-    robot = env.robots["wxai"]
+    scene = wxai_scene("joint_rel_position")
+    robot = scene.robots["wxai"]
     arm = robot.view.get_move_group("arm")
-    q0 = arm.get_qpos(env.data)
+    q0 = arm.get_qpos(scene.data)
     delta = np.array([0.3, 0.2, 0.3, -0.2, 0.3, 0.5])
     robot.update_control({"arm": delta})
-    env.step(TWO_SECONDS)
-    np.testing.assert_allclose(arm.get_qpos(env.data), q0 + delta, atol=1e-2)
+    scene.step(TWO_SECONDS)
+    np.testing.assert_allclose(arm.get_qpos(scene.data), q0 + delta, atol=1e-2)
     # a second command starts from where the arm is now
     robot.update_control({"arm": -delta})
-    env.step(TWO_SECONDS)
-    np.testing.assert_allclose(arm.get_qpos(env.data), q0, atol=1e-2)
+    scene.step(TWO_SECONDS)
+    np.testing.assert_allclose(arm.get_qpos(scene.data), q0, atol=1e-2)
 
 
 def test_joint_rel_position_limits():
-    env = wxai_env("joint_rel_position")
-    ctrl = env.robots["wxai"].controllers["arm"]
+    scene = wxai_scene("joint_rel_position")
+    ctrl = scene.robots["wxai"].controllers["arm"]
     assert isinstance(ctrl, JointRelPosController)
     low, high = ctrl.command_limits()
     np.testing.assert_allclose(high, -low)
     np.testing.assert_allclose(high[1], 3.14159)
-    assert ctrl.target(env.data, [0, -5, 0, 0, 0, 0])[1] == 0.0  # clipped at the joint limit
-    out = ctrl.compute(env.data, [0, -5, 0, 0, 0, 0])
+    assert ctrl.target(scene.data, [0, -5, 0, 0, 0, 0])[1] == 0.0  # clipped at the joint limit
+    out = ctrl.compute(scene.data, [0, -5, 0, 0, 0, 0])
     assert out[1] == pytest.approx(np.pi / 12 - 3.375 * CTRL_DT)  # first tick toward it
 
 
 def test_ee_delta_moves_tool_frame_in_commanded_direction():
-    env = wxai_env("ee_delta")
-    robot = env.robots["wxai"]
+    scene = wxai_scene("ee_delta")
+    robot = scene.robots["wxai"]
     arm = robot.view.get_move_group("arm")
     for delta in (np.array([0.02, 0.0, 0.0]), np.array([0.0, -0.02, 0.0]), [0.0, 0.0, 0.02]):
-        p0 = arm.get_frame_pose(env.data)[:3]
+        p0 = arm.get_frame_pose(scene.data)[:3]
         robot.update_control({"arm": delta})
-        env.step(50)
-        moved = arm.get_frame_pose(env.data)[:3] - p0
+        scene.step(50)
+        moved = arm.get_frame_pose(scene.data)[:3] - p0
         cos = moved @ delta / (np.linalg.norm(moved) * np.linalg.norm(delta))
         assert cos > 0.95, (delta, moved)
         np.testing.assert_allclose(np.linalg.norm(moved), 0.02, atol=4e-3)
 
 
 def test_ee_delta_with_rotation():
-    env = MujocoEnv(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=CTRL_DT)
-    env.reset()
-    arm = env.robots["wxai"].view.get_move_group("arm")
-    ctrl = EEDeltaController(arm, env.model, rotation=True)
+    scene = Scene(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=CTRL_DT)
+    scene.reset()
+    arm = scene.robots["wxai"].view.get_move_group("arm")
+    ctrl = EEDeltaController(arm, scene.model, rotation=True)
     assert ctrl.command_dim == 6
     low, high = ctrl.command_limits()
     np.testing.assert_allclose(high, [0.05, 0.05, 0.05, 0.2, 0.2, 0.2])
-    mujoco.mj_forward(env.model, env.data)
-    pose0 = arm.get_frame_pose(env.data)
-    q = ctrl.target(env.data, [0, 0, 0, 0.1, 0, 0])  # the IK solution, before rate limiting
-    env.data.qpos[arm.qpos_idx] = q
-    mujoco.mj_kinematics(env.model, env.data)
-    pose1 = arm.get_frame_pose(env.data)
+    mujoco.mj_forward(scene.model, scene.data)
+    pose0 = arm.get_frame_pose(scene.data)
+    q = ctrl.target(scene.data, [0, 0, 0, 0.1, 0, 0])  # the IK solution, before rate limiting
+    scene.data.qpos[arm.qpos_idx] = q
+    mujoco.mj_kinematics(scene.model, scene.data)
+    pose1 = arm.get_frame_pose(scene.data)
     np.testing.assert_allclose(orientation_error(pose1[3:], pose0[3:]), [0.1, 0, 0], atol=1e-2)
     with pytest.raises(UserError, match="expected 6 values"):
-        ctrl.compute(env.data, [0.01, 0, 0])
+        ctrl.compute(scene.data, [0.01, 0, 0])
 
 
 def test_ee_pose_mocap_kit_reaches_target():
-    env = MujocoEnv(KIT_MOCAP, robots={"kit": stationary_ai_mocap_config()}, ctrl_dt=CTRL_DT)
-    env.reset()
-    robot = env.robots["kit"]
+    scene = Scene(KIT_MOCAP, robots={"kit": stationary_ai_mocap_config()}, ctrl_dt=CTRL_DT)
+    scene.reset()
+    robot = scene.robots["kit"]
     assert isinstance(robot.controllers["left_arm"], EEPoseController)
     arm = robot.view.get_move_group("left_arm")
-    p0 = arm.get_frame_pose(env.data)
+    p0 = arm.get_frame_pose(scene.data)
     quat = (Quaternion(axis=[0, 1, 0], degrees=20) * Quaternion(p0[3:])).elements
     target = np.concatenate([p0[:3] + [0.05, -0.03, 0.04], quat])
     robot.update_control({"left_arm": target})
-    env.step(TWO_SECONDS // 2)
-    pose = arm.get_frame_pose(env.data)
+    scene.step(TWO_SECONDS // 2)
+    pose = arm.get_frame_pose(scene.data)
     np.testing.assert_allclose(pose[:3], target[:3], atol=2e-3)
     assert np.linalg.norm(orientation_error(target[3:], pose[3:])) < 1e-2
     # the other arm did not move
     right = robot.view.get_move_group("right_arm")
     np.testing.assert_allclose(
-        right.get_qpos(env.data), [0, np.pi / 12, np.pi / 12, 0, 0, 0], atol=1e-3
+        right.get_qpos(scene.data), [0, np.pi / 12, np.pi / 12, 0, 0, 0], atol=1e-3
     )
-    assert env.warnings() == []
+    assert scene.warnings() == []
 
 
 def test_ee_pose_ik_on_joint_kit_reaches_target():
     config = stationary_ai_joint_config().with_command_modes(right_arm="ee_pose")
-    env = MujocoEnv(KIT_JOINT, robots={"kit": config}, ctrl_dt=CTRL_DT)
-    env.reset()
-    robot = env.robots["kit"]
+    scene = Scene(KIT_JOINT, robots={"kit": config}, ctrl_dt=CTRL_DT)
+    scene.reset()
+    robot = scene.robots["kit"]
     arm = robot.view.get_move_group("right_arm")
-    p0 = arm.get_frame_pose(env.data)
+    p0 = arm.get_frame_pose(scene.data)
     quat = (Quaternion(axis=[0, 0, 1], degrees=-15) * Quaternion(p0[3:])).elements
     target = np.concatenate([p0[:3] + [0.05, 0.03, 0.04], quat])
     robot.update_control({"right_arm": target})
-    env.step(TWO_SECONDS)
-    pose = arm.get_frame_pose(env.data)
+    scene.step(TWO_SECONDS)
+    pose = arm.get_frame_pose(scene.data)
     np.testing.assert_allclose(pose[:3], target[:3], atol=3e-3)
     assert np.linalg.norm(orientation_error(target[3:], pose[3:])) < 2e-2
 
@@ -333,35 +333,43 @@ def test_ik_modes_of_a_joint_arm_are_rate_limited():
     """ee_pose (IK) and ee_delta: a far target moves the joint targets by at most the limits
     a tick, scaled as a whole so that the tool keeps its direction."""
     for mode, command in (("ee_pose", None), ("ee_delta", [0.05, 0.0, -0.05])):
-        env = wxai_env(mode)
-        robot = env.robots["wxai"]
+        scene = wxai_scene(mode)
+        robot = scene.robots["wxai"]
         arm = robot.view.get_move_group("arm")
         ctrl = robot.controllers["arm"]
         if command is None:
-            p0 = arm.get_frame_pose(env.data)
+            p0 = arm.get_frame_pose(scene.data)
             command = np.concatenate([p0[:3] + [0.15, 0.1, -0.1], p0[3:]])
         step = arm.velocity_limits * CTRL_DT
-        before = arm.get_ctrl(env.data)
-        wanted = ctrl.target(env.data, command) - before
+        before = arm.get_ctrl(scene.data)
+        wanted = ctrl.target(scene.data, command) - before
         robot.update_control({"arm": command})
-        moved = robot.compute_control(env.data)["arm"] - before
+        moved = robot.compute_control(scene.data)["arm"] - before
         assert np.max(np.abs(wanted) / step) > 1.5  # the target is far
         assert np.max(np.abs(moved) / step) == pytest.approx(1.0)  # the bottleneck joint
         np.testing.assert_allclose(moved / np.linalg.norm(moved), wanted / np.linalg.norm(wanted))
         for _ in range(50):
-            c0 = arm.get_ctrl(env.data)
-            env.step()
-            assert np.all(np.abs(arm.get_ctrl(env.data) - c0) <= step * (1 + 1e-9)), mode
+            c0 = arm.get_ctrl(scene.data)
+            scene.step()
+            assert np.all(np.abs(arm.get_ctrl(scene.data) - c0) <= step * (1 + 1e-9)), mode
 
 
 def test_mocap_ee_pose_is_not_rate_limited():
-    env = MujocoEnv(KIT_MOCAP, robots={"kit": stationary_ai_mocap_config()}, ctrl_dt=CTRL_DT)
-    env.reset()
-    robot = env.robots["kit"]
+    scene = Scene(KIT_MOCAP, robots={"kit": stationary_ai_mocap_config()}, ctrl_dt=CTRL_DT)
+    scene.reset()
+    robot = scene.robots["kit"]
     assert robot.view.get_move_group("left_arm").velocity_limits is None
-    pose = robot.view.get_move_group("left_arm").get_frame_pose(env.data) + [0.3, 0, 0, 0, 0, 0, 0]
+    pose = robot.view.get_move_group("left_arm").get_frame_pose(scene.data) + [
+        0.3,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+    ]
     robot.update_control({"left_arm": pose})
-    np.testing.assert_array_equal(robot.compute_control(env.data)["left_arm"], pose)
+    np.testing.assert_array_equal(robot.compute_control(scene.data)["left_arm"], pose)
 
 
 #: Physical speed. The controls move at exactly the limit; the joints, driven by the model's
@@ -431,63 +439,63 @@ ELBOW_DOWN = np.array([0.0, 3.0, 0.4, -1.5, 0.0, 0.0])
 FLOOR_MARGIN = 0.02
 
 
-def floor_env(mode: str = "joint_position", config=None, xml=WXAI) -> MujocoEnv:
+def floor_scene(mode: str = "joint_position", config=None, xml=WXAI) -> Scene:
     """The arm(s) with a safety floor 2 cm above z = 0."""
     config = config or wxai_config(mode)
-    env = MujocoEnv(
+    scene = Scene(
         xml, robots={"r": config}, ctrl_dt=CTRL_DT, table_height=0.0, floor_margin=FLOOR_MARGIN
     )
-    env.reset()
-    return env
+    scene.reset()
+    return scene
 
 
 def test_floor_clips_an_elbow_into_the_table_command():
-    env = floor_env()
-    robot = env.robots["r"]
+    scene = floor_scene()
+    robot = scene.robots["r"]
     floor, arm = robot.safety_floor, robot.view.get_move_group("arm")
     assert floor.floor_z == FLOOR_MARGIN and set(floor.arms) == {"arm"}
     assert robot.controllers["arm"].floor is floor
     # the tool frame alone would pass: only the forearm goes under the floor
-    assert floor.lowest(env.data.qpos, "arm", ELBOW_DOWN)[0] < FLOOR_MARGIN - 0.05
+    assert floor.lowest(scene.data.qpos, "arm", ELBOW_DOWN)[0] < FLOOR_MARGIN - 0.05
     clipped = []
     for _ in range(100):  # a policy asking for it every tick
         robot.update_control({"arm": ELBOW_DOWN})
-        before = arm.get_ctrl(env.data)
-        env.step(1)
+        before = arm.get_ctrl(scene.data)
+        scene.step(1)
         report = robot.floor_report
         clipped.append(report.clipped)
-        assert floor.lowest(env.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.005
-        ctrl = arm.get_ctrl(env.data)
+        assert floor.lowest(scene.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.005
+        ctrl = arm.get_ctrl(scene.data)
         assert np.all(np.abs(ctrl - before) <= arm.velocity_limits * CTRL_DT + 1e-12)
         if report.clipped:  # the held link is one of the arm's bodies
             assert report.links[0].startswith("link_") or "carriage" in report.links[0]
-        assert floor.below(env.data.qpos, {"arm": ctrl}) == []  # the control: exactly
+        assert floor.below(scene.data.qpos, {"arm": ctrl}) == []  # the control: exactly
     # toward the target at the speed limits first, then held at the floor on every tick
     assert not clipped[0] and all(clipped[-30:])
     # the command is kept: a command leading away moves the arm again at once
     robot.update_control({"arm": np.zeros(6)})
-    env.step(1)
+    scene.step(1)
     assert not robot.floor_report.clipped
 
 
 def test_without_the_floor_the_same_command_goes_into_the_table():
-    env = floor_env()
-    robot = env.robots["r"]
+    scene = floor_scene()
+    robot = scene.robots["r"]
     assert robot.set_safety_floor(None) is None and robot.safety_floor is None
     assert robot.controllers["arm"].floor is None
     robot.update_control({"arm": ELBOW_DOWN})
-    env.step(TWO_SECONDS)
+    scene.step(TWO_SECONDS)
     low = [g for g in (robot.view.get_move_group("arm"),)][0]
     floor = robot.set_safety_floor(0.0, FLOOR_MARGIN)  # only to measure
-    assert floor.lowest(env.data.qpos, "arm")[0] < FLOOR_MARGIN - 0.02
+    assert floor.lowest(scene.data.qpos, "arm")[0] < FLOOR_MARGIN - 0.02
     assert not robot.floor_report.clipped and low.name == "arm"
 
 
 @pytest.mark.parametrize("mode", ["joint_rel_position", "ee_pose", "ee_delta"])
 def test_floor_holds_every_joint_mode_above_it(mode):
     """The other controllers of a joint arm are held above the floor the same way."""
-    env = floor_env(mode)
-    robot = env.robots["r"]
+    scene = floor_scene(mode)
+    robot = scene.robots["r"]
     arm = robot.view.get_move_group("arm")
     floor = robot.safety_floor
     if mode == "joint_rel_position":
@@ -495,37 +503,37 @@ def test_floor_holds_every_joint_mode_above_it(mode):
     elif mode == "ee_delta":
         command = np.array([0.0, 0.0, -0.05])  # straight down
     else:
-        pose = arm.get_frame_pose(env.data)
+        pose = arm.get_frame_pose(scene.data)
         command = np.concatenate([pose[:3] * [1.6, 1.0, 0.0] - [0, 0, 0.05], pose[3:]])
     clipped = False
     for _ in range(TWO_SECONDS):
         robot.update_control({"arm": command})
-        env.step(1)
+        scene.step(1)
         clipped |= robot.floor_report.clipped
         # the control never has a point below the floor; the arm itself overshoots the
         # control it stops at by a few mm (its servo), and settles on it
-        assert floor.below(env.data.qpos, {"arm": arm.get_ctrl(env.data)}) == []
-        assert floor.lowest(env.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.007
+        assert floor.below(scene.data.qpos, {"arm": arm.get_ctrl(scene.data)}) == []
+        assert floor.lowest(scene.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.007
     assert clipped
-    assert floor.lowest(env.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.001
+    assert floor.lowest(scene.data.qpos, "arm")[0] > FLOOR_MARGIN - 0.001
 
 
 def test_ee_modes_clip_the_tool_frame_target_height():
     """ee_delta never asks the tool frame below the floor; from below it, no lower."""
-    env = floor_env("ee_delta")
-    robot = env.robots["r"]
+    scene = floor_scene("ee_delta")
+    robot = scene.robots["r"]
     arm = robot.view.get_move_group("arm")
     controller = robot.controllers["arm"]
-    z = arm.get_frame_pose(env.data)[2]
-    free = controller.target(env.data, [0.0, 0.0, -0.04])  # stays above: untouched
+    z = arm.get_frame_pose(scene.data)[2]
+    free = controller.target(scene.data, [0.0, 0.0, -0.04])  # stays above: untouched
     controller.floor = None
-    assert np.array_equal(free, controller.target(env.data, [0.0, 0.0, -0.04]))
+    assert np.array_equal(free, controller.target(scene.data, [0.0, 0.0, -0.04]))
     controller.floor = robot.safety_floor
     twists = []
     step = controller.kinematics.delta_step
     controller.kinematics.delta_step = lambda qpos, twist: twists.append(twist) or step(qpos, twist)
     command = np.array([0.0, 0.0, -(z + 1.0)])  # a metre below the floor
-    controller.target(env.data, command)
+    controller.target(scene.data, command)
     assert command[2] == -(z + 1.0)  # the caller's command is not written
     assert z + twists[-1][2] == pytest.approx(FLOOR_MARGIN, abs=1e-12)  # the IK aims at it
     assert robot.floor_report.links == ["link_6"]  # the tool frame's body
@@ -533,12 +541,12 @@ def test_ee_modes_clip_the_tool_frame_target_height():
 
 def test_mocap_arm_target_is_kept_above_the_floor():
     """EE (mocap) arms: the commanded tool-frame height is raised to the floor."""
-    env = floor_env(config=stationary_ai_mocap_config(), xml=KIT_MOCAP)
-    robot = env.robots["r"]
+    scene = floor_scene(config=stationary_ai_mocap_config(), xml=KIT_MOCAP)
+    robot = scene.robots["r"]
     floor = robot.safety_floor
     assert set(floor.tools) == {"left_arm", "right_arm"} and not floor.arms
     arm = robot.view.get_move_group("left_arm")
-    pose = arm.get_frame_pose(env.data)
+    pose = arm.get_frame_pose(scene.data)
     low = np.concatenate([pose[:3] * [1, 1, 0] - [0, 0, 0.1], pose[3:]])
     robot.update_control({"left_arm": low})
     out = robot.compute_control()
@@ -560,4 +568,4 @@ def test_bad_floor_is_a_one_line_user_error(table, margin):
         robot.set_safety_floor(table, margin)
     assert "safety floor" in str(err.value) and "\n" not in str(err.value)
     with pytest.raises(UserError):
-        MujocoEnv(WXAI, robots={"r": wxai_config()}, table_height=table, floor_margin=margin)
+        Scene(WXAI, robots={"r": wxai_config()}, table_height=table, floor_margin=margin)

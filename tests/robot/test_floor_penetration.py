@@ -171,7 +171,7 @@ def _kit(side: str, target: np.ndarray, close: bool) -> float:
 
     world = KitWorld("sim_transfer_cube", base_seed=0)
     try:
-        scene, arm = world.env, world.arms[side]
+        scene, arm = world.scene, world.arms[side]
         probe = Probe(world.model, world.data, world.robot.safety_floor, f"{side}_arm")
         scene._physics_step = probe.stepping(scene._physics_step)
         home = arm.target.copy()

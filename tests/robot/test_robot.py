@@ -20,7 +20,7 @@ from trossen_arm_mujoco.robot.configs import (
 from trossen_arm_mujoco.robot.controllers import EEDeltaController
 from trossen_arm_mujoco.robot.robot import Robot
 from trossen_arm_mujoco.sim.cameras import CameraSet
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 
 ASSETS = Path(ASSETS_DIR)
 KIT_JOINT = ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"
@@ -210,8 +210,8 @@ def test_ctrl_dt_defaults_to_the_timestep_and_reaches_the_controllers():
         robot.controllers["left_arm"].max_step, [0.0675] * 3 + [0.14] * 3
     )  # rad per tick
     np.testing.assert_allclose(robot.controllers["left_gripper"].max_step, [0.00175])  # m
-    env = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
-    assert env.robots["kit"].ctrl_dt == 0.02
+    scene = Scene(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    assert scene.robots["kit"].ctrl_dt == 0.02
     for bad in (0.0, -0.01, float("nan")):
         with pytest.raises(UserError, match="ctrl_dt must be a positive"):
             Robot(model, stationary_ai_joint_config(), ctrl_dt=bad)
@@ -302,11 +302,11 @@ def test_unbound_robot_says_how_to_bind():
     np.testing.assert_allclose(data.qpos[:16], START_ARM_POSE)
 
 
-def test_env_robots_are_bound_to_the_env_data():
-    env = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
-    env.reset()
-    view = env.robots["kit"].robot_view
-    assert view.data is env.data
+def test_scene_robots_are_bound_to_the_scene_data():
+    scene = Scene(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    scene.reset()
+    view = scene.robots["kit"].robot_view
+    assert view.data is scene.data
     np.testing.assert_allclose(view.get_move_group("left_arm").joint_pos, START_ARM_POSE[:6])
 
 

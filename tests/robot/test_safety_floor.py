@@ -63,7 +63,7 @@ def test_samplers_build_robots_with_a_floor_at_the_table_top(name, flavour):
     """Every front door builds its robots through a sampler: the floor is on by default, at
     the table top (``floor_margin=0``); ``floor_margin=None`` leaves it off."""
     with registry.make_sampler(name, SamplerSettings(flavour=flavour)) as sampler:
-        robot = sampler.env.robots[sampler.robot_name]
+        robot = sampler.scene.robots[sampler.robot_name]
         floor = robot.safety_floor
         assert floor is not None and floor.floor_z == sampler.config["table_height"]
         arms = {a for a, _ in sampler.arms}
@@ -72,12 +72,12 @@ def test_samplers_build_robots_with_a_floor_at_the_table_top(name, flavour):
     with registry.make_sampler(
         name, SamplerSettings(flavour=flavour, floor_margin=0.05)
     ) as sampler:
-        floor = sampler.env.robots[sampler.robot_name].safety_floor
+        floor = sampler.scene.robots[sampler.robot_name].safety_floor
         assert floor.floor_z == pytest.approx(sampler.config["table_height"] + 0.05)
     with registry.make_sampler(
         name, SamplerSettings(flavour=flavour, floor_margin=None)
     ) as sampler:
-        robot = sampler.env.robots[sampler.robot_name]
+        robot = sampler.scene.robots[sampler.robot_name]
         assert robot.safety_floor is None and not robot.floor_report.clipped
     with pytest.raises(UserError, match="safety margin"):
         registry.make_sampler(name, SamplerSettings(flavour=flavour, floor_margin=-0.01))
@@ -108,8 +108,8 @@ def _record(task: str, floor: bool, episode_len: int) -> tuple[np.ndarray, ...]:
     settings = RecordSettings(task_name=task, episode_len=episode_len, inject_noise=True)
     recorder = EpisodeRecorder(settings)
     asked = [0]
-    for env in (recorder.ee_env, recorder.joint_env):
-        robot = env.robots[recorder.joint_sampler.robot_name]
+    for scene in (recorder.ee_scene, recorder.joint_scene):
+        robot = scene.robots[recorder.joint_sampler.robot_name]
         if not floor:
             robot.set_safety_floor(None)
         elif robot.safety_floor.arms:
@@ -125,7 +125,7 @@ def _record(task: str, floor: bool, episode_len: int) -> tuple[np.ndarray, ...]:
         rewards = np.empty(len(actions))
         states = []
         for _ in recorder.replay_steps(actions, poses, rewards):
-            d = recorder.joint_env.data
+            d = recorder.joint_scene.data
             states.append(np.concatenate([d.qpos, d.qvel, d.ctrl]))
     finally:
         recorder.close()

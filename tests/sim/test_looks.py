@@ -10,13 +10,13 @@ import pytest
 
 from trossen_arm_mujoco.constants import ASSETS_DIR
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.sim.env import load_model, load_physics
 from trossen_arm_mujoco.sim.looks import (
     MENAGERIE_ENV,
     MENAGERIE_MESHES,
     SceneLooks,
     menagerie_folder,
 )
+from trossen_arm_mujoco.sim.scene import load_model, load_physics
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 
 ASSETS = Path(ASSETS_DIR)
@@ -65,18 +65,18 @@ def test_shadows_off_turns_every_light_off(xml):
 
 
 def test_the_look_travels_as_an_argument():
-    """Front door -> sampler -> MujocoEnv -> load_model, like seed and randomize; nothing
+    """Front door -> sampler -> Scene -> load_model, like seed and randomize; nothing
     else (no ambient setting) changes what a scene loads with."""
     from trossen_arm_mujoco.gym.env import TrossenMujocoEnv
-    from trossen_arm_mujoco.sim.env import MujocoEnv
+    from trossen_arm_mujoco.sim.scene import Scene
     from trossen_arm_mujoco.tasks import registry
 
     assert load_model(PUSH).light_castshadow.any()  # default: SceneLooks()
-    assert not MujocoEnv(PUSH, looks=SceneLooks(shadows=False)).model.light_castshadow.any()
+    assert not Scene(PUSH, looks=SceneLooks(shadows=False)).model.light_castshadow.any()
     with registry.make_sampler("push", SamplerSettings(looks=SceneLooks(shadows=False))) as sampler:
-        assert not sampler.env.model.light_castshadow.any()
+        assert not sampler.scene.model.light_castshadow.any()
     with registry.make_sampler("push") as sampler:  # the one before left nothing behind
-        assert sampler.env.model.light_castshadow.any()
+        assert sampler.scene.model.light_castshadow.any()
     env = TrossenMujocoEnv("push", shadows=False)
     assert not env.scene.model.light_castshadow.any()
     env.close()

@@ -18,8 +18,8 @@ from trossen_arm_mujoco.constants import ASSETS_DIR, STATIONARY_CAMERAS
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.images import psnr
 from trossen_arm_mujoco.sim.cameras import SMALL_IMAGE, CameraSet, render_threads
-from trossen_arm_mujoco.sim.env import load_model
 from trossen_arm_mujoco.sim.looks import SceneLooks
+from trossen_arm_mujoco.sim.scene import load_model
 
 ASSETS = Path(ASSETS_DIR)
 KIT = ASSETS / "stationary_ai/trossen_ai_scene_joint.xml"

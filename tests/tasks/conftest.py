@@ -23,7 +23,7 @@ class IKDriver:
         self.task = task
         arm = task.arm
         self.kin = Kinematics(
-            task.env.model, arm.frame_site_id, arm.qpos_idx, arm.dof_idx, arm.joint_range
+            task.scene.model, arm.frame_site_id, arm.qpos_idx, arm.dof_idx, arm.joint_range
         )
 
     def move_to(self, target, gripper: float, step: float = 0.01, settle: int = 10) -> None:

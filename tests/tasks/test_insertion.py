@@ -295,6 +295,6 @@ def test_mocap_flavour(sampler):
         obs = task.policy_observation()
         np.testing.assert_allclose(obs["env_state"], sampler.sample_task(11).env_state())
         assert obs["mocap_pose_left"].shape == obs["mocap_pose_right"].shape == (7,)
-        assert ee.env.model.nmocap == 2
+        assert ee.scene.model.nmocap == 2
     finally:
         ee.close()

@@ -11,7 +11,7 @@ def test_scripted_grasp_reaches_air_goal(ik_driver):
     sampler = registry.make_sampler("pick_place")
     try:
         sampler.sample_task(2)
-        cube0 = sampler.env.objects["cube"].get_pose(sampler.env.data)[:3]
+        cube0 = sampler.scene.objects["cube"].get_pose(sampler.scene.data)[:3]
         task = sampler.make_task(goal=cube0 + [0.0, 0.0, 0.1])
         task.reset()
         assert not task.lifted() and not task.judge_success()

@@ -27,7 +27,7 @@ def test_scripted_poke_moves_cube(sampler, ik_driver):
     moved = task.cube_pos() - cube0
     assert moved[0] > 0.03, moved
     assert abs(task.cube_pos()[2] - cube0[2]) < 0.01  # still on the table
-    assert not sampler.env.warnings()
+    assert not sampler.scene.warnings()
 
 
 def test_success_when_cube_on_goal(sampler):

@@ -39,7 +39,7 @@ def make(kind: str | None = None, name: str = "push", **params):
 
 
 def fields(sampler) -> dict[str, np.ndarray]:
-    model = sampler.env.model
+    model = sampler.scene.model
     return {f: getattr(model, f).copy() for f in FIELDS}
 
 
@@ -47,9 +47,9 @@ def snapshot(sampler, seed: int):
     """(model fields, qpos, image) of episode ``seed``; the image is the second render of
     the episode's first state (the same position in every call)."""
     sampler.sample_task(seed)
-    sampler.env.render_images()
-    image = sampler.env.render_images()["overview"]
-    return fields(sampler), sampler.env.data.qpos.copy(), image
+    sampler.scene.render_images()
+    image = sampler.scene.render_images()["overview"]
+    return fields(sampler), sampler.scene.data.qpos.copy(), image
 
 
 def same(a, b) -> bool:
@@ -88,7 +88,7 @@ def test_off_by_default_and_nominal():
         plain.sample_task(3)
         assert plain.randomization is None
         for f in FIELDS:
-            np.testing.assert_array_equal(getattr(plain.env.model, f), getattr(loaded, f))
+            np.testing.assert_array_equal(getattr(plain.scene.model, f), getattr(loaded, f))
     finally:
         plain.close()
 
@@ -109,11 +109,11 @@ def test_repeated_episodes_do_not_drift_and_switching_off_restores_nominal():
             sampler.sample_task(seed)
         sampler.sample_task(5)
         for f in FIELDS:
-            np.testing.assert_array_equal(getattr(sampler.env.model, f), first[f])
+            np.testing.assert_array_equal(getattr(sampler.scene.model, f), first[f])
         sampler.randomize = False
         sampler.sample_task(5)
         for f in FIELDS:
-            np.testing.assert_array_equal(getattr(sampler.env.model, f), nominal[f])
+            np.testing.assert_array_equal(getattr(sampler.scene.model, f), nominal[f])
     finally:
         sampler.close()
 
@@ -161,14 +161,14 @@ def test_ranges_are_respected():
         "joint_noise": {"range": 0.05},
     }
     sampler = registry.make_sampler("push", SamplerSettings(randomize=True), randomization=section)
-    model, r = sampler.env.model, sampler.randomizer
+    model, r = sampler.scene.model, sampler.randomizer
     nom = r.nominal
     mats, picked = {"groundplane", "table_leg"}, set()
     try:
         for seed in range(60):
-            sampler.env.reset()
-            q0 = sampler.env.data.qpos.copy()
-            rec = r.sample(np.random.default_rng(seed), sampler.env.data)
+            sampler.scene.reset()
+            q0 = sampler.scene.data.qpos.copy()
+            rec = r.sample(np.random.default_rng(seed), sampler.scene.data)
             for name, v in rec["lights"].items():
                 i = model.light(name).id
                 assert _angle(np.array(v["dir"]), nom["light_dir"][i]) <= 10.0 + 1e-6
@@ -222,5 +222,5 @@ def test_every_shipped_config_randomizes_every_kind():
         with registry.make_sampler(name, SamplerSettings(randomize=True)) as sampler:
             sampler.sample_task(0)
             assert set(sampler.randomization) == {"version", "seed", *KINDS}
-            object_kinds = {"objects", "object_mass"} if not sampler.env.objects else set()
+            object_kinds = {"objects", "object_mass"} if not sampler.scene.objects else set()
             assert all(sampler.randomization[k] for k in set(KINDS) - object_kinds), name

@@ -44,14 +44,14 @@ def test_record_reapplied_reproduces_images_exactly():
         record = record_from_json(record_to_json(a.randomization))
         assert record == a.randomization
         poses = task.object_poses()
-        images_a = [a.env.render_images()["cam_high"] for _ in range(2)]
+        images_a = [a.scene.render_images()["cam_high"] for _ in range(2)]
         b.sample_task(0, object_poses=poses, randomization=record)
-        images_b = [b.env.render_images()["cam_high"] for _ in range(2)]
+        images_b = [b.scene.render_images()["cam_high"] for _ in range(2)]
         for x, y in zip(images_a, images_b, strict=True):
             np.testing.assert_array_equal(x, y)
-        np.testing.assert_array_equal(a.env.data.qpos, b.env.data.qpos)
+        np.testing.assert_array_equal(a.scene.data.qpos, b.scene.data.qpos)
         for f in FIELDS:
-            np.testing.assert_array_equal(getattr(a.env.model, f), getattr(b.env.model, f))
+            np.testing.assert_array_equal(getattr(a.scene.model, f), getattr(b.scene.model, f))
     finally:
         a.close()
         b.close()
@@ -62,8 +62,8 @@ def test_seed_in_the_record_regenerates_it():
     try:
         sampler.sample_task(4)
         record = sampler.randomization
-        sampler.env.reset()
-        again = sampler.randomizer.sample(generator_from_seed(record["seed"]), sampler.env.data)
+        sampler.scene.reset()
+        again = sampler.randomizer.sample(generator_from_seed(record["seed"]), sampler.scene.data)
         assert again == record
     finally:
         sampler.close()
@@ -77,7 +77,7 @@ def test_apply_to_a_bare_model():
         data = mujoco.MjData(model)
         apply_randomization(model, sampler.randomization, data)
         for f in FIELDS:
-            np.testing.assert_array_equal(getattr(model, f), getattr(sampler.env.model, f))
+            np.testing.assert_array_equal(getattr(model, f), getattr(sampler.scene.model, f))
     finally:
         sampler.close()
 

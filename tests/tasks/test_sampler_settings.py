@@ -55,7 +55,7 @@ def test_replace_checks_names_and_values():
 def test_make_sampler_takes_settings_not_loose_keywords():
     with registry.make_sampler("reach", SamplerSettings(command_mode="ee_delta")) as sampler:
         assert sampler.settings.command_mode == "ee_delta"
-        assert sampler.env.robots["wxai"].config.command_mode["arm"] == "ee_delta"
+        assert sampler.scene.robots["wxai"].config.command_mode["arm"] == "ee_delta"
     with pytest.raises(UserError, match="command_mode is a sampler setting"):
         registry.make_sampler("reach", command_mode="ee_delta")
     with pytest.raises(UserError, match="settings must be a SamplerSettings"):

@@ -47,7 +47,7 @@ def test_reset_moves_the_marker_to_the_goal(sampler):
     task = sampler.sample_task(4)
     mocap = task.data.mocap_pos[task._mocap]
     np.testing.assert_allclose(mocap, task.goal)
-    marker = sampler.env.model.body(task.marker_body).id
+    marker = sampler.scene.model.body(task.marker_body).id
     np.testing.assert_allclose(task.data.xpos[marker], task.goal)
 
 
@@ -134,15 +134,15 @@ def test_joint_noise_is_seeded_and_bounded(sampler):
 
 def test_joint_noise_stays_within_the_joint_limits():
     probe = registry.make_sampler("reach")
-    low = probe.env.robots["wxai"].view.get_move_group("arm").joint_range[:, 0].copy()
+    low = probe.scene.robots["wxai"].view.get_move_group("arm").joint_range[:, 0].copy()
     probe.close()
     s = registry.make_sampler("reach", init_arm_qpos=low.tolist(), init_joint_noise=0.5)
     try:
-        arm = s.env.robots["wxai"].view.get_move_group("arm")
+        arm = s.scene.robots["wxai"].view.get_move_group("arm")
         for seed in range(5):
-            s.env.reset()
+            s.scene.reset()
             s.perturb_arm(np.random.default_rng(seed))
-            q = arm.get_qpos(s.env.data)
+            q = arm.get_qpos(s.scene.data)
             assert np.all(q >= arm.joint_range[:, 0]) and np.all(q <= arm.joint_range[:, 1])
     finally:
         s.close()
@@ -175,11 +175,11 @@ def test_a_subclass_changes_the_reward_through_reward_at(sampler):
             return 7.0
 
     sampler.sample_task(0)
-    plain = ReachTask(sampler.env, sampler.config, goal=[0.3, 0.0, 0.2])
-    halved = Halved(sampler.env, sampler.config, goal=[0.3, 0.0, 0.2])
+    plain = ReachTask(sampler.scene, sampler.config, goal=[0.3, 0.0, 0.2])
+    halved = Halved(sampler.scene, sampler.config, goal=[0.3, 0.0, 0.2])
     assert halved.score()[0] == pytest.approx(0.5 * plain.score()[0])
     assert halved.score()[1] == plain.score()[1]
-    assert Constant(sampler.env, sampler.config).score()[0] == 7.0
+    assert Constant(sampler.scene, sampler.config).score()[0] == 7.0
 
 
 def test_a_subclass_observing_more_extends_the_parts(sampler):
@@ -193,9 +193,9 @@ def test_a_subclass_observing_more_extends_the_parts(sampler):
             return [*super().observation_parts(), Part("time", lambda: [data.time], 0, 1e3)]
 
     sampler.sample_task(0)
-    task = Clock(sampler.env, sampler.config)
+    task = Clock(sampler.scene, sampler.config)
     obs = task.get_observation()
     assert list(obs)[-2:] == ["ee_pos", "time"] and obs["time"].shape == (1,)
     assert list(task.observation_bounds()) == list(obs)
-    assert obs["time"][0] == sampler.env.data.time
+    assert obs["time"][0] == sampler.scene.data.time
     np.testing.assert_array_equal(task.achieved_goal(), obs["ee_pos"])

@@ -21,18 +21,18 @@ def test_timing_defaults(reach):
     assert task.sim_dt == pytest.approx(0.002)
     assert task.ctrl_dt == pytest.approx(0.02)
     assert task.policy_dt == pytest.approx(0.02)
-    assert task.n_ctrl_steps == 1 and reach.env.n_substeps == 10
+    assert task.n_ctrl_steps == 1 and reach.scene.n_substeps == 10
 
 
 def test_one_step_lasts_policy_dt():
     sampler = registry.make_sampler("reach", ctrl_dt=0.004, policy_dt=0.04)
     try:
         task = sampler.sample_task(0)
-        assert (task.n_ctrl_steps, sampler.env.n_substeps) == (10, 2)
-        t0 = sampler.env.data.time
+        assert (task.n_ctrl_steps, sampler.scene.n_substeps) == (10, 2)
+        t0 = sampler.scene.data.time
         task.step({})
         task.step({})
-        assert sampler.env.data.time - t0 == pytest.approx(0.08)
+        assert sampler.scene.data.time - t0 == pytest.approx(0.08)
         assert task.n_steps == 2
     finally:
         sampler.close()
@@ -174,7 +174,7 @@ def test_score_goes_through_overridden_reward_and_info():
         sampler = registry.make_sampler(name)
         try:
             sampler.sample_task(0)
-            task = cls(sampler.env, sampler.config)
+            task = cls(sampler.scene, sampler.config)
             task.reset()
             assert expected(*task.score())
         finally:

@@ -43,10 +43,10 @@ class TouchBall(BimanualTask):
     objects = ("ball",)
     max_reward = 1.0
 
-    def __init__(self, env, config):
-        super().__init__(env, config)
-        self.partners = ContactPartners(env.model, [lookup_id(env.model, "geom", "ball")])
-        self.table = lookup_id(env.model, "geom", "table")
+    def __init__(self, scene, config):
+        super().__init__(scene, config)
+        self.partners = ContactPartners(scene.model, [lookup_id(scene.model, "geom", "ball")])
+        self.table = lookup_id(scene.model, "geom", "table")
 
     def get_reward(self):
         return int(self.table in self.partners(self.data))
@@ -63,10 +63,10 @@ class TouchBallSampler(BimanualSampler):
     def objects(self):
         return {"ball": ("ball_joint", "ball")}
 
-    def _sample_task(self, env):
+    def _sample_task(self, scene):
         pose = np.array([self.rng.uniform(-0.05, 0.05), -0.1, 0.04, 1.0, 0.0, 0.0, 0.0])
-        env.objects["ball"].set_pose(env.data, pose)
-        return self.task_cls(env, self.config)
+        scene.objects["ball"].set_pose(scene.data, pose)
+        return self.task_cls(scene, self.config)
 
 
 class HoldPolicy(BimanualWaypointPolicy):

@@ -90,7 +90,7 @@ def test_make_sampler_applies_overrides():
     try:
         task = sampler.sample_task(0)
         assert task.tolerance == 0.04
-        assert sampler.env.robots["wxai"].config.command_mode["arm"] == "ee_delta"
+        assert sampler.scene.robots["wxai"].config.command_mode["arm"] == "ee_delta"
     finally:
         sampler.close()
 

@@ -20,7 +20,7 @@ def samplers():
 
 
 def _state(sampler, task):
-    data = sampler.env.data
+    data = sampler.scene.data
     goal = task.desired_goal() if task.goal_conditioned else np.zeros(0)
     return np.concatenate([data.qpos, data.qvel, data.ctrl, data.mocap_pos.ravel(), goal])
 
@@ -77,7 +77,7 @@ def test_regions(samplers):
 def test_marker_shows_goal(samplers):
     sampler = samplers["push"]
     task = sampler.sample_task(4)
-    np.testing.assert_allclose(sampler.env.data.mocap_pos[0], task.desired_goal())
+    np.testing.assert_allclose(sampler.scene.data.mocap_pos[0], task.desired_goal())
 
 
 # --- the sampler interface ------------------------------------------------------------------
@@ -101,9 +101,9 @@ def test_next_task_retries_until_a_task_comes(samplers):
     real = type(sampler)._sample_task
     calls = []
 
-    def flaky(self, env):
+    def flaky(self, scene):
         calls.append(1)
-        return None if len(calls) < 3 else real(self, env)
+        return None if len(calls) < 3 else real(self, scene)
 
     type(sampler)._sample_task = flaky
     try:
@@ -115,8 +115,8 @@ def test_next_task_retries_until_a_task_comes(samplers):
 
 def test_randomize_scene_takes_env_and_robot_view(samplers):
     sampler = samplers["reach"]
-    sampler.env.reset()
-    assert sampler.randomize_scene(sampler.env, sampler.robot_view) is None  # off by default
+    sampler.scene.reset()
+    assert sampler.randomize_scene(sampler.scene, sampler.robot_view) is None  # off by default
     assert {"arm", "gripper"} <= set(sampler.robot_view.move_groups)
 
 
@@ -125,9 +125,9 @@ def test_sampler_owns_and_closes_its_env():
         "reach", SamplerSettings(camera_names=["overview"], height=8, width=8)
     ) as s:
         s.sample_task(0)
-        s.env.render_images()
-        assert s.env.cameras._renderer is not None
-    assert s.env.cameras._renderer is None
+        s.scene.render_images()
+        assert s.scene.cameras._renderer is not None
+    assert s.scene.cameras._renderer is None
 
 
 @pytest.mark.parametrize("value", ["yes", 1, None])

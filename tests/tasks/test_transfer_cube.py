@@ -242,17 +242,19 @@ def test_given_object_poses_win(sampler):
 
 def test_reward_is_transfer_cube_reward(sampler):
     task = sampler.sample_task(0)
-    reference = TransferCubeReward(sampler.env.model)
+    reference = TransferCubeReward(sampler.scene.model)
     for _ in range(5):
         task.step({})
-        assert task.get_reward() == reference(sampler.env.data) == 0
+        assert task.get_reward() == reference(sampler.scene.data) == 0
     assert task.judge_success() is False
     assert isinstance(task.reward_fn, TransferCubeReward)
 
 
 def test_every_finger_geom_counts_for_the_reward(sampler):
-    reward = TransferCubeReward(sampler.env.model)
-    names = {mujoco.mj_id2name(sampler.env.model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in reward.left}
+    reward = TransferCubeReward(sampler.scene.model)
+    names = {
+        mujoco.mj_id2name(sampler.scene.model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in reward.left
+    }
     assert names == {
         f"left/gripper_follower_{f}{part}"
         for f in ("left", "right")

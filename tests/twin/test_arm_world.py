@@ -35,7 +35,7 @@ def test_episode_k_is_records_scene(world) -> None:
             world.reset(k)
             task = sampler.next_task(episode_seed(5, k))
             np.testing.assert_allclose(
-                world.env_state(), task.env.objects["cube"].get_pose(task.env.data)
+                world.env_state(), task.scene.objects["cube"].get_pose(task.scene.data)
             )
             np.testing.assert_allclose(world.goal(), task.goal)
             assert world.goal().shape == (3,)

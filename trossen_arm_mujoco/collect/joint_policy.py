@@ -3,7 +3,7 @@
 A policy that declares ``action_layout`` (a key of ``robot.layout.LAYOUTS`` other than
 ``"ee"``; the Mobile AI's ``mobile_pick_place`` policy: ``"mobileai"``) gives each step's
 action in that layout. The episode is recorded as it is acted: the joint flavour renders the
-cameras, the policy acts on the task's observation, the env steps, each step is streamed to
+cameras, the policy acts on the task's observation, the scene steps, each step is streamed to
 the file. The policy is made with the episode's task (``policy_cls(task, inject_noise=...,
 rng=...)``) and may read its robot but never steps it. The file's root attribute ``layout``
 names the rows' layout (``mobileai``: the arms' 14 values, then the base's [x.vel m/s,
@@ -64,12 +64,12 @@ class JointPolicyRecorder:
     """Records episodes of a task with a joint-space scripted policy (module docstring).
 
     The same interface as ``collect.pipeline.EpisodeRecorder`` (``record``, ``close``,
-    ``settings``, ``joint_env``, ``policy_dt``, ``fps``, ``max_reward``,
+    ``settings``, ``joint_scene``, ``policy_dt``, ``fps``, ``max_reward``,
     ``minimum_episode_len``).
 
     Args:
         settings: ``collect.pipeline.RecordSettings`` of the run.
-        step_hook: called after each step with (t, observation, ``MujocoEnv``).
+        step_hook: called after each step with (t, observation, ``Scene``).
     """
 
     def __init__(self, settings: RecordSettings, step_hook: StepHook | None = None):
@@ -95,9 +95,9 @@ class JointPolicyRecorder:
         self.task = None
 
     @property
-    def joint_env(self):
-        """The recorded world (``sim.env.MujocoEnv``)."""
-        return self.sampler.env
+    def joint_scene(self):
+        """The recorded world (``sim.scene.Scene``)."""
+        return self.sampler.scene
 
     def record(
         self,
@@ -127,8 +127,8 @@ class JointPolicyRecorder:
         seed = episode_seed(s.base_seed, attempt)
         rng = np.random.default_rng(seed)
         task = self.task = self.sampler.next_task(rng)
-        env = self.sampler.env
-        poses = {name: obj.get_pose(env.data) for name, obj in env.objects.items()}
+        scene = self.sampler.scene
+        poses = {name: obj.get_pose(scene.data) for name, obj in scene.objects.items()}
         policy = self.policy_cls(task, inject_noise=s.inject_noise, rng=rng)
         dtype = SCHEMA.array("action").dtype
         attrs = episode_attrs(
@@ -148,7 +148,7 @@ class JointPolicyRecorder:
             rewards = np.empty(s.episode_len)
             obs = task.get_observation()
             for t in range(s.episode_len):
-                images = env.render_images()
+                images = scene.render_images()
                 qpos, qvel = task.recorded_state()
                 # the file stores float32: act exactly on the stored values
                 action = np.asarray(policy(obs), dtype=float).astype(dtype).astype(float)
@@ -164,7 +164,7 @@ class JointPolicyRecorder:
                     images=images,
                 )
                 if self.step_hook is not None:
-                    self.step_hook(t, obs, env)
+                    self.step_hook(t, obs, scene)
                 if progress is not None:
                     progress()
             speed_ok, peak_use = self.check_real_replay(actions)
@@ -178,7 +178,7 @@ class JointPolicyRecorder:
         and the base's commands within its limits. Returns (passed, the arms' largest speed
         as a fraction of its limit; NaN when the check failed)."""
         arms = KIT14_LAYOUT.to_vendor(actions[:, :14])
-        robot = self.sampler.env.robots[self.sampler.robot_name]
+        robot = self.sampler.scene.robots[self.sampler.robot_name]
         base_ok = True
         if actions.shape[1] > 14 and "base" in robot.controllers:
             low, high = robot.controllers["base"].command_limits()
@@ -190,5 +190,5 @@ class JointPolicyRecorder:
         return base_ok, float(np.max(trajectory.peak_speed / self.arm_limits.velocity))
 
     def close(self) -> None:
-        """Close the sampler and the env (and renderers) it owns."""
+        """Close the sampler and the scene (and renderers) it owns."""
         self.sampler.close()

@@ -172,7 +172,7 @@ class EpisodeOutcome:
         return "not successful"
 
 
-#: (step, observation after the step, joint env) -> None
+#: (step, observation after the step, joint scene) -> None
 StepHook = Callable[[int, dict, object], None]
 
 
@@ -182,7 +182,7 @@ class EpisodeRecorder:
 
     Args:
         settings: run settings (task, length, cameras, compression, seed).
-        step_hook: called after each phase-2 step with (t, observation, joint ``MujocoEnv``),
+        step_hook: called after each phase-2 step with (t, observation, joint ``Scene``),
             e.g. a live view.
     """
 
@@ -205,21 +205,21 @@ class EpisodeRecorder:
         self.max_reward = float(probe.max_reward)
         #: Steps the scripted policy needs to finish the task (0 when it does not say).
         self.minimum_episode_len = int(getattr(self.policy_cls, "minimum_episode_len", 0))
-        view = self.joint_sampler.env.robots[probe.robot_name].view
+        view = self.joint_sampler.scene.robots[probe.robot_name].view
         ranges = np.concatenate(
             [view.get_move_group(g).joint_range for g in VENDOR16_LAYOUT.groups]
         )
         self.action_low, self.action_high = ranges[:, 0].copy(), ranges[:, 1].copy()
 
     @property
-    def joint_env(self):
-        """The joint-flavour world (``sim.env.MujocoEnv``)."""
-        return self.joint_sampler.env
+    def joint_scene(self):
+        """The joint-flavour world (``sim.scene.Scene``)."""
+        return self.joint_sampler.scene
 
     @property
-    def ee_env(self):
-        """The end-effector-flavour world (``sim.env.MujocoEnv``)."""
-        return self.ee_sampler.env
+    def ee_scene(self):
+        """The end-effector-flavour world (``sim.scene.Scene``)."""
+        return self.ee_sampler.scene
 
     def scripted_rollout(
         self, rng: np.random.Generator, object_poses: dict | None = None
@@ -316,10 +316,10 @@ class EpisodeRecorder:
         task = self.joint_task = self.joint_sampler.next_task(
             0, object_poses=object_poses, randomization=randomization
         )
-        env = self.joint_sampler.env
+        scene = self.joint_sampler.scene
         obs = task.get_observation()
         for t in range(len(actions)):
-            images = env.render_images() if writer is not None else {}
+            images = scene.render_images() if writer is not None else {}
             task.step(VENDOR16_LAYOUT.joint_commands(actions[t]))
             rewards[t] = task.get_reward()
             if writer is not None:
@@ -333,7 +333,7 @@ class EpisodeRecorder:
                 )
             obs = task.get_observation()
             if self.step_hook is not None:
-                self.step_hook(t, obs, env)
+                self.step_hook(t, obs, scene)
             yield t
 
     def record(

@@ -72,12 +72,12 @@ class SingleArmRecorder:
     docstring).
 
     The same interface as ``collect.pipeline.EpisodeRecorder`` (``record``, ``close``,
-    ``settings``, ``joint_env``, ``policy_dt``, ``fps``, ``minimum_episode_len``,
+    ``settings``, ``joint_scene``, ``policy_dt``, ``fps``, ``minimum_episode_len``,
     ``scripted_rollout``, ``replay``); ``max_reward`` is NaN (the task judges success).
 
     Args:
         settings: ``collect.pipeline.RecordSettings`` of the run.
-        step_hook: called after each phase-2 step with (t, observation, joint ``MujocoEnv``).
+        step_hook: called after each phase-2 step with (t, observation, joint ``Scene``).
     """
 
     def __init__(self, settings: RecordSettings, step_hook: StepHook | None = None):
@@ -120,7 +120,7 @@ class SingleArmRecorder:
 
     def _state_indices(self, sampler) -> tuple[np.ndarray, np.ndarray]:
         """(qpos indices, dof indices) of the 7 recorded values in ``sampler``'s model."""
-        view, model = sampler.robot_view, sampler.env.model
+        view, model = sampler.robot_view, sampler.scene.model
         arm = view.get_move_group(self.arm_group)
         gripper = view.get_move_group(self.gripper_group)
         finger = int(model.actuator_trnid[gripper.actuator_id, 0])
@@ -129,27 +129,27 @@ class SingleArmRecorder:
         return qpos, dofs
 
     @property
-    def joint_env(self):
-        """The recorded world (``sim.env.MujocoEnv``)."""
-        return self.joint_sampler.env
+    def joint_scene(self):
+        """The recorded world (``sim.scene.Scene``)."""
+        return self.joint_sampler.scene
 
     def policy_observation(self, task) -> dict[str, np.ndarray]:
         """What the policy is called with: the task's observation, ``ee_pose`` (7,) the
         tool frame [xyz m, quat wxyz] (world), ``env_state`` (7 per object) and ``goal``
         (3,) m for a goal-conditioned task."""
-        env = task.env
+        scene = task.scene
         obs = dict(task.get_observation())
         arm = task.robot.view.get_move_group(self.arm_group)
-        obs["ee_pose"] = arm.get_frame_pose(env.data)
-        obs["env_state"] = self._env_state(env)
+        obs["ee_pose"] = arm.get_frame_pose(scene.data)
+        obs["env_state"] = self._env_state(scene)
         if getattr(task, "goal_conditioned", False):
             obs["goal"] = np.array(task.goal, dtype=float)
         return obs
 
     @staticmethod
-    def _env_state(env) -> np.ndarray:
-        """Poses of the env's objects, 7 each ([xyz m, quat wxyz]), in ``objects`` order."""
-        poses = [obj.get_pose(env.data) for obj in env.objects.values()]
+    def _env_state(scene) -> np.ndarray:
+        """Poses of the scene's objects, 7 each ([xyz m, quat wxyz]), in ``objects`` order."""
+        poses = [obj.get_pose(scene.data) for obj in scene.objects.values()]
         return np.concatenate(poses) if poses else np.zeros(0)
 
     def _start(self, sampler, seed: int):
@@ -181,8 +181,8 @@ class SingleArmRecorder:
         if goal is not None:
             task.goal = goal
         self.last_randomization = self.ee_sampler.randomization
-        env = self.ee_sampler.env
-        poses = {name: obj.get_pose(env.data) for name, obj in env.objects.items()}
+        scene = self.ee_sampler.scene
+        poses = {name: obj.get_pose(scene.data) for name, obj in scene.objects.items()}
         policy = self.policy_cls(inject_noise=s.inject_noise, rng=rng)
         arm = task.robot.view.get_move_group(self.arm_group)
         gripper = task.robot.view.get_move_group(self.gripper_group)
@@ -195,8 +195,8 @@ class SingleArmRecorder:
                     f"[xyz, quat wxyz, gripper], got shape {ee.shape}"
                 )
             task.step({self.arm_group: ee[:7], self.gripper_group: ee[7:8]})
-            actions[t, :6] = arm.get_ctrl(env.data)
-            actions[t, 6] = gripper.get_ctrl(env.data)[0]
+            actions[t, :6] = arm.get_ctrl(scene.data)
+            actions[t, 6] = gripper.get_ctrl(scene.data)[0]
         np.clip(actions, self.action_low, self.action_high, out=actions)
         self.last_speed_limited = limit_speed(actions, ARM_ACTION_SPEED_LIMITS, self.fps)
         actions[:] = actions.astype(SCHEMA.array("action").dtype)
@@ -247,13 +247,13 @@ class SingleArmRecorder:
             writer: where each step goes; None: nothing is written.
         """
         task = self.joint_task = self._start(self.joint_sampler, seed)
-        env = self.joint_sampler.env
-        data = env.data
+        scene = self.joint_sampler.scene
+        data = scene.data
         qpos_idx, dof_idx = self._state_index["joint"]
         for t in range(len(actions)):
-            images = env.render_images() if writer is not None else {}
+            images = scene.render_images() if writer is not None else {}
             qpos, qvel = data.qpos[qpos_idx].copy(), data.qvel[dof_idx].copy()
-            env_state = self._env_state(env)
+            env_state = self._env_state(scene)
             a = actions[t]
             task.step({self.arm_group: a[:6], self.gripper_group: a[6:7]})
             rewards[t] = task.get_reward()
@@ -267,7 +267,7 @@ class SingleArmRecorder:
                     images=images,
                 )
             if self.step_hook is not None:
-                self.step_hook(t, task.get_observation(), env)
+                self.step_hook(t, task.get_observation(), scene)
             yield t
 
     def record(

@@ -54,7 +54,7 @@ class ArmPolicyEnv(gymnasium.Env):
     """A policy's view of a single arm's task (see the module docstring).
 
     Args:
-        task: a single-arm task's registered name (or alias).
+        task_name: a single-arm task's registered name (or alias).
         cameras: what the cameras observe (``sim.camera_settings.CameraSettings``: names,
             (H, W) pixels, crops); default none (state only).
         fps: policy rate (Hz); default the task's own.
@@ -72,9 +72,9 @@ class ArmPolicyEnv(gymnasium.Env):
         randomization: a ``randomization`` section replacing the task's; implies
             ``randomize``.
 
-    Attributes: those of ``KitPolicyEnv`` (``task``, ``cameras``, ``task_description``: the
-    running episode's, which names its goal,
-    ``episode_length``, ``episode``, ``controller``: a one-arm ``KitController`` whose
+    Attributes: those of ``KitPolicyEnv`` (``task_name``, ``cameras``, ``task_description``:
+    the running episode's, which names its goal, ``episode_length``, ``task``: the running
+    ``Task``, ``scene``, ``controller``: a one-arm ``KitController`` whose
     values are labelled ``joint_0`` .. ``gripper``, ``layout``, ``layout_name``, ``fps``).
     """
 
@@ -84,7 +84,7 @@ class ArmPolicyEnv(gymnasium.Env):
 
     def __init__(
         self,
-        task: str = registry.DEFAULT_ARM_TASK,
+        task_name: str = registry.DEFAULT_ARM_TASK,
         *,
         cameras: CameraSettings | None = None,
         fps: float | None = None,
@@ -98,7 +98,7 @@ class ArmPolicyEnv(gymnasium.Env):
         randomize: bool = False,
         randomization: Mapping[str, Any] | None = None,
     ):
-        entry = registry.load(task)
+        entry = registry.load(task_name)
         if not is_arm_task(entry.name):
             raise UserError(
                 f"task '{entry.name}' is not a single-arm task; valid: {', '.join(arm_names())}"
@@ -129,7 +129,7 @@ class ArmPolicyEnv(gymnasium.Env):
         if randomization is not None:
             overrides[RANDOMIZATION_KEY] = dict(randomization)
         episode_length = episode_length_of(entry, config, self.fps, native, episode_length)
-        self.task = entry.name
+        self.task_name = entry.name
         cams = self.cameras
         settings = SamplerSettings(
             camera_names=cams.names,
@@ -139,7 +139,7 @@ class ArmPolicyEnv(gymnasium.Env):
             randomize=self.randomize,
         )
         self.sampler = registry.make_sampler(entry.name, settings, **overrides)
-        self.scene = self.sampler.env
+        self.scene = self.sampler.scene
         self.arm_group, self.gripper_group = self.sampler.arms[0]
         probe = self.sampler.make_task()
         self.task_description = probe.get_task_description()
@@ -167,7 +167,7 @@ class ArmPolicyEnv(gymnasium.Env):
         self._ticks = int(probe.n_ctrl_steps)
         self._tick_dt = float(overrides["ctrl_dt"])
         self._reached = False
-        self.episode = None
+        self.task = None
         self.n_steps = 0
         self._images: dict[str, np.ndarray] = {}
         self._render_cams: CameraSet | None = None
@@ -224,19 +224,19 @@ class ArmPolicyEnv(gymnasium.Env):
         super().reset(seed=seed)
         if seed is None:
             seed = int(self.np_random.integers(2**31))
-        self.episode = self.sampler.next_task(episode_generator(seed), object_poses=poses)
+        self.task = self.sampler.next_task(episode_generator(seed), object_poses=poses)
         # the episode's goal in words (the language instruction a checkpoint reads)
-        self.task_description = self.episode.get_task_description()
+        self.task_description = self.task.get_task_description()
         self.n_steps = 0
         self._reached = False
         obs = self._observe()
         self.controller.reset(self.scene.data.qpos[self._qpos_idx].astype(np.float64))
-        info = self._info(bool(self.episode.judge_success()))
-        info["stage"] = float(self.episode.get_reward())
+        info = self._info(bool(self.task.judge_success()))
+        info["stage"] = float(self.task.get_reward())
         return obs, info
 
     def step(self, action):
-        if self.episode is None:
+        if self.task is None:
             raise UserError("call reset() before step()")
         a = np.array(action, dtype=float).reshape(-1)
         if a.shape != (ARM_LAYOUT.size,):
@@ -246,7 +246,7 @@ class ArmPolicyEnv(gymnasium.Env):
             )
         if not self.controller_checks and not np.isfinite(a).all():
             raise UserError(f"action contains NaN or inf: {np.round(a, 4).tolist()}")
-        ctl, task, scene = self.controller, self.episode, self.scene
+        ctl, task, scene = self.controller, self.task, self.scene
         ctl.command(a, self._goal_time)
         fault = None
         for _ in range(self._ticks):
@@ -270,7 +270,7 @@ class ArmPolicyEnv(gymnasium.Env):
     def render(self):
         """The observed cameras side by side (uint8 (H, n*W, 3)), or ``overview`` at
         240x320 when none is observed."""
-        if self.render_mode != "rgb_array" or self.episode is None:
+        if self.render_mode != "rgb_array" or self.task is None:
             return None
         if self.cam_names:
             return np.concatenate([self._images[c] for c in self.cam_names], axis=1)
@@ -290,6 +290,10 @@ class ArmPolicyEnv(gymnasium.Env):
         """``episode_length`` under the name LeRobot's evaluation reads."""
         return self.episode_length
 
+    def get_wrapper_attr(self, name: str) -> Any:
+        """``task`` through a vector env is the task's name (``KitPolicyEnv.get_wrapper_attr``)."""
+        return self.task_name if name == "task" else super().get_wrapper_attr(name)
+
     @property
     def randomization(self) -> dict[str, Any] | None:
         """What the running episode's scene was randomized by (None: the nominal scene)."""
@@ -303,7 +307,7 @@ class ArmPolicyEnv(gymnasium.Env):
 
     def goal(self) -> np.ndarray | None:
         """The episode's goal (3,) m, world (None: not a goal-conditioned task)."""
-        goal = getattr(self.episode, "goal", None)
+        goal = getattr(self.task, "goal", None)
         return None if goal is None else np.array(goal, dtype=float)
 
     def measured(self) -> np.ndarray:

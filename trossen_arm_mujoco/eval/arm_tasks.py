@@ -72,7 +72,7 @@ def arm_object_count(task: str) -> int:
     except Exception:  # objects() reads the sampler's state: build one
         sampler = registry.make_sampler(entry.name, SamplerSettings())
         try:
-            return len(sampler.env.objects)
+            return len(sampler.scene.objects)
         finally:
             sampler.close()
 

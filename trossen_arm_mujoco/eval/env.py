@@ -205,7 +205,7 @@ class KitPolicyEnv(gymnasium.Env):
     """A policy's view of a bimanual task (see the module docstring).
 
     Args:
-        task: registered bimanual task name (or alias).
+        task_name: registered bimanual task name (or alias).
         cameras: what the cameras observe (``sim.camera_settings.CameraSettings``: the
             cameras of ``pixels``, their (H, W), the rectangle of its 480x640 frame each
             cropped camera shows, as they were recorded); default none (state only).
@@ -226,12 +226,13 @@ class KitPolicyEnv(gymnasium.Env):
         randomization: a ``randomization`` section (kinds and ranges, checked like the
             task's YAML) that replaces the task's; implies ``randomize``.
 
-    Attributes (what LeRobot's evaluation reads): ``task`` (the task's name),
-    ``cameras`` (its ``CameraSettings``; ``cam_names`` and ``image_size`` read them),
-    ``task_description``, ``_max_episode_steps`` (``episode_length`` under the name LeRobot
-    reads), ``metadata["render_fps"]``; ``episode_length`` is the number of steps after
-    which an episode is truncated (what this package's runners and adapters read); ``episode``
-    is the running ``Task`` (None before the first reset); ``controller`` is the kit's
+    Attributes (what LeRobot's evaluation reads): ``task_description`` (the task's
+    instruction, LeRobot's ``task`` string), ``_max_episode_steps`` (``episode_length`` under
+    the name LeRobot reads), ``metadata["render_fps"]``; ``task_name`` (the registered name),
+    ``cameras`` (its ``CameraSettings``; ``cam_names`` and ``image_size`` read them);
+    ``episode_length`` is the number of steps after which an episode is truncated (what this
+    package's runners and adapters read); ``task`` is the running ``Task`` (None before the
+    first reset); ``scene`` the world it runs in (``sim.scene.Scene``); ``controller`` is the kit's
     :class:`~trossen_arm_mujoco.real.arm_controller.KitController` (its ``fault`` and
     ``peak_fractions()`` describe the running episode).
     """
@@ -240,7 +241,7 @@ class KitPolicyEnv(gymnasium.Env):
 
     def __init__(
         self,
-        task: str = registry.DEFAULT_TASK,
+        task_name: str = registry.DEFAULT_TASK,
         *,
         cameras: CameraSettings | None = None,
         fps: float | None = None,
@@ -254,7 +255,7 @@ class KitPolicyEnv(gymnasium.Env):
         randomize: bool = False,
         randomization: Mapping[str, Any] | None = None,
     ):
-        entry = registry.load(task)
+        entry = registry.load(task_name)
         valid = task_layouts(entry.name)
         if layout not in valid:
             raise UserError(
@@ -275,7 +276,7 @@ class KitPolicyEnv(gymnasium.Env):
         if randomization is not None:
             overrides[RANDOMIZATION_KEY] = dict(randomization)
         episode_length = episode_length_of(entry, config, self.fps, native, episode_length)
-        self.task = entry.name
+        self.task_name = entry.name
         cams = self.cameras
         settings = SamplerSettings(
             camera_names=cams.names,
@@ -285,7 +286,7 @@ class KitPolicyEnv(gymnasium.Env):
             randomize=self.randomize,
         )
         self.sampler = registry.make_sampler(entry.name, settings, **overrides)
-        self.scene = self.sampler.env
+        self.scene = self.sampler.scene
         probe = self.sampler.make_task()
         self.task_description = probe.get_task_description()
         self.max_reward = float(probe.max_reward)
@@ -323,7 +324,7 @@ class KitPolicyEnv(gymnasium.Env):
         self._ticks = int(probe.n_ctrl_steps)
         self._tick_dt = float(overrides["ctrl_dt"])
         self._reached = False
-        self.episode = None
+        self.task = None
         self.n_steps = 0
         self._images: dict[str, np.ndarray] = {}
         self._render_cams: CameraSet | None = None
@@ -393,7 +394,7 @@ class KitPolicyEnv(gymnasium.Env):
         if seed is None:
             seed = int(self.np_random.integers(2**31))
         rng = episode_generator(seed)
-        self.episode = self.sampler.next_task(rng, object_poses=poses)
+        self.task = self.sampler.next_task(rng, object_poses=poses)
         self.n_steps = 0
         self._reached = False
         obs = self._observe()
@@ -405,10 +406,10 @@ class KitPolicyEnv(gymnasium.Env):
         self.controller.reset(measured.astype(np.float64))
         if self.base is not None:
             self.base.reset()
-        return obs, self._info(self.episode.get_reward())
+        return obs, self._info(self.task.get_reward())
 
     def step(self, action):
-        if self.episode is None:
+        if self.task is None:
             raise UserError("call reset() before step()")
         a = np.array(action, dtype=float).reshape(-1)
         if a.shape != (self.layout.size,):
@@ -423,7 +424,7 @@ class KitPolicyEnv(gymnasium.Env):
             if self.layout is KIT14_LAYOUT
             else (a[:14] if self.base is not None else KIT14_LAYOUT.from_vendor(a))
         )
-        ctl, task, scene = self.controller, self.episode, self.scene
+        ctl, task, scene = self.controller, self.task, self.scene
         base, base_fault = ({}, None) if self.base is None else self.base.command(a, self.n_steps)
         ctl.command(goal, self._goal_time)
         fault = None
@@ -455,7 +456,7 @@ class KitPolicyEnv(gymnasium.Env):
     def render(self):
         """The observed cameras side by side (uint8 (H, n*W, 3)), or ``cam_high`` at
         240x320 when none is observed."""
-        if self.render_mode != "rgb_array" or self.episode is None:
+        if self.render_mode != "rgb_array" or self.task is None:
             return None
         if self.cam_names:  # the images of the last observation
             return np.concatenate([self._images[c] for c in self.cam_names], axis=1)
@@ -476,20 +477,26 @@ class KitPolicyEnv(gymnasium.Env):
         (``env.call("_max_episode_steps")``); this package reads ``episode_length``."""
         return self.episode_length
 
+    def get_wrapper_attr(self, name: str) -> Any:
+        """As gymnasium's, but ``task`` through a vector env (``get_attr``, ``call``) is the
+        task's name: LeRobot's evaluation reads a string ``task`` there, and the running
+        ``Task`` does not pickle out of an async worker."""
+        return self.task_name if name == "task" else super().get_wrapper_attr(name)
+
     # -- what a policy reads --------------------------------------------------------------
     def object_poses(self) -> dict[str, np.ndarray]:
         """Object name -> current pose (7,) (e.g. for the scripted reference)."""
-        return self.episode.object_poses()
+        return self.task.object_poses()
 
     def _observe(self) -> dict[str, Any]:
-        obs = self.episode.get_observation()
+        obs = self.task.get_observation()
         out: dict[str, Any] = {
             "agent_pos": self._to_layout(obs["qpos"]).astype(np.float32),
             "velocity": self._to_layout(obs["qvel"]).astype(np.float32),
             "environment_state": obs["env_state"].astype(np.float32),
         }
         if self.base is not None:  # mobileai: the arms' 14 values, then the base's measured
-            state, velocity = self.episode.recorded_state()
+            state, velocity = self.task.recorded_state()
             out["agent_pos"], out["velocity"] = (v.astype(np.float32) for v in (state, velocity))
         for key, (low, high) in self._vector_bounds.items():  # e.g. a finger 0.1 mm past
             clip(out[key], low, high, out=out[key])  # its limit: inside the space, as gym's

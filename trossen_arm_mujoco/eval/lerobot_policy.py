@@ -154,7 +154,7 @@ def feature_mismatch(policy_inputs: dict[str, tuple[int, ...]], env: KitPolicyEn
     spec = (
         features()
         if callable(features)
-        else feature_spec(env.task, env.cam_names, env.image_size, env.layout_name)
+        else feature_spec(env.task_name, env.cam_names, env.image_size, env.layout_name)
     )
     for key, kind, shape in spec.values():
         if kind == "VISUAL":

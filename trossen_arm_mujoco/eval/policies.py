@@ -70,11 +70,11 @@ class ClosedLoopScriptedPolicy:
     def reset(self, env: KitPolicyEnv, seed: int) -> None:
         """A fresh policy on ``env``'s episode (no noise; its generator from ``seed``)."""
         self._env = env
-        self._policy = self.policy_cls(env.episode, inject_noise=False, rng=episode_generator(seed))
+        self._policy = self.policy_cls(env.task, inject_noise=False, rng=episode_generator(seed))
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:
         """The policy's action for the episode's observation now, (layout size,)."""
-        return np.asarray(self._policy(self._env.episode.get_observation()), dtype=float)
+        return np.asarray(self._policy(self._env.task.get_observation()), dtype=float)
 
     def close(self) -> None:
         """Nothing to release (the env is the caller's)."""
@@ -98,7 +98,7 @@ class ScriptedPolicy:
         src_dt = self.recorder.policy_dt
         native_len = int(round(env.episode_length / env.fps / src_dt))
         self.recorder.settings = type(self.recorder.settings)(
-            task_name=env.task, episode_len=max(native_len, 1)
+            task_name=env.task_name, episode_len=max(native_len, 1)
         )
         actions, _ = self.recorder.scripted_rollout(
             episode_generator(seed), object_poses=env.object_poses()
@@ -221,14 +221,16 @@ def make_policy(spec: str, env: KitPolicyEnv, device: str = "cpu") -> Policy:
     if spec == "scripted":
         from trossen_arm_mujoco.tasks import registry
 
-        policy_cls = registry.load(env.task).policy_class()
+        policy_cls = registry.load(env.task_name).policy_class()
         from trossen_arm_mujoco.collect.single_arm import is_arm_ee_policy
 
         if is_arm_ee_policy(policy_cls):  # one arm's tool poses, planned as record does
-            return ArmScriptedPolicy(env.task, randomize=bool(getattr(env, "randomize", False)))
+            return ArmScriptedPolicy(
+                env.task_name, randomize=bool(getattr(env, "randomize", False))
+            )
         if getattr(policy_cls, "action_layout", "ee") != "ee":  # acts in joint space
             return ClosedLoopScriptedPolicy(policy_cls, env)
-        return ScriptedPolicy(env.task)
+        return ScriptedPolicy(env.task_name)
     if is_function_spec(spec):
         return FunctionPolicy(spec)
     from trossen_arm_mujoco.eval.lerobot_policy import LeRobotPolicy

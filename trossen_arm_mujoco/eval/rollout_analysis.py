@@ -42,12 +42,12 @@ LIFT_STAGE = "lifted"
 
 
 class RolloutRecorder:
-    """Per-step record of one episode of ``task`` at ``fps`` steps/s (see the module doc)."""
+    """Per-step record of one episode of ``task_name`` at ``fps`` steps/s (see the module doc)."""
 
-    def __init__(self, task: str, fps: float):
-        self.task = task
+    def __init__(self, task_name: str, fps: float):
+        self.task_name = task_name
         self.fps = float(fps)
-        self.stages = STAGES.get(task, {})
+        self.stages = STAGES.get(task_name, {})
         self.reset()
 
     def reset(self) -> None:
@@ -62,12 +62,12 @@ class RolloutRecorder:
         """Read the state after one ``env.step`` (``env``: a ``KitPolicyEnv``; ``reward``: the
         step's reward)."""
         if self._readers is None and getattr(env, "arms", 2) == 1:  # one arm, one gripper
-            task = env.episode
+            task = env.task
             gripper = task.robot.view.get_move_group("gripper")
             self._readers = (gripper, gripper, lambda: False, task.data)
             self.one_gripper = True
         if self._readers is None:  # the episode's grippers and contact check, found once
-            task = env.episode
+            task = env.task
             view = task.robot.view
             self._readers = (
                 view.get_move_group("left_gripper"),
@@ -115,7 +115,7 @@ class RolloutRecorder:
         out: dict[str, Any] = {
             "stage_steps": steps,
             "stage_times_s": {k: self._time(v) for k, v in steps.items()},
-            "stopped": None if success else stopped_at(self.task, steps),
+            "stopped": None if success else stopped_at(self.task_name, steps),
         }
         if LIFT_STAGE in steps:
             k = self.release_step(steps[LIFT_STAGE])

@@ -141,7 +141,7 @@ class WireEpisodeRunner:
         try:
             if not link.connect:
                 self.kit = start_kit(
-                    link, self.env.task, self.env.cam_names, self.stream_size, self.env.fps
+                    link, self.env.task_name, self.env.cam_names, self.stream_size, self.env.fps
                 )
             self.control = ControlClient(link.host, link.control_port)
             if self.env.cam_names:
@@ -300,10 +300,10 @@ class WireEpisodeRunner:
         ) from value
 
     def _score(self, index, seed, end, rewards, timing, failure, fault=None) -> EpisodeScore:
-        task = self.env.task
-        names = {str(int(level)): name for name, level in STAGES.get(task, {}).items()}
+        task_name = self.env.task_name
+        names = {str(int(level)): name for name, level in STAGES.get(task_name, {}).items()}
         times = {names[lv]: t for lv, t in end["stages"].items() if lv in names}
-        stage_times = {name: times.get(name) for name in STAGES.get(task, {})}
+        stage_times = {name: times.get(name) for name in STAGES.get(task_name, {})}
         success = bool(end["success"]) and failure is None
         analysis: dict[str, Any] = {"stage_times_s": stage_times, "timing": timing.summary()}
         if end.get("randomization") is not None:  # what the served scene was randomized by
@@ -311,7 +311,7 @@ class WireEpisodeRunner:
         if not success:
             from trossen_arm_mujoco.eval.rollout_analysis import stopped_at
 
-            analysis["stopped"] = stopped_at(task, stage_times)
+            analysis["stopped"] = stopped_at(task_name, stage_times)
             analysis["failure"] = failure
         best = float(end["max_reward"])
         return EpisodeScore(
@@ -321,7 +321,7 @@ class WireEpisodeRunner:
             max_reward=best,
             success=success,
             steps=len(timing.latency),
-            stages=stages_reached(task, best),
+            stages=stages_reached(task_name, best),
             fault=fault,
             analysis=analysis,
         )

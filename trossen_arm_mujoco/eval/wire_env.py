@@ -38,7 +38,7 @@ def start_fields(scenes) -> dict:
 
 class WireEnv:
     """What a policy adapter reads of its env, for the wire: the in-process env's
-    attributes (task, rate, layout, cameras, episode length) from a ``KitPolicyEnv`` that
+    attributes (task name, rate, layout, cameras, episode length) from a ``KitPolicyEnv`` that
     only draws scenes, and the object poses sent to the kit at the last reset."""
 
     def __init__(self, settings: EvalSettings) -> None:
@@ -47,7 +47,7 @@ class WireEnv:
         # draws scenes, never renders: no camera (the crops change no pose)
         self.scenes = replace(settings, cameras=CameraSettings()).make_env()
         s = self.scenes
-        self.task, self.task_description, self.fps = s.task, s.task_description, s.fps
+        self.task_name, self.task_description, self.fps = s.task_name, s.task_description, s.fps
         self.layout, self.layout_name = s.layout, s.layout_name
         self.cameras = settings.cameras
         self.cam_names, self.image_size = self.cameras.names, self.cameras.size

@@ -181,7 +181,7 @@ class TrossenMujocoEnv(gymnasium.Env):
             floor_margin=self.config["safety_margin"],
         )
         self.sampler = sampler_cls(self.config, settings)
-        self.scene = self.sampler.env
+        self.scene = self.sampler.scene
         robot = self.scene.robots[sampler_cls.robot_name]
         self.actions = ActionMapper(robot, sampler_cls.arms, action_mode, self.config)
         self.probe = probe = self.sampler.make_task()  # episode-independent queries

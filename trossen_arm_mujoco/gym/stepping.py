@@ -7,7 +7,7 @@
   returns at once with the latest state. A backlog over ``MAX_LAG`` s is dropped
   (``dropped_s``).
 
-Every regime advances time through ``sim.env.MujocoEnv.step``; all access to the simulation
+Every regime advances time through ``sim.scene.Scene.step``; all access to the simulation
 state goes through ``stepper.lock`` (thread-safety). Docs: docs/gym/index.md.
 """
 
@@ -127,14 +127,14 @@ class RealtimeStepper(Stepper):
 
     def _run(self) -> None:
         task = self._task
-        env = task.env
+        scene = task.scene
         wall0 = time.perf_counter()
-        sim0 = env.data.time
+        sim0 = scene.data.time
         try:
             while not self._stop.is_set():
                 with self._lock:
-                    env.step(1)
-                    ahead = (env.data.time - sim0) - (time.perf_counter() - wall0)
+                    scene.step(1)
+                    ahead = (scene.data.time - sim0) - (time.perf_counter() - wall0)
                 if ahead > 0:
                     self._stop.wait(ahead)
                 elif -ahead > MAX_LAG:

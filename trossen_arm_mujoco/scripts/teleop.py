@@ -175,9 +175,9 @@ class StdinControl:
 def _viewer_hook(holder: list):
     from trossen_arm_mujoco.viewer import LiveViewer
 
-    def hook(t: int, observation: dict, env: Any, images: dict) -> None:
+    def hook(t: int, observation: dict, scene: Any, images: dict) -> None:
         if not holder:
-            holder.append(LiveViewer.open(env.model, env.data))
+            holder.append(LiveViewer.open(scene.model, scene.data))
         if holder[0] is not None:
             holder[0].update(images or None)
 

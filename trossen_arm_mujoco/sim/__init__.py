@@ -4,7 +4,7 @@ Docs: docs/concepts/architecture.md, docs/reference/robot-sim.md.
 """
 
 from trossen_arm_mujoco.sim.cameras import CameraSet
-from trossen_arm_mujoco.sim.env import MujocoEnv
 from trossen_arm_mujoco.sim.objects import FreeJointObject
+from trossen_arm_mujoco.sim.scene import Scene
 
-__all__ = ["CameraSet", "FreeJointObject", "MujocoEnv"]
+__all__ = ["CameraSet", "FreeJointObject", "Scene"]

@@ -7,7 +7,7 @@ arms.
 look. ``shadows=False`` turns shadow casting off on every light; ``antialias=False`` draws
 one sample a pixel instead of 4x multisampling; ``crops`` set cameras' intrinsics
 (``sim.camera_crop``). The look travels as an argument, like a seed: ``SamplerSettings(looks=
-...)`` -> ``sim.env.MujocoEnv`` -> ``sim.env.load_model`` (or ``load_physics``); default
+...)`` -> ``sim.scene.Scene`` -> ``sim.scene.load_model`` (or ``load_physics``); default
 ``SceneLooks()`` (own meshes, shadows on).
 
 Docs: docs/gym/index.md (options); cost: docs/benchmarks.md (Rendering cost).

@@ -28,7 +28,7 @@ from trossen_arm_mujoco.robot.configs import (
     stationary_ai_mocap_config,
 )
 from trossen_arm_mujoco.robot.layout import VENDOR16_LAYOUT
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.observation import Part, indexed, joined
 from trossen_arm_mujoco.tasks.sampler import TaskSampler
 from trossen_arm_mujoco.tasks.task import Task
@@ -60,8 +60,8 @@ class BimanualTask(Task):
     #: Highest reward (success).
     max_reward: ClassVar[float] = 1.0
 
-    def __init__(self, env: MujocoEnv, config: Mapping[str, Any]):
-        super().__init__(env, config)
+    def __init__(self, scene: Scene, config: Mapping[str, Any]):
+        super().__init__(scene, config)
         view = self.robot.view
         self.layout = view.qpos_indices(LAYOUT_GROUPS)
         self.layout_dofs = view.dof_indices(LAYOUT_GROUPS)
@@ -71,7 +71,7 @@ class BimanualTask(Task):
         self.max_obj_vel = float(self.config["max_object_velocity"])
         self.ws_low = np.asarray(self.config["workspace_low"], dtype=float)
         self.ws_high = np.asarray(self.config["workspace_high"], dtype=float)
-        self.bodies = [env.objects[name] for name in self.objects]
+        self.bodies = [scene.objects[name] for name in self.objects]
         self._arms = {side: view.get_move_group(f"{side}_arm") for side in ("left", "right")}
 
     # -- observation ------------------------------------------------------------------------

@@ -22,7 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.sampler import MAX_SAMPLE_TRIES
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
@@ -81,7 +81,7 @@ class RegisteredTaskMixin(StationaryTaskBase):
         self.sampler = None
         self.task = None
 
-    def build_scene(self, physics) -> MujocoEnv:
+    def build_scene(self, physics) -> Scene:
         settings = SamplerSettings(
             flavour=self.FLAVOUR,
             camera_names=tuple(self.cam_list),
@@ -90,7 +90,7 @@ class RegisteredTaskMixin(StationaryTaskBase):
             randomize=self.randomize,
         )
         self.sampler = registry.make_sampler(self.task_name, settings, physics=physics)
-        return self.sampler.env
+        return self.sampler.scene
 
     def episode_object_poses(self) -> Mapping[str, Any] | None:
         """Poses placed at the next reset (None: sampled from this task's generator)."""

@@ -21,7 +21,7 @@ import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.sim.contacts import ContactPartners
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
@@ -158,9 +158,9 @@ class InsertionTask(BimanualTask):
     objects: ClassVar[tuple[str, ...]] = ("peg", "socket")
     max_reward: ClassVar[float] = MAX_REWARD
 
-    def __init__(self, env, config):
-        super().__init__(env, config)
-        self.reward_fn = InsertionReward(env.model)
+    def __init__(self, scene, config):
+        super().__init__(scene, config)
+        self.reward_fn = InsertionReward(scene.model)
 
     def get_reward(self) -> int:
         """Sparse 0-4 (see ``InsertionReward``)."""
@@ -182,11 +182,11 @@ class InsertionSampler(BimanualSampler):
     def objects(self) -> dict[str, tuple[str, str | None]]:
         return {"peg": ("peg_joint", PEG_GEOM), "socket": ("socket_joint", "socket-1")}
 
-    def _sample_task(self, env: MujocoEnv) -> InsertionTask:
+    def _sample_task(self, scene: Scene) -> InsertionTask:
         peg, socket = sample_insertion_poses(self.rng)
-        env.objects["peg"].set_pose(env.data, peg)
-        env.objects["socket"].set_pose(env.data, socket)
-        return self.task_cls(env, self.config)
+        scene.objects["peg"].set_pose(scene.data, peg)
+        scene.objects["socket"].set_pose(scene.data, socket)
+        return self.task_cls(scene, self.config)
 
 
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.

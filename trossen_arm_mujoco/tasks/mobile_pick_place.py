@@ -26,7 +26,7 @@ from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import RobotConfig, mobile_ai_config
 from trossen_arm_mujoco.robot.layout import KIT14_LAYOUT, SIDES
 from trossen_arm_mujoco.sim.contacts import ContactPartners
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.bimanual import finger_geoms
 from trossen_arm_mujoco.tasks.config_key import Key, number, positive, region
 from trossen_arm_mujoco.tasks.observation import Part, indexed
@@ -57,11 +57,11 @@ class MobilePickPlaceTask(Task):
     #: the free objects of ``env_state``, in order (as the Stationary AI tasks name theirs)
     objects: ClassVar[tuple[str, ...]] = ("cube",)
 
-    def __init__(self, env: MujocoEnv, config: Mapping[str, Any]):
-        super().__init__(env, config)
-        model, view = env.model, self.robot.view
+    def __init__(self, scene: Scene, config: Mapping[str, Any]):
+        super().__init__(scene, config)
+        model, view = scene.model, self.robot.view
         self.base = view.get_move_group("base")
-        self.cube = env.objects["cube"]
+        self.cube = scene.objects["cube"]
         self.layout = view.qpos_indices(ARM_GROUPS)
         self.layout_dofs = view.dof_indices(ARM_GROUPS)
         ranges = np.concatenate([view.get_move_group(g).joint_range for g in ARM_GROUPS])
@@ -186,13 +186,13 @@ class MobilePickPlaceSampler(TaskSampler):
     def objects(self) -> dict[str, tuple[str, str | None]]:
         return {"cube": ("cube_joint", "cube")}
 
-    def _sample_task(self, env: MujocoEnv) -> MobilePickPlaceTask:
+    def _sample_task(self, scene: Scene) -> MobilePickPlaceTask:
         x, y, yaw = uniform(self.rng, self.config["base_start_low"], self.config["base_start_high"])
-        self.robot_view.get_move_group("base").set_planar_pose(env.data, x, y, yaw)
+        self.robot_view.get_move_group("base").set_planar_pose(scene.data, x, y, yaw)
         cx, cy = uniform(self.rng, self.config["cube_low"], self.config["cube_high"])
         rest = float(self.config["table_height"]) + CUBE_HALF_SIZE
-        env.objects["cube"].set_pose(env.data, [cx, cy, rest, 1.0, 0.0, 0.0, 0.0])
-        return self.task_cls(env, self.config)
+        scene.objects["cube"].set_pose(scene.data, [cx, cy, rest, 1.0, 0.0, 0.0, 0.0])
+        return self.task_cls(scene, self.config)
 
 
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.

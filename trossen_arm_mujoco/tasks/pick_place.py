@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.config_key import number
 from trossen_arm_mujoco.tasks.push import (
     PUSH_KEYS,
@@ -34,16 +34,16 @@ class PickPlaceTask(PushTask):
     """Bring the cube's centre within ``success_tolerance`` of a 3-D goal (m).
 
     Args:
-        env: the task's env.
+        scene: the task's scene.
         config: the task's checked config.
         goal: the goal (3,) world frame (m); None: sampled at reset.
     """
 
     name: ClassVar[str] = "pick_place"
 
-    def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
-        super().__init__(env, config, goal)
-        rest = cube_rest_z(env, float(self.config["table_height"]))
+    def __init__(self, scene: Scene, config: Mapping[str, Any], goal: Any = None):
+        super().__init__(scene, config, goal)
+        rest = cube_rest_z(scene, float(self.config["table_height"]))
         #: cube centre height (m) from which it counts as lifted
         self.lifted_z = rest + float(self.config["lift_height"])
         self.lift_bonus = float(self.config["lift_bonus"])

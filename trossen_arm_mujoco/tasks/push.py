@@ -14,7 +14,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.config_key import Key, number, region
 from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import uniform
@@ -44,17 +44,17 @@ MAX_GOAL_TRIES = 100
 RECORD_EPISODE_LEN = 350
 
 
-def cube_rest_z(env: MujocoEnv, table_height: float) -> float:
+def cube_rest_z(scene: Scene, table_height: float) -> float:
     """Height (m) of the centre of the cube resting on the table."""
-    cube = env.objects["cube"]
-    return float(table_height + env.model.geom_size[cube.geom_id][2])
+    cube = scene.objects["cube"]
+    return float(table_height + scene.model.geom_size[cube.geom_id][2])
 
 
 class PushTask(SingleArmTask):
     """Bring the cube's centre within ``success_tolerance`` of the goal (m).
 
     Args:
-        env: the task's env.
+        scene: the task's scene.
         config: the task's checked config.
         goal: the goal on the table, (3,) world frame (m); None: sampled at reset.
     """
@@ -64,9 +64,9 @@ class PushTask(SingleArmTask):
     #: the cube's centre is the achieved goal
     achieved_part: ClassVar[str] = "cube_pos"
 
-    def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
-        super().__init__(env, config, goal)
-        self.cube = env.objects["cube"]
+    def __init__(self, scene: Scene, config: Mapping[str, Any], goal: Any = None):
+        super().__init__(scene, config, goal)
+        self.cube = scene.objects["cube"]
         self.max_obj_vel = float(self.config["max_object_velocity"])
         self.reach_coef = float(self.config["reach_coef"])
 
@@ -120,9 +120,9 @@ class PushSampler(SingleArmSampler):
         """Put the cube at a random resting pose; returns its centre (3,) m."""
         xy = uniform(rng, self.config["cube_low"], self.config["cube_high"])
         yaw = uniform(rng, -np.pi, np.pi)
-        z = cube_rest_z(self.env, float(self.config["table_height"]))
+        z = cube_rest_z(self.scene, float(self.config["table_height"]))
         pose = [xy[0], xy[1], z, np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
-        self.env.objects["cube"].set_pose(self.env.data, pose)
+        self.scene.objects["cube"].set_pose(self.scene.data, pose)
         return np.array([xy[0], xy[1], z])
 
     def sample_goal(self, rng: np.random.Generator, cube: np.ndarray) -> np.ndarray | None:
@@ -137,11 +137,11 @@ class PushSampler(SingleArmSampler):
                 return goal
         return None
 
-    def _sample_task(self, env: MujocoEnv) -> PushTask | None:
+    def _sample_task(self, scene: Scene) -> PushTask | None:
         self.perturb_arm(self.rng)
         cube = self.place_cube(self.rng)
         goal = self.sample_goal(self.rng, cube)
-        return None if goal is None else self.task_cls(env, self.config, goal=goal)
+        return None if goal is None else self.task_cls(scene, self.config, goal=goal)
 
 
 #: Config keys of push (and pick_place, which adds its own): the cube's spawn region, the

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.config_key import region
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.single_arm import (
@@ -48,10 +48,10 @@ class ReachSampler(SingleArmSampler):
 
     task_cls = ReachTask
 
-    def _sample_task(self, env: MujocoEnv) -> ReachTask:
+    def _sample_task(self, scene: Scene) -> ReachTask:
         self.perturb_arm(self.rng)
         target = uniform(self.rng, self.config["target_low"], self.config["target_high"])
-        return self.task_cls(env, self.config, goal=target)
+        return self.task_cls(scene, self.config, goal=target)
 
 
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.

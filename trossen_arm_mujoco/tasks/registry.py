@@ -248,11 +248,11 @@ def make_sampler(
     seed: Any = None,
     **overrides: Any,
 ):
-    """The sampler of a task (it builds the env), its config overridden by keyword.
+    """The sampler of a task (it builds the scene), its config overridden by keyword.
 
     Args:
         name: registered task name or alias.
-        settings: how the sampler builds its env (``tasks.sampler_settings.SamplerSettings``:
+        settings: how the sampler builds its scene (``tasks.sampler_settings.SamplerSettings``:
             command mode, cameras, image size, flavour, ``randomize``, looks, floor margin);
             default ``SamplerSettings()``.
         physics, seed: see ``TaskSampler``.

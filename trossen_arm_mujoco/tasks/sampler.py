@@ -1,13 +1,13 @@
-"""TaskSampler: owns the env of a task family and turns a seed into a ready episode.
+"""TaskSampler: owns the scene of a task family and turns a seed into a ready episode.
 
 It is the only place where episodes are randomized: every random number comes from
 ``self.rng`` (made from ``seed``, or replaced by the seed given to ``sample_task``). One
-episode (``sample_task``): the env is reset (positions only), the scene randomized (domain
+episode (``sample_task``): the scene is reset (positions only), the scene randomized (domain
 randomization with ``randomize=True``; ``tasks.randomization``), the task's objects placed
 and the task built (``_sample_task``; None when the draw gives no valid episode), then the
-task reset. How the env is built is one ``tasks.sampler_settings.SamplerSettings``; the
+task reset. How the scene is built is one ``tasks.sampler_settings.SamplerSettings``; the
 safety floor (``floor_margin`` above the config's ``table_height``) goes to the robot. The
-sampler owns the env and closes it (``close()``, or ``with``).
+sampler owns the scene and closes it (``close()``, or ``with``).
 
 Docs: docs/writing-a-task.md.
 """
@@ -25,7 +25,7 @@ from trossen_arm_mujoco.errors import UserError, unknown_name_error
 from trossen_arm_mujoco.robot.configs import RobotConfig
 from trossen_arm_mujoco.robot.controllers import EEDeltaController
 from trossen_arm_mujoco.robot.robot_view import RobotView
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.sim.scene_edit import SceneEdit
 from trossen_arm_mujoco.tasks.randomization import SceneRandomizer
 from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_KEY, default_randomization
@@ -73,10 +73,10 @@ class TaskSampler:
         config: task config (``TaskEntry.load_config``); ``scene`` / ``ee_scene``
             (paths relative to the assets folder), ``ctrl_dt`` and ``sim_dt`` (when the config
             has it) are read here.
-        settings: how the env is built (``tasks.sampler_settings.SamplerSettings``: command
+        settings: how the scene is built (``tasks.sampler_settings.SamplerSettings``: command
             mode, cameras and image size, flavour, randomization, looks, safety floor);
             default ``SamplerSettings()``.
-        physics: an existing dm_control ``Physics`` of that scene to build the env over (the
+        physics: an existing dm_control ``Physics`` of that scene to build the scene over (the
             dm_control front doors); default: load the scene.
         seed: int or ``np.random.Generator``: the sampler's generator ``self.rng``.
 
@@ -135,7 +135,7 @@ class TaskSampler:
             robot = self.ee_robot_config()
         floor_margin = settings.floor_margin
         edit = self.scene_edit()  # a given physics was built with it (utils.make_sim_env)
-        self.env = MujocoEnv(
+        self.scene = Scene(
             None if physics is not None else Path(ASSETS_DIR) / self.config[scene_key],
             physics=physics,
             robots={self.robot_name: robot},
@@ -156,19 +156,19 @@ class TaskSampler:
             and self.config.get("hold_orientation", False)
         ):
             self._use_six_dof_ee_delta()
-        self.task_cls(self.env, self.config)  # fail now on bad timing, not at the first reset
+        self.task_cls(self.scene, self.config)  # fail now on bad timing, not at the first reset
         self.randomizer = self._make_randomizer()
 
     def _use_six_dof_ee_delta(self) -> None:
         """Arms take 6-value ee_delta twists ([dx, dy, dz] m, rotation vector rad) so that the
         tool orientation can be held while moving."""
-        robot = self.env.robots[self.robot_name]
+        robot = self.scene.robots[self.robot_name]
         for arm, _ in self.arms:
             robot.controllers[arm] = EEDeltaController(
                 robot.view.get_move_group(arm),
-                self.env.model,
+                self.scene.model,
                 rotation=True,
-                ctrl_dt=self.env.ctrl_dt,
+                ctrl_dt=self.scene.ctrl_dt,
             )
 
     def _make_randomizer(self) -> SceneRandomizer:
@@ -176,9 +176,9 @@ class TaskSampler:
         arm_joints = [j for arm, _ in self.arms for j in view.get_move_group(arm).joint_ids]
         robot_joints = [j for g in view.move_groups.values() for j in g.joint_ids]
         return SceneRandomizer(
-            self.env.model,
+            self.scene.model,
             self.config.get(RANDOMIZATION_KEY) or default_randomization(),
-            object_bodies=[o.body_id for o in self.env.objects.values()],
+            object_bodies=[o.body_id for o in self.scene.objects.values()],
             arm_joints=arm_joints,
             robot_joints=robot_joints,
         )
@@ -191,7 +191,7 @@ class TaskSampler:
     @property
     def robot_view(self) -> RobotView:
         """Move groups of the task's robot (``robot.robot_view.RobotView``)."""
-        return self.env.robots[self.robot_name].view
+        return self.scene.robots[self.robot_name].view
 
     # -- to override ----------------------------------------------------------------------
     def robot_config(self) -> RobotConfig:
@@ -207,7 +207,7 @@ class TaskSampler:
         """Free-joint objects of the scene: name -> (joint, geom)."""
         return {}
 
-    def randomize_scene(self, env: MujocoEnv, robot_view: RobotView) -> dict[str, Any] | None:
+    def randomize_scene(self, scene: Scene, robot_view: RobotView) -> dict[str, Any] | None:
         """Domain randomization of the freshly reset scene from ``self.rng``: lighting,
         table texture and colours, object colours, friction, object masses, joint damping,
         camera poses and initial arm joint noise, each as the config's ``randomization``
@@ -220,9 +220,9 @@ class TaskSampler:
         if not self.randomize:
             self.randomizer.restore()
             return None
-        return self.randomizer.randomize(self.rng, env.data)
+        return self.randomizer.randomize(self.rng, scene.data)
 
-    def _sample_task(self, env: MujocoEnv) -> Task | None:
+    def _sample_task(self, scene: Scene) -> Task | None:
         """Place the task's objects from ``self.rng`` and build its task (not reset), or
         None when this draw gives no valid episode (``sample_task`` then returns None)."""
         raise NotImplementedError
@@ -234,7 +234,7 @@ class TaskSampler:
         object_poses: Mapping[str, Any] | None = None,
         randomization: Mapping[str, Any] | None = None,
     ) -> Task | None:
-        """A ready task (env reset, scene randomized, task built and reset), or None when
+        """A ready task (scene reset, randomized, task built and reset), or None when
         this draw gives no valid episode (call again: the generator has moved on).
 
         Args:
@@ -249,7 +249,7 @@ class TaskSampler:
             self.rng = as_generator(seed)
         # positions only, and no forward at the end of start_episode: task.reset() holds
         # the controls and forwards
-        self.env.reset(settle=False)
+        self.scene.reset(settle=False)
         task = self.start_episode(self.rng, object_poses, randomization, forward=False)
         if task is not None:
             task.reset()
@@ -303,30 +303,30 @@ class TaskSampler:
         """
         self.rng = rng
         if randomization is not None:
-            self.randomizer.apply(randomization, self.env.data)
+            self.randomizer.apply(randomization, self.scene.data)
             self.randomization = dict(randomization)
         else:
-            self.randomization = self.randomize_scene(self.env, self.robot_view)
+            self.randomization = self.randomize_scene(self.scene, self.robot_view)
         if self.randomization is not None:
-            self.env.forward()  # positions of the randomized scene, for _sample_task
-        task = self._sample_task(self.env)
+            self.scene.forward()  # positions of the randomized scene, for _sample_task
+        task = self._sample_task(self.scene)
         if task is None:
             return None
         for name, pose in (object_poses or {}).items():
-            if name not in self.env.objects:
-                raise unknown_name_error("object", name, self.env.objects)
-            self.env.objects[name].set_pose(self.env.data, np.asarray(pose, dtype=float))
+            if name not in self.scene.objects:
+                raise unknown_name_error("object", name, self.scene.objects)
+            self.scene.objects[name].set_pose(self.scene.data, np.asarray(pose, dtype=float))
         if forward:
-            self.env.forward()
+            self.scene.forward()
         return task
 
     def make_task(self, **params: Any) -> Task:
         """A task over the current scene with explicit episode parameters (no reset)."""
-        return self.task_cls(self.env, self.config, **params)
+        return self.task_cls(self.scene, self.config, **params)
 
     def close(self) -> None:
-        """Close the env this sampler owns (renderers included)."""
-        self.env.close()
+        """Close the scene this sampler owns (renderers included)."""
+        self.scene.close()
 
     def __enter__(self) -> TaskSampler:
         return self

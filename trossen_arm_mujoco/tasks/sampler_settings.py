@@ -36,13 +36,13 @@ MAX_IMAGE_SIZE = 16384
 
 @dataclass(frozen=True)
 class SamplerSettings:
-    """How a sampler builds its env; the defaults build the plain joint-flavour world.
+    """How a sampler builds its scene; the defaults build the plain joint-flavour world.
 
     Attributes:
         command_mode: command mode of the arms (``joint_position``, ``joint_rel_position``,
             ``ee_delta``; checked against the robot's controllers when the sampler is
             built); grippers always take ``joint_position``.
-        camera_names: cameras rendered by ``env.render_images()`` (a tuple of names; a list
+        camera_names: cameras rendered by ``scene.render_images()`` (a tuple of names; a list
             is turned into a tuple). Default: none (no GL context is ever opened).
         height, width: image size of those cameras, pixels (1 to 16384).
         flavour: ``"joint"`` (the config's ``scene``, arms in ``command_mode``) or ``"ee"``

@@ -20,7 +20,7 @@ from trossen_arm_mujoco.errors import unknown_name_error
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.robot.configs import RobotConfig, wxai_config
 from trossen_arm_mujoco.robot.layout import GRIPPER_OPEN
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.config_key import Key, number, positive, vector
 from trossen_arm_mujoco.tasks.observation import Part
 from trossen_arm_mujoco.tasks.sampler import TaskSampler, uniform
@@ -73,7 +73,7 @@ class SingleArmTask(Task):
     desired goal is ``goal`` (a part named ``"goal"``, bounded by the workspace).
 
     Args:
-        env, config: see ``Task``; also reads ``success_tolerance``, ``goal_reward_type``,
+        scene, config: see ``Task``; also reads ``success_tolerance``, ``goal_reward_type``,
             ``workspace_low/high``, ``max_joint_velocity``.
         goal: desired goal, world frame (3,) m; defaults to the workspace centre.
     """
@@ -85,8 +85,8 @@ class SingleArmTask(Task):
     #: the observation part that is the achieved goal (3,) m, world frame.
     achieved_part: ClassVar[str] = ""
 
-    def __init__(self, env: MujocoEnv, config: Mapping[str, Any], goal: Any = None):
-        super().__init__(env, config)
+    def __init__(self, scene: Scene, config: Mapping[str, Any], goal: Any = None):
+        super().__init__(scene, config)
         view = self.robot.view
         self.arm = view.get_move_group("arm")
         self.gripper = view.get_move_group("gripper")
@@ -102,7 +102,9 @@ class SingleArmTask(Task):
         self.success_bonus = float(self.config.get("success_bonus", 0.0))
         centre = 0.5 * (self.ws_low + self.ws_high)
         self._goal = centre if goal is None else np.asarray(goal, dtype=float).reshape(3).copy()
-        self._mocap = int(env.model.body_mocapid[lookup_id(env.model, "body", self.marker_body)])
+        self._mocap = int(
+            scene.model.body_mocapid[lookup_id(scene.model, "body", self.marker_body)]
+        )
 
     @property
     def goal(self) -> np.ndarray:
@@ -229,6 +231,6 @@ class SingleArmSampler(TaskSampler):
     def perturb_arm(self, rng: np.random.Generator) -> None:
         """Add the initial joint noise to the arm (in place, within the joint limits)."""
         noise = float(self.config.get("init_joint_noise", 0.0))
-        arm = self.env.robots[self.robot_name].view.get_move_group("arm")
-        q = arm.get_qpos(self.env.data) + uniform(rng, -noise, noise, arm.n_joints)
-        arm.set_qpos(self.env.data, clip(q, arm.joint_range[:, 0], arm.joint_range[:, 1]))
+        arm = self.scene.robots[self.robot_name].view.get_move_group("arm")
+        q = arm.get_qpos(self.scene.data) + uniform(rng, -noise, noise, arm.n_joints)
+        arm.set_qpos(self.scene.data, clip(q, arm.joint_range[:, 0], arm.joint_range[:, 1]))

@@ -36,7 +36,7 @@ from trossen_arm_mujoco.robot.layout import (
     VENDOR16_LAYOUT,
     kit_joint_commands,
 )
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.bimanual import LAYOUT_GROUPS, ROBOT_NAME
 from trossen_arm_mujoco.tasks.task import DEFAULT_POLICY_DT
 
@@ -80,7 +80,7 @@ class StationaryTaskBase(base.Task):
         self.onscreen_render = onscreen_render
         self.cam_list = list(STATIONARY_CAMERAS if cam_list is None else cam_list)
         self.image_size = tuple(image_size)
-        self._scene: MujocoEnv | None = None
+        self._scene: Scene | None = None
         self._scene_physics: Any = None
 
     # -- layers -------------------------------------------------------------------------
@@ -88,9 +88,9 @@ class StationaryTaskBase(base.Task):
         """Robot config of this flavour (joint or mocap Stationary AI); subclasses return theirs."""
         raise NotImplementedError
 
-    def build_scene(self, physics) -> MujocoEnv:
+    def build_scene(self, physics) -> Scene:
         """The layered world over ``physics`` (custom tasks: the cube scenes' objects)."""
-        return MujocoEnv(
+        return Scene(
             physics=physics,
             robots={ROBOT_NAME: self.robot_config()},
             objects=CUBE_OBJECTS if _has_joint(physics, "red_box_joint") else {},
@@ -101,7 +101,7 @@ class StationaryTaskBase(base.Task):
             table_height=STATIONARY_TABLE_TOP,
         )
 
-    def scene(self, physics) -> MujocoEnv:
+    def scene(self, physics) -> Scene:
         """The layered world over ``physics``, built once per physics (names looked up once)."""
         if self._scene is None or self._scene_physics is not physics:
             if self._scene is not None:

@@ -1,12 +1,12 @@
 """Task: what an episode is. It scores (reward, success), times and observes; it never
 randomizes (samplers do) and never computes control (controllers do).
 
-Timing: ``sim_dt`` is the model timestep, ``ctrl_dt`` the control period of the env and
+Timing: ``sim_dt`` is the model timestep, ``ctrl_dt`` the control period of the scene and
 ``policy_dt`` (default 0.02 s) the duration of one task step. One task step runs
 ``policy_dt / ctrl_dt`` control ticks, each of ``ctrl_dt / sim_dt`` physics steps; both
 ratios must be whole numbers (``UserError`` otherwise).
 
-Lifecycle: a ``TaskSampler`` resets the env, randomizes the scene and builds the task, then
+Lifecycle: a ``TaskSampler`` resets the scene, randomizes it and builds the task, then
 calls ``task.reset()``; the caller then alternates ``step(action)`` and the queries
 (``is_done`` = ``is_terminal() or is_timed_out()``, ``judge_success``, ``get_reward``,
 ``get_observation``).
@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 
 from trossen_arm_mujoco.errors import UserError
-from trossen_arm_mujoco.sim.env import MujocoEnv, whole_ratio
+from trossen_arm_mujoco.sim.scene import Scene, whole_ratio
 from trossen_arm_mujoco.tasks.observation import ObservationParts, Part, check_part
 
 __all__ = ["DEFAULT_POLICY_DT", "Bounds", "Task"]
@@ -38,7 +38,7 @@ class Task:
     """Base of every task.
 
     Args:
-        env: the world of the episode (owned by the sampler).
+        scene: the world of the episode (owned by the sampler).
         config: task config (see ``tasks.config``); keys read here: ``policy_dt``,
             ``max_episode_steps``, ``terminate_on_success``.
 
@@ -76,11 +76,11 @@ class Task:
     robot_name: ClassVar[str] = ""
     goal_conditioned: ClassVar[bool] = False
 
-    def __init__(self, env: MujocoEnv, config: Mapping[str, Any]):
-        self.env = env
+    def __init__(self, scene: Scene, config: Mapping[str, Any]):
+        self.scene = scene
         self.config = dict(config)
-        self.sim_dt = env.sim_dt
-        self.ctrl_dt = env.ctrl_dt
+        self.sim_dt = scene.sim_dt
+        self.ctrl_dt = scene.ctrl_dt
         self.policy_dt = float(self.config.get("policy_dt", DEFAULT_POLICY_DT))
         self.n_ctrl_steps = whole_ratio(self.policy_dt, self.ctrl_dt, "policy_dt", "ctrl_dt")
         self.max_episode_steps = int(self.config.get("max_episode_steps", 0)) or None
@@ -89,13 +89,13 @@ class Task:
     # -- layers ---------------------------------------------------------------------------
     @property
     def robot(self):
-        """The robot this task acts through (``sim.env.MujocoEnv.robots[robot_name]``)."""
-        return self.env.robots[self.robot_name]
+        """The robot this task acts through (``sim.scene.Scene.robots[robot_name]``)."""
+        return self.scene.robots[self.robot_name]
 
     @property
     def data(self):
-        """The env's ``MjData``."""
-        return self.env.data
+        """The scene's ``MjData``."""
+        return self.scene.data
 
     # -- physics hooks --------------------------------------------------------------------
     def initialize_episode(self) -> None:
@@ -114,10 +114,10 @@ class Task:
         """Start the episode from the current scene: counters to zero, controls holding the
         state, hooks run. Returns the first observation."""
         self.n_steps = 0
-        mujoco.mj_kinematics(self.env.model, self.data)  # positions: all that holding needs
+        mujoco.mj_kinematics(self.scene.model, self.data)  # positions: all that holding needs
         self.robot.hold(self.data)
         self.initialize_episode()
-        self.env.forward()
+        self.scene.forward()
         return self.get_observation()
 
     def apply_action(self, action: Mapping[str, np.ndarray]) -> None:
@@ -136,9 +136,9 @@ class Task:
 
     def advance(self, action: Mapping[str, np.ndarray]) -> None:
         """One task step without the queries: commands in, then ``n_ctrl_steps`` control
-        ticks of ``env.step`` (``policy_dt`` of simulated time), then ``finish_step``."""
+        ticks of ``scene.step`` (``policy_dt`` of simulated time), then ``finish_step``."""
         self.apply_action(action)
-        self.env.step(self.n_ctrl_steps)
+        self.scene.step(self.n_ctrl_steps)
         self.finish_step()
 
     def step(self, action: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], float, bool]:

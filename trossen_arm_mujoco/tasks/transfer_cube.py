@@ -17,7 +17,7 @@ import numpy as np
 
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.sim.contacts import ContactPartners
-from trossen_arm_mujoco.sim.env import MujocoEnv
+from trossen_arm_mujoco.sim.scene import Scene
 from trossen_arm_mujoco.tasks.bimanual import BimanualSampler, BimanualTask, finger_geoms
 from trossen_arm_mujoco.tasks.sampler import uniform
 from trossen_arm_mujoco.tasks.task_entry import TaskEntry, record_defaults
@@ -94,9 +94,9 @@ class TransferCube(BimanualTask):
     objects: ClassVar[tuple[str, ...]] = ("box",)
     max_reward: ClassVar[float] = MAX_REWARD
 
-    def __init__(self, env, config):
-        super().__init__(env, config)
-        self.reward_fn = TransferCubeReward(env.model)
+    def __init__(self, scene, config):
+        super().__init__(scene, config)
+        self.reward_fn = TransferCubeReward(scene.model)
 
     def get_reward(self) -> int:
         """Sparse 0-4 (see ``TransferCubeReward``)."""
@@ -119,9 +119,9 @@ class TransferCubeSampler(BimanualSampler):
     def objects(self) -> dict[str, tuple[str, str | None]]:
         return {"box": ("red_box_joint", "red_box")}
 
-    def _sample_task(self, env: MujocoEnv) -> TransferCube:
-        env.objects["box"].set_pose(env.data, sample_cube_pose(self.rng))
-        return self.task_cls(env, self.config)
+    def _sample_task(self, scene: Scene) -> TransferCube:
+        scene.objects["box"].set_pose(scene.data, sample_cube_pose(self.rng))
+        return self.task_cls(scene, self.config)
 
 
 #: The task's declaration (``tasks.task_entry``): what every front door derives from.

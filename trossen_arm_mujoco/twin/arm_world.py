@@ -64,7 +64,7 @@ class ArmWorld(KitWorld):
     def object_poses(self) -> dict[str, np.ndarray]:
         """Object name -> pose (7,) [xyz m, quat wxyz] now, in the scene's order."""
         data = self.data
-        return {name: obj.get_pose(data) for name, obj in self.env.objects.items()}
+        return {name: obj.get_pose(data) for name, obj in self.scene.objects.items()}
 
     def action(self) -> np.ndarray:
         """The commanded targets, the arm's 7 values (rad; gripper m)."""

@@ -25,8 +25,8 @@ from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.names import lookup_id
 from trossen_arm_mujoco.real.controller_checks import EFFORT, EXTERNAL_EFFORT, IDLE, Fault
 from trossen_arm_mujoco.robot.layout import ARM_JOINTS, SIDES, VENDOR16_LAYOUT
-from trossen_arm_mujoco.sim.env import whole_ratio
 from trossen_arm_mujoco.sim.looks import SceneLooks, checked_looks
+from trossen_arm_mujoco.sim.scene import whole_ratio
 from trossen_arm_mujoco.tasks import registry
 from trossen_arm_mujoco.tasks.randomization_schema import RANDOMIZATION_KEY
 from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
@@ -112,9 +112,9 @@ class KitWorld:
         self.sampler = registry.make_sampler(
             entry.name, settings, ctrl_dt=ctrl_dt, policy_dt=frame_dt, **section
         )
-        self.env = self.sampler.env
-        self.model, self.data = self.env.model, self.env.data
-        self.robot = self.env.robots[self.sampler.robot_name]
+        self.scene = self.sampler.scene
+        self.model, self.data = self.scene.model, self.scene.data
+        self.robot = self.scene.robots[self.sampler.robot_name]
         self.lock = threading.RLock()
         self._index_joints()
         self.task = None
@@ -261,7 +261,7 @@ class KitWorld:
             self.robot.update_control(self._batch.commands(vector))
         else:
             self.robot.update_control(self.joint_commands(vector))
-        self.env.step(1)
+        self.scene.step(1)
 
     def _check_lag(self, side: str, arm: ArmState) -> None:
         fault = lag_fault_of(arm.modes, arm.target, self.data.ctrl[self.act[side]], arm.limits)
@@ -334,6 +334,6 @@ class KitWorld:
         return self.pacer.realtime_factor
 
     def close(self) -> None:
-        """Stop stepping and release the sampler's env."""
+        """Stop stepping and release the sampler's scene."""
         self.stop()
         self.sampler.close()

@@ -194,7 +194,7 @@ class ServedKit:
         return self.record_stats
 
     def close(self) -> RecordStats | None:
-        """:meth:`stop`, then release the world (its env and renderers)."""
+        """:meth:`stop`, then release the world (its scene and renderers)."""
         stats = self.stop()
         self.world.close()
         return stats

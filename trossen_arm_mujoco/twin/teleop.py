@@ -132,7 +132,7 @@ class TeleopRecorder:
 
     Args:
         settings: the run's settings.
-        step_hook: called after each step with (t, observation, joint ``MujocoEnv``,
+        step_hook: called after each step with (t, observation, joint ``Scene``,
             images), e.g. a live view.
     """
 
@@ -158,7 +158,7 @@ class TeleopRecorder:
         self.policy_dt = float(probe.policy_dt)
         self.fps = 1.0 / self.policy_dt
         self.task_max_reward = float(probe.max_reward)
-        view = self.sampler.env.robots[probe.robot_name].view
+        view = self.sampler.scene.robots[probe.robot_name].view
         ranges = np.concatenate(
             [view.get_move_group(g).joint_range for g in VENDOR16_LAYOUT.groups]
         )
@@ -170,9 +170,9 @@ class TeleopRecorder:
         self._rendered = False
 
     @property
-    def env(self):
-        """The joint-flavour world (``sim.env.MujocoEnv``)."""
-        return self.sampler.env
+    def scene(self):
+        """The joint-flavour world (``sim.scene.Scene``)."""
+        return self.sampler.scene
 
     def start_episode(self, seed: int, object_poses: Mapping[str, Any] | None = None):
         """Reset the scene for an episode: objects drawn from ``seed`` as ``record`` draws
@@ -210,7 +210,7 @@ class TeleopRecorder:
         spool = EpisodeSpool(path.parent, s.cam_names, s.height, s.width, anonymous=True)
         try:
             if spool.camera_names and not self._rendered:  # the first render sets up the renderer
-                self.env.render_images()
+                self.scene.render_images()
                 self._rendered = True
             run = self._run(task, spool, leaders, control)
             if run is None:
@@ -221,7 +221,7 @@ class TeleopRecorder:
 
     def _run(self, task, spool: EpisodeSpool, leaders: LeaderArms, control: EpisodeControl | None):
         """The paced loop; returns its statistics, or None when discarded."""
-        env = self.env
+        scene = self.scene
         obs = task.get_observation()
         command = KIT14_LAYOUT.from_vendor(np.asarray(obs["qpos"], dtype=float))
         command = np.clip(command, self.low, self.high)
@@ -241,7 +241,7 @@ class TeleopRecorder:
             if ramp_steps < 0 and fast == 0:
                 ramp_steps = t
             action = KIT14_LAYOUT.to_vendor(command)
-            images = env.render_images() if spool.camera_names else {}
+            images = scene.render_images() if spool.camera_names else {}
             task.step(VENDOR16_LAYOUT.joint_commands(action))
             reward = float(task.get_reward())
             spool.append_step(obs["qpos"], obs["qvel"], action, reward, obs["env_state"], images)
@@ -250,7 +250,7 @@ class TeleopRecorder:
                 follower = KIT14_LAYOUT.from_vendor(np.asarray(obs["qpos"], dtype=float))
                 errors.append(follower[ARM_COLUMNS] - target[ARM_COLUMNS])
             if self.step_hook is not None:
-                self.step_hook(t, obs, env, images)
+                self.step_hook(t, obs, scene, images)
             order = control.poll() if control is not None else None
             if order == "discard":
                 return None
@@ -349,7 +349,7 @@ class TeleopRecorder:
         )
 
     def close(self) -> None:
-        """Close the sampler and the env (renderers) it owns."""
+        """Close the sampler and the scene (renderers) it owns."""
         self.sampler.close()
 
 

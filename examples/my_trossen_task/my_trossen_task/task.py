@@ -63,9 +63,9 @@ class LiftPuck(BimanualTask):
     objects: ClassVar[tuple[str, ...]] = ("puck",)  # env_state order
     max_reward: ClassVar[float] = 2.0
 
-    def __init__(self, env, config):
-        super().__init__(env, config)
-        self.reward_fn = LiftPuckReward(env.model)
+    def __init__(self, scene, config):
+        super().__init__(scene, config)
+        self.reward_fn = LiftPuckReward(scene.model)
 
     def get_reward(self) -> int:
         return self.reward_fn(self.data)
@@ -85,11 +85,11 @@ class LiftPuckSampler(BimanualSampler):
     def objects(self) -> dict[str, tuple[str, str | None]]:
         return {"puck": ("puck_joint", "puck")}
 
-    def _sample_task(self, env) -> LiftPuck:
+    def _sample_task(self, scene) -> LiftPuck:
         xy = self.rng.uniform(self.config["puck_low"], self.config["puck_high"])
         pose = np.array([xy[0], xy[1], TABLE_TOP_Z + PUCK_HALF_HEIGHT, 1.0, 0.0, 0.0, 0.0])
-        env.objects["puck"].set_pose(env.data, pose)
-        return self.task_cls(env, self.config)
+        scene.objects["puck"].set_pose(scene.data, pose)
+        return self.task_cls(scene, self.config)
 
 
 #: The task's config: the kit's timing and bounds, and two keys of its own.

@@ -25,7 +25,7 @@ def test_the_registry_finds_the_task_through_the_entry_point():
 def test_the_sampler_places_the_puck_in_its_range_from_the_seed_only():
     with registry.make_sampler("lift_puck") as sampler:
         poses = [sampler.sample_task(seed).object_poses()["puck"] for seed in (0, 0, 1)]
-        assert "box" not in sampler.env.objects  # the shipped cube was removed
+        assert "box" not in sampler.scene.objects  # the shipped cube was removed
         assert sampler.sample_task(2).get_reward() == 0  # nothing touches it at the start
     np.testing.assert_array_equal(poses[0], poses[1])
     assert not np.array_equal(poses[0], poses[2])

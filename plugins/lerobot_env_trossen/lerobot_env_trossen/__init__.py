@@ -204,7 +204,7 @@ class TrossenEnvConfig(EnvConfig):
     @property
     def gym_kwargs(self) -> dict:
         return {
-            "task": self.task,
+            "task_name": self.task,
             "cameras": self.cameras,
             "fps": self.fps,
             "episode_length": self.episode_length,

@@ -1,11 +1,11 @@
-"""MujocoEnv: the world of one episode (model, data, robots, cameras, objects) and stepping.
+"""Scene: the world of one episode (model, data, robots, cameras, objects) and stepping.
 
 Timing: ``sim_dt`` is the model timestep; every ``ctrl_dt`` the robots compute their control,
 then physics runs ``ctrl_dt / sim_dt`` steps. The ratio must be a whole number.
-``MujocoEnv.step`` is the one stepping loop of the package: tasks and every gym stepping
+``Scene.step`` is the one stepping loop of the package: tasks and every gym stepping
 regime advance time through it.
 
-No GL: the env works on a plain ``mujoco.MjModel``/``MjData`` and imports nothing that opens
+No GL: the scene works on a plain ``mujoco.MjModel``/``MjData`` and imports nothing that opens
 a GL context (dm_control is imported only by ``load_physics``, for the dm_control front
 doors); cameras create their renderer on the first image.
 
@@ -29,7 +29,7 @@ from trossen_arm_mujoco.sim.looks import SceneLooks, checked_looks, compile_mode
 from trossen_arm_mujoco.sim.objects import FreeJointObject
 from trossen_arm_mujoco.sim.scene_edit import SceneEdit
 
-__all__ = ["MujocoEnv", "load_model", "load_physics", "whole_ratio"]
+__all__ = ["Scene", "load_model", "load_physics", "whole_ratio"]
 
 if TYPE_CHECKING:
     import numpy as np
@@ -118,13 +118,13 @@ def load_physics(
         raise UserError(f"cannot load model {path}: {_one_line(exc)}") from exc
 
 
-class MujocoEnv:
+class Scene:
     """Owns the model and data of a scene and the robots, objects and cameras living in it.
 
     Args:
         xml_path: MJCF scene to load (or pass ``model`` [and ``data``], or ``physics``).
         physics: a dm_control ``Physics`` to work on (the dm_control front doors); its
-            ``step`` then advances physics, as dm_control does. Without it the env uses a
+            ``step`` then advances physics, as dm_control does. Without it the scene uses a
             plain ``mujoco.MjModel``/``MjData`` and ``mujoco.mj_step``.
         model, data: a compiled model (and its data; default a new ``MjData``).
         robots: robot name -> config; each becomes a ``Robot`` over the model, controlled
@@ -169,7 +169,7 @@ class MujocoEnv:
             model, data = physics.model.ptr, physics.data.ptr
         elif model is None:
             if xml_path is None:
-                raise UserError("MujocoEnv needs an xml_path or a physics (or a compiled model)")
+                raise UserError("Scene needs an xml_path or a physics (or a compiled model)")
             model = load_model(xml_path, looks, edit)
         if data is None:
             data = mujoco.MjData(model)

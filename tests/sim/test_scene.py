@@ -1,4 +1,4 @@
-"""MujocoEnv: loading, timing ratios, reset to the keyframe and robot init, stepping."""
+"""Scene: loading, timing ratios, reset to the keyframe and robot init, stepping."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from dm_control import mujoco as dm_mujoco
 from trossen_arm_mujoco.constants import ASSETS_DIR, START_ARM_POSE
 from trossen_arm_mujoco.errors import UserError
 from trossen_arm_mujoco.robot.configs import stationary_ai_joint_config, wxai_config
-from trossen_arm_mujoco.sim.env import MujocoEnv, load_physics, whole_ratio
+from trossen_arm_mujoco.sim.scene import Scene, load_physics, whole_ratio
 
 ASSETS = Path(ASSETS_DIR)
 WXAI = ASSETS / "wxai/wxai_follower.xml"
@@ -42,130 +42,130 @@ def test_load_physics_errors(tmp_path):
     assert isinstance(physics, dm_mujoco.Physics)
 
 
-def test_env_needs_a_model():
+def test_scene_needs_a_model():
     with pytest.raises(UserError, match="xml_path or a physics"):
-        MujocoEnv()
+        Scene()
 
 
 def test_ctrl_dt_must_be_whole_multiple():
     with pytest.raises(UserError, match="whole multiple"):
-        MujocoEnv(WXAI, ctrl_dt=0.003)
-    env = MujocoEnv(WXAI)
-    assert env.ctrl_dt == env.sim_dt == 0.002 and env.n_substeps == 1
+        Scene(WXAI, ctrl_dt=0.003)
+    scene = Scene(WXAI)
+    assert scene.ctrl_dt == scene.sim_dt == 0.002 and scene.n_substeps == 1
 
 
 def test_reset_and_step_single_arm():
-    env = MujocoEnv(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=0.02)
-    assert env.n_substeps == 10
-    env.data.qpos[:] = 1.0  # garbage
-    env.data.time = 5.0
-    env.reset()
-    assert env.data.time == 0.0
-    np.testing.assert_allclose(env.data.qpos, START_ARM_POSE[:8])
-    env.step(5)
-    assert env.data.time == pytest.approx(5 * 0.02)
-    np.testing.assert_allclose(env.data.qpos, START_ARM_POSE[:8], atol=1e-3)  # held
-    assert env.warnings() == []
-    env.close()
+    scene = Scene(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=0.02)
+    assert scene.n_substeps == 10
+    scene.data.qpos[:] = 1.0  # garbage
+    scene.data.time = 5.0
+    scene.reset()
+    assert scene.data.time == 0.0
+    np.testing.assert_allclose(scene.data.qpos, START_ARM_POSE[:8])
+    scene.step(5)
+    assert scene.data.time == pytest.approx(5 * 0.02)
+    np.testing.assert_allclose(scene.data.qpos, START_ARM_POSE[:8], atol=1e-3)  # held
+    assert scene.warnings() == []
+    scene.close()
 
 
 def test_reset_without_keyframe_uses_model_defaults():
-    env = MujocoEnv(WXAI, keyframe="no_such_key")
-    assert env.keyframe_id == -1
-    env.data.qpos[:] = 0.5
-    env.reset()
-    np.testing.assert_array_equal(env.data.qpos, env.model.qpos0)
+    scene = Scene(WXAI, keyframe="no_such_key")
+    assert scene.keyframe_id == -1
+    scene.data.qpos[:] = 0.5
+    scene.reset()
+    np.testing.assert_array_equal(scene.data.qpos, scene.model.qpos0)
 
 
-def test_env_over_an_existing_physics_shares_its_data():
+def test_scene_over_an_existing_physics_shares_its_data():
     physics = load_physics(KIT_JOINT)
-    env = MujocoEnv(
+    scene = Scene(
         physics=physics,
         robots={"kit": stationary_ai_joint_config()},
         objects={"box": ("red_box_joint", "red_box")},
         ctrl_dt=0.02,
     )
-    assert env.model is physics.model.ptr and env.data is physics.data.ptr
-    env.reset()
+    assert scene.model is physics.model.ptr and scene.data is physics.data.ptr
+    scene.reset()
     np.testing.assert_allclose(physics.data.qpos[:16], START_ARM_POSE)
-    env.objects["box"].set_pose(env.data, [0.05, -0.05, 0.0325, 1, 0, 0, 0])
-    env.forward()
+    scene.objects["box"].set_pose(scene.data, [0.05, -0.05, 0.0325, 1, 0, 0, 0])
+    scene.forward()
     np.testing.assert_allclose(physics.named.data.qpos["red_box_joint"][:2], [0.05, -0.05])
-    env.step(25)
+    scene.step(25)
     np.testing.assert_allclose(
-        env.objects["box"].get_pose(env.data)[:3], [0.05, -0.05, 0.0325], atol=1e-3
+        scene.objects["box"].get_pose(scene.data)[:3], [0.05, -0.05, 0.0325], atol=1e-3
     )
 
 
 def test_apply_control_does_not_step():
-    env = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
-    env.reset()
-    robot = env.robots["kit"]
-    target = env.data.qpos[:6] + 0.05  # within one tick's reach (3.375 rad/s * 0.02 s)
+    scene = Scene(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    scene.reset()
+    robot = scene.robots["kit"]
+    target = scene.data.qpos[:6] + 0.05  # within one tick's reach (3.375 rad/s * 0.02 s)
     robot.update_control({"left_arm": target})
-    t0, q0 = env.data.time, env.data.qpos.copy()
-    env.apply_control()
-    assert env.data.time == t0
-    np.testing.assert_array_equal(env.data.qpos, q0)
-    np.testing.assert_allclose(env.data.ctrl[:6], target)
+    t0, q0 = scene.data.time, scene.data.qpos.copy()
+    scene.apply_control()
+    assert scene.data.time == t0
+    np.testing.assert_array_equal(scene.data.qpos, q0)
+    np.testing.assert_allclose(scene.data.ctrl[:6], target)
 
 
 def test_warnings_are_reported_by_name():
-    env = MujocoEnv(WXAI)
-    env.reset()
-    assert env.warnings() == []
-    env.data.qpos[0] = np.nan
-    mujoco.mj_step(env.model, env.data)
-    assert "mjWARN_BADQPOS" in env.warnings()
+    scene = Scene(WXAI)
+    scene.reset()
+    assert scene.warnings() == []
+    scene.data.qpos[0] = np.nan
+    mujoco.mj_step(scene.model, scene.data)
+    assert "mjWARN_BADQPOS" in scene.warnings()
 
 
-def test_rendering_through_the_env():
-    env = MujocoEnv(KIT_JOINT, camera_names=["cam_high"], height=24, width=32)
-    env.reset()
-    images = env.render_images()
+def test_rendering_through_the_scene():
+    scene = Scene(KIT_JOINT, camera_names=["cam_high"], height=24, width=32)
+    scene.reset()
+    images = scene.render_images()
     assert list(images) == ["cam_high"]
     assert images["cam_high"].shape == (24, 32, 3) and images["cam_high"].dtype == np.uint8
-    env.close()
-    env.close()  # idempotent
+    scene.close()
+    scene.close()  # idempotent
 
 
-def _arm_moves(env: MujocoEnv) -> np.ndarray:
-    env.reset()
-    env.objects["box"].set_pose(env.data, [0.05, -0.05, 0.0325, 1, 0, 0, 0])
-    env.forward()
-    env.robots["kit"].update_control({"left_arm": env.data.qpos[:6] + 0.3})
-    env.step(30)
-    return env.data.qpos.copy()
+def _arm_moves(scene: Scene) -> np.ndarray:
+    scene.reset()
+    scene.objects["box"].set_pose(scene.data, [0.05, -0.05, 0.0325, 1, 0, 0, 0])
+    scene.forward()
+    scene.robots["kit"].update_control({"left_arm": scene.data.qpos[:6] + 0.3})
+    scene.step(30)
+    return scene.data.qpos.copy()
 
 
-def test_env_without_physics_runs_on_plain_mujoco_and_matches_dm_control():
-    """Without a Physics the env owns a plain MjModel/MjData and steps with mj_step; the
-    trajectory is bit for bit the one of the same env over a dm_control Physics."""
+def test_scene_without_physics_runs_on_plain_mujoco_and_matches_dm_control():
+    """Without a Physics the scene owns a plain MjModel/MjData and steps with mj_step; the
+    trajectory is bit for bit the one of the same scene over a dm_control Physics."""
     kwargs = dict(
         robots={"kit": stationary_ai_joint_config()},
         objects={"box": ("red_box_joint", "red_box")},
         ctrl_dt=0.02,
     )
-    plain = MujocoEnv(KIT_JOINT, **kwargs)
+    plain = Scene(KIT_JOINT, **kwargs)
     assert plain.physics is None
     assert isinstance(plain.model, mujoco.MjModel) and isinstance(plain.data, mujoco.MjData)
-    over_physics = MujocoEnv(physics=load_physics(KIT_JOINT), **kwargs)
+    over_physics = Scene(physics=load_physics(KIT_JOINT), **kwargs)
     np.testing.assert_array_equal(_arm_moves(plain), _arm_moves(over_physics))
 
 
-def test_env_over_a_model_and_data():
+def test_scene_over_a_model_and_data():
     model = mujoco.MjModel.from_xml_path(str(WXAI))
     data = mujoco.MjData(model)
-    env = MujocoEnv(model=model, data=data, robots={"wxai": wxai_config()}, ctrl_dt=0.02)
-    assert env.model is model and env.data is data and env.physics is None
-    env.reset()
-    env.step(3)
+    scene = Scene(model=model, data=data, robots={"wxai": wxai_config()}, ctrl_dt=0.02)
+    assert scene.model is model and scene.data is data and scene.physics is None
+    scene.reset()
+    scene.step(3)
     assert data.time == pytest.approx(0.06)
-    assert MujocoEnv(model=model).data is not data  # a new MjData when none is given
+    assert Scene(model=model).data is not data  # a new MjData when none is given
 
 
 def test_load_model_errors(tmp_path):
-    from trossen_arm_mujoco.sim.env import load_model
+    from trossen_arm_mujoco.sim.scene import load_model
 
     with pytest.raises(UserError, match="model file not found"):
         load_model(tmp_path / "missing.xml")
@@ -175,44 +175,44 @@ def test_load_model_errors(tmp_path):
         load_model(broken)
     assert "\n" not in str(err.value)
     with pytest.raises(UserError, match="cannot load model"):
-        MujocoEnv(broken)
+        Scene(broken)
 
 
 def test_one_stepping_loop_control_then_physics():
     """step(n): n control ticks, each the robots' control and then ctrl_dt / sim_dt
     physics steps; nothing else advances time."""
-    env = MujocoEnv(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=0.01)
-    env.reset()
+    scene = Scene(WXAI, robots={"wxai": wxai_config()}, ctrl_dt=0.01)
+    scene.reset()
     calls = []
-    env.robots["wxai"].apply_control = lambda data: calls.append(("control", data.time))
-    physics = env._physics_step
-    env._physics_step = lambda n: (calls.append(("physics", n)), physics(n))
-    env.step(3)
+    scene.robots["wxai"].apply_control = lambda data: calls.append(("control", data.time))
+    physics = scene._physics_step
+    scene._physics_step = lambda n: (calls.append(("physics", n)), physics(n))
+    scene.step(3)
     assert [c[0] for c in calls] == ["control", "physics"] * 3
     assert all(n == 5 for kind, n in calls if kind == "physics")
     assert [t for kind, t in calls if kind == "control"] == pytest.approx([0.0, 0.01, 0.02])
 
 
 def test_cameras_open_no_renderer_until_an_image_is_asked_for():
-    env = MujocoEnv(KIT_JOINT, camera_names=["cam_high"], height=24, width=32)
-    env.reset()
-    env.step(2)
-    assert env.cameras._renderer is None
-    env.render_images()
-    assert env.cameras._renderer is not None
-    env.close()
+    scene = Scene(KIT_JOINT, camera_names=["cam_high"], height=24, width=32)
+    scene.reset()
+    scene.step(2)
+    assert scene.cameras._renderer is None
+    scene.render_images()
+    assert scene.cameras._renderer is not None
+    scene.close()
 
 
 def test_reset_without_settling_sets_positions_and_leaves_the_controls():
     """reset(settle=False) (the samplers' reset): the same joints and body positions as a
     full reset, the keyframe's controls, commands dropped; hold() then gives the full reset's
     controls."""
-    full = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
-    part = MujocoEnv(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
-    for env in (full, part):
-        env.data.qpos[:] += 0.05  # somewhere else first
-        env.data.ctrl[:] = 0.3
-        env.robots["kit"].update_control({"left_arm": np.zeros(6)})
+    full = Scene(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    part = Scene(KIT_JOINT, robots={"kit": stationary_ai_joint_config()}, ctrl_dt=0.02)
+    for scene in (full, part):
+        scene.data.qpos[:] += 0.05  # somewhere else first
+        scene.data.ctrl[:] = 0.3
+        scene.robots["kit"].update_control({"left_arm": np.zeros(6)})
     full.reset()
     part.reset(settle=False)
     np.testing.assert_array_equal(part.data.qpos, full.data.qpos)
