@@ -45,10 +45,12 @@ def test_the_single_arm_spaces_are_its_seven_values(env):
     assert env.action_space.shape == (7,)
     for key in ("agent_pos", "velocity"):
         assert env.observation_space[key].shape == (7,)
-    assert env.observation_space["environment_state"].shape == (7,)  # the cube
+    # the cube, then the goal (as export --sim_features writes them)
+    assert env.observation_space["environment_state"].shape == (10,)
     obs, info = env.reset(seed=3)
     assert env.observation_space.contains(obs)
     assert obs["goal"].shape == (3,) and info["is_success"] is False
+    np.testing.assert_array_equal(obs["environment_state"][7:], obs["goal"])
     x, y, z = obs["goal"]  # the episode's goal in words: a checkpoint's instruction
     assert env.task_description.endswith(f"({x:.3f}, {y:.3f}, {z:.3f}) m")
     again, _ = env.reset(seed=3)  # same seed, same episode
@@ -58,7 +60,7 @@ def test_the_single_arm_spaces_are_its_seven_values(env):
     assert not np.array_equal(obs["environment_state"], other["environment_state"])
     spec = feature_spec(TASK, ("cam",), (24, 32), "widowxai")
     assert spec["action"][2] == (7,) and spec["agent_pos"][2] == (7,)
-    assert spec["environment_state"][2] == (7,)
+    assert spec["environment_state"][2] == (10,)
     assert spec["observation.images.cam"][2] == (24, 32, 3)
 
 
@@ -84,16 +86,19 @@ def test_one_arm_controller_labels_its_values_without_a_side():
     assert fault is not None and fault.joint == "joint_0" and not fault.reason.startswith("_")
 
 
-@pytest.mark.parametrize("task", ["push", "pick_place"])
-def test_scripted_policy_through_the_cli_is_scored_by_the_task(task, tmp_path, capsys):
+@pytest.mark.parametrize(("task", "fps"), [("push", 50), ("pick_place", 50), ("pick_place", 30)])
+def test_scripted_policy_through_the_cli_is_scored_by_the_task(task, fps, tmp_path, capsys):
+    """At the task's 50 Hz and at the plugin's 30 Hz (the default export's rate: physics
+    steps of 1/510 s divide its period)."""
     out_dir = tmp_path / "eval"
     args = ["--policy", "scripted", "--task_name", task, "--num_episodes", "1"]
-    rc, out, err = _eval([*args, "--output_dir", str(out_dir)], capsys)
+    rc, out, err = _eval([*args, "--fps", str(fps), "--output_dir", str(out_dir)], capsys)
     assert rc == 0, err
     assert out.splitlines()[0].startswith(f"{task}: 1/1 succeeded, 100.0%")
     assert "arm controller checks: on, 0 faults" in out
     info = json.loads((out_dir / "eval_info.json").read_text())
     assert info["run"]["layout"] == "widowxai" and info["per_episode"][0]["success"]
+    assert info["per_episode"][0]["steps"] == 7 * fps  # the recording's 7 s
     assert info["per_episode"][0]["fault"] is None
     peak = info["controller"]["peak_speed_fraction"]
     assert list(peak) == LABELS and 0 < max(peak.values()) < 1

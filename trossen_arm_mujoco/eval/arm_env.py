@@ -4,9 +4,10 @@ joint flavour, observed and acted on in the arm's 7-value layout (``widowxai``).
 The single arm's counterpart of ``eval.env.KitPolicyEnv``, with the same interface: the
 observation's ``agent_pos`` and ``velocity`` are (7,) (``joint_0`` .. ``joint_5`` rad, the
 gripper's carriage travel m), ``environment_state`` the object poses (xyz m + quat wxyz,
-world), ``goal`` (3,) m for a goal-conditioned task and ``pixels`` the cameras; the action is
-the 7 joint goals, sent as Trossen's ``widowxai_follower_robot`` sends them, through the real
-arm controller's checks (a refused setpoint ends the episode, failed).
+world; a goal-conditioned task's goal (3,) m after them, and also as ``goal``) and
+``pixels`` the cameras; the action is the 7 joint goals, sent as Trossen's
+``widowxai_follower_robot`` sends them, through the real arm controller's checks (a refused
+setpoint ends the episode, failed).
 
 Docs: docs/cli/eval.md; details: docs/concepts/design-notes.md.
 """
@@ -29,7 +30,6 @@ from trossen_arm_mujoco.eval.arm_tasks import (
     is_arm_task,
 )
 from trossen_arm_mujoco.eval.env import (
-    BASE_SIM_DT,
     _cameras,
     controller_timing,
     episode_generator,
@@ -117,14 +117,6 @@ class ArmPolicyEnv(gymnasium.Env):
         native = 1.0 / float(config["policy_dt"])
         self.fps = float(native if fps is None else fps)
         overrides: dict[str, Any] = dict(controller_timing(self.fps))
-        if "sim_dt" not in config:  # the scene's own step (2 ms) must divide the period
-            if abs(overrides.pop("sim_dt") - BASE_SIM_DT) > 1e-12:
-                raise UserError(
-                    f"fps {self.fps:g}: task '{entry.name}' steps its physics every "
-                    f"{BASE_SIM_DT * 1e3:g} ms, which must divide the policy period; "
-                    "give an fps such as 50, 25 or 10"
-                )
-            overrides["ctrl_dt"] = BASE_SIM_DT
         self.randomize = bool(randomize) or randomization is not None
         if randomization is not None:
             overrides[RANDOMIZATION_KEY] = dict(randomization)
@@ -156,6 +148,7 @@ class ArmPolicyEnv(gymnasium.Env):
             self.action_low.astype(np.float32), self.action_high.astype(np.float32)
         )
         self.n_objects = len(self.scene.objects)
+        self._goal_conditioned = bool(getattr(probe, "goal_conditioned", False))
         self.observation_space = self._observation_space(probe)
         self._vector_bounds = {
             key: (self.observation_space[key].low, self.observation_space[key].high)
@@ -185,7 +178,9 @@ class ArmPolicyEnv(gymnasium.Env):
 
     def features(self) -> dict[str, tuple[str, str, tuple[int, ...]]]:
         """This env's LeRobot features (``arm_feature_spec``)."""
-        return arm_feature_spec(self.n_objects, self.cam_names, self.image_size)
+        return arm_feature_spec(
+            self.n_objects, self.cam_names, self.image_size, goal=self._goal_conditioned
+        )
 
     def _observation_space(self, probe) -> gymnasium.spaces.Dict:
         low, high = self.action_low, self.action_high
@@ -199,12 +194,14 @@ class ArmPolicyEnv(gymnasium.Env):
             return gymnasium.spaces.Box(lo.astype(np.float32), hi.astype(np.float32))
 
         size = ARM_LAYOUT.size
+        if self._goal_conditioned:  # the goal after the poses, as the export writes it
+            pose_low, pose_high = np.r_[pose_low, ws_low], np.r_[pose_high, ws_high]
         spaces: dict[str, gymnasium.spaces.Space] = {
             "agent_pos": box(low, high, size),
             "velocity": box(-v, v, size),
-            "environment_state": box(pose_low, pose_high, 7 * self.n_objects),
+            "environment_state": box(pose_low, pose_high, len(pose_low)),
         }
-        if getattr(probe, "goal_conditioned", False):
+        if self._goal_conditioned:
             spaces["goal"] = box(ws_low, ws_high, 3)
         if self.cam_names:
             h, w = self.image_size
@@ -317,6 +314,9 @@ class ArmPolicyEnv(gymnasium.Env):
     def _observe(self) -> dict[str, Any]:
         data = self.scene.data
         poses = list(self.object_poses().values())
+        goal = self.goal()
+        if goal is not None:  # environment_state ends with the goal (export.goal_state)
+            poses.append(goal)
         out: dict[str, Any] = {
             "agent_pos": data.qpos[self._qpos_idx].astype(np.float32),
             "velocity": data.qvel[self._dof_idx].astype(np.float32),
@@ -326,7 +326,6 @@ class ArmPolicyEnv(gymnasium.Env):
         }
         for key, (low, high) in self._vector_bounds.items():
             clip(out[key], low, high, out=out[key])
-        goal = self.goal()
         if goal is not None:
             out["goal"] = goal.astype(np.float32)
         if self.cam_names:

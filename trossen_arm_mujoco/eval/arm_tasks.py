@@ -9,8 +9,8 @@ Docs: docs/cli/eval.md.
 
 from __future__ import annotations
 
-import numpy as np
-
+from trossen_arm_mujoco.data.schema import SINGLE_ARM_LAYOUT
+from trossen_arm_mujoco.robot.layout import WIDOWXAI_LAYOUT
 from trossen_arm_mujoco.robot.lerobot_keys import (
     ACTION_KEY,
     ENV_STATE_KEY,
@@ -24,31 +24,19 @@ from trossen_arm_mujoco.tasks.sampler_settings import SamplerSettings
 __all__ = [
     "ARM_LAYOUT",
     "ARM_LAYOUT_NAME",
-    "ArmLayout",
     "arm_feature_spec",
+    "arm_goal_conditioned",
     "arm_names",
     "arm_object_count",
     "is_arm_task",
 ]
 
 #: The layout name of one arm's 7 values (the recordings' ``layout`` attribute).
-ARM_LAYOUT_NAME = "widowxai"
-
-
-class ArmLayout:
-    """One WidowX AI arm's 7 values: ``joint_0`` .. ``joint_5`` (rad), then the gripper
-    (``left_carriage_joint`` travel, m), as the single arm's recordings store them."""
-
-    size: int = 7
-    names: tuple[str, ...] = (*(f"joint_{i}" for i in range(6)), "left_carriage_joint")
-
-    def from_vendor(self, values: np.ndarray) -> np.ndarray:
-        """The 7 values as they are (the recordings are in this layout already)."""
-        return np.asarray(values)
-
-
-#: The single arm's layout.
-ARM_LAYOUT = ArmLayout()
+ARM_LAYOUT_NAME = SINGLE_ARM_LAYOUT
+#: The single arm's layout: ``joint_0`` .. ``joint_5`` (rad), then the gripper
+#: (``left_carriage_joint`` travel, m), as its recordings store them and Trossen's plugin
+#: for one follower names them.
+ARM_LAYOUT = WIDOWXAI_LAYOUT
 
 
 def is_arm_task(task: str) -> bool:
@@ -77,8 +65,13 @@ def arm_object_count(task: str) -> int:
             sampler.close()
 
 
+def arm_goal_conditioned(task: str) -> bool:
+    """Whether a single-arm task has a goal (its ``environment_state`` ends with it)."""
+    return bool(getattr(registry.load(task).task_class(), "goal_conditioned", False))
+
+
 def arm_feature_spec(
-    n_objects: int, cam_names: tuple[str, ...], image_size: tuple[int, int]
+    n_objects: int, cam_names: tuple[str, ...], image_size: tuple[int, int], goal: bool = False
 ) -> dict[str, tuple[str, str, tuple[int, ...]]]:
     """What an ``ArmPolicyEnv`` with ``n_objects`` objects observes and takes, as LeRobot
     features (``eval.env.feature_spec``'s form: env key -> (LeRobot key, kind, shape)).
@@ -88,13 +81,15 @@ def arm_feature_spec(
             wxyz, world).
         cam_names: the observed cameras (images (H, W, 3) uint8).
         image_size: (H, W) of each image, pixels.
+        goal: the task is goal-conditioned: ``environment_state`` ends with its goal (3 values,
+            m, world), as ``export --sim_features`` writes it (``export.goal_state``).
     """
     h, w = image_size
     spec: dict[str, tuple[str, str, tuple[int, ...]]] = {
         "action": (ACTION_KEY, "ACTION", (ARM_LAYOUT.size,)),
         "agent_pos": (STATE_KEY, "STATE", (ARM_LAYOUT.size,)),
         "velocity": (VELOCITY_KEY, "STATE", (ARM_LAYOUT.size,)),
-        "environment_state": (ENV_STATE_KEY, "ENV", (7 * n_objects,)),
+        "environment_state": (ENV_STATE_KEY, "ENV", (7 * n_objects + 3 * bool(goal),)),
     }
     for cam in cam_names:
         key = image_key(cam)

@@ -115,9 +115,14 @@ def feature_spec(
     from trossen_arm_mujoco.eval.arm_tasks import is_arm_task
 
     if is_arm_task(task):
-        from trossen_arm_mujoco.eval.arm_tasks import arm_feature_spec, arm_object_count
+        from trossen_arm_mujoco.eval import arm_tasks
 
-        return arm_feature_spec(arm_object_count(task), tuple(cam_names), image_size)
+        return arm_tasks.arm_feature_spec(
+            arm_tasks.arm_object_count(task),
+            tuple(cam_names),
+            image_size,
+            goal=arm_tasks.arm_goal_conditioned(task),
+        )
     size = _layout(layout).size
     n_obj = len(registry.load(task).task_class().objects)
     h, w = image_size

@@ -176,7 +176,7 @@ class EpisodeRunner:
             limit_threads(threads, settings.policy)
         self.settings = settings
         self.env = settings.make_env()
-        self.recorder = RolloutRecorder(self.env.task, self.env.fps)
+        self.recorder = RolloutRecorder(self.env.task_name, self.env.fps)
         try:
             self.policy = make_policy(settings.policy, self.env, settings.device)
         except BaseException:
@@ -221,7 +221,7 @@ class EpisodeRunner:
             max_reward=best,
             success=success,
             steps=len(rewards),
-            stages=stages_reached(env.task, best),
+            stages=stages_reached(env.task_name, best),
             fault=fault,
             peak_speed_fraction=env.controller.peak_fractions(),
             analysis=analysis,

@@ -170,6 +170,7 @@ class WireEpisodeRunner:
         goal = self.env.goal()
         if goal is not None:  # a single arm's goal, as the in-process env observes it
             obs["goal"] = goal.astype(np.float32)
+            obs["environment_state"] = np.r_[obs["environment_state"], obs["goal"]]
         if self.cameras is None:
             return obs, stamp, None
         frames, pixels = self.cameras.frames(), {}
