@@ -24,8 +24,6 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-# TERMINATING_SIGNALS and redeliver_if_in_finalizer: for the modules that still import them
-# from here (fileio, collect, worker_pool); new code imports them from stopping
 from trossen_arm_mujoco.stopping import (
     RAISE,
     TERMINATING_SIGNALS,
@@ -34,7 +32,6 @@ from trossen_arm_mujoco.stopping import (
     interrupt_signal,
     signal_name,
 )
-from trossen_arm_mujoco.stopping import redeliver_if_in_finalizer as redeliver_if_in_finalizer
 
 __all__ = [
     "EXIT_INTERRUPTED",

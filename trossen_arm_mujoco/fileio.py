@@ -26,12 +26,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from trossen_arm_mujoco.errors import (
-    TERMINATING_SIGNALS,
-    UserError,
-    describe_os_error,
-    os_error_hint,
-)
+from trossen_arm_mujoco.errors import UserError, describe_os_error, os_error_hint
+from trossen_arm_mujoco.stopping import TERMINATING_SIGNALS
 
 __all__ = [
     "DEFERRED_SIGNALS",
