@@ -21,13 +21,12 @@ import secrets
 import shutil
 import signal
 import stat
-import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 from trossen_arm_mujoco.errors import UserError, describe_os_error, os_error_hint
-from trossen_arm_mujoco.stopping import TERMINATING_SIGNALS
+from trossen_arm_mujoco.stopping import NOTE, TERMINATING_SIGNALS, StopSignals
 
 __all__ = [
     "DEFERRED_SIGNALS",
@@ -191,26 +190,12 @@ def deferred_signals() -> Iterator[None]:
     it, the removal of a temporary file. Only the main thread handles signals; elsewhere
     (and for a signal that was ignored) this does nothing.
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-
-    def hold(signum: int, frame: object) -> None:
-        caught.append(signum)
-
-    previous = {}
+    holder = StopSignals(NOTE, DEFERRED_SIGNALS)  # noted only, while the block runs
     try:
-        for sig in DEFERRED_SIGNALS:
-            old = signal.getsignal(sig)
-            if old not in (signal.SIG_IGN, None):  # None: a handler not from Python
-                previous[sig] = old
-                signal.signal(sig, hold)
-        yield
+        with holder.handling():
+            yield
     finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
-        for sig in dict.fromkeys(caught):  # once each, in arrival order
+        for sig in dict.fromkeys(holder.late):  # once each, in arrival order
             signal.raise_signal(sig)
 
 

@@ -20,7 +20,6 @@ import os
 import shutil
 import signal
 import sys
-import threading
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -37,6 +36,7 @@ from trossen_arm_mujoco.data.reader import EpisodeError, episode_path, load_epis
 from trossen_arm_mujoco.data.temp_files import remove_stale_temp_files
 from trossen_arm_mujoco.errors import Terminated, UserError
 from trossen_arm_mujoco.fileio import publish
+from trossen_arm_mujoco.stopping import NOTE, StopSignals
 from trossen_arm_mujoco.worker_pool import WorkerPool
 
 __all__ = [
@@ -199,23 +199,14 @@ def _stderr(line: str) -> None:
 def _signals_held(report: RunReport) -> Iterator[None]:
     """Hold Ctrl-C / SIGTERM while finished files are put in place: a signal meanwhile
     marks the run interrupted instead of cutting the renames short."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-
-    def note(signum, frame) -> None:
-        caught.append(signum)
-        report.terminated = report.terminated or signum == signal.SIGTERM
-
-    previous = {sig: signal.signal(sig, note) for sig in (signal.SIGINT, signal.SIGTERM)}
+    holder = StopSignals(NOTE, (signal.SIGINT, signal.SIGTERM))
     try:
-        yield
+        with holder.handling():
+            yield
     finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
-        if caught:
+        if holder.late:
             report.interrupted = True
+            report.terminated = report.terminated or signal.SIGTERM in holder.late
 
 
 class DatasetRecorder:
