@@ -495,7 +495,14 @@ def test_a_cropped_recipe_on_a_task_it_knows_no_crop_for_is_one_line(tmp_path):
 @pytest.mark.parametrize(
     ("flags", "expected"),
     [
-        (["--cam_names", "cam_top"], "--cam_names cam_top: the kit has no such camera; choose"),
+        (
+            ["--cam_names", "cam_top"],
+            "--cam_names cam_top: the task's scene has no such camera; choose from cam_high",
+        ),
+        (  # a single arm's scene has its own two
+            ["--task", "pick_place", "--cam_names", "cam_high"],
+            "--cam_names cam_high: the task's scene has no such camera; choose from overview, cam",
+        ),
         (
             ["--recipe", "camera", "--image_size", "24x32"],
             "--image_size 24x32 is below what the image encoder resolves",

@@ -16,6 +16,7 @@ from trossen_arm_mujoco.train.recipes import (
     RECIPES,
     camera_settings_error,
     task_camera_facts,
+    task_cameras,
 )
 
 __all__ = ["DEFAULT_PHASES", "PHASES", "build_parser", "parse_args", "phases_of"]
@@ -262,7 +263,12 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
             "--augment changes the pose encoder's training frames: use it with --recipe "
             "camera_pose (or --pose_encoder), or leave it out"
         )
-    _fail(camera_settings_error(args.cam_names, args.image_size, args.crop, args.pose_encoder))
+    cameras = task_cameras(args.task)
+    _fail(
+        camera_settings_error(
+            args.cam_names, args.image_size, args.crop, args.pose_encoder, cameras
+        )
+    )
     phases_of(args)
     if args.train_seeds < 1 or args.train_jobs < 1:
         _fail("--train_seeds and --train_jobs must be at least 1")

@@ -27,6 +27,7 @@ __all__ = [
     "RECIPES",
     "camera_settings_error",
     "task_camera_facts",
+    "task_cameras",
 ]
 
 #: ResNet-18's output stride: one feature cell per 32x32 pixels of the input.
@@ -89,6 +90,22 @@ def task_camera_facts(recipe: str, task: str) -> tuple[str | None, int, str | No
     return crop, static, None
 
 
+def task_cameras(task: str) -> tuple[str, ...]:
+    """The cameras of ``task``'s scene (its sampler's ``cameras``: the kit's four, the Mobile
+    AI's three, a single arm's ``overview`` and ``cam``); the kit's where the simulator is not
+    installed or the task is unknown (the record phase then says so)."""
+    try:
+        from trossen_arm_mujoco.errors import UserError
+        from trossen_arm_mujoco.tasks.registry import load
+    except ImportError:
+        return STATIONARY_CAMERAS
+    try:
+        cameras = tuple(load(task).sampler_class().cameras)
+    except (UserError, ImportError, AttributeError):
+        return STATIONARY_CAMERAS
+    return cameras or STATIONARY_CAMERAS
+
+
 def _camera_frame() -> tuple[int, int] | None:
     """The cameras' full frame (height, width), or None where the simulator is absent."""
     try:
@@ -125,7 +142,11 @@ def _crop_error(crop: str, names: list[str], cam_names: str) -> str | None:
 
 
 def camera_settings_error(
-    cam_names: str, image_size: str, crop: str | None, pose_encoder: bool = False
+    cam_names: str,
+    image_size: str,
+    crop: str | None,
+    pose_encoder: bool = False,
+    cameras: tuple[str, ...] = STATIONARY_CAMERAS,
 ) -> str | None:
     """What is wrong with these camera settings, in one line (None: nothing).
 
@@ -140,15 +161,16 @@ def camera_settings_error(
         crop: ``CAMERA:TOP,LEFT,HEIGHT,WIDTH`` (pixels of the 480x640 frame) or None.
         pose_encoder: the images feed the pose encoder (its smallest image:
             :data:`POSE_ENCODER_MIN`).
+        cameras: the task's cameras (:func:`task_cameras`; default the kit's four).
     """
     names = [n.strip() for n in cam_names.split(",") if n.strip()]
     if names == ["none"]:
         names = []
-    unknown = [n for n in names if n not in STATIONARY_CAMERAS]
+    unknown = [n for n in names if n not in cameras]
     if unknown:
         return (
-            f"--cam_names {','.join(unknown)}: the kit has no such camera; choose from "
-            f"{', '.join(STATIONARY_CAMERAS)} (or none)"
+            f"--cam_names {','.join(unknown)}: the task's scene has no such camera; choose "
+            f"from {', '.join(cameras)} (or none)"
         )
     if names:
         try:
