@@ -252,3 +252,11 @@ def test_gripper_goals_change_by_at_most_their_rate_from_one_action_to_the_next(
     assert act(0.040)[6].item() == pytest.approx(0.0125 + rate)
     limits_step.reset()
     assert act(0.040)[6].item() == pytest.approx(0.0125 + rate)
+    # a new episode where only the gripper jumped (an arm that hardly moved, its gripper
+    # opened again by the env's reset; LeRobot's runners do not reset the steps): from the
+    # measured width too, not from the last goal 33 mm away
+    for _ in range(20):
+        act(0.002)
+    opened = state.clone()
+    opened[0, 6] = opened[0, 13] = 0.035
+    assert act(0.002, opened)[6].item() == pytest.approx(0.035 - rate)

@@ -271,10 +271,12 @@ class LeRobotPolicy:
         self.task_text = env.task_description
 
     def reset(self, env: KitPolicyEnv, seed: int) -> None:
-        """Start an episode of ``env``: clear the policy's action queue and take the
-        task's description as the language instruction (``seed`` is unused: the policy is
-        deterministic)."""
+        """Start an episode of ``env``: clear the policy's action queue and the processors'
+        state, and take the task's description as the language instruction (``seed`` is
+        unused: the policy is deterministic)."""
         self.policy.reset()
+        self.pre.reset()  # the controller-limit steps start again from the measured joints
+        self.post.reset()
         self.task_text = env.task_description
 
     def act(self, observation: dict[str, Any]) -> np.ndarray:

@@ -133,9 +133,12 @@ class ControllerLimitsStep(ActionProcessorStep):
             if last is None or last.shape != action.shape:
                 last = near
             elif self._seen is not None and self._seen.shape == near.shape:
-                # an arm cannot move 1.5 x max_step (3.4 periods at its top speed) between
-                # two observations: a new episode started
-                jumped = ((near - self._seen).abs() > 1.5 * step) & (step > 0)
+                # an arm cannot move 1.5 x max_step (3.4 periods at its top speed), nor a
+                # gripper 3 x max_rate (2.7 periods), between two observations: a new
+                # episode started (LeRobot's runners do not reset the processors)
+                rate = tensor(self.max_rate)
+                moved = (near - self._seen).abs()
+                jumped = ((moved > 1.5 * step) & (step > 0)) | ((moved > 3 * rate) & (rate > 0))
                 last = torch.where(jumped.any(dim=-1, keepdim=True), near, last)
             rate = tensor(self.max_rate)
             action = torch.where(rate > 0, torch.clamp(action, last - rate, last + rate), action)
