@@ -314,6 +314,9 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
         stream, control = build_rehearsal(args, world, recorder, _say)
         kit = ServedKit(world, ips, _say, recorder)
         kit.sessions_from_clients = control is None
+        # The window opens before the kit serves: opening it can take seconds (software GL)
+        # and a driver connecting meanwhile would time out waiting for its first joint outputs.
+        viewer = _open_viewer(world) if args.viewer else None
         try:
             kit.start()
             for part in (stream, control):
@@ -322,6 +325,8 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
         except BaseException:
             stop_rehearsal(stream, control, _say)
             kit.stop()
+            if viewer is not None:
+                viewer.close()
             raise
         stops.keep = True  # serving: once it ends, the process ends
         started = time.monotonic()
@@ -339,7 +344,7 @@ def _serve(args: argparse.Namespace, ips: dict[str, str], record, stops: StopSig
                 + (f"; episode control on {control.host}:{control.port}" if control else "")
                 + "; Ctrl-C stops"
             )
-            how = _wait(world, args.viewer, stops)
+            how = _wait(world, viewer, stops)
         finally:
             stop_rehearsal(stream, control, _say)
             stats = kit.stop(lambda: _report_repeats(stops, recorder))
@@ -397,14 +402,16 @@ def _first_index(folder: Path) -> int:
     return next_index()
 
 
-def _wait(world, viewer_wanted: bool, stops: StopSignals) -> str:
-    """Until a stop signal (returns its name) or the viewer window closes."""
-    viewer = None
-    if viewer_wanted:
-        from trossen_arm_mujoco.viewer import LiveViewer
+def _open_viewer(world):
+    """The live viewer on the world, or None (with a note) where no window opens."""
+    from trossen_arm_mujoco.viewer import LiveViewer
 
-        with world.lock:  # the viewer reads the data while it starts: not mid-step
-            viewer = LiveViewer.open(world.model, world.data)
+    with world.lock:  # the viewer reads the data while it starts: not mid-step
+        return LiveViewer.open(world.model, world.data)
+
+
+def _wait(world, viewer, stops: StopSignals) -> str:
+    """Until a stop signal (returns its name) or the viewer window (closed here) closes."""
     try:
         while not stops.requested:
             if viewer is None:
